@@ -1,0 +1,101 @@
+"""Recorded (or simulated) test data as arrays (contracts section 3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import RecordingError
+
+EXCITATIONS = ("random", "stepped-sine")
+RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
+
+
+@dataclass
+class Recording:
+    """Forces and responses of one run at one level.
+
+    Attributes
+    ----------
+    fs : float
+        Sample rate, Hz.
+    excitation : {"random", "stepped-sine"}
+    force_dofs : ndarray of int, shape (n_in,)
+        DOF (0-based) each force acts on.
+    force : ndarray
+        Random: (n, n_in); stepped-sine: (n_steps, n, n_in). Newtons.
+    response : ndarray
+        Random: (n, n_dof); stepped-sine: (n_steps, n, n_dof).
+    response_kind : {"displacement", "velocity", "acceleration"}
+    freqs : ndarray, shape (n_steps,), optional
+        Stepped-sine drive frequency of each step, Hz.
+    level : float, optional
+        Nominal level (force rms for random, force amplitude for stepped-sine).
+    meta : dict
+        Free-form metadata (settings, provenance).
+    """
+
+    fs: float
+    excitation: str
+    force_dofs: np.ndarray
+    force: np.ndarray
+    response: np.ndarray
+    response_kind: str = "displacement"
+    freqs: np.ndarray | None = None
+    level: float | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.force_dofs = np.atleast_1d(np.asarray(self.force_dofs)).astype(int)
+        self.force = np.asarray(self.force, dtype=float)
+        self.response = np.asarray(self.response, dtype=float)
+        if self.freqs is not None:
+            self.freqs = np.atleast_1d(np.asarray(self.freqs, dtype=float))
+        self.validate()
+
+    @property
+    def n_dof(self) -> int:
+        return self.response.shape[-1]
+
+    @property
+    def n_in(self) -> int:
+        return self.force.shape[-1]
+
+    def validate(self) -> None:
+        """Raise `RecordingError` naming the first inconsistency found."""
+        if not np.isfinite(self.fs) or self.fs <= 0:
+            raise RecordingError(f"sample rate fs must be a positive number, got {self.fs}")
+        if self.excitation not in EXCITATIONS:
+            raise RecordingError(f"excitation '{self.excitation}' is not one of "
+                                 f"{', '.join(EXCITATIONS)}")
+        if self.response_kind not in RESPONSE_KINDS:
+            raise RecordingError(f"response_kind '{self.response_kind}' is not one of "
+                                 f"{', '.join(RESPONSE_KINDS)}")
+        ndim = 2 if self.excitation == "random" else 3
+        shape_doc = "(n, channels)" if ndim == 2 else "(n_steps, n, channels)"
+        for name in ("force", "response"):
+            arr = getattr(self, name)
+            if arr.ndim != ndim:
+                raise RecordingError(f"{name} must have shape {shape_doc} for "
+                                     f"{self.excitation} data, got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                bad = int(np.count_nonzero(~np.isfinite(arr)))
+                raise RecordingError(f"{name} holds {bad} NaN/infinite samples; "
+                                     "remove or repair them before analysis")
+        if self.force.shape[:-1] != self.response.shape[:-1]:
+            raise RecordingError(f"force {self.force.shape} and response "
+                                 f"{self.response.shape} differ in length")
+        if self.force.shape[-1] != self.force_dofs.size:
+            raise RecordingError(f"force has {self.force.shape[-1]} channels but force_dofs "
+                                 f"names {self.force_dofs.size}")
+        if np.any(self.force_dofs < 0) or np.any(self.force_dofs >= self.n_dof):
+            raise RecordingError(f"force_dofs {self.force_dofs.tolist()} outside 0..."
+                                 f"{self.n_dof - 1} (DOF indices are 0-based)")
+        if self.excitation == "stepped-sine":
+            if self.freqs is None or self.freqs.shape != (self.force.shape[0],):
+                raise RecordingError("stepped-sine data needs freqs with one drive frequency "
+                                     "per step")
+            if np.any(self.freqs <= 0) or np.any(self.freqs >= self.fs / 2):
+                raise RecordingError("stepped-sine freqs must lie between 0 and fs/2")

@@ -1,0 +1,1 @@
+"""Hardware I/O layer: shaker and DAQ contracts, backends and device emulators."""

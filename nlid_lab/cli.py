@@ -1,0 +1,96 @@
+"""``nlid-lab`` command line: sub-commands live in `nlid_lab.commands`, one module each.
+
+Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 any other failure.
+Set ``NLID_DEBUG=1`` to see tracebacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+import pkgutil
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from analysis.errors import InputError
+
+from . import __version__, commands
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="nlid-lab", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"nlid-lab {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{commands.__name__}.{info.name}")
+        module.register(sub)
+    return parser
+
+
+def _bad_input_types() -> tuple[type[BaseException], ...]:
+    return (InputError, FileNotFoundError, IsADirectoryError, PermissionError)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    debug = os.environ.get("NLID_DEBUG") == "1"
+    try:
+        result = args.func(args)
+    except _bad_input_types() as exc:
+        if debug:
+            raise
+        print(f"nlid-lab: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("nlid-lab: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
+        if debug:
+            raise
+        print(f"nlid-lab: failed: {type(exc).__name__}: {_one_line(exc)} "
+              "(set NLID_DEBUG=1 for a traceback)", file=sys.stderr)
+        return 1
+    return int(result or 0)
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.strerror or exc}: {exc.filename}"
+    return " ".join(str(exc).split())
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def write_json(result: dict[str, Any], dest: str | None) -> None:
+    """Write a command's machine-readable result to ``dest`` (``-`` for stdout)."""
+    if not dest:
+        return
+    text = json.dumps(result, indent=2, default=_jsonable, allow_nan=False)
+    if dest == "-":
+        print(text)
+    else:
+        Path(dest).write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,43 @@
+"""``nlid-lab analyze reverse-path|hbm RUN... --model CANDIDATE.toml --json OUT.json``."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+
+
+def _delegate(module: str):
+    def run(args: argparse.Namespace) -> int:
+        return importlib.import_module(f"nlid_lab.{module}").run(args)
+    return run
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("analyze", help="estimate nonlinear parameters from stored runs")
+    kinds = p.add_subparsers(dest="method", metavar="METHOD")
+    kinds.required = True
+
+    rp = kinds.add_parser("reverse-path", help="random excitation: reverse path / NIFO")
+    rp.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs or NPZ recordings")
+    rp.add_argument("--model", required=True, help="candidate model TOML (unknown parameters "
+                    "omitted)")
+    rp.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    rp.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),
+                    help="analysis band in Hz (default: chosen from coherence and excitation)")
+    rp.add_argument("--nperseg", type=int, help="Welch segment length in samples")
+    rp.add_argument("--screen", action="store_true",
+                    help="also rank the candidate basis library by conditioned coherence")
+    rp.set_defaults(func=_delegate("analyze_reverse_path"))
+
+    hb = kinds.add_parser("hbm", help="stepped sine: multi-harmonic balance fit")
+    hb.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs or NPZ recordings")
+    hb.add_argument("--model", required=True, help="candidate model TOML")
+    hb.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    hb.add_argument("--harmonics", default="1,3,5,7",
+                    help="comma-separated harmonic orders (default 1,3,5,7)")
+    hb.add_argument("--linear-from", metavar="RUN",
+                    help="take the underlying linear FRF from this run instead of the model")
+    hb.add_argument("--optimizer", choices=("least-squares", "nelder-mead"),
+                    default="least-squares")
+    hb.add_argument("--figure", metavar="PNG", help="write measured vs fitted FRFs here")
+    hb.set_defaults(func=_delegate("analyze_hbm"))
