@@ -6,6 +6,7 @@ An element whose parameters are omitted is *unknown*: it marks what an estimator
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -13,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomli_w
 
 from .elements import KINDS
 from .errors import ModelError
@@ -108,7 +108,17 @@ class Model:
         return out
 
     def dumps(self) -> str:
-        return tomli_w.dumps(self.to_dict())
+        """TOML text of this model (matrices one row per line; loads back exactly)."""
+        # Written by hand: tomli-w puts every matrix entry on its own line, which makes model
+        # files unreadable to the engineers who edit them. The schema is small and fixed.
+        lines = [f"name = {_toml_str(self.name)}", "", "[linear]"]
+        for key in ("mass", "damping", "stiffness"):
+            rows = ",\n    ".join(_toml_list(row) for row in getattr(self, key))
+            lines.append(f"{key} = [\n    {rows},\n]")
+        for el in self.elements:
+            lines += ["", "[[element]]", f"kind = {_toml_str(el.kind)}", f"w = {_toml_list(el.w)}"]
+            lines += [f"{name} = {_toml_num(value)}" for name, value in el.params.items()]
+        return "\n".join(lines) + "\n"
 
     def save(self, path: str | Path) -> None:
         Path(path).write_text(self.dumps())
@@ -162,6 +172,18 @@ class Model:
         except (IsADirectoryError, UnicodeDecodeError, PermissionError) as exc:
             raise ModelError(f"cannot read model file {path}: {exc}") from None
         return cls.loads(text, str(path))
+
+
+def _toml_num(x: float) -> str:
+    return repr(float(x))
+
+
+def _toml_list(values: Any) -> str:
+    return "[" + ", ".join(_toml_num(x) for x in values) + "]"
+
+
+def _toml_str(text: str) -> str:
+    return json.dumps(text, ensure_ascii=False)  # JSON string escapes are valid TOML
 
 
 def _matrix(value: Any, name: str, n: int | None = None) -> np.ndarray:
