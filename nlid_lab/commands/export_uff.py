@@ -1,0 +1,32 @@
+"""``nlid-lab export-uff RUN.h5 --out FILE.uff``: FRFs and coherences as UFF58 datasets."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..cli import write_json
+from ..progress import progress
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import uff
+    from ..report import all_level_frfs, load_run
+    data = load_run(args.run)
+    with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
+        frfs = all_level_frfs(data, bar.update)
+    sets = uff.datasets(frfs, data.name)
+    with progress(total=len(sets), desc="export-uff: write", unit="set") as bar:
+        uff.write_uff(args.out, sets, bar.update)
+    kinds = {uff.FUNC_FRF: "frf", uff.FUNC_COHERENCE: "coherence"}
+    counts = {name: sum(s["func_type"] == t for s in sets) for t, name in kinds.items()}
+    write_json({"uff": str(Path(args.out)), "datasets": len(sets), **counts}, args.json)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export-uff", help="export FRFs and coherences as UFF58 (pyuff)")
+    p.add_argument("run", metavar="RUN", help="run file (.h5) or recording (.npz, .csv)")
+    p.add_argument("--out", required=True, metavar="FILE.uff", help="UFF file to write")
+    p.add_argument("--json", metavar="FILE", help="write a summary as JSON ('-' for stdout)")
+    p.set_defaults(func=run)

@@ -1,0 +1,34 @@
+"""``nlid-lab report RUN.h5 --out DIR``: PNG figures and one HTML page of a run."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..cli import write_json
+from ..progress import progress
+
+
+def run(args: argparse.Namespace) -> int:
+    from analysis.model import Model
+
+    from ..report import all_level_frfs, load_run, write_report
+    data = load_run(args.run)
+    with progress(total=len(data.recordings), desc="report: FRFs", unit="level") as bar:
+        frfs = all_level_frfs(data, bar.update)
+    candidate = Model.load(args.model) if args.model else None
+    with progress(desc="report: figures", unit="fig") as bar:
+        result = write_report(data, args.out, bar.update, frfs=frfs, candidate=candidate)
+    print(result["html"])
+    write_json(result, args.json)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("report", help="write a run's figures (PNG) and an HTML report")
+    p.add_argument("run", metavar="RUN", help="run file (.h5) or recording (.npz, .csv)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--model", metavar="CANDIDATE.toml",
+                   help="candidate model for the reverse-path section (default: the model "
+                        "stored with a simulated run, its parameters estimated)")
+    p.add_argument("--json", metavar="FILE", help="write what was written as JSON ('-' stdout)")
+    p.set_defaults(func=run)

@@ -1,0 +1,49 @@
+"""``nlid-lab view RUN.h5... [--snapshot FILE.png]``: browse runs, or render them to PNG."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from analysis.errors import InputError
+
+from ..progress import progress
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        from ..gui import snapshot
+        from ..gui.offline import OfflineView
+    except ImportError as exc:
+        raise InputError(f"the viewer needs the gui extra ({exc.name} is missing): "
+                         "pip install 'nlid-lab[gui]'") from None
+    from ..report import all_level_frfs, load_run
+    if not args.snapshot and not (os.environ.get("DISPLAY") or os.environ.get(
+            "WAYLAND_DISPLAY") or os.environ.get("QT_QPA_PLATFORM")):
+        raise InputError("no display to open the viewer on; use --snapshot FILE.png to "
+                         "render offscreen")
+    runs = [load_run(path) for path in args.runs]
+    with progress(total=sum(len(r.recordings) for r in runs), desc="view: FRFs",
+                  unit="level") as bar:
+        frfs = [all_level_frfs(r, bar.update) for r in runs]
+    app = snapshot.application()
+    view = OfflineView(runs, frfs)
+    try:
+        if args.snapshot:
+            print(snapshot.render(view, args.snapshot, tuple(args.size)))
+        else:
+            view.resize(*args.size)
+            view.show()
+            app.exec()
+    finally:
+        snapshot.dispose(view)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("view", help="browse runs: FRFs across levels, coherence, estimates")
+    p.add_argument("runs", nargs="+", metavar="RUN", help="run files (.h5) or recordings")
+    p.add_argument("--snapshot", metavar="FILE.png", help="render offscreen to a PNG and exit")
+    p.add_argument("--size", type=int, nargs=2, default=(1400, 900), metavar=("W", "H"),
+                   help="window / snapshot size in pixels (default 1400 900)")
+    p.set_defaults(func=run)

@@ -1,0 +1,116 @@
+"""Offline run browser: runs and levels of a campaign, FRFs overlaid across levels (paper figs
+2.1, 3.5, 4.5), multiple coherence (fig 3.9) and the estimates stored in each run."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pyqtgraph as pg
+from PySide6 import QtCore, QtWidgets
+
+from ..report import LevelFRF, RunData, estimate_rows
+from . import plots
+
+
+class OfflineView(QtWidgets.QWidget):
+    """Browse ``runs`` (with their per-level FRFs ``frfs[i]`` for ``runs[i]``)."""
+
+    def __init__(self, runs: list[RunData], frfs: list[list[LevelFRF]],
+                 parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.runs, self.frfs = runs, frfs
+        self.setWindowTitle("nlid-lab view: " + ", ".join(r.name for r in runs))
+        self.tree = QtWidgets.QTreeWidget()
+        self.tree.setHeaderLabels(["run / level", "excitation", "averages"])
+        self.output = QtWidgets.QComboBox()
+        self.table = QtWidgets.QTableWidget(0, 5)
+        self.table.setHorizontalHeaderLabels(["result", "element", "parameter", "value",
+                                              "95 % interval"])
+        self.table.horizontalHeader().setStretchLastSection(True)
+        self.graphs = pg.GraphicsLayoutWidget()
+        self._fill_tree()
+        n_dof = max(f.H.shape[1] for run in frfs for f in run)
+        self.output.addItems([f"response DOF {q}" for q in range(n_dof)])
+        self._build_plots()
+        left = QtWidgets.QWidget()
+        lbox = QtWidgets.QVBoxLayout(left)
+        lbox.addWidget(QtWidgets.QLabel("Runs and levels (tick to overlay)"))
+        lbox.addWidget(self.tree, 3)
+        lbox.addWidget(self.output)
+        lbox.addWidget(QtWidgets.QLabel("Stored estimates"))
+        lbox.addWidget(self.table, 2)
+        split = QtWidgets.QSplitter()
+        split.addWidget(left)
+        split.addWidget(self.graphs)
+        split.setStretchFactor(1, 3)
+        split.setSizes([380, 1020])
+        QtWidgets.QHBoxLayout(self).addWidget(split)
+        self._fill_table()
+        self.tree.itemChanged.connect(self.redraw)
+        self.output.currentIndexChanged.connect(self.redraw)
+        self.redraw()
+
+    def _fill_tree(self) -> None:
+        for r, (run, levels) in enumerate(zip(self.runs, self.frfs)):
+            top = QtWidgets.QTreeWidgetItem([run.name, levels[0].excitation, run.status])
+            self.tree.addTopLevelItem(top)
+            for i, frf in enumerate(levels):
+                item = QtWidgets.QTreeWidgetItem([frf.label, frf.excitation,
+                                                  str(frf.n_averages)])
+                item.setData(0, QtCore.Qt.ItemDataRole.UserRole, (r, i))
+                item.setCheckState(0, QtCore.Qt.CheckState.Checked)
+                top.addChild(item)
+            top.setExpanded(True)
+
+    def _fill_table(self) -> None:
+        rows = [row for run in self.runs for row in estimate_rows(run.results)]
+        self.table.setRowCount(len(rows))
+        for i, row in enumerate(rows):
+            for j, text in enumerate(row):
+                self.table.setItem(i, j, QtWidgets.QTableWidgetItem(text))
+        self.table.resizeColumnsToContents()
+
+    def _build_plots(self) -> None:
+        units = self.frfs[0][0].units
+        self.mag, self.phase = plots.frf_plots(self.graphs.ci, units,
+                                               title="FRF per level (first force input)")
+        self.coh = plots.coherence_plot(self.graphs.ci, row=2,
+                                        title="Multiple coherence per level (linear analysis)")
+        self.coh.setXLink(self.mag)
+        self.graphs.ci.layout.setRowStretchFactor(0, 3)
+        self.graphs.ci.layout.setRowStretchFactor(1, 2)
+        self.graphs.ci.layout.setRowStretchFactor(2, 2)
+
+    def checked(self) -> list[tuple[int, int]]:
+        """(run, level) pairs ticked in the tree, in tree order."""
+        out = []
+        for r in range(self.tree.topLevelItemCount()):
+            top = self.tree.topLevelItem(r)
+            for i in range(top.childCount()):
+                item = top.child(i)
+                if item.checkState(0) == QtCore.Qt.CheckState.Checked:
+                    out.append(item.data(0, QtCore.Qt.ItemDataRole.UserRole))
+        return out
+
+    def redraw(self, *_: Any) -> None:
+        q = max(self.output.currentIndex(), 0)
+        for p in (self.mag, self.phase, self.coh):
+            p.clear()
+        self.mag.legend.clear()
+        picked = self.checked()
+        multi_run = len({r for r, _ in picked}) > 1
+        for (r, i), colour in zip(picked, plots.level_colours(len(picked))):
+            frf = self.frfs[r][i]
+            if q >= frf.H.shape[1]:
+                continue
+            stepped = frf.excitation == "stepped-sine"
+            sym = dict(symbol="o", symbolSize=5, symbolBrush=colour, symbolPen=colour)
+            extra = sym if stepped else {}
+            name = f"{self.runs[r].name}: {frf.label}" if multi_run else frf.label
+            band = frf.freqs > 0
+            mc = self.mag.plot(pen=plots.pen(colour), name=name, **extra)
+            pc = self.phase.plot(pen=plots.pen(colour), **extra)
+            plots.set_frf(mc, pc, frf.freqs[band], frf.H[band, q, 0])
+            if frf.multiple_coherence is not None:
+                self.coh.plot(frf.freqs[band], frf.multiple_coherence[band, q],
+                              pen=plots.pen(colour))

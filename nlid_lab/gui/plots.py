@@ -1,0 +1,85 @@
+"""Shared pyqtgraph helpers: colours, FRF/coherence/time plots and safe curve updates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+
+from ..figures import phase_deg
+
+pg.setConfigOptions(background="w", foreground="k", antialias=False)
+
+#: Channel colours (matplotlib tab10), so a channel keeps its colour in every panel.
+CHANNEL_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                   "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
+
+
+def channel_colour(i: int) -> str:
+    return CHANNEL_COLOURS[i % len(CHANNEL_COLOURS)]
+
+
+def level_colours(n: int) -> list[str]:
+    """Sequential colours for ``n`` levels (viridis: light = low level, dark = high)."""
+    cmap = pg.colormap.get("viridis")
+    return [cmap.map(x, mode="qcolor").name() for x in np.linspace(0.85, 0.0, max(n, 1))]
+
+
+def pen(colour: str, width: float = 1.5) -> pg.mkPen:
+    return pg.mkPen(colour, width=width)
+
+
+def style(plot: pg.PlotItem, left: str, unit: str, bottom: str | None = "Frequency",
+           bottom_unit: str = "Hz", grid: bool = True) -> pg.PlotItem:
+    if grid:
+        plot.showGrid(x=True, y=True, alpha=0.3)
+    # units as text: pyqtgraph's SI prefixing would print "kHz" or "mm/N" inconsistently
+    plot.setLabel("left", f"{left} [{unit}]")
+    if bottom:
+        plot.setLabel("bottom", f"{bottom} [{bottom_unit}]")
+    plot.getAxis("left").enableAutoSIPrefix(False)
+    plot.getAxis("bottom").enableAutoSIPrefix(False)
+    return plot
+
+
+def frf_plots(layout: pg.GraphicsLayout, units: str, row: int = 0, col: int = 0,
+              title: str = "FRF") -> tuple[pg.PlotItem, pg.PlotItem]:
+    """Magnitude (log) above phase, x-linked; returns both plot items."""
+    mag = layout.addPlot(row=row, col=col, title=title)
+    style(mag, "|H|", units, bottom=None)
+    mag.setLogMode(y=True)
+    mag.addLegend(offset=(-10, 10), labelTextSize="8pt")
+    ph = layout.addPlot(row=row + 1, col=col)
+    style(ph, "Phase", "deg")
+    ph.setYRange(-270, 90)
+    ph.setXLink(mag)
+    return mag, ph
+
+
+def coherence_plot(layout: pg.GraphicsLayout, row: int, col: int = 0,
+                   title: str = "Multiple coherence") -> pg.PlotItem:
+    p = layout.addPlot(row=row, col=col, title=title)
+    style(p, "γ²", "-")
+    p.setYRange(0, 1.05)
+    return p
+
+
+def time_plot(layout: pg.GraphicsLayout, row: int, name: str, unit: str,
+              bottom: bool = False) -> pg.PlotItem:
+    """One channel's time trace: peak downsampling and clip-to-view keep long buffers fast."""
+    p = layout.addPlot(row=row, col=0)
+    # no grid: grid lines of many stacked traces cost more to paint than the traces
+    style(p, name, unit, bottom="Time" if bottom else None, bottom_unit="s", grid=False)
+    p.setDownsampling(auto=True, mode="peak")
+    p.setClipToView(True)
+    p.getAxis("left").setWidth(70)
+    return p
+
+
+def set_frf(mag_curve: pg.PlotDataItem, phase_curve: pg.PlotDataItem | None,
+            freqs: np.ndarray, h: np.ndarray) -> None:
+    """Show one FRF; bins where |H| is 0 or not finite are dropped (log axis)."""
+    a = np.abs(h)
+    ok = np.isfinite(a) & (a > 0)
+    mag_curve.setData(freqs[ok], a[ok])
+    if phase_curve is not None:
+        phase_curve.setData(freqs[ok], phase_deg(h[ok]))
