@@ -1,0 +1,156 @@
+"""Candidate nonlinear basis functions of ``u = w.x`` and ``u' = w.v`` (paper eq 20 and more).
+
+A basis function is a zero-memory function of either the deformation ``u`` or its rate
+``u'``. A model element kind that is linear in one parameter maps onto one basis function
+(`element_basis`); its restoring force is ``param * basis(u, u')``.
+
+A product of a band-limited signal spans a wider band (``u^3`` of a signal up to ``B`` Hz
+spans ``3B``); sampled at ``fs`` it folds back into the analysis band when
+``order * B > fs - band_hi``. `aliasing_factor` detects this and `evaluate` can form the basis
+on a band-limited interpolation of the signal and discard what lies above ``fs/2``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from .elements import KINDS
+from .errors import EstimationError, InputError
+from .model import Element
+
+
+@dataclass(frozen=True)
+class Basis:
+    """One candidate function.
+
+    Attributes
+    ----------
+    name : str
+        Short label, e.g. ``"x^3"``.
+    variable : {"x", "v"}
+        Acts on the deformation ``u`` or on its rate ``u'``.
+    order : int
+        Bandwidth multiplier used by the aliasing check (polynomial degree; for non-smooth
+        functions the harmonic order above which their content is below about 1 %).
+    func : callable
+        ``func(s, arg)`` of the signal ``s`` and an optional parameter.
+    arg : float
+        Parameter passed to ``func`` (gap width, friction regularisation velocity).
+    """
+
+    name: str
+    variable: str
+    order: int
+    func: Callable[[np.ndarray, float], np.ndarray]
+    arg: float = 0.0
+
+    def __call__(self, s: np.ndarray) -> np.ndarray:
+        return self.func(s, self.arg)
+
+
+def _gap(s: np.ndarray, g: float) -> np.ndarray:
+    return np.sign(s) * np.maximum(np.abs(s) - g, 0.0)
+
+
+LIBRARY: dict[str, Basis] = {b.name: b for b in (
+    Basis("x^2", "x", 2, lambda s, _: s * s),
+    Basis("x^3", "x", 3, lambda s, _: s * s * s),
+    Basis("x|x|", "x", 5, lambda s, _: s * np.abs(s)),
+    Basis("x^5", "x", 5, lambda s, _: s**5),
+    Basis("v|v|", "v", 5, lambda s, _: s * np.abs(s)),
+    Basis("v^3", "v", 3, lambda s, _: s * s * s),
+    Basis("v^5", "v", 5, lambda s, _: s**5),
+    Basis("sign(v)", "v", 9, lambda s, vr: np.tanh(s / vr), 1e-3),
+)}
+"""The candidate library screened by default (paper eq 20 plus x^5, v^3, v^5)."""
+
+# kind -> (estimated parameter, library basis name or a builder taking the element params)
+_KIND_BASIS: dict[str, tuple[str, Callable[[dict[str, float]], Basis]]] = {
+    "cubic_spring": ("p", lambda p: LIBRARY["x^3"]),
+    "quadratic_spring": ("p", lambda p: LIBRARY["x|x|"]),
+    "quadratic_damping": ("p", lambda p: LIBRARY["v|v|"]),
+    "cubic_damping": ("p", lambda p: LIBRARY["v^3"]),
+    "coulomb_friction": ("fc", lambda p: Basis(
+        "sign(v)", "v", 9, LIBRARY["sign(v)"].func,
+        p.get("v_reg", dict(KINDS["coulomb_friction"].optional)["v_reg"]))),
+    "gap": ("k", lambda p: Basis(f"gap({p['g']:g})", "x", 9, _gap, p["g"])),
+}
+
+
+def element_basis(el: Element, index: int = 0) -> tuple[str, Basis]:
+    """Parameter name and basis function of an element linear in one parameter.
+
+    Raises
+    ------
+    EstimationError
+        For kinds reverse path cannot estimate (memory elements, or a gap of unknown width).
+    """
+    if el.kind not in _KIND_BASIS:
+        raise EstimationError(
+            f"element {index} ({el.kind}) has memory and is not linear in its parameters; "
+            "reverse path cannot estimate it: use `nlid-lab analyze hbm` with stepped-sine data")
+    name, build = _KIND_BASIS[el.kind]
+    if el.kind == "gap" and "g" not in el.params:
+        raise InputError(f"element {index} (gap) has no width g; reverse path estimates k for "
+                         "a known g: give g in the model, or use `analyze hbm`")
+    return name, build(el.params)
+
+
+def deformation(w: np.ndarray, signal: np.ndarray) -> np.ndarray:
+    """``u = signal @ w`` for a (n, n_dof) displacement or velocity record."""
+    return np.asarray(signal) @ np.asarray(w, dtype=float)
+
+
+def aliasing_factor(order: int, bandwidth: float, fs: float, band_hi: float) -> int:
+    """Upsampling factor that keeps the basis free of in-band aliases (1 if none is needed).
+
+    A basis of ``order`` applied to a signal whose content ends at ``bandwidth`` Hz spans
+    ``order * bandwidth``; sampled at ``fs`` its content above ``fs/2`` folds onto
+    ``fs - f`` and reaches the analysis band if ``order * bandwidth > fs - band_hi``.
+    """
+    span = order * bandwidth
+    if span <= fs - band_hi:
+        return 1
+    return int(math.ceil((span + band_hi) / fs))
+
+
+def evaluate(basis: Basis, s: np.ndarray, upsample: int = 1) -> np.ndarray:
+    """Apply ``basis`` to the signal ``s`` (shape (n,)), optionally alias-free.
+
+    With ``upsample > 1`` the signal is interpolated band-limitedly (zero-padded FFT of its
+    even extension, exact in band, no filter ripple), the function applied, and everything
+    above the original ``fs/2`` discarded, so that it is removed instead of folded into the
+    band. The first and last few hundred samples carry end effects; callers trim them.
+    """
+    if upsample <= 1:
+        return basis(s)
+    n = s.shape[0]
+    spec = np.fft.rfft(np.concatenate([s, s[::-1]]))
+    fine = np.fft.irfft(spec, 2 * n * upsample) * upsample
+    back = np.fft.rfft(basis(fine))[: n + 1] / upsample
+    return np.fft.irfft(back, 2 * n)[:n]
+
+
+def alias_error(basis: Basis, s: np.ndarray, fs: float, band: tuple[float, float],
+                upsample: int, n_probe: int = 1 << 15) -> float:
+    """Relative in-band rms error of forming ``basis`` at ``fs`` instead of alias-free.
+
+    Measured on the middle ``n_probe`` samples (enough for a spectral estimate, cheap on
+    long records): the basis formed directly and after ``upsample``-fold interpolation are
+    compared within ``band``.
+    """
+    n = s.shape[0]
+    mid = s[max(0, (n - n_probe) // 2): (n + n_probe) // 2]
+    edge = mid.size // 8
+    plain = evaluate(basis, mid)[edge:-edge]
+    clean = evaluate(basis, mid, upsample)[edge:-edge]
+    f = np.fft.rfftfreq(plain.size, 1 / fs)
+    inband = (f >= band[0]) & (f <= band[1])
+    win = np.hanning(plain.size)
+    ref = np.abs(np.fft.rfft(clean * win)[inband]) ** 2
+    diff = np.abs(np.fft.rfft((plain - clean) * win)[inband]) ** 2
+    return float(np.sqrt(diff.sum() / max(ref.sum(), 1e-300)))

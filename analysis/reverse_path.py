@@ -1,0 +1,407 @@
+"""Reverse path / NIFO estimation of nonlinear coefficients from random data (paper ch. 3).
+
+The nonlinear restoring forces are moved to the input side (paper eq 12-14):
+``X = H_L F + sum_m p_m (H w_m) r_m`` with ``r_m = -F(g_m(w_m.x, w_m.v))``. One MIMO H1
+estimate ``H_M = G_XR G_RR^-1`` over ``R = {F, r_1 .. r_m}`` (eq 15) gives the underlying
+linear FRF columns ``H_L`` and, per element, the column ``p_m H w_m``. ``H w_m`` is known
+from ``H_L`` either directly (``w_m`` lies in the span of the forced DOFs) or through
+reciprocity on the forced rows (``(H w_m)_d = w_m . H_L[:, d]``, paper eq 16); every such
+equation gives an estimate of ``p_m(f)``, combined with inverse-variance weights.
+
+Uncertainty: the H1 covariance of output row ``y`` is ``sigma_y^2 G_RR^-1 / n_eff`` with
+``sigma_y^2 = (1 - gamma_y^2) G_yy`` (Bendat & Piersol), propagated to each ``p_m(f)``; the
+frequency average and its 95 % interval use those variances, inflated by the window's bin
+correlation, and never narrower than the observed spread over frequency.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from . import basis as bas
+from .elements import restoring_force
+from .errors import InputError
+from .model import Element, Model
+from .recording import Recording
+from .signals import excitation_band, signal_bandwidth, to_kinematics
+from .spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
+
+Z95 = 1.959963984540054
+ALIAS_TOLERANCE = 2e-4   # relative in-band error of a basis that triggers the aliasing fix
+
+
+@dataclass
+class Coefficient:
+    """Estimate of one element parameter."""
+
+    element: int
+    kind: str
+    w: np.ndarray
+    param: str
+    basis: str
+    values: np.ndarray          # (n_f,) complex, p(f)
+    variance: np.ndarray        # (n_f,) variance of p(f)
+    value: float                # frequency-averaged real value
+    std: float                  # standard error of `value`
+    ci95: tuple[float, float]
+
+
+@dataclass
+class ReversePathResult:
+    """Outcome of `reverse_path`.
+
+    Attributes
+    ----------
+    freqs : ndarray, shape (n_f,)
+        Analysed frequencies, Hz.
+    H_linear : ndarray, shape (n_f, n_dof, n_in)
+        Underlying linear receptance columns at the forced DOFs.
+    H_full : ndarray, shape (n_f, n_dof, n_r)
+        H1 over all inputs ``R = {F, r_1..}``.
+    coefficients : list of Coefficient
+    coherence_linear, coherence_nonlinear : ndarray, shape (n_f, n_dof)
+        Multiple coherence of each output for the linear (forces only) and the nonlinear
+        analysis (paper fig 3.9).
+    conditioned_coherence : ndarray, shape (n_f, n_dof, n_r)
+        Ordinary coherence of each output with each conditioned input (sums to the
+        nonlinear multiple coherence).
+    inputs : list of str
+        Labels of the inputs R in order.
+    band : (lo, hi)
+    warnings : list of str
+    """
+
+    freqs: np.ndarray
+    H_linear: np.ndarray
+    H_full: np.ndarray
+    coefficients: list[Coefficient]
+    coherence_linear: np.ndarray
+    coherence_nonlinear: np.ndarray
+    conditioned_coherence: np.ndarray
+    inputs: list[str]
+    band: tuple[float, float]
+    spectra: Spectra
+    force_dofs: np.ndarray
+    warnings: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        """Contracts section 4 dictionary."""
+        by_el: dict[int, dict[str, Any]] = {}
+        for c in self.coefficients:
+            entry = by_el.setdefault(c.element, {"kind": c.kind, "w": c.w.tolist(),
+                                                 "params": {}, "ci95": {}})
+            entry["params"][c.param] = c.value
+            entry["ci95"][c.param] = [c.ci95[0], c.ci95[1]]
+        return {
+            "elements": [by_el[k] for k in sorted(by_el)],
+            "warnings": list(self.warnings),
+            "multiple_coherence": {"min": float(self.coherence_nonlinear.min()),
+                                   "min_linear": float(self.coherence_linear.min()),
+                                   "band_hz": [self.band[0], self.band[1]]},
+            "force_dofs": self.force_dofs.tolist(),
+            "n_averages": self.spectra.n_avg,
+            "resolution_hz": self.spectra.fs / self.spectra.nperseg,
+        }
+
+    def estimated_model(self, candidate: Model) -> Model:
+        """The candidate with every estimated parameter filled in."""
+        elements = [Element(el.kind, el.w.copy(), dict(el.params)) for el in candidate.elements]
+        for c in self.coefficients:
+            elements[c.element].params[c.param] = c.value
+        return candidate.with_elements(elements)
+
+
+@dataclass
+class _Record:
+    fs: float
+    force: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    force_dofs: np.ndarray
+
+
+def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
+             response_kind: str) -> list[tuple[Recording, str]]:
+    if isinstance(data, Recording):
+        data = [data]
+    if isinstance(data, tuple) and len(data) == 2:
+        if fs is None or force_dofs is None:
+            raise InputError("arrays (force, response) need fs= and force_dofs=")
+        data = [Recording(fs, "random", force_dofs, np.atleast_2d(np.asarray(data[0]).T).T,
+                          data[1], response_kind)]
+    recs = list(data)
+    if not recs or not all(isinstance(r, Recording) for r in recs):
+        raise InputError("reverse path takes a Recording, a list of them, or a "
+                         "(force, response) tuple")
+    for r in recs:
+        if r.excitation != "random":
+            raise InputError("reverse path needs random excitation; for stepped-sine runs use "
+                             "`nlid-lab analyze hbm`")
+    first = recs[0]
+    for r in recs[1:]:
+        if r.fs != first.fs or list(r.force_dofs) != list(first.force_dofs) \
+                or r.n_dof != first.n_dof:
+            raise InputError("the runs differ in sample rate, force DOFs or channel count; "
+                             "analyse them separately")
+    return [(r, r.response_kind) for r in recs]
+
+
+def _default_nperseg(n: int) -> int:
+    return int(min(2 ** int(np.log2(max(n // 16, 64))), 8192))
+
+
+def _elements(model: Model) -> tuple[list[tuple[int, Element, str, bas.Basis]],
+                                     list[tuple[int, Element]]]:
+    unknown, known = [], []
+    for i, el in enumerate(model.elements):
+        if el.known:
+            known.append((i, el))
+            continue
+        param, fn = bas.element_basis(el, i)
+        others = [m for m in el.missing if m != param]
+        if others:
+            raise InputError(f"element {i} ({el.kind}) misses {', '.join(others)}; reverse "
+                             f"path estimates only {param}: give the others in the model")
+        unknown.append((i, el, param, fn))
+    if not unknown:
+        raise InputError("the candidate model has no unknown parameter; omit the parameter "
+                         "of each element to estimate")
+    return unknown, known
+
+
+def _force_span(w: np.ndarray, force_dofs: np.ndarray) -> np.ndarray | None:
+    """Coefficients ``a`` with ``w = B a`` if ``w`` lies on the forced DOFs, else None."""
+    nz = np.flatnonzero(w)
+    if not set(nz) <= set(force_dofs.tolist()):
+        return None
+    b = np.zeros((w.size, force_dofs.size))
+    b[force_dofs, np.arange(force_dofs.size)] = 1.0
+    return np.linalg.lstsq(b, w, rcond=None)[0]
+
+
+def reverse_path(data: Any, model: Model, *, fs: float | None = None,
+                 force_dofs: Sequence[int] | None = None,
+                 response_kind: str = "displacement", band: tuple[float, float] | None = None,
+                 nperseg: int | None = None, window: str = "hann", overlap: float = 0.5,
+                 antialias: str = "auto", method: str = "direct",
+                 force_hold: str | None = None) -> ReversePathResult:
+    """Estimate the unknown element parameters of ``model`` and the underlying linear FRF.
+
+    Parameters
+    ----------
+    data : Recording, list of Recording, or (force, response) arrays
+        Random-excitation records at one or several levels (pooled). ``response`` holds
+        every DOF of the model.
+    model : Model
+        Candidate: elements with omitted parameters are estimated; complete elements are
+        included as known nonlinear forces.
+    fs, force_dofs, response_kind
+        Needed with plain arrays only.
+    band : (lo, hi), optional
+        Analysis band, Hz; by default the excited band of the force spectrum.
+    nperseg : int, optional
+        Welch segment length (default: a power of two <= n/16, at most 8192).
+    window, overlap
+        Welch window and overlap fraction.
+    antialias : {"auto", "warn", "off"}
+        When a basis function would alias into the band: upsample before forming it and
+        note it ("auto"), only warn ("warn"), or do nothing ("off").
+    method : {"direct", "conditioned"}
+        Invert ``G_RR`` directly (partially correlated inputs) or go through Bendat's
+        conditioned, uncorrelated inputs (same estimate, paper section 3.2).
+    force_hold : {"none", "linear"}, optional
+        How the applied force behaves between its samples. "linear" (the simulated plant's
+        first-order-hold drive) means the structure felt the baseband force
+        ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
+        ``meta["force_hold"]``, else "none" (a force transducer behind an anti-alias filter).
+
+    Returns
+    -------
+    ReversePathResult
+    """
+    if antialias not in ("auto", "warn", "off"):
+        raise InputError(f"antialias must be auto, warn or off, got '{antialias}'")
+    if force_hold not in (None, "none", "linear"):
+        raise InputError(f"force_hold must be none or linear, got '{force_hold}'")
+    if method not in ("direct", "conditioned"):
+        raise InputError(f"method must be direct or conditioned, got '{method}'")
+    recs = _records(data, fs, force_dofs, response_kind)
+    rec0 = recs[0][0]
+    if rec0.n_dof != model.n_dof:
+        raise InputError(f"the response has {rec0.n_dof} channels but the model has "
+                         f"{model.n_dof} DOFs; reverse path needs every DOF measured")
+    unknown, known = _elements(model)
+    fsr = float(rec0.fs)
+    fdofs = rec0.force_dofs
+    n_min = min(r.force.shape[0] for r, _ in recs)
+    nps = nperseg or _default_nperseg(n_min)
+    warnings: list[str] = []
+    if band is None:
+        fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
+                                              overlap=overlap) for r, _ in recs])
+        band = excitation_band(fspec.freqs, fspec.auto())
+    lo, hi = float(band[0]), float(band[1])
+    if not 0 <= lo < hi <= fsr / 2:
+        raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
+                         f"{fsr / 2:g}")
+    parts = []
+    inputs = [f"force@{d}" for d in fdofs]
+    for rec, kind in recs:
+        hold = force_hold or rec.meta.get("force_hold", "none")
+        channels, labels = _channels(rec, kind, (lo, hi), unknown, known, antialias, hold,
+                                     warnings)
+        parts.append(spectral_matrix(channels, fsr, nperseg=nps, window=window,
+                                     overlap=overlap, band=(lo, hi)))
+    inputs += labels
+    spec = Spectra.pool(parts)
+    return _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), method,
+                     sorted(set(warnings), key=warnings.index))
+
+
+def _channels(rec: Recording, kind: str, band: tuple[float, float], unknown, known,
+              antialias: str, hold: str, warnings: list[str]) -> tuple[np.ndarray, list[str]]:
+    """Time-domain channels ``[x_0.., f_0.., r_known.., r_1..]`` of one record, input labels."""
+    fs, n = float(rec.fs), rec.response.shape[0]
+    lo, hi = band
+    needs_v = bool(known) or any(fn.variable == "v" for *_, fn in unknown)
+    # Frequency-domain integration/differentiation leaves end effects of a few periods of
+    # the lowest analysed frequency: those samples are dropped from every channel.
+    edge = int(min(n // 16, 4 * fs / max(lo, 1.0)))
+    hp = max(lo / 2, 2 * fs / n) if kind != "displacement" else 0.0
+    if kind == "displacement" and not needs_v:
+        x, v, edge = rec.response, None, 0
+    else:
+        x, v = to_kinematics(rec.response, fs, kind, highpass=hp)
+    force = rec.force.copy() if hold == "none" else _linear_hold(rec.force, fs)
+    cols: list[np.ndarray] = []
+    labels: list[str] = []
+    for i, el in known:
+        g = restoring_force(el.kind, el.params, bas.deformation(el.w, x),
+                            bas.deformation(el.w, v))[0]
+        a = _force_span(el.w, rec.force_dofs)
+        if a is not None:
+            force -= np.outer(g, a)      # a known force on forced DOFs: subtract it
+        else:
+            cols.append(-g)              # elsewhere: a nuisance input with its own column
+            labels.append(f"-{el.kind}@{i}(known)")
+    for i, el, _, fn in unknown:
+        s = bas.deformation(el.w, x if fn.variable == "x" else v)
+        factor = bas.aliasing_factor(fn.order, signal_bandwidth(s[: 1 << 16], fs), fs, hi)
+        err = bas.alias_error(fn, s, fs, band, factor) if factor > 1 else 0.0
+        if err > ALIAS_TOLERANCE and antialias != "off":
+            what = (f"upsampled x{factor} before forming it" if antialias == "auto"
+                    else "raise fs or use antialias='auto'")
+            warnings.append(f"aliasing: basis {fn.name} of element {i} spans "
+                            f"{fn.order * signal_bandwidth(s, fs):.0f} Hz and folds into the "
+                            f"band ({100 * err:.2g} % in-band error) at fs = {fs:g} Hz; {what}")
+        up = factor if err > ALIAS_TOLERANCE and antialias == "auto" else 1
+        cols.append(-bas.evaluate(fn, s, up))
+        labels.append(f"-{fn.name}@{i}")
+    data = np.column_stack([x, force] + cols)
+    return data[edge: n - edge], labels
+
+
+def _linear_hold(force: np.ndarray, fs: float) -> np.ndarray:
+    """Baseband part of a first-order-hold force: spectrum times ``sinc^2(f / fs)``."""
+    n = force.shape[0]
+    ext = np.concatenate([force, force[::-1]])          # even extension: no end jump
+    spec = np.fft.rfft(ext, axis=0) * (np.sinc(np.fft.rfftfreq(2 * n)) ** 2)[:, None]
+    return np.fft.irfft(spec, 2 * n, axis=0)[:n]
+
+
+def _row_covariance(spec_rr_inv: np.ndarray, sigma2: np.ndarray, n_dof: np.ndarray,
+                    beta: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    """``E[(sum beta dH)(sum gamma dH)^*]`` per frequency for linear forms of H_M.
+
+    ``beta``, ``gamma`` have shape (n_f, n_dof, n_r); row errors are independent across
+    outputs with covariance ``sigma_y^2 [G_RR^-1]_{ba}`` (``sigma2`` already divided by the
+    degrees of freedom).
+    """
+    return np.einsum("fya,fyb,fba,fy->f", beta, gamma.conj(), spec_rr_inv, sigma2)
+
+
+def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: list[str],
+              band: tuple[float, float], method: str, warnings: list[str]) -> ReversePathResult:
+    n_in = fdofs.size
+    n_r = spec.S.shape[1] - n_dof
+    xs, rs = slice(0, n_dof), slice(n_dof, n_dof + n_r)
+    S_xx = spec.S[:, xs, xs].diagonal(axis1=1, axis2=2).real
+    S_xr, S_rr = spec.S[:, xs, rs], spec.S[:, rs, rs]
+    cond = conditioned_inputs(S_xx, S_xr, S_rr)
+    H = cond.transfer() if method == "conditioned" else h1(S_xr, S_rr)
+    coh_nl = cond.coherence.sum(axis=2)
+    coh_lin = multiple_coherence(S_xx, S_xr[:, :, :n_in], S_rr[:, :n_in, :n_in])
+    dof = max(spec.n_eff - n_r, 1.0)
+    sigma2 = np.maximum((1 - coh_nl) * S_xx, 1e-15 * S_xx) / dof
+    rr_inv = np.linalg.inv(S_rr)
+    n_known = n_r - n_in - len(unknown)
+    coefs = []
+    for k, (i, el, param, fn) in enumerate(unknown):
+        col = n_in + n_known + k
+        est, var = _element_estimates(H, rr_inv, sigma2, el.w, fdofs, col)
+        coefs.append(_average(i, el, param, fn.name, est, var, spec.bin_factor))
+        rel_imag = np.median(np.abs(est.imag)) / max(abs(coefs[-1].value), 1e-300)
+        if rel_imag > 0.1:
+            warnings.append(f"element {i} ({el.kind}): p(f) has a large imaginary part "
+                            f"({100 * rel_imag:.0f} % of the real value); the basis function "
+                            "or its location is probably wrong: try --screen")
+    if coh_nl.min() < 0.9:
+        worst = int(np.argmin(coh_nl.min(axis=0)))
+        warnings.append(f"nonlinear multiple coherence drops to {coh_nl.min():.3f} (output "
+                        f"{worst}); noise, a missing nonlinearity or too coarse a resolution")
+    return ReversePathResult(spec.freqs, H[:, :, :n_in], H, coefs, coh_lin, coh_nl,
+                             cond.coherence, inputs, band, spec, fdofs, warnings)
+
+
+def _element_estimates(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, w: np.ndarray,
+                       fdofs: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse-variance combination of the equations ``H_M[y, col] = p a_y`` per frequency."""
+    n_f, n_dof, n_r = H.shape
+    a_span = _force_span(w, fdofs)
+    forms = []   # (beta, alpha): p = (beta . H) / (alpha . H)
+    if a_span is not None:
+        for y in range(n_dof):
+            beta = np.zeros((n_dof, n_r))
+            beta[y, col] = 1.0
+            alpha = np.zeros((n_dof, n_r))
+            alpha[y, : fdofs.size] = a_span
+            forms.append((beta, alpha))
+    else:
+        for j, d in enumerate(fdofs):   # reciprocity on the forced rows (paper eq 16)
+            beta = np.zeros((n_dof, n_r))
+            beta[d, col] = 1.0
+            alpha = np.zeros((n_dof, n_r))
+            alpha[:, j] = w
+            forms.append((beta, alpha))
+    num = np.zeros(n_f, dtype=complex)
+    den = np.zeros(n_f)
+    for beta, alpha in forms:
+        b_ = np.broadcast_to(beta, H.shape)
+        a_ = np.broadcast_to(alpha, H.shape)
+        b = np.einsum("fya,ya->f", H, beta)
+        a = np.einsum("fya,ya->f", H, alpha)
+        p = b / a
+        var = (_row_covariance(rr_inv, sigma2, n_dof, b_, b_).real
+               + np.abs(p) ** 2 * _row_covariance(rr_inv, sigma2, n_dof, a_, a_).real
+               - 2 * (p.conj() * _row_covariance(rr_inv, sigma2, n_dof, b_, a_)).real)
+        var = np.maximum(var, 1e-300) / np.abs(a) ** 2
+        num += p / var
+        den += 1 / var
+    return num / den, 1 / den
+
+
+def _average(i: int, el: Element, param: str, name: str, est: np.ndarray, var: np.ndarray,
+             bin_factor: float) -> Coefficient:
+    """Frequency average of Re p(f) with a 95 % interval (see module docstring)."""
+    wts = 2 / var                       # the real part carries half the complex variance
+    value = float(np.sum(wts * est.real) / wts.sum())
+    std_model = np.sqrt(bin_factor / wts.sum())
+    n_kish = wts.sum() ** 2 / np.sum(wts**2)
+    spread = np.sum(wts * (est.real - value) ** 2) / wts.sum()
+    std_spread = np.sqrt(bin_factor * spread / n_kish)
+    std = float(max(std_model, std_spread))
+    return Coefficient(i, el.kind, el.w.copy(), param, name, est, var, value, std,
+                       (value - Z95 * std, value + Z95 * std))

@@ -1,0 +1,269 @@
+"""Welch spectral matrices for many channels, MIMO H1, coherences and conditioned inputs.
+
+Convention (pinned by ``tests/test_spectral.py``)
+-------------------------------------------------
+``S[f, a, b] = E[Z_a(f) Z_b(f)^*]`` (one-sided, density scaling), i.e. *row times conjugate
+column*. With outputs ``X`` and inputs ``R`` the H1 estimator is then
+``H = S_XR S_RR^-1`` (paper eq 15), and ``scipy.signal.csd(x, y)`` (which is ``E[X^* Y]``)
+equals ``S[:, y, x]``. A pure delay ``y(t) = x(t - tau)`` gives ``H = exp(-i 2 pi f tau)``.
+
+All channel pairs come from one FFT per channel per segment and a batched matrix product
+over segments, so the cost grows with the number of channels, not with the number of pairs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+import scipy.signal
+
+from .errors import InputError
+
+_CHUNK_BYTES = 1 << 25  # segments are transformed in chunks of about this many input bytes
+
+
+@dataclass
+class Spectra:
+    """Spectral matrix of ``n_ch`` channels on a frequency grid.
+
+    Attributes
+    ----------
+    freqs : ndarray, shape (n_f,)
+        Frequencies, Hz (only the requested band is kept).
+    S : ndarray, shape (n_f, n_ch, n_ch), complex
+        ``S[f, a, b] = E[Z_a Z_b^*]``, one-sided power/cross spectral density (unit^2/Hz).
+    n_avg : int
+        Number of segments averaged.
+    n_eff : float
+        Equivalent number of independent averages (overlap-corrected, Welch 1967).
+    bin_factor : float
+        Variance inflation of a mean over adjacent bins caused by the window's spectral
+        correlation, ``1 + 2 sum_k rho_k^2``.
+    fs : float
+    nperseg : int
+    """
+
+    freqs: np.ndarray
+    S: np.ndarray
+    n_avg: int
+    n_eff: float
+    bin_factor: float
+    fs: float
+    nperseg: int
+
+    def block(self, rows: slice | list[int], cols: slice | list[int]) -> np.ndarray:
+        """Sub-matrix ``S[:, rows, cols]`` (lists select channels in the given order)."""
+        return self.S[:, rows][:, :, cols]
+
+    def auto(self) -> np.ndarray:
+        """Auto-spectra of every channel, shape (n_f, n_ch), real."""
+        return np.einsum("fii->fi", self.S).real
+
+    @staticmethod
+    def pool(parts: list["Spectra"]) -> "Spectra":
+        """Average spectra of several records (same fs, nperseg, band) by segment count."""
+        first = parts[0]
+        for p in parts[1:]:
+            if p.fs != first.fs or p.nperseg != first.nperseg or p.S.shape != first.S.shape:
+                raise InputError("records to pool differ in sample rate, segment length or "
+                                 "channels; analyse them separately or resample first")
+        total = sum(p.n_avg for p in parts)
+        S = sum(p.S * (p.n_avg / total) for p in parts)
+        return Spectra(first.freqs, S, total, sum(p.n_eff for p in parts), first.bin_factor,
+                       first.fs, first.nperseg)
+
+
+def _segments(n: int, nperseg: int, step: int) -> int:
+    if nperseg > n:
+        raise InputError(f"segment length {nperseg} exceeds the record length {n}; "
+                         "use a shorter --nperseg or a longer record")
+    return 1 + (n - nperseg) // step
+
+
+def effective_averages(window: np.ndarray, step: int, n_avg: int) -> float:
+    """Equivalent number of independent averages of overlapped Welch segments.
+
+    Uses Welch's (1967) correlation of overlapping windowed segments,
+    ``n_eff = K / (1 + 2 sum_k (1 - k/K) c(k)^2)``.
+    """
+    w2 = window**2
+    total = w2.sum()
+    corr = 0.0
+    k = 1
+    while k < n_avg and k * step < window.size:
+        c = np.dot(window[k * step:], window[: window.size - k * step]) / total
+        corr += (1 - k / n_avg) * c**2
+        k += 1
+    return n_avg / (1 + 2 * corr)
+
+
+def _bin_factor(window: np.ndarray) -> float:
+    """``1 + 2 sum_k rho_k^2`` with ``rho_k`` the correlation of DFT bins k apart."""
+    w2 = window**2
+    spec = np.abs(np.fft.rfft(w2)) / w2.sum()
+    rho = spec[1:9]
+    return float(1 + 2 * np.sum(rho**2))
+
+
+def spectral_matrix(data: np.ndarray, fs: float, *, nperseg: int, window: str = "hann",
+                    overlap: float = 0.5, band: tuple[float, float] | None = None,
+                    detrend: bool = True, workers: int | None = None) -> Spectra:
+    """Welch spectral matrix of all channel pairs in one pass.
+
+    Parameters
+    ----------
+    data : ndarray, shape (n, n_ch)
+        Real time series, one column per channel.
+    fs : float
+        Sample rate, Hz.
+    nperseg : int
+        Segment length, samples.
+    window : str
+        Window name for `scipy.signal.get_window` (periodic form).
+    overlap : float
+        Fraction of segment overlap, 0 <= overlap < 1.
+    band : (lo, hi), optional
+        Keep only bins with ``lo <= f <= hi`` (saves the matrix products outside it).
+    detrend : bool
+        Remove each segment's mean (done in the frequency domain, exactly).
+    workers : int, optional
+        Passed to `scipy.fft.rfft`.
+
+    Returns
+    -------
+    Spectra
+    """
+    data = np.asarray(data, dtype=float)
+    if data.ndim != 2:
+        raise InputError(f"spectral data must have shape (n, channels), got {data.shape}")
+    if not 0 <= overlap < 1:
+        raise InputError(f"overlap must be in [0, 1), got {overlap}")
+    n, n_ch = data.shape
+    step = max(1, int(round(nperseg * (1 - overlap))))
+    n_avg = _segments(n, nperseg, step)
+    win = scipy.signal.get_window(window, nperseg)
+    freqs = np.fft.rfftfreq(nperseg, 1 / fs)
+    lo, hi = (0.0, fs / 2) if band is None else band
+    keep = np.flatnonzero((freqs >= lo) & (freqs <= hi))
+    if keep.size == 0:
+        raise InputError(f"band {lo:g}-{hi:g} Hz holds no frequency bin at resolution "
+                         f"{fs / nperseg:g} Hz; widen the band or lengthen the segments")
+    k0, k1 = keep[0], keep[-1] + 1
+    # Mean removal in the frequency domain: DFT(w * (x - m)) = DFT(w x) - m DFT(w).
+    wdft = np.fft.rfft(win)[k0:k1]
+    chan = np.ascontiguousarray(data.T)
+    views = np.lib.stride_tricks.sliding_window_view(chan, nperseg, axis=1)[:, ::step]
+    S = np.zeros((k1 - k0, n_ch, n_ch), dtype=complex)
+    chunk = max(1, _CHUNK_BYTES // (8 * nperseg * n_ch))
+    for s0 in range(0, n_avg, chunk):
+        seg = views[:, s0:s0 + chunk]                       # (n_ch, s, nperseg) view
+        z = scipy.fft.rfft(seg * win, axis=-1, workers=workers)[..., k0:k1]
+        if detrend:
+            z -= seg.mean(axis=-1)[..., None] * wdft
+        zf = np.ascontiguousarray(z.transpose(2, 0, 1))     # (f, n_ch, s)
+        S += zf @ zf.conj().transpose(0, 2, 1)
+    S *= 2.0 / (fs * np.sum(win**2) * n_avg)
+    if k0 == 0:
+        S[0] /= 2
+    if nperseg % 2 == 0 and k1 == freqs.size:
+        S[-1] /= 2
+    return Spectra(freqs[k0:k1], S, n_avg, effective_averages(win, step, n_avg),
+                   _bin_factor(win), float(fs), nperseg)
+
+
+def h1(S_xr: np.ndarray, S_rr: np.ndarray) -> np.ndarray:
+    """MIMO H1 estimate ``H = S_xr S_rr^-1`` per frequency (paper eq 3, 15).
+
+    Parameters
+    ----------
+    S_xr : ndarray, shape (n_f, n_out, n_in)
+    S_rr : ndarray, shape (n_f, n_in, n_in)
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_out, n_in)
+    """
+    # H S_rr = S_xr  <=>  S_rr^H H^H = S_xr^H, and S_rr is Hermitian.
+    try:
+        hh = np.linalg.solve(S_rr, S_xr.conj().transpose(0, 2, 1))
+    except np.linalg.LinAlgError:
+        raise InputError("input spectral matrix is singular: two inputs are fully coherent "
+                         "(a duplicate channel or a basis function repeated); remove one") from None
+    return hh.conj().transpose(0, 2, 1)
+
+
+def ordinary_coherence(S: np.ndarray, a: int, b: int) -> np.ndarray:
+    """Ordinary coherence ``|S_ab|^2 / (S_aa S_bb)`` (paper eq 4), shape (n_f,)."""
+    num = np.abs(S[:, a, b]) ** 2
+    den = S[:, a, a].real * S[:, b, b].real
+    return np.divide(num, den, out=np.zeros_like(num), where=den > 0)
+
+
+def multiple_coherence(S_xx: np.ndarray, S_xr: np.ndarray, S_rr: np.ndarray) -> np.ndarray:
+    """Multiple coherence of each output with all inputs (paper eq 5).
+
+    Parameters
+    ----------
+    S_xx : ndarray, shape (n_f, n_out)
+        Output auto-spectra.
+    S_xr : ndarray, shape (n_f, n_out, n_in)
+    S_rr : ndarray, shape (n_f, n_in, n_in)
+
+    Returns
+    -------
+    ndarray, shape (n_f, n_out)
+    """
+    h = h1(S_xr, S_rr)
+    explained = np.einsum("foi,foi->fo", h, S_xr.conj()).real
+    return np.divide(explained, S_xx, out=np.zeros_like(explained), where=S_xx > 0)
+
+
+@dataclass
+class Conditioned:
+    """Inputs made mutually uncorrelated by ``U = Phi R`` (paper eq 17-19, Bendat).
+
+    Attributes
+    ----------
+    phi : ndarray, shape (n_f, n_in, n_in)
+        Unit lower-triangular transformation, in the order of the inputs given.
+    S_uu : ndarray, shape (n_f, n_in)
+        Auto-spectra of the conditioned inputs (``Phi S_rr Phi^H`` is diagonal).
+    S_xu : ndarray, shape (n_f, n_out, n_in)
+        Cross-spectra outputs x conditioned inputs, ``S_xr Phi^H``.
+    coherence : ndarray, shape (n_f, n_out, n_in)
+        Ordinary coherence of each output with each conditioned input; summed over inputs it
+        equals the multiple coherence.
+    """
+
+    phi: np.ndarray
+    S_uu: np.ndarray
+    S_xu: np.ndarray
+    coherence: np.ndarray
+
+    def transfer(self) -> np.ndarray:
+        """H1 from the conditioned inputs mapped back to the original ones, ``H_U Phi``."""
+        h_u = self.S_xu / self.S_uu[:, None, :]
+        return h_u @ self.phi
+
+
+def conditioned_inputs(S_xx: np.ndarray, S_xr: np.ndarray, S_rr: np.ndarray) -> Conditioned:
+    """Condition the inputs sequentially, each on all before it (Bendat 1990).
+
+    ``S_rr = L D L^H`` with ``L`` unit lower triangular; ``Phi = L^-1`` makes
+    ``S_uu = Phi S_rr Phi^H = D`` diagonal.
+    """
+    try:
+        c = np.linalg.cholesky(S_rr)
+    except np.linalg.LinAlgError:
+        raise InputError("input spectral matrix is not positive definite: an input is a linear "
+                         "combination of others; remove the redundant basis function") from None
+    diag = np.einsum("fii->fi", c).real
+    unit_l = c / diag[:, None, :]
+    eye = np.broadcast_to(np.eye(S_rr.shape[1]), S_rr.shape)
+    phi = np.linalg.solve(unit_l, eye)
+    S_uu = diag**2
+    S_xu = S_xr @ phi.conj().transpose(0, 2, 1)
+    coh = np.abs(S_xu) ** 2 / (S_uu[:, None, :] * S_xx[:, :, None])
+    return Conditioned(phi, S_uu, S_xu, coh)
