@@ -1,0 +1,335 @@
+"""Numba hot loop of the simulated plant; the method is described in `analysis.plant`.
+
+The plant keeps the stick_slip slip direction (+1/-1, 0 sticking) in element state slot 1
+next to the slider position in slot 0 (`element_force` ignores slot 1).
+
+Notation: ``y = [x, v]`` (2n), ``q`` = hold degree, hold nodes at ``s/h = 1-q .. 0, 1``
+(the last ``q`` are history, the last one is the end of the substep). ``gh``/``uh`` hold each
+element's force and deformation at the history nodes (column ``q-1`` = start of the substep).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .elements import element_force
+
+# The same force law compiled for inlining into the hot loop (a call with array arguments
+# costs more than the law itself); `_virgin` is re-jitted alongside since it is called inside.
+_element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
+
+STICK_SLIP = 5
+MAX_ITER = 30
+RTOL = 1e-12
+# stats slots
+S_SUBSTEPS, S_ITER, S_EVENTS, S_NOCONV = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def _poly(coef: np.ndarray, x: float) -> float:
+    out = 0.0
+    for i in range(coef.shape[0] - 1, -1, -1):
+        out = out * x + coef[i]
+    return out
+
+
+@numba.njit(cache=True)
+def _hermite(u0: float, v0: float, u1: float, v1: float, h: float,
+             t: float) -> tuple[float, float]:
+    """Cubic Hermite interpolant of ``u`` and its time derivative at ``s = t h``."""
+    t2 = t * t
+    t3 = t2 * t
+    u = ((2 * t3 - 3 * t2 + 1) * u0 + (t3 - 2 * t2 + t) * h * v0 + (-2 * t3 + 3 * t2) * u1
+         + (t3 - t2) * h * v1)
+    du = ((6 * t2 - 6 * t) * u0 / h + (3 * t2 - 4 * t + 1) * v0 + (-6 * t2 + 6 * t) * u1 / h
+          + (3 * t2 - 2 * t) * v1)
+    return u, du
+
+
+@numba.njit(cache=True)
+def _root_poly(coef: np.ndarray, target: float) -> float:
+    """Root of ``poly(t) = target`` on [0, 1] given a sign change (bisection + secant)."""
+    lo, hi = 0.0, 1.0
+    flo = _poly(coef, lo) - target
+    fhi = _poly(coef, hi) - target
+    if flo * fhi > 0.0:
+        return 0.0 if abs(flo) < abs(fhi) else 1.0
+    for _ in range(200):
+        t = lo - flo * (hi - lo) / (fhi - flo) if fhi != flo else lo
+        if not (lo < t < hi) or hi - lo > 0.25:
+            t = 0.5 * (lo + hi)
+        f = _poly(coef, t) - target
+        if f == 0.0 or hi - lo < 1e-15:
+            return t
+        if f * flo < 0.0:
+            hi, fhi = t, f
+        else:
+            lo, flo = t, f
+    return 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True)
+def _root_velocity(u0: float, v0: float, u1: float, v1: float, h: float) -> float:
+    """Time fraction where the Hermite interpolant's velocity changes sign."""
+    if v0 * v1 > 0.0 or v0 == 0.0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    for _ in range(60):
+        t = 0.5 * (lo + hi)
+        d = _hermite(u0, v0, u1, v1, h, t)[1]
+        if d * v0 > 0.0:
+            lo = t
+        else:
+            hi = t
+    return 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True)
+def _jump_coeffs(dnodes: np.ndarray, theta: float, vinv: np.ndarray, h: float,
+                 inv_fact: np.ndarray, out: np.ndarray) -> None:
+    """Taylor weights ``c_i`` of the end-state effect of a force jump ``D(s) H(s - theta h)``.
+
+    ``D`` is the hold polynomial through ``dnodes``; the effect is
+    ``sum_i c_i A^i b`` with ``c_i = sum_k d_k h k! r^(k+1) delta^i / (i+k+1)!``, where
+    ``d_k`` are the coefficients of ``D`` in powers of ``(s - theta h)/h``, ``r = 1 - theta``
+    and ``delta = r h`` (phi-function series of the exponential integrator).
+    """
+    nq = dnodes.shape[0]
+    dmono = vinv @ dnodes
+    dsh = np.zeros(nq)
+    for m in range(nq):  # shift the monomials to the jump time: x = theta + rho
+        binom = 1.0
+        for k in range(m + 1):
+            dsh[k] += dmono[m] * binom * theta ** (m - k)
+            binom = binom * (m - k) / (k + 1)
+    r = 1.0 - theta
+    delta = r * h
+    for i in range(out.shape[0]):
+        acc = 0.0
+        kfact = 1.0
+        for k in range(nq):
+            if k > 0:
+                kfact *= k
+            acc += dsh[k] * h * kfact * r ** (k + 1) * inv_fact[i + k + 1]
+        out[i] = acc * delta ** i
+
+
+@numba.njit(cache=True, error_model="numpy")
+def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: np.ndarray,
+              wh: np.ndarray, we: np.ndarray, proj: np.ndarray, pwe: np.ndarray,
+              ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray, xpred: np.ndarray,
+              inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray, h: float,
+              y: np.ndarray, gh: np.ndarray, uh: np.ndarray, es: np.ndarray,
+              fprev: np.ndarray, acc_f: np.ndarray, acc_y: np.ndarray, acc_g: np.ndarray,
+              out_y: np.ndarray, out_g: np.ndarray, out_a: np.ndarray,
+              stats: np.ndarray) -> None:
+    """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
+
+    ``y, gh, uh, es, fprev`` are updated in place (they are the plant state); ``out_y``,
+    ``out_g`` and ``out_a`` receive the state, element forces and acceleration
+    ``acc_f f + acc_y y + acc_g g`` at each output sample.
+    """
+    ny = y.shape[0]
+    ne = codes.shape[0]
+    q = gh.shape[1]
+    nin = force.shape[1]
+    nt = ab.shape[1]
+    known = np.empty(ny)
+    ynew = np.empty(ny)
+    pk = np.empty(2 * ne)
+    uv = np.empty(2 * ne)
+    acc = np.empty(2 * ne)
+    g = np.zeros(ne)       # force at the end node (the branch the element is on at the end)
+    gc = np.zeros(ne)      # force the hold polynomial uses at the end node (old branch)
+    u0 = np.empty(ne)
+    v0 = np.empty(ne)
+    sigma0 = np.zeros(ne)
+    st = es.copy()
+    pscr = np.empty(prm.shape[1])
+    sin = np.empty(es.shape[1])
+    sout = np.empty(es.shape[1])
+    event = np.zeros(ne, dtype=np.int64)   # 0 none, 1 stick->slip, 2 slip->stick
+    ev_prev = np.zeros(ne, dtype=np.int64)
+    ev_theta = np.zeros(ne)
+    ev_ut = np.zeros(ne)
+    ev_c = np.zeros((ne, nt))
+    dnodes = np.empty(q + 1)
+    fa = np.empty(nin)
+    fb = np.empty(nin)
+    for k in range(force.shape[0]):
+        for j in range(m):
+            for i in range(nin):
+                df = (force[k, i] - fprev[i]) / m
+                fa[i] = fprev[i] + j * df
+                fb[i] = fa[i] + df
+            for r in range(ny):
+                s = 0.0
+                for c in range(ny):
+                    s += phi[r, c] * y[c]
+                for c in range(nin):
+                    s += wf0[r, c] * fa[c] + wf1[r, c] * fb[c]
+                for nd in range(q):
+                    for e in range(ne):
+                        s += wh[nd, r, e] * gh[e, nd]
+                known[r] = s
+            if ne == 0:
+                for r in range(ny):
+                    y[r] = known[r]
+                continue
+            for r in range(2 * ne):
+                s = 0.0
+                for c in range(ny):
+                    s += proj[r, c] * known[c]
+                pk[r] = s
+            for e in range(ne):
+                u0[e] = uh[e, q - 1]
+                s = 0.0
+                for c in range(ny):
+                    s += proj[ne + e, c] * y[c]
+                v0[e] = s
+                sigma0[e] = 0.0
+                if codes[e] == STICK_SLIP:
+                    sigma0[e] = es[e, 1]
+                gp = 0.0  # predictor: extrapolate the history to the end node
+                for nd in range(q):
+                    gp += xpred[nd] * gh[e, nd]
+                gc[e] = gp
+            for r in range(2 * ne):
+                s = pk[r]
+                for e in range(ne):
+                    s += pwe[r, e] * gc[e]
+                uv[r] = s
+            converged = False
+            dprev = 0.0
+            for e in range(ne):
+                ev_prev[e] = 0
+            for it in range(MAX_ITER):
+                stats[S_ITER] += 1
+                for r in range(2 * ne):
+                    acc[r] = pk[r]
+                for e in range(ne):
+                    u1 = uv[e]
+                    v1 = uv[ne + e]
+                    event[e] = 0
+                    if codes[e] == STICK_SLIP:
+                        kd, fd = prm[e, 0], prm[e, 1]
+                        z0 = es[e, 0]
+                        if sigma0[e] == 0.0:
+                            r1 = kd * (u1 - z0)
+                            gc[e] = r1
+                            if abs(r1) <= fd:
+                                g[e] = r1
+                                st[e, 0] = z0
+                                st[e, 1] = 0.0
+                            else:  # stick -> slip where the stick branch reaches +-fd
+                                sg = np.sign(r1)
+                                for nd in range(q):
+                                    dnodes[nd] = gh[e, nd]
+                                dnodes[q] = r1
+                                ev_theta[e] = _root_poly(vinv @ dnodes, sg * fd)
+                                for nd in range(q + 1):
+                                    dnodes[nd] = sg * fd - dnodes[nd]
+                                g[e] = sg * fd
+                                st[e, 0] = u1 - sg * fd / kd
+                                st[e, 1] = sg
+                                event[e] = 1
+                        else:
+                            sg = sigma0[e]
+                            gc[e] = sg * fd
+                            if sg * v1 >= 0.0:  # still slipping
+                                g[e] = sg * fd
+                                st[e, 0] = u1 - sg * fd / kd
+                                st[e, 1] = sg
+                            else:  # slip -> stick where the velocity reverses
+                                th = _root_velocity(u0[e], v0[e], u1, v1, h)
+                                ut = _hermite(u0[e], v0[e], u1, v1, h, th)[0]
+                                ev_theta[e] = th
+                                ev_ut[e] = ut
+                                for nd in range(q):
+                                    dnodes[nd] = kd * (uh[e, nd] - ut)
+                                dnodes[q] = kd * (u1 - ut)
+                                g[e] = min(max(sg * fd + kd * (u1 - ut), -fd), fd)
+                                st[e, 0] = ut - sg * fd / kd
+                                st[e, 1] = 0.0
+                                event[e] = 2
+                        if event[e] != 0:
+                            _jump_coeffs(dnodes, ev_theta[e], vinv, h, inv_fact, ev_c[e])
+                            for r in range(2 * ne):
+                                s = 0.0
+                                for i in range(nt):
+                                    s += pab[e, i, r] * ev_c[e, i]
+                                acc[r] += s
+                    else:
+                        # scratch copies: passing row views costs more than the force law
+                        for i in range(pscr.shape[0]):
+                            pscr[i] = prm[e, i]
+                        for i in range(sin.shape[0]):
+                            sin[i] = es[e, i]
+                        g[e] = _element_force(codes[e], pscr, u1, v1, sin, sout)
+                        for i in range(sin.shape[0]):
+                            st[e, i] = sout[i]
+                        gc[e] = g[e]
+                    for r in range(2 * ne):
+                        acc[r] += pwe[r, e] * gc[e]
+                # change relative to the tolerance; the iteration contracts linearly, so stop
+                # when the change or the next one (ratio estimated from the last two) is below
+                dmax = 0.0
+                for r in range(2 * ne):
+                    d = abs(acc[r] - uv[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
+                    dmax = max(dmax, d)
+                    uv[r] = acc[r]
+                same = True   # the branch choice must be settled before stopping
+                for e in range(ne):
+                    if event[e] != ev_prev[e]:
+                        same = False
+                    ev_prev[e] = event[e]
+                if same and (dmax <= 1.0 or (it > 0 and dmax * dmax <= dprev)):
+                    converged = True
+                    break
+                dprev = dmax
+            if not converged:
+                stats[S_NOCONV] += 1
+            for r in range(ny):
+                s = known[r]
+                for e in range(ne):
+                    s += we[r, e] * gc[e]
+                    if event[e] != 0:
+                        for i in range(nt):
+                            s += ab[e, i, r] * ev_c[e, i]
+                ynew[r] = s
+            for r in range(ny):
+                y[r] = ynew[r]
+            for e in range(ne):
+                for i in range(es.shape[1]):
+                    es[e, i] = st[e, i]
+                for nd in range(q - 1):
+                    gh[e, nd] = gh[e, nd + 1]
+                    uh[e, nd] = uh[e, nd + 1]
+                gh[e, q - 1] = g[e]
+                uh[e, q - 1] = uv[e]
+                if event[e] == 1:      # history continues on the slip branch
+                    for nd in range(q - 1):
+                        gh[e, nd] = g[e]
+                elif event[e] == 2:    # history continues on the new stick branch
+                    for nd in range(q - 1):
+                        gh[e, nd] = sigma0[e] * prm[e, 1] + prm[e, 0] * (uh[e, nd]
+                                                                         - ev_ut[e])
+                if event[e] != 0:
+                    stats[S_EVENTS] += 1
+        stats[S_SUBSTEPS] += m
+        for i in range(nin):
+            fprev[i] = force[k, i]
+        for r in range(ny):
+            out_y[k, r] = y[r]
+        for e in range(ne):
+            out_g[k, e] = g[e]
+        for r in range(out_a.shape[1]):
+            s = 0.0
+            for c in range(nin):
+                s += acc_f[r, c] * force[k, c]
+            for c in range(ny):
+                s += acc_y[r, c] * y[c]
+            for e in range(ne):
+                s += acc_g[r, e] * g[e]
+            out_a[k, r] = s
