@@ -1,0 +1,68 @@
+"""Where the mismatch lives: level dependence, response DOFs and frequency band.
+
+Level dependence (homogeneity): the FRFs of two levels are compared bin by bin against
+their combined H1 random error; ``q = sum 2 |H_a - H_b|^2 / (var_a + var_b)`` / bin factor is
+chi-square with ``N`` effective degrees of freedom when the structure is linear. A p-value
+below `ALPHA` for the lowest-versus-highest level pair means the structure is nonlinear.
+The per-DOF share of ``q`` tells which FRFs move with level (paper chapter 2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2 as chi2_dist
+
+from .compare import LevelFRF
+
+ALPHA = 1e-4
+
+
+@dataclass
+class LevelDependence:
+    """Outcome of the homogeneity test between the lowest and highest level."""
+
+    dependent: bool
+    p_value: float
+    statistic: float
+    dof: float
+    moving_dofs: list[int]
+    share_by_dof: list[float]
+
+    def to_json(self) -> dict:
+        return {"dependent": self.dependent, "p_value": self.p_value,
+                "statistic_per_dof": self.statistic / max(self.dof, 1.0),
+                "moving_dofs": self.moving_dofs, "share_by_dof": self.share_by_dof}
+
+
+def level_dependence(levels: list[LevelFRF]) -> LevelDependence | None:
+    """Homogeneity test across levels (None with a single level)."""
+    if len(levels) < 2:
+        return None
+    lo = min(levels, key=lambda lf: lf.level)
+    hi = max(levels, key=lambda lf: lf.level)
+    z = 2 * np.abs(lo.H - hi.H) ** 2 / (lo.var + hi.var)
+    bf = 0.5 * (lo.bin_factor + hi.bin_factor)
+    q = float(z.sum() / bf)
+    dof = 2 * z.size / bf
+    p = float(chi2_dist.sf(q, dof))
+    by_dof = z.sum(axis=(0, 2))
+    share = by_dof / max(by_dof.sum(), 1e-300)
+    excess = by_dof / (2 * z.shape[0] * z.shape[2]) - 1.0   # mean normalised change - 1
+    moving = [int(i) for i in np.flatnonzero(excess > 0.5 * excess.max())] if p < ALPHA else []
+    return LevelDependence(p < ALPHA, p, q, dof, moving, [float(s) for s in share])
+
+
+def mismatch_band(lf: LevelFRF, H_model: np.ndarray, *, mass: float = 0.9
+                  ) -> tuple[float, float]:
+    """Frequency band holding the central ``mass`` of the excess weighted misfit."""
+    z = np.sum(np.abs(lf.H - H_model) ** 2 / lf.var, axis=(1, 2))
+    excess = np.clip(z - lf.H.shape[1] * lf.H.shape[2], 0.0, None)
+    if excess.sum() <= 0:
+        return float(lf.freqs[0]), float(lf.freqs[-1])
+    cum = np.cumsum(excess) / excess.sum()
+    tail = (1 - mass) / 2
+    i0 = int(np.searchsorted(cum, tail))
+    i1 = int(min(np.searchsorted(cum, 1 - tail), lf.freqs.size - 1))
+    return float(lf.freqs[i0]), float(lf.freqs[i1])

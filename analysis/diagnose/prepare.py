@@ -1,0 +1,119 @@
+"""Make recordings ready for comparison: displacement and velocity, DC removed, whole periods.
+
+Real recordings carry DC offsets, responses recorded as velocity or acceleration and, for
+periodic multisine drives, a start-up transient. `prepare_random` removes the offsets,
+integrates or differentiates in the frequency domain (`analysis.signals.to_kinematics`),
+drops the transient periods and keeps a whole number of periods, so that a Welch estimate
+with one period per segment and a rectangular window is free of leakage and averages periods.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..recording import Recording
+from ..signals import excitation_band, remove_dc, to_kinematics
+from ..spectral import spectral_matrix
+
+EDGE_FRACTION = 0.02
+"""Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
+
+
+class DiagnoseInputError(InputError):
+    """Recordings or options unfit for a diagnosis."""
+
+
+@dataclass
+class Prepared:
+    """One random (or multisine) recording as displacement and velocity.
+
+    Attributes
+    ----------
+    x, v : ndarray, shape (n, n_dof)
+    force : ndarray, shape (n, n_in)
+    force_dofs : ndarray of int
+    fs : float
+    level : float
+        Nominal level (the recording's, else the force rms).
+    period : int or None
+        Samples per period of a periodic drive (whole periods are kept).
+    label : str
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    force: np.ndarray
+    force_dofs: np.ndarray
+    fs: float
+    level: float
+    period: int | None
+    label: str
+
+
+def record_level(rec: Recording) -> float:
+    """Nominal level: the recording's own, else the rms (random) or amplitude (sine) force."""
+    if rec.level is not None:
+        return float(rec.level)
+    f = remove_dc(rec.force.reshape(-1, rec.n_in)) if rec.excitation == "random" else rec.force
+    if rec.excitation == "random":
+        return float(np.sqrt(np.mean(f**2, axis=0)).max())
+    return float(np.abs(f).max())
+
+
+def analysis_band(rec: Recording, nperseg: int) -> tuple[float, float]:
+    """Excited band of a random recording (from its force spectrum)."""
+    f = remove_dc(rec.force)
+    sp = spectral_matrix(f, rec.fs, nperseg=min(nperseg, f.shape[0]))
+    return excitation_band(sp.freqs, sp.auto())
+
+
+def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
+                   period: int | None = None, transient_periods: int = 1) -> Prepared:
+    """Displacement/velocity of a random or periodic-multisine recording.
+
+    Parameters
+    ----------
+    rec : Recording
+        ``excitation == "random"``.
+    band : (lo, hi)
+        Analysis band, Hz; its lower edge is the high-pass of any integration.
+    label : str
+    period : int, optional
+        Samples per period of a periodic drive; the first ``transient_periods`` periods are
+        dropped and a whole number of periods kept.
+    transient_periods : int
+    """
+    if rec.excitation != "random":
+        raise DiagnoseInputError(f"{label}: expected a random recording, got {rec.excitation}")
+    force = remove_dc(rec.force)
+    resp = remove_dc(rec.response)
+    if period is not None:
+        n_per = force.shape[0] // period - transient_periods
+        if n_per < 2:
+            raise DiagnoseInputError(
+                f"{label}: {force.shape[0]} samples hold fewer than {transient_periods + 2} "
+                f"periods of {period} samples; give the right --period or a longer record")
+        keep = slice(transient_periods * period, (transient_periods + n_per) * period)
+        force, resp = remove_dc(force[keep]), remove_dc(resp[keep])
+    # Low-pass well above the band: keeps the harmonics the nonlinear forces need while
+    # cutting the sensor noise that differentiation would amplify near Nyquist.
+    x, v = to_kinematics(resp, rec.fs, rec.response_kind,
+                         highpass=band[0] if rec.response_kind != "displacement" else 0.0,
+                         lowpass=min(0.9 * rec.fs / 2, 2 * band[1]))
+    if rec.response_kind != "displacement" and period is None:
+        edge = int(EDGE_FRACTION * x.shape[0])
+        x, v, force = x[edge:-edge], v[edge:-edge], force[edge:-edge]
+    return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label)
+
+
+def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepared]:
+    """Split one recording into a fitting part and a held-back part (time segments)."""
+    n = p.x.shape[0]
+    cut = int(fraction * n) if p.period is None else int(fraction * n / p.period) * p.period
+    def part(s: slice, tag: str) -> Prepared:
+        return Prepared(p.x[s], p.v[s], p.force[s], p.force_dofs, p.fs, p.level, p.period,
+                        f"{p.label} ({tag})")
+    return part(slice(0, cut), "fit segment"), part(slice(cut, n), "held-back segment")

@@ -1,0 +1,280 @@
+"""Diagnosis on stepped-sine recordings: harmonic signatures, friction kinds, HBM refit.
+
+Every step is sine-fitted (`analysis.sine_fit`, harmonics 1, 3, 5, 7). The element
+deformation over one period is rebuilt from the fitted harmonics (noise-free by
+construction), each candidate's restoring force is evaluated on it and its fundamental
+``G_1`` gives the level FRF of the candidate model (measured-motion harmonic balance)::
+
+    H_model = H_L (B F_1 - w G_1) / F_1
+
+With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
+the memoryless kinds and the linear errors; the memory kinds (stick-slip, hysteresis) are
+fitted by nonlinear least squares on the same residual. The chosen element is then refitted
+by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33) and the held-back
+level is compared with a harmonic-balance simulation of the corrected model.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..elements import KINDS, restoring_force
+from ..errors import EstimationError, InputError
+from ..hbm import HBMSystem
+from ..hbm_fit import fit_hbm
+from ..model import Element, Model
+from ..recording import Recording
+from ..sine_fit import SteppedSineFRF, stepped_sine_frf
+from .candidates import Candidate, library
+from .compare import LevelFRF, chi2
+from .locate import level_dependence, mismatch_band
+from .report import Diagnosis, LevelCurves, explain
+from .select import Fit, Search, candidate_extras, unit_params
+
+HARMONICS = (1, 3, 5, 7)
+N_TIME = 256
+METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
+          "simulation on the held-back level")
+
+
+def _noise_var(rec: Recording, frf: SteppedSineFRF) -> np.ndarray:
+    """Variance of each fundamental receptance, (n_steps, n_dof).
+
+    Two parts: white noise from the sine-fit residual (``4 sigma^2 / n``), and a steady-state
+    check: the fundamentals fitted to the two halves of the block differ when a transient
+    has not died out; ``|X_a - X_b|^2 / 4`` is added for that.
+    """
+    out = np.empty(frf.frf.shape)
+    n = rec.response.shape[1]
+    t = np.arange(n) / rec.fs
+    half = n // 2
+    for s, f in enumerate(frf.freqs):
+        blk = rec.response[s]
+        phase = 2 * np.pi * f * t[:, None] * np.asarray(frf.harmonics)[None, :]
+        design = np.hstack([np.ones((n, 1)), np.cos(phase), np.sin(phase)])
+        coef, *_ = np.linalg.lstsq(design, blk, rcond=None)
+        sigma2 = np.var(blk - design @ coef, axis=0)
+        x_a = np.linalg.lstsq(design[:half], blk[:half], rcond=None)[0][1]
+        x_b = np.linalg.lstsq(design[half:], blk[half:], rcond=None)[0][1]
+        out[s] = 4 * sigma2 / n / frf.force[s] ** 2 + (x_a - x_b) ** 2 / 4 / frf.force[s] ** 2
+    return out
+
+
+def _motion(frf: SteppedSineFRF, w: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
+    """Deformation and rate of ``w`` over one period of step ``s`` (from fitted harmonics)."""
+    theta = 2 * np.pi * np.arange(N_TIME) / N_TIME
+    h = np.asarray(frf.harmonics)
+    U = frf.X[s] @ w
+    e = np.exp(1j * np.outer(theta, h))
+    om = 2 * np.pi * frf.freqs[s]
+    return (e @ U).real, (e @ (1j * h * om * U)).real
+
+
+def _fundamental(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray) -> complex:
+    """Fundamental ``G_1`` of a restoring force along a periodic motion (steady state)."""
+    if KINDS[kind].memory:
+        g = restoring_force(kind, params, np.tile(u, 3), np.tile(v, 3))[0][-N_TIME:]
+    else:
+        g = restoring_force(kind, params, u, v)[0]
+    return complex(2 / N_TIME * np.sum(g * np.exp(-2j * np.pi * np.arange(N_TIME) / N_TIME)))
+
+
+def _transfer(frf: SteppedSineFRF, kind: str, params: dict[str, float], w: np.ndarray
+              ) -> np.ndarray:
+    g1 = [_fundamental(kind, params, *_motion(frf, w, s)) for s in range(frf.freqs.size)]
+    return (np.asarray(g1) / frf.force)[:, None]
+
+
+def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor: float,
+           label: str) -> LevelFRF:
+    H = frf.frf[:, :, None]
+    var = _noise_var(rec, frf)[:, :, None] + floor**2 * np.abs(H) ** 2
+    B = np.zeros((model.n_dof, 1))
+    B[frf.force_dof, 0] = 1.0
+    T = {("model", i): _transfer(frf, el.kind, el.params, el.w)
+         for i, el in enumerate(model.elements)}
+    for (kind, dofs), extras in extra.items():
+        w = Candidate(kind, dofs, model.n_dof).w
+        for e in extras:
+            T[(kind, dofs, e)] = _transfer(frf, kind, unit_params(kind, e), w)
+    return LevelFRF(label, frf.level, frf.freqs, H, np.ones(H.shape), var, B, T, 1.0)
+
+
+class SteppedSearch(Search):
+    """`Search` plus the memory kinds, on stepped-sine levels."""
+
+    def __init__(self, model: Model, frfs: list[SteppedSineFRF], recs: list[Recording],
+                 floor: float) -> None:
+        self.frfs = frfs
+        low = min(range(len(frfs)), key=lambda i: frfs[i].level)
+        motion = [_motion(frfs[low], np.eye(model.n_dof)[:, d], s) for s in
+                  range(frfs[low].freqs.size) for d in range(model.n_dof)]
+        x = np.array([m[0] for m in motion]).reshape(-1, model.n_dof, N_TIME)
+        v = np.array([m[1] for m in motion]).reshape(-1, model.n_dof, N_TIME)
+        x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
+        v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
+        extra = candidate_extras(model, x, v)
+        levels = [_level(model, r, f, extra, floor, f"level {f.level:g}")
+                  for r, f in zip(recs, frfs)]
+        super().__init__(model, levels, extra)
+
+    def _chi2_memory(self, c: Candidate, params: dict[str, float]) -> float:
+        total = 0.0
+        for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
+            d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
+            total += chi2(lf, h0 - d)
+        return total
+
+    def fit_memory(self, c: Candidate) -> Fit | None:
+        """Nonlinear least squares of a memory element (log parameters, a few starts)."""
+        names = KINDS[c.kind].params
+        k_w = float(c.w @ self.model.stiffness @ c.w)
+        u_amp = float(np.median([np.abs(f.X[:, 0] @ c.w).max() for f in self.frfs]))
+        best = None
+
+        def resid(z: np.ndarray) -> np.ndarray:
+            params = dict(zip(names, np.exp(z)))
+            out = []
+            for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
+                d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
+                r = (lf.H - h0 + d) / np.sqrt(lf.var / 2)
+                out += [r.real.ravel(), r.imag.ravel()]
+            return np.concatenate(out)
+
+        for kd in (0.3 * k_w, 3 * k_w):
+            for frac in (0.1, 0.5):
+                start = [kd, kd * frac * u_amp] + ([2.0] if c.kind == "hysteresis" else [])
+                try:
+                    sol = least_squares(resid, np.log(start), max_nfev=40, method="trf",
+                                        bounds=(np.log(start) - 9, np.log(start) + 9))
+                except (ValueError, FloatingPointError):
+                    continue
+                if best is None or sol.cost < best.cost:
+                    best = sol
+        if best is None:
+            return None
+        params = {n: float(v) for n, v in zip(names, np.exp(best.x))}
+        x2 = self._chi2_memory(c, params)
+        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params),
+                   {"estimator": "measured-motion harmonic balance"})
+
+    def memory_fits(self) -> list[Fit]:
+        fits = [self.fit_memory(c) for c in library(self.model.n_dof) if c.memory]
+        return [f for f in fits if f is not None]
+
+
+def _hbm_frf(model: Model, frf: SteppedSineFRF) -> np.ndarray:
+    """Fundamental receptance of a harmonic-balance sweep at the level's force (n_steps, n_dof)."""
+    system = HBMSystem(model, [frf.force_dof], HARMONICS)
+    amp = float(np.mean(frf.force))
+    res = system.sweep(frf.freqs, [amp])
+    return res.X[:, 0, :] / amp
+
+
+def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
+    return float(np.sqrt(np.sum(np.abs(frf.frf - h) ** 2) / np.sum(np.abs(frf.frf) ** 2)))
+
+
+def _refit(model: Model, fit: Fit, frfs: list[SteppedSineFRF]) -> tuple[Fit, list[str]]:
+    """Harmonic-balance FRF fit (paper eq 33) of the chosen nonlinear element."""
+    c = fit.cand
+    trial = model.with_elements(model.elements + [Element(c.kind, c.w, {})])
+    names = KINDS[c.kind].params
+    start = np.array([[fit.params[n] for n in names]])
+    try:
+        res = fit_hbm(trial, frfs, HARMONICS, starts=start,
+                      dofs=list(range(model.n_dof)))
+    except (InputError, EstimationError) as exc:
+        return fit, [f"harmonic-balance refit failed ({exc}); kept the screening estimate"]
+    e = len(model.elements)
+    params = dict(fit.params)
+    ci = {}
+    for n in names:
+        params[n] = float(res.params[(e, n)])
+        ci[n] = list(res.ci95[(e, n)])
+    ev = dict(fit.evidence, estimator="harmonic-balance fit", hbm_cost=res.cost)
+    return Fit(c, params, ci, fit.chi2, fit.delta_bic, ev), list(res.warnings)
+
+
+def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
+                     holdout: float | str | None, floor: float) -> Diagnosis:
+    """Stepped-sine counterpart of `analysis.diagnose.diagnose` (same selection rules)."""
+    from . import BIC_MIN, MIN_EFFECT, MIN_REDUCTION, _pick_holdout, model_change
+    from .select import corrected_model
+
+    frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
+    order = np.argsort([f.level for f in frfs])
+    frfs, recs = [frfs[i] for i in order], [recs[i] for i in order]
+    if len(frfs) < 2 or holdout == "segment":
+        raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
+                         "back); record another level")
+    hold = _pick_holdout([f.level for f in frfs], holdout)
+    fit_idx = [i for i in range(len(frfs)) if i != hold]
+    search = SteppedSearch(model, [frfs[i] for i in fit_idx], [recs[i] for i in fit_idx],
+                           floor)
+    pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
+    best = pool[0]
+    reduction = (search.chi2_0 - best.chi2) / search.chi2_0
+    found = best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION
+    warnings: list[str] = []
+    if found and best.cand.memory:
+        # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
+        # harmonic-balance fit itself (BIC with the residual variance unknown).
+        rivals = [f for f in pool[:3] if f.cand.memory and f.cand.dofs == best.cand.dofs]
+        refits = [_refit(model, f, search.frfs) for f in rivals]
+        n_res = 2 * sum(f.frf.size for f in search.frfs)
+        def hbm_bic(item: tuple[Fit, list[str]]) -> float:
+            cost = item[0].evidence.get("hbm_cost")
+            if cost is None:
+                return np.inf
+            return n_res * np.log(cost**2 / n_res) + item[0].cand.n_params * np.log(n_res)
+        best, warnings = min(refits, key=hbm_bic)
+        for f, _ in refits:
+            f.evidence["hbm_bic"] = hbm_bic((f, []))
+        refitted = [f for f, _ in refits]
+        pool = ([best] + [f for f in refitted if f is not best]
+                + [f for f in pool if all(f.cand != r.cand for r in refitted)])
+    fixed = corrected_model(model, best) if found else model
+    curves = []
+    for i, f in enumerate(frfs):
+        hb = _hbm_frf(model, f)
+        ha = _hbm_frf(fixed, f) if found else hb
+        curves.append(LevelCurves(f"level {f.level:g}", f.level, i == hold, f.freqs,
+                                  f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
+                                  _error(f, hb), _error(f, ha)))
+    effect = model_change([c for c in curves if not c.held_back])
+    if found and effect < MIN_EFFECT:
+        found, fixed = False, model
+        for c in curves:
+            c.after, c.error_after = c.before, c.error_before
+    held = curves[hold]
+    all_levels = search.levels + [_level(model, recs[hold], frfs[hold], {}, floor, "held")]
+    dep = level_dependence(all_levels)
+    top = int(np.argmax([lf.level for lf in search.levels]))
+    lo, hi = mismatch_band(search.levels[top], search.H0s[top])
+    d = Diagnosis(
+        "discrepancy" if found else "adequate", dep.dependent if dep else None,
+        best.to_json() if found else None, [f.to_json() for f in pool[:8]],
+        {"dofs": list(best.cand.dofs) if found else [], "band_hz": [lo, hi] if found else None},
+        {"metric": METRIC, "before": held.error_before, "after": held.error_after,
+         "held_back": [held.label]},
+        fixed, curves,
+        {"chi2_start": search.chi2_0, "n_values": search.n_values, "chi2_reduction": reduction,
+         "model_change": effect,
+         "level_dependence": dep.to_json() if dep else None,
+         "odd_harmonic_ratio": _odd_ratio(search.frfs[-1])},
+        warnings)
+    d.explanation = explain(d, best.cand if found else None)
+    return d
+
+
+def _odd_ratio(frf: SteppedSineFRF) -> float:
+    """Largest |X_3| / |X_1| over steps and DOFs at a level (harmonic signature)."""
+    h = list(frf.harmonics)
+    if 3 not in h:
+        return 0.0
+    x1, x3 = np.abs(frf.X[:, h.index(1)]), np.abs(frf.X[:, h.index(3)])
+    return float((x3 / np.maximum(x1, 1e-300)).max())

@@ -1,0 +1,63 @@
+"""Benchmark: ``nlid-lab diagnose`` on a 3-DOF, 3-level random case (issue 6: under a minute).
+
+Prints the wall time of the whole command (NPZ loading, search of the full candidate library,
+reverse-path refinement, held-back comparison, JSON and corrected model) and its ratio to a
+baseline timed in the same run: one reverse-path estimate of the true element on the same
+three recordings. Run: ``.venv/bin/python benchmarks/bench_diagnose.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+
+from analysis.diagnose import library  # noqa: E402
+from analysis.model import Element  # noqa: E402
+from analysis.reverse_path import reverse_path  # noqa: E402
+from diagnose_scenarios import hidden_cubic  # noqa: E402
+from nlid_lab.cli import main  # noqa: E402
+from nlid_lab.recordings_io import write_npz  # noqa: E402
+
+BUDGET_S = 60.0
+
+
+def run() -> None:
+    sc = hidden_cubic()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        sc.start.save(root / "start.toml")
+        runs = []
+        for i, rec in enumerate(sc.recordings):
+            write_npz(root / f"level{i}.npz", rec)
+            runs.append(str(root / f"level{i}.npz"))
+        cand = sc.start.with_elements([Element("cubic_spring", [0, 0, 1.0], {})])
+        reverse_path(sc.recordings[:1], cand)            # warm numba caches for both
+        t0 = time.perf_counter()
+        reverse_path(sc.recordings, cand)
+        base = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rc = main(["diagnose", str(root / "start.toml"), *runs, "--json",
+                   str(root / "out.json"), "--model-out", str(root / "fixed.toml")])
+        total = time.perf_counter() - t0
+        res = json.loads((root / "out.json").read_text())
+    n = sc.recordings[0].force.shape[0]
+    print(f"case: 3 DOF, 3 levels x {n} samples, library of {len(library(3))} candidates; "
+          f"exit code {rc}")
+    print(f"baseline  one reverse-path estimate (3 levels): {base:8.2f} s")
+    print(f"diagnose  full command:                         {total:8.2f} s")
+    print(f"ratio     diagnose / reverse path:              {total / base:8.1f}")
+    print(f"budget    {BUDGET_S:.0f} s: {'met' if total < BUDGET_S else 'MISSED'} "
+          f"({total / BUDGET_S:.2f} of it)")
+    print(f"result    {res['verdict']}: {res['missing_physics'][0]['kind']} at "
+          f"{res['location']['dofs']}, fit {res['fit']['before']:.3g} -> "
+          f"{res['fit']['after']:.3g}")
+
+
+if __name__ == "__main__":
+    run()
