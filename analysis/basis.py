@@ -8,6 +8,11 @@ A product of a band-limited signal spans a wider band (``u^3`` of a signal up to
 spans ``3B``); sampled at ``fs`` it folds back into the analysis band when
 ``order * B > fs - band_hi``. `aliasing_factor` detects this and `evaluate` can form the basis
 on a band-limited interpolation of the signal and discard what lies above ``fs/2``.
+
+Sensor noise ``e`` (variance ``s2``) on the signal biases a basis: ``E[(u + e)^3 | u] = u^3 +
+3 s2 u``. ``Basis.debias`` holds the Hermite-type correction that removes that conditional bias
+for polynomials (exact for Gaussian noise) and its large-amplitude limit ``s2 sign(u)`` for
+``u|u|`` (exact for ``|u| >> s``); `evaluate` subtracts it when given ``noise_var``.
 """
 
 from __future__ import annotations
@@ -40,6 +45,9 @@ class Basis:
         ``func(s, arg)`` of the signal ``s`` and an optional parameter.
     arg : float
         Parameter passed to ``func`` (gap width, friction regularisation velocity).
+    debias : callable, optional
+        ``debias(s, s2)``: conditional noise bias of ``func`` for noise variance ``s2``
+        (None: no correction known).
     """
 
     name: str
@@ -47,6 +55,7 @@ class Basis:
     order: int
     func: Callable[[np.ndarray, float], np.ndarray]
     arg: float = 0.0
+    debias: Callable[[np.ndarray, float], np.ndarray] | None = None
 
     def __call__(self, s: np.ndarray) -> np.ndarray:
         return self.func(s, self.arg)
@@ -56,14 +65,30 @@ def _gap(s: np.ndarray, g: float) -> np.ndarray:
     return np.sign(s) * np.maximum(np.abs(s) - g, 0.0)
 
 
+def _bias2(s: np.ndarray, s2: float) -> np.ndarray:
+    return np.full_like(s, s2)
+
+
+def _bias3(s: np.ndarray, s2: float) -> np.ndarray:
+    return 3 * s2 * s
+
+
+def _bias5(s: np.ndarray, s2: float) -> np.ndarray:
+    return 10 * s2 * s**3 - 15 * s2**2 * s
+
+
+def _bias_abs(s: np.ndarray, s2: float) -> np.ndarray:
+    return s2 * np.sign(s)
+
+
 LIBRARY: dict[str, Basis] = {b.name: b for b in (
-    Basis("x^2", "x", 2, lambda s, _: s * s),
-    Basis("x^3", "x", 3, lambda s, _: s * s * s),
-    Basis("x|x|", "x", 5, lambda s, _: s * np.abs(s)),
-    Basis("x^5", "x", 5, lambda s, _: s**5),
-    Basis("v|v|", "v", 5, lambda s, _: s * np.abs(s)),
-    Basis("v^3", "v", 3, lambda s, _: s * s * s),
-    Basis("v^5", "v", 5, lambda s, _: s**5),
+    Basis("x^2", "x", 2, lambda s, _: s * s, debias=_bias2),
+    Basis("x^3", "x", 3, lambda s, _: s * s * s, debias=_bias3),
+    Basis("x|x|", "x", 5, lambda s, _: s * np.abs(s), debias=_bias_abs),
+    Basis("x^5", "x", 5, lambda s, _: s**5, debias=_bias5),
+    Basis("v|v|", "v", 5, lambda s, _: s * np.abs(s), debias=_bias_abs),
+    Basis("v^3", "v", 3, lambda s, _: s * s * s, debias=_bias3),
+    Basis("v^5", "v", 5, lambda s, _: s**5, debias=_bias5),
     Basis("sign(v)", "v", 9, lambda s, vr: np.tanh(s / vr), 1e-3),
 )}
 """The candidate library screened by default (paper eq 20 plus x^5, v^3, v^5)."""
@@ -118,21 +143,28 @@ def aliasing_factor(order: int, bandwidth: float, fs: float, band_hi: float) -> 
     return int(math.ceil((span + band_hi) / fs))
 
 
-def evaluate(basis: Basis, s: np.ndarray, upsample: int = 1) -> np.ndarray:
-    """Apply ``basis`` to the signal ``s`` (shape (n,)), optionally alias-free.
+def evaluate(basis: Basis, s: np.ndarray, upsample: int = 1,
+             noise_var: float = 0.0) -> np.ndarray:
+    """Apply ``basis`` to the signal ``s`` (shape (n,)), optionally alias-free and debiased.
 
+    ``noise_var > 0`` subtracts ``basis.debias(s, noise_var)`` (the conditional bias caused by
+    sensor noise of that variance on ``s``; nothing when the basis has no correction).
     With ``upsample > 1`` the signal is interpolated band-limitedly (zero-padded FFT of its
     even extension, exact in band, no filter ripple), the function applied, and everything
     above the original ``fs/2`` discarded, so that it is removed instead of folded into the
     band. The first and last few hundred samples carry end effects; callers trim them.
     """
     if upsample <= 1:
-        return basis(s)
-    n = s.shape[0]
-    spec = np.fft.rfft(np.concatenate([s, s[::-1]]))
-    fine = np.fft.irfft(spec, 2 * n * upsample) * upsample
-    back = np.fft.rfft(basis(fine))[: n + 1] / upsample
-    return np.fft.irfft(back, 2 * n)[:n]
+        out = basis(s)
+    else:
+        n = s.shape[0]
+        spec = np.fft.rfft(np.concatenate([s, s[::-1]]))
+        fine = np.fft.irfft(spec, 2 * n * upsample) * upsample
+        back = np.fft.rfft(basis(fine))[: n + 1] / upsample
+        out = np.fft.irfft(back, 2 * n)[:n]
+    if noise_var > 0 and basis.debias is not None:
+        out = out - basis.debias(s, noise_var)
+    return out
 
 
 def alias_error(basis: Basis, s: np.ndarray, fs: float, band: tuple[float, float],

@@ -6,7 +6,7 @@ import pytest
 from analysis.errors import EstimationError, InputError
 from analysis.excitation import random_gaussian
 from analysis.model import Element, Model
-from analysis.plant import Plant
+from analysis.plant import Plant, add_relative_noise
 from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
 
@@ -161,3 +161,40 @@ def test_bad_inputs(sdof):
     with pytest.raises(InputError, match="DOFs"):
         reverse_path((force, np.c_[out.displacement, out.displacement]), _candidate(model),
                      fs=1024.0, force_dofs=[0])
+
+
+def _noisy_estimates(run, fs, fraction, noise, nperseg=8192, n=2**18):
+    model, force, out = run
+    x = add_relative_noise(out.displacement[:n], fraction, 1)
+    return model, reverse_path((force[:n], x), _candidate(model), fs=fs, force_dofs=[0],
+                               nperseg=nperseg, force_hold="linear", noise=noise)
+
+
+def _errors(model, res):
+    return {c.kind: (c.value / model.elements[c.element].params[c.param] - 1,
+                     c.ci95[0] <= model.elements[c.element].params[c.param] <= c.ci95[1])
+            for c in res.coefficients}
+
+
+def test_output_noise_1pct_instrumental_variables(sdof, mdof):
+    """1 % white output noise: IV estimates within 1 % with intervals covering the truth."""
+    model, res = _noisy_estimates(sdof, 1024.0, 0.01, "auto")
+    assert res.noise["method"] == "iv"
+    assert res.noise["relative_std"][0] == pytest.approx(0.01, rel=0.1)
+    err = _errors(model, res)
+    assert abs(err["cubic_spring"][0]) < 0.01 and err["cubic_spring"][1]
+    assert err["quadratic_damping"][1]        # damping: +-16 % interval at this noise
+    model, res = _noisy_estimates(mdof, 4096.0, 0.01, "auto")
+    for kind, (e, covered) in _errors(model, res).items():
+        assert abs(e) < 0.01 and covered, (kind, e)
+
+
+def test_output_noise_biases_h1_and_warns(sdof):
+    model, res = _noisy_estimates(sdof, 1024.0, 0.05, "none")
+    assert any("sensor noise" in w and "noise='iv'" in w for w in res.warnings)
+    e_h1 = _errors(model, res)["cubic_spring"][0]
+    assert e_h1 < -0.05                         # errors in variables: biased low
+    model, res = _noisy_estimates(sdof, 1024.0, 0.05, "iv")
+    e_iv, covered = _errors(model, res)["cubic_spring"]
+    assert abs(e_iv) < 0.25 * abs(e_h1) and covered
+    assert res.to_json()["noise"]["method"] == "iv"
