@@ -1,0 +1,245 @@
+"""Driver contracts: the abstract shaker (`SignalGenerator`) and DAQ (`Acquirer`).
+
+Lifecycle of both: ``configure -> start -> (read | set_level)* -> stop -> close``; both are
+context managers (leaving the ``with`` block stops and closes, and a shaker ramps its drive to
+zero). Every blocking call takes ``timeout`` in seconds.
+
+Units: the shaker's level is the drive signal in volts (rms for random output, amplitude for
+a sine); the DAQ delivers channels already divided by their sensitivity (volts per unit), so
+values are in the channel's physical unit.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from types import TracebackType
+
+import numpy as np
+
+from .errors import DriverConfigError, StateError
+
+QUANTITIES = ("force", "displacement", "velocity", "acceleration")
+UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One DAQ input: what it measures, where, and how volts map to units.
+
+    Parameters
+    ----------
+    name : str
+        Label used in files and safety limits.
+    quantity : {"force", "displacement", "velocity", "acceleration"}
+    dof : int
+        Structure DOF (0-based) the sensor sits on.
+    sensitivity : float
+        Volts per physical unit (e.g. 0.01 V/N for a force gauge).
+    unit : str
+        Physical unit; defaults to the SI unit of ``quantity``.
+    """
+
+    name: str
+    quantity: str
+    dof: int
+    sensitivity: float = 1.0
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if self.quantity not in QUANTITIES:
+            raise DriverConfigError(f"channel '{self.name}': quantity '{self.quantity}' is not "
+                                    f"one of {', '.join(QUANTITIES)}")
+        if not isinstance(self.dof, int) or self.dof < 0:
+            raise DriverConfigError(f"channel '{self.name}': dof must be an integer >= 0 "
+                                    f"(0-based), got {self.dof!r}")
+        if not (isinstance(self.sensitivity, (int, float)) and math.isfinite(self.sensitivity)
+                and self.sensitivity > 0):
+            raise DriverConfigError(f"channel '{self.name}': sensitivity must be a positive "
+                                    f"number of volts per unit, got {self.sensitivity!r}")
+        if not self.unit:
+            object.__setattr__(self, "unit", UNITS[self.quantity])
+
+
+@dataclass
+class Block:
+    """A chunk of samples as it arrived from the DAQ.
+
+    Attributes
+    ----------
+    seq : int
+        Device sequence counter of the (first) frame in this chunk.
+    first_sample : int
+        Index of the first sample since the stream started.
+    t0 : float
+        Time of the first sample, ``first_sample / fs`` seconds after stream start.
+    data : ndarray, shape (n, n_channels)
+        Samples in physical units.
+    gap : int
+        Samples lost immediately before this chunk (0 if contiguous with the previous one).
+    """
+
+    seq: int
+    first_sample: int
+    t0: float
+    data: np.ndarray
+    gap: int = 0
+
+
+@dataclass
+class AcqStats:
+    """Counters of a data stream; losses are never silent."""
+
+    frames: int = 0
+    samples: int = 0
+    lost_frames: int = 0
+    lost_samples: int = 0
+    duplicate_frames: int = 0
+    bad_frames: int = 0
+    garbage_bytes: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return dict(self.__dict__)
+
+
+class _Lifecycle:
+    """State bookkeeping and context management shared by both contracts."""
+
+    _state: str = "new"
+
+    @property
+    def state(self) -> str:
+        """One of ``new``, ``configured``, ``running``, ``stopped``, ``closed``."""
+        return self._state
+
+    def _require(self, *states: str, action: str) -> None:
+        if self._state not in states:
+            raise StateError(f"cannot {action} while {self._state}; expected "
+                             f"{' or '.join(states)}")
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+@dataclass(frozen=True)
+class RandomOutput:
+    """Band-limited Gaussian noise; ``level`` is the drive rms in volts."""
+
+    band: tuple[float, float]
+    seed: int | None = None
+
+
+@dataclass(frozen=True)
+class SineOutput:
+    """Pure sine at ``freq`` Hz; ``level`` is the drive amplitude in volts."""
+
+    freq: float
+
+
+Output = RandomOutput | SineOutput
+
+
+def check_output(output: Output, fs: float | None = None) -> None:
+    """Raise `DriverConfigError` if an output description is unusable."""
+    if isinstance(output, RandomOutput):
+        lo, hi = output.band
+        if not (0 <= lo < hi) or (fs is not None and hi > fs / 2):
+            raise DriverConfigError(f"random band {list(output.band)} must satisfy "
+                                    "0 <= lo < hi <= fs/2")
+    elif isinstance(output, SineOutput):
+        if not output.freq > 0 or (fs is not None and output.freq >= fs / 2):
+            raise DriverConfigError(f"sine frequency {output.freq} Hz must lie in (0, fs/2)")
+    else:
+        raise DriverConfigError(f"unknown output type {type(output).__name__}")
+
+
+class SignalGenerator(_Lifecycle, ABC):
+    """A shaker controller / signal generator with one drive output."""
+
+    ramp_time: float = 0.05
+
+    @abstractmethod
+    def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
+        """Select the waveform and the level (volts) it starts at."""
+
+    @abstractmethod
+    def set_level(self, level: float, *, timeout: float = 1.0) -> None:
+        """Change the drive level (volts) while running or before start."""
+
+    @abstractmethod
+    def set_frequency(self, freq: float, *, timeout: float = 1.0) -> None:
+        """Change the sine frequency, phase-continuously, without stopping the output."""
+
+    @abstractmethod
+    def start(self, *, timeout: float = 1.0) -> None:
+        """Switch the drive output on."""
+
+    @abstractmethod
+    def stop(self, *, timeout: float = 1.0) -> None:
+        """Ramp the drive to zero over `ramp_time` and switch the output off."""
+
+    @abstractmethod
+    def emergency_stop(self, *, timeout: float = 0.1) -> None:
+        """Ramp the drive to zero as fast as the device allows; never raises on comms loss
+        of a device that is already silent, but does raise if the command could not be sent."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the device; a running output is stopped first."""
+
+    @staticmethod
+    def check_level(level: float) -> float:
+        if not (isinstance(level, (int, float)) and math.isfinite(level) and level >= 0):
+            raise DriverConfigError(f"drive level must be a finite number of volts >= 0, "
+                                    f"got {level!r}")
+        return float(level)
+
+
+class Acquirer(_Lifecycle, ABC):
+    """A DAQ streaming blocks of samples with sequence numbers and timestamps."""
+
+    fs: float = 0.0
+    channels: tuple[Channel, ...] = ()
+    stats: AcqStats
+
+    def __init__(self) -> None:
+        self.stats = AcqStats()
+
+    @abstractmethod
+    def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
+                  timeout: float = 1.0) -> None:
+        """Set sample rate, channel table and the samples per transport frame."""
+
+    @abstractmethod
+    def start(self, *, timeout: float = 1.0) -> None:
+        """Start streaming (sample 0 is the first sample after this call)."""
+
+    @abstractmethod
+    def read(self, timeout: float = 1.0) -> Block:
+        """Return the next chunk; `DriverTimeout` if none arrives within ``timeout``."""
+
+    @abstractmethod
+    def stop(self, *, timeout: float = 1.0) -> None:
+        """Stop streaming."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the device."""
+
+    @staticmethod
+    def check_config(fs: float, channels: list[Channel], frame_size: int) -> None:
+        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+            raise DriverConfigError(f"sample rate must be a positive number of Hz, got {fs!r}")
+        if not channels:
+            raise DriverConfigError("the DAQ needs at least one channel")
+        names = [c.name for c in channels]
+        if len(set(names)) != len(names):
+            raise DriverConfigError(f"channel names must be unique, got {names}")
+        if not (isinstance(frame_size, int) and 1 <= frame_size <= 4096):
+            raise DriverConfigError(f"frame_size must be an integer in 1..4096, "
+                                    f"got {frame_size!r}")

@@ -1,0 +1,230 @@
+"""Serial shaker controller and serial streaming DAQ emulators on pseudo-terminals.
+
+Both serve the command sets of docs/drivers.md on the master end of a pty and act on one
+shared `SimRig`; the DAQ streams `drivers.frame` frames and injects faults from a `FaultPlan`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+
+import numpy as np
+
+from ..base import Channel, RandomOutput, SineOutput
+from ..errors import DriverConfigError
+from ..frame import MAX_SAMPLES, encode_frame
+from ..rig import SimRig
+from .faults import FaultPlan
+from .pty_server import OUT_CAP, PtyServer, short_form
+
+BAD_HEADER = 'ERR -113,"Undefined header"'
+BAD_DATA = 'ERR -222,"Data out of range"'
+CONFLICT = 'ERR -221,"Settings conflict"'
+FRAMES_PER_TICK = 4
+
+
+def _split(line: str) -> tuple[str, str]:
+    header, _, arg = line.partition(" ")
+    return short_form(header), arg.strip()
+
+
+class SerialShakerEmulator(PtyServer):
+    """SCPI-style shaker controller acting on ``rig``.
+
+    ``stall`` (set it True) makes the controller stop answering, as a hung device would.
+    """
+
+    IDN = "NLID-LAB,SHAKER-EMU,0,1.0"
+
+    def __init__(self, rig: SimRig) -> None:
+        super().__init__("shaker-emulator")
+        self.rig = rig
+        self.stall = False
+        self._func = "SIN"
+        self._freq = 10.0
+        self._band = (0.0, rig.fs / 2)
+        self._seed: int | None = None
+        self._ramp = 0.05
+        self.log: deque[tuple[float, str]] = deque(maxlen=10000)
+
+    def handle(self, line: str) -> str | None:
+        self.log.append((time.monotonic(), line))
+        if self.stall:
+            return None
+        head, arg = _split(line)
+        try:
+            return self._dispatch(head, arg)
+        except (ValueError, DriverConfigError):
+            return BAD_DATA
+
+    def _dispatch(self, head: str, arg: str) -> str:
+        rig = self.rig
+        if head == "*IDN?":
+            return self.IDN
+        if head == "*RST":
+            rig.set_on(False, self._ramp)
+            return "OK"
+        if head == "SOUR:FUNC":
+            if arg.upper()[:3] not in ("RAN", "SIN"):
+                return BAD_DATA
+            self._func = "RAND" if arg.upper().startswith("RAN") else "SIN"
+            self._apply()
+            return "OK"
+        if head == "SOUR:FREQ":
+            self._freq = float(arg)
+            if self._func == "SIN":
+                self._apply()
+            return "OK"
+        if head == "SOUR:RAND:BAND":
+            lo, hi = (float(x) for x in arg.split(","))
+            self._band = (lo, hi)
+            if self._func == "RAND":
+                self._apply()
+            return "OK"
+        if head == "SOUR:RAND:SEED":
+            self._seed = int(arg)
+            if self._func == "RAND":
+                self._apply()
+            return "OK"
+        if head == "SOUR:RAMP":
+            self._ramp = float(arg)
+            if not 0 <= self._ramp <= 10:
+                return BAD_DATA
+            return "OK"
+        if head == "SOUR:VOLT":
+            level = float(arg)
+            if not 0 <= level <= 10:
+                return BAD_DATA
+            rig.set_level(level)
+            return "OK"
+        if head == "SOUR:VOLT?":
+            return f"{rig.level:.12g}"
+        if head == "SOUR:FREQ?":
+            return f"{self._freq:.12g}"
+        if head == "OUTP":
+            on = arg.upper() in ("ON", "1")
+            if not on and arg.upper() not in ("OFF", "0"):
+                return BAD_DATA
+            rig.set_on(on, self._ramp)
+            return "OK"
+        if head == "OUTP?":
+            return "0" if rig.drive_is_zero else "1"
+        if head == "ABOR":
+            rig.set_on(False, min(self._ramp, 0.01))
+            return "OK"
+        if head == "SYST:ERR?":
+            return '0,"No error"'
+        return BAD_HEADER
+
+    def _apply(self) -> None:
+        if self._func == "SIN":
+            self.rig.set_output(SineOutput(self._freq))
+        else:
+            self.rig.set_output(RandomOutput(self._band, self._seed))
+
+
+class SerialDaqEmulator(PtyServer):
+    """Streaming DAQ on a pty: sensors wired as ``channels`` to ``rig``.
+
+    Parameters
+    ----------
+    rig : SimRig
+    channels : list of Channel
+        What each input measures (quantity, DOF) and its sensitivity (V/unit).
+    pace : float
+        1.0 streams in real time, 2.0 twice as fast; 0 as fast as the reader takes it.
+    faults : FaultPlan, optional
+    """
+
+    IDN = "NLID-LAB,DAQ-EMU,0,1.0"
+
+    def __init__(self, rig: SimRig, channels: list[Channel], *, pace: float = 1.0,
+                 faults: FaultPlan | None = None) -> None:
+        super().__init__("daq-emulator")
+        self.rig = rig
+        self.wiring = list(channels)
+        self.pace = pace
+        self.faults = faults or FaultPlan()
+        self.frame_size = 64
+        self.streaming = False
+        self._k = 0
+        self._t0 = 0.0
+        self._stall_until = 0.0
+        self._origin = 0
+        self.sent: deque[tuple[int, int, float, np.ndarray]] = deque(maxlen=200000)
+
+    def handle(self, line: str) -> str | None:
+        head, arg = _split(line)
+        try:
+            if head == "*IDN?":
+                return self.IDN
+            if head == "CONF:RATE":
+                return "OK" if abs(float(arg) - self.rig.fs) <= 1e-9 * self.rig.fs \
+                    else BAD_DATA
+            if head == "CONF:CHAN:COUN":
+                return "OK" if int(arg) == len(self.wiring) else CONFLICT
+            if head == "CONF:FRAM":
+                n = int(arg)
+                if not 1 <= n <= MAX_SAMPLES:
+                    return BAD_DATA
+                self.frame_size = n
+                return "OK"
+            if head == "INIT":
+                self.streaming, self._k, self._t0 = True, 0, time.monotonic()
+                self._origin = self.rig.sample_index
+                return "OK"
+            if head == "ABOR":
+                self.streaming = False
+                return "OK"
+            if head == "SYST:ERR?":
+                return '0,"No error"'
+        except ValueError:
+            return BAD_DATA
+        return BAD_HEADER
+
+    def tick(self) -> float:
+        if not self.streaming:
+            return float("inf")
+        now = time.monotonic()
+        if now < self._stall_until:
+            return self._stall_until - now
+        for _ in range(FRAMES_PER_TICK):
+            if len(self.out) >= OUT_CAP:
+                return 0.001
+            k = self._k
+            if self.pace > 0:
+                due = self._t0 + k * self.frame_size / (self.rig.fs * self.pace)
+                if now < due:
+                    return due - now
+            stall = self.faults.stalled(k)
+            if stall:
+                self._stall_until = now + stall
+                self.faults.stall_at = 0
+                return min(stall, 0.02)
+            if self.faults.disconnect(k):
+                self.flush_out()
+                self.disconnect()
+                return 0.0
+            self._emit(k, now)
+            if not self.streaming:
+                break
+        return 0.0
+
+    def _emit(self, k: int, now: float) -> None:
+        samples = self.rig.advance(self.frame_size)
+        volts = samples.volts(self.wiring, self.rig.force_dofs)
+        first = samples.first_sample - self._origin  # samples count from stream start
+        frame = encode_frame(k, first, volts)
+        self._k = k + 1
+        self.sent.append((k, first, now, np.abs(volts).max(axis=0)))
+        self.out += self.faults.garbage(k)
+        if self.faults.drop(k):
+            return
+        if self.faults.corrupt(k):
+            frame = bytearray(frame)
+            frame[len(frame) // 2] ^= 0xFF
+            frame = bytes(frame)
+        self.out += frame
+        if self.faults.duplicate(k):
+            self.out += frame

@@ -1,0 +1,207 @@
+"""`SimRig`: the simulated test rig shared by the sim backend and the device emulators.
+
+One rig is one loop through the structure: the shaker side sets the drive waveform, level and
+output state; the DAQ side advances time and reads force and responses. Time advances only
+when the DAQ side asks for samples, so a rig driven with the same commands and seed produces
+the same sample stream whatever the frame size or transport (sim, serial, CAN).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from analysis.excitation import random_gaussian, sine_block
+from analysis.model import Model
+from analysis.plant import Plant
+
+from .base import Channel, Output, RandomOutput, SineOutput, check_output
+from .errors import DriverConfigError
+
+# Random drive is generated in chunks of this many samples, independent of the DAQ frame
+# size, so that the drive sequence depends only on the seed.
+RANDOM_CHUNK = 8192
+
+
+@dataclass
+class RigSamples:
+    """Samples of one `SimRig.advance` call."""
+
+    first_sample: int
+    force: np.ndarray          # (n, n_in), N
+    displacement: np.ndarray   # (n, n_dof)
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    response: np.ndarray       # plant response (noise included), (n, n_dof)
+    response_kind: str
+
+    def channel(self, ch: Channel, force_dofs: list[int]) -> np.ndarray:
+        """Values (physical units) seen by one channel."""
+        if ch.quantity == "force":
+            if ch.dof not in force_dofs:
+                raise DriverConfigError(f"channel '{ch.name}': no shaker at DOF {ch.dof}; "
+                                        f"force DOFs are {force_dofs}")
+            return self.force[:, force_dofs.index(ch.dof)]
+        if ch.dof >= self.displacement.shape[1]:
+            raise DriverConfigError(f"channel '{ch.name}': DOF {ch.dof} outside the model's "
+                                    f"0..{self.displacement.shape[1] - 1}")
+        src = self.response if ch.quantity == self.response_kind else getattr(self, ch.quantity)
+        return src[:, ch.dof]
+
+    def values(self, channels: list[Channel], force_dofs: list[int]) -> np.ndarray:
+        """(n, n_channels) values in physical units."""
+        return np.column_stack([self.channel(c, force_dofs) for c in channels])
+
+    def volts(self, channels: list[Channel], force_dofs: list[int]) -> np.ndarray:
+        """(n, n_channels) sensor voltages."""
+        return self.values(channels, force_dofs) * [c.sensitivity for c in channels]
+
+
+class SimRig:
+    """Simulated shaker + structure + sensors.
+
+    Parameters
+    ----------
+    model : Model
+        Complete structural model (every element parameter known).
+    fs : float
+        Sample rate, Hz.
+    force_dof : int
+        DOF the shaker drives.
+    shaker_gain : float
+        Force per drive volt, N/V (an ideal shaker: no force drop-out).
+    noise_std, response_kind, seed, oversample
+        Passed to `analysis.plant.Plant`; ``seed`` also seeds the random drive.
+    """
+
+    def __init__(self, model: Model, fs: float, force_dof: int = 0, *,
+                 shaker_gain: float = 1.0, noise_std: float = 0.0,
+                 response_kind: str = "displacement", seed: int | None = None,
+                 oversample: int | None = None) -> None:
+        model.require_complete("the simulated rig")
+        if not 0 <= force_dof < model.n_dof:
+            raise DriverConfigError(f"force DOF {force_dof} outside the model's "
+                                    f"0..{model.n_dof - 1}")
+        if not shaker_gain > 0:
+            raise DriverConfigError(f"shaker_gain must be > 0 N/V, got {shaker_gain}")
+        self.model = model
+        self.fs = float(fs)
+        self.force_dofs = [int(force_dof)]
+        self.shaker_gain = float(shaker_gain)
+        self.response_kind = response_kind
+        self.seed = seed
+        self.plant = Plant(model, self.fs, self.force_dofs, oversample=oversample,
+                           noise_std=noise_std, response_kind=response_kind, seed=seed)
+        self.plant.run(np.zeros((4, 1)))  # compile/load the integrator now, not mid-stream
+        self.plant.reset()
+        self.lock = threading.RLock()
+        self._output: Output | None = None
+        self._level = 0.0
+        self._on = False
+        self._envelope = 0.0
+        self._ramp_per_sample = 1.0
+        self._phase = 0.0
+        self._chunk: np.ndarray | None = None
+        self._chunk_index = -1
+        self._chunk_pos = 0
+        self.sample_index = 0
+        self.zero_commanded_at: float | None = None
+
+    # --- shaker side ---------------------------------------------------------------------
+    def set_output(self, output: Output) -> None:
+        check_output(output, self.fs)
+        with self.lock:
+            self._output = output
+            if isinstance(output, RandomOutput):
+                self._chunk, self._chunk_index, self._chunk_pos = None, -1, 0
+
+    def set_level(self, level: float) -> None:
+        with self.lock:
+            self._level = float(level)
+
+    def set_on(self, on: bool, ramp_time: float) -> None:
+        """Switch the output; the envelope ramps linearly over ``ramp_time`` seconds."""
+        with self.lock:
+            if on and self._output is None:
+                raise DriverConfigError("no waveform configured; configure the shaker first")
+            self._on = bool(on)
+            self._ramp_per_sample = 1.0 / max(ramp_time * self.fs, 1.0)
+            if not on:
+                self.zero_commanded_at = time.monotonic()
+
+    @property
+    def level(self) -> float:
+        return self._level
+
+    @property
+    def drive_is_zero(self) -> bool:
+        with self.lock:
+            return not self._on and self._envelope == 0.0
+
+    def check_channels(self, channels: list[Channel]) -> None:
+        """Raise `DriverConfigError` if a channel measures something the rig lacks."""
+        for ch in channels:
+            if ch.quantity == "force" and ch.dof not in self.force_dofs:
+                raise DriverConfigError(f"channel '{ch.name}': no shaker at DOF {ch.dof}; "
+                                        f"the shaker drives DOF {self.force_dofs[0]}")
+            if ch.dof >= self.model.n_dof:
+                raise DriverConfigError(f"channel '{ch.name}': DOF {ch.dof} outside the "
+                                        f"model's 0..{self.model.n_dof - 1}")
+
+    # --- DAQ side ------------------------------------------------------------------------
+    def advance(self, n: int) -> RigSamples:
+        """Run the loop for ``n`` samples and return what the sensors see."""
+        with self.lock:
+            first = self.sample_index
+            drive = self._drive(n)
+            force = (self.shaker_gain * drive)[:, None]
+            out = self.plant.run(force)
+            self.sample_index += n
+        return RigSamples(first, force, out.displacement, out.velocity, out.acceleration,
+                          out.response, self.response_kind)
+
+    def _drive(self, n: int) -> np.ndarray:
+        env = self._envelope_samples(n)
+        if self._output is None or not np.any(env):
+            if isinstance(self._output, SineOutput):
+                self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
+                    % (2 * np.pi)
+            return np.zeros(n)
+        if isinstance(self._output, SineOutput):
+            wave = sine_block(self._output.freq, 1.0, n, self.fs, phase=self._phase)
+            self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
+                % (2 * np.pi)
+        else:
+            wave = self._random(n)
+        return self._level * env * wave
+
+    def _envelope_samples(self, n: int) -> np.ndarray:
+        step = self._ramp_per_sample if self._on else -self._ramp_per_sample
+        env = np.clip(self._envelope + step * np.arange(1, n + 1), 0.0, 1.0)
+        self._envelope = float(env[-1])
+        return env
+
+    def _random(self, n: int) -> np.ndarray:
+        out = np.empty(n)
+        filled = 0
+        assert isinstance(self._output, RandomOutput)
+        base = self._output.seed if self._output.seed is not None else (self.seed or 0)
+        while filled < n:
+            if self._chunk is None or self._chunk_pos >= RANDOM_CHUNK:
+                self._chunk_index += 1
+                seed = np.random.SeedSequence([base, self._chunk_index]).generate_state(1)[0]
+                self._chunk = random_gaussian(RANDOM_CHUNK, self.fs, self._output.band, 1.0,
+                                              int(seed))
+                self._chunk_pos = 0
+            take = min(n - filled, RANDOM_CHUNK - self._chunk_pos)
+            out[filled:filled + take] = self._chunk[self._chunk_pos:self._chunk_pos + take]
+            self._chunk_pos += take
+            filled += take
+        return out
+
+    @classmethod
+    def from_file(cls, model_path: str, fs: float, **kwargs) -> "SimRig":
+        return cls(Model.load(model_path), fs, **kwargs)

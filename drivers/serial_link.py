@@ -1,0 +1,85 @@
+"""Line-oriented command link over pyserial, shared by the serial shaker and serial DAQ.
+
+Every command is one ASCII line ending in ``\\n``; the device answers one line: ``OK``, a
+value for a query, or ``ERR <code>,"<text>"``. pyserial exceptions become `Disconnected`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import serial
+
+from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
+
+
+class SerialLink:
+    """An open serial port with timed line commands and raw reads."""
+
+    def __init__(self, port: str, baud: int = 115200, *, what: str = "device") -> None:
+        self.what = what
+        self.port = port
+        self._left = b""  # bytes read past a reply line, handed out by the next read
+        try:
+            self.ser = serial.serial_for_url(port, baudrate=baud, timeout=0.0)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise DriverConfigError(f"cannot open {what} port {port}: {exc}; check the port "
+                                    "name and that nothing else holds it") from None
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.ser.write(data)
+            self.ser.flush()
+        except (serial.SerialException, OSError) as exc:
+            raise Disconnected(f"{self.what} on {self.port} went away while writing: "
+                               f"{exc}") from None
+
+    def read_some(self, timeout: float, size: int = 65536) -> bytes:
+        """Return what arrives within ``timeout`` (b"" if nothing)."""
+        if self._left:
+            data, self._left = self._left, b""
+            return data
+        try:
+            self.ser.timeout = max(timeout, 0.0)
+            first = self.ser.read(1)
+            if not first:
+                return b""
+            waiting = self.ser.in_waiting
+            self.ser.timeout = 0
+            return first + (self.ser.read(min(waiting, size)) if waiting else b"")
+        except (serial.SerialException, OSError) as exc:
+            raise Disconnected(f"{self.what} on {self.port} went away: {exc}") from None
+
+    def command(self, line: str, timeout: float) -> str:
+        """Send one command line and return the reply line (``ERR`` raises)."""
+        self.write(line.encode("ascii") + b"\n")
+        deadline = time.monotonic() + timeout
+        buf = b""
+        while b"\n" not in buf:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise DriverTimeout(f"{self.what} on {self.port} did not answer '{line}' "
+                                    f"within {timeout:g} s")
+            buf += self.read_some(min(left, 0.05), 256)
+        raw, _, self._left = buf.partition(b"\n")
+        reply = raw.decode("ascii", "replace").strip()
+        if reply.startswith("ERR"):
+            raise DeviceError(f"{self.what} rejected '{line}': {reply[3:].strip()}")
+        return reply
+
+    def drain_until(self, marker: bytes, timeout: float) -> None:
+        """Discard input until it ends with ``marker`` (e.g. the reply after a stream)."""
+        deadline = time.monotonic() + timeout
+        tail = b""
+        while not tail.endswith(marker):
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise DriverTimeout(f"{self.what} on {self.port} did not confirm within "
+                                    f"{timeout:g} s")
+            tail = (tail + self.read_some(min(left, 0.05)))[-64:]
+
+    def close(self) -> None:
+        try:
+            self.ser.close()
+        except (serial.SerialException, OSError):
+            pass

@@ -1,0 +1,336 @@
+"""Test campaigns: drive the shaker, stream the DAQ, write every block to a run file.
+
+Random campaigns hold each force-rms level by closed-loop control of the drive, discard the
+transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude at
+each frequency, wait until the response harmonics stop changing, then record one block per
+step with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
+over-limit or a communication failure ramps the drive to zero at once and the run is marked
+aborted (data kept). Lost samples never leave a silent gap: the block being assembled is
+discarded and the loss counted in the run. ``resume`` continues at the first incomplete block
+or step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivers.base import Block, RandomOutput, SineOutput
+from drivers.errors import CommsError
+
+from .campaign_bench import Bench, open_bench
+from .campaign_config import Campaign, RandomSpec, SteppedSpec
+from .observer import CampaignObserver, NullObserver
+from .progress import progress
+from .store import RunWriter
+
+
+MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
+
+
+class CampaignAborted(RuntimeError):
+    """A safety limit or persistent data loss stopped the campaign (drive ramped to zero,
+    data kept)."""
+
+
+@dataclass
+class CampaignResult:
+    """What a finished campaign did."""
+
+    out: Path
+    status: str
+    segments: dict[int, int]
+    lost_frames: int = 0
+    lost_samples: int = 0
+    daq_stats: dict[str, int] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"out": str(self.out), "status": self.status,
+                "segments": {str(k): v for k, v in self.segments.items()},
+                "lost_frames": self.lost_frames, "lost_samples": self.lost_samples,
+                "daq_stats": self.daq_stats, "warnings": self.warnings}
+
+
+def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndarray:
+    """Least-squares complex amplitudes ``c_h`` (x = Re sum c_h e^{i h w t}), h = 0..orders.
+
+    Works on blocks that hold no whole number of cycles. Returns (orders + 1, n_channels);
+    orders at or above fs/2 are zero.
+    """
+    n = len(block)
+    t = np.arange(n) / fs
+    usable = [h for h in range(1, orders + 1) if h * freq < fs / 2]
+    cols = [np.ones(n)]
+    for h in usable:
+        w = 2 * np.pi * h * freq * t
+        cols += [np.cos(w), np.sin(w)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), block, rcond=None)
+    out = np.zeros((orders + 1, block.shape[1]), complex)
+    out[0] = coef[0]
+    for i, h in enumerate(usable):
+        out[h] = coef[1 + 2 * i] - 1j * coef[2 + 2 * i]
+    return out
+
+
+class _Runner:
+    def __init__(self, c: Campaign, bench: Bench, writer: RunWriter,
+                 observer: CampaignObserver) -> None:
+        self.c, self.bench, self.writer, self.observer = c, bench, writer, observer
+        names = [ch.name for ch in c.channels]
+        self.force_col = next(i for i, ch in enumerate(c.channels) if ch.quantity == "force")
+        resp = sorted((ch.dof, i) for i, ch in enumerate(c.channels) if ch.quantity != "force")
+        self.resp_cols = [i for _, i in resp]
+        self.limits = [(names.index(k), k, v) for k, v in c.limits.items()]
+        self.gain = c.gain_guess
+        self.level = 0
+        self._carry: Block | None = None
+        self._lost_frames_seen = 0
+        self.warnings: list[str] = []
+
+    # --- streaming -----------------------------------------------------------------------
+    def _chunk(self) -> Block:
+        """Next DAQ chunk, safety-checked; losses counted in the run."""
+        daq = self.bench.daq
+        block = daq.read(timeout=max(self.c.comms_timeout, 4 * self.c.frame_size / self.c.fs))
+        for col, name, limit in self.limits:
+            peak = float(np.max(np.abs(block.data[:, col])))
+            if peak > limit:
+                self.bench.shaker.emergency_stop()
+                raise CampaignAborted(f"channel {name} reached {peak:.4g}, over its safety "
+                                      f"limit {limit:.4g}; drive ramped to zero, data kept")
+        if block.gap:
+            frames = daq.stats.lost_frames - self._lost_frames_seen
+            self._lost_frames_seen = daq.stats.lost_frames
+            self.writer.count_loss(frames, block.gap, f"DAQ stream gap at sample "
+                                   f"{block.first_sample}; partial block discarded",
+                                   self.level)
+        return block
+
+    def take(self, n: int) -> tuple[np.ndarray, float]:
+        """``n`` contiguous samples (restarting after any gap) and the first one's time."""
+        parts: list[np.ndarray] = []
+        have, t0, restarts = 0, 0.0, 0
+        while have < n:
+            block = self._carry if self._carry is not None else self._chunk()
+            self._carry = None
+            if block.gap and parts:
+                parts, have, restarts = [], 0, restarts + 1
+                if restarts > MAX_RESTARTS:
+                    self.bench.shaker.emergency_stop()
+                    raise CampaignAborted(f"the DAQ lost samples in {restarts} attempts at a "
+                                          f"{n}-sample block; fix the link or use shorter "
+                                          "blocks")
+            if not parts:
+                t0 = block.t0
+            need = n - have
+            if len(block.data) > need:
+                rest = block.data[need:]
+                self._carry = Block(block.seq, block.first_sample + need,
+                                    block.t0 + need / self.c.fs, rest, 0)
+            parts.append(block.data[:need])
+            have += len(parts[-1])
+        return np.vstack(parts), t0
+
+    def split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return data[:, [self.force_col]], data[:, self.resp_cols]
+
+    def _start(self, output: RandomOutput | SineOutput, drive: float) -> None:
+        self.bench.shaker.configure(output, drive)
+        self.bench.daq.start()
+        self.bench.shaker.start()
+        self._carry = None
+
+    def _stop(self) -> None:
+        self.bench.shaker.stop()
+        self.bench.daq.stop()
+
+    def _new_drive(self, drive: float, wanted: float) -> float:
+        """Control step, limited to a factor of 4 per step and to the shaker's max_drive."""
+        return float(min(max(wanted, drive / 4), drive * 4, self.c.max_drive))
+
+    # --- random --------------------------------------------------------------------------
+    def random(self, plan: RandomSpec, bar) -> None:
+        for i, level in enumerate(plan.levels):
+            self.level = i
+            lw = self.writer.level(i, level)
+            if lw.n_segments >= plan.averages:
+                lw.complete()
+                continue
+            drive = min(level / self.gain, self.c.max_drive)
+            seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
+            self._start(RandomOutput(plan.band, seed), drive)
+            data = None
+            for _ in range(plan.max_control_iterations):
+                for _ in range(plan.settle_blocks):
+                    self.take(plan.block_size)
+                data, t0 = self.take(plan.block_size)
+                rms = float(np.std(data[:, self.force_col]))
+                if rms <= 0:
+                    break
+                self.gain = rms / drive
+                if abs(rms / level - 1) <= plan.tolerance:
+                    break
+                drive = self._new_drive(drive, level / self.gain)
+                self.bench.shaker.set_level(drive)
+                data = None
+            else:
+                self.warnings.append(f"level {i}: force rms not within {plan.tolerance:.0%} "
+                                     f"of {level} N after {plan.max_control_iterations} tries")
+            while lw.n_segments < plan.averages:
+                if data is None:
+                    data, t0 = self.take(plan.block_size)
+                force, resp = self.split(data)
+                seq = lw.append_block(force, resp, t=t0)
+                self.observer.block(i, seq, force, resp)
+                bar.update(1)
+                data = None
+            lw.complete()
+            self._stop()
+
+    # --- stepped sine ----------------------------------------------------------------------
+    def stepped(self, plan: SteppedSpec, bar) -> None:
+        for i, amp in enumerate(plan.levels):
+            self.level = i
+            lw = self.writer.level(i, amp)
+            first = lw.n_segments
+            if first < len(plan.freqs):
+                drive = min(amp / self.gain, self.c.max_drive)
+                self._start(SineOutput(plan.freqs[first]), drive)
+                for k in range(first, len(plan.freqs)):
+                    if k > first:
+                        self.bench.shaker.set_frequency(plan.freqs[k])
+                    drive = self._step(lw, i, k, plan, amp, drive)
+                    bar.update(1)
+                self._stop()
+            lw.complete()
+
+    def _step(self, lw, level: int, k: int, plan: SteppedSpec, amp: float,
+              drive: float) -> float:
+        freq, fs = plan.freqs[k], self.c.fs
+        prev, settled, changes, blocks = None, False, 0, 0
+        skip = 1  # the block after a change holds the transient and data already in flight
+        while blocks < plan.max_settle_blocks and not settled:
+            data, _ = self.take(plan.block_size)
+            blocks += 1
+            if skip:
+                skip -= 1
+                continue
+            h = harmonics(data, freq, fs, 1)[1]
+            famp = abs(h[self.force_col])
+            err = famp / amp - 1
+            if famp > 0:
+                self.gain = famp / drive
+            if abs(err) > plan.tolerance and changes < plan.max_control_iterations \
+                    and famp > 0:
+                drive = self._new_drive(drive, amp / self.gain)
+                self.bench.shaker.set_level(drive)
+                changes, prev, skip = changes + 1, None, 1
+                continue
+            resp = h[self.resp_cols]
+            if prev is not None:
+                change = np.max(np.abs(resp - prev)) / max(np.max(np.abs(resp)), 1e-300)
+                settled = change <= plan.settle_tolerance
+            prev = resp
+        if not settled:
+            self.warnings.append(f"level {level} step {k} ({freq:g} Hz): not settled within "
+                                 f"{plan.max_settle_blocks} blocks; recorded anyway")
+        data, t0 = self.take(plan.block_size)
+        hs = harmonics(data, freq, fs, plan.harmonics)
+        force, resp = self.split(data)
+        famp = float(abs(hs[1, self.force_col]))
+        extra = {"harmonics": np.stack([hs.real, hs.imag], -1),
+                 "channels": [ch.name for ch in self.c.channels],
+                 "control_error": famp / amp - 1, "settle_blocks": blocks,
+                 "settled": bool(settled), "drive": drive}
+        lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0)
+        self.observer.step(level, k, freq, force, resp, famp / amp - 1,
+                           hs[:, self.resp_cols])
+        return drive
+
+    def run(self) -> None:
+        c = self.c
+        per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else len(c.plan.freqs)
+        self.observer.campaign_started({
+            "fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof], "n_dof": c.n_dof,
+            "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels})
+        with progress(total=per_level * len(c.levels), desc=c.name,
+                      unit="block" if c.kind == "random" else "step") as bar:
+            bar.update(sum(lv.n_segments for lv in
+                           (self.writer.level(i, x) for i, x in enumerate(c.levels))))
+            try:
+                if isinstance(c.plan, RandomSpec):
+                    self.random(c.plan, bar)
+                else:
+                    self.stepped(c.plan, bar)
+            except BaseException:
+                self._safe_stop()
+                raise
+
+    def _safe_stop(self) -> None:
+        """Ramp the drive to zero whatever failed; a dead shaker link is reported, not
+        raised over the original error."""
+        try:
+            self.bench.shaker.emergency_stop()
+        except CommsError as exc:
+            self.warnings.append(f"emergency stop could not be confirmed: {exc}")
+            try:
+                self.writer.log("estop-failed", {"error": str(exc)})
+            except Exception:  # noqa: BLE001 - the original error matters more
+                pass
+
+
+def _store_channels(c: Campaign) -> list[dict[str, Any]]:
+    return [{"name": ch.name, "unit": ch.unit, "dof": ch.dof, "sensitivity": ch.sensitivity,
+             "kind": "force" if ch.quantity == "force" else "response"}
+            for ch in sorted(c.channels, key=lambda ch: (ch.quantity != "force", ch.dof))]
+
+
+def _excitation(c: Campaign) -> dict[str, Any]:
+    plan = dict(c.plan.__dict__)
+    return {"kind": c.kind, **plan}
+
+
+def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
+                 observer: CampaignObserver | None = None,
+                 on_bench=None) -> CampaignResult:
+    """Run campaign ``c`` into the run file ``out``.
+
+    ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
+    emulators). Raises `CampaignAborted` on a safety limit and `drivers.errors.CommsError`
+    on communication failure; the run file is marked aborted and keeps its data either way.
+    """
+    out = Path(out)
+    observer = observer or NullObserver()
+    status = "aborted"
+    with open_bench(c) as bench:
+        if on_bench is not None:
+            on_bench(bench)
+        bench.daq.configure(c.fs, c.channels, frame_size=c.frame_size)
+        settings = {"campaign": c.raw, "shaker_url": c.shaker_url, "daq_url": c.daq_url,
+                    "source_file": str(c.source) if c.source else None}
+        with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
+                       n_dof=c.n_dof, response_kind=c.response_kind,
+                       channels=_store_channels(c), settings=settings,
+                       model_toml=bench.model_toml, source=bench.source,
+                       mode="resume" if resume else "create") as writer:
+            runner = _Runner(c, bench, writer, observer)
+            try:
+                runner.run()
+                status = "complete"
+            except KeyboardInterrupt:
+                status = "interrupted"
+                raise
+            finally:
+                stats = bench.daq.stats.as_dict()
+                writer.log("daq-stats", stats)
+                for w in runner.warnings:
+                    writer.log("warning", {"text": w})
+                observer.campaign_finished(status)
+            segments = {lv.index: lv.n_segments for lv in
+                        [writer.level(i, n) for i, n in enumerate(c.levels)]}
+    return CampaignResult(out, status, segments, stats["lost_frames"], stats["lost_samples"],
+                          stats, runner.warnings)
