@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
+from analysis.errors import InputError
 from analysis.spectral import (conditioned_inputs, h1, multiple_coherence, ordinary_coherence,
                                spectral_matrix)
 
@@ -49,3 +50,29 @@ def test_h1_and_conditioned_coherences(data):
     assert np.abs(uu[:, 0, 1]).max() < 1e-10 * np.abs(uu).max()
     np.testing.assert_allclose(cond.transfer(), h, rtol=1e-9)
     assert ordinary_coherence(sp.S, 1, 2).mean() > 0.2        # inputs really correlated
+
+
+def test_all_pairs_match_scipy_with_offsets_band_and_channel_list(data):
+    """Every pair, several chunks of segments, mean removal of large offsets, a band, a
+    window whose spectrum reaches beyond the DC bins, and channels given as a list."""
+    rng = np.random.default_rng(2)
+    d = data + np.array([5.0, -3.0, 40.0]) + 0.01 * rng.standard_normal(data.shape)
+    kw = dict(nperseg=1000, window=("tukey", 0.25), noverlap=500)
+    sp = spectral_matrix(d, 1000.0, nperseg=1000, window=("tukey", 0.25), band=(0, 300))
+    assert sp.n_avg == 1 + (d.shape[0] - 1000) // 500
+    for a in range(3):
+        for b in range(3):
+            f, c = scipy.signal.csd(d[:, b], d[:, a], 1000.0, **kw)
+            keep = f <= 300
+            np.testing.assert_allclose(sp.S[:, a, b], c[keep], rtol=1e-9,
+                                       atol=1e-11 * np.abs(c).max())
+    same = spectral_matrix([d[:, 0], d[:, 1], d[:, 2]], 1000.0, nperseg=1000,
+                           window=("tukey", 0.25), band=(0, 300))
+    np.testing.assert_array_equal(same.S, sp.S)
+
+
+def test_bad_channels():
+    with pytest.raises(InputError, match="common length"):
+        spectral_matrix([np.zeros(100), np.zeros(99)], 1.0, nperseg=32)
+    with pytest.raises(InputError, match="shape"):
+        spectral_matrix(np.zeros(100), 1.0, nperseg=32)

@@ -25,6 +25,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     rp.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),
                     help="analysis band in Hz (default: chosen from coherence and excitation)")
     rp.add_argument("--nperseg", type=int, help="Welch segment length in samples")
+    rp.add_argument("--force-hold", choices=("none", "linear"),
+                    help="how the applied force behaves between samples: 'linear' for a "
+                    "first-order-hold drive such as the simulated plant's, 'none' for a force "
+                    "transducer behind an anti-alias filter (default: what the run declares, "
+                    "else none)")
     rp.add_argument("--screen", action="store_true",
                     help="also rank the candidate basis library by conditioned coherence")
     rp.set_defaults(func=_delegate("analyze_reverse_path"))
@@ -39,5 +44,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="take the underlying linear FRF from this run instead of the model")
     hb.add_argument("--optimizer", choices=("least-squares", "nelder-mead"),
                     default="least-squares")
-    hb.add_argument("--figure", metavar="PNG", help="write measured vs fitted FRFs here")
+    hb.add_argument("--figure", metavar="PNG", help="write measured vs fitted FRFs here (and "
+                    "the hysteresis loop to PNG's stem + '-loop.png')")
+    hb.add_argument("--starts", type=int, default=4, metavar="N",
+                    help="multi-start count of the least-squares fit (default 4)")
+    hb.add_argument("--reference", metavar="MODEL",
+                    help="reference model whose element loop is drawn next to the estimate")
     hb.set_defaults(func=_delegate("analyze_hbm"))

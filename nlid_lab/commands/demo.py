@@ -30,9 +30,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="random test of the paper's SDOF system at several levels")
+    p = sub.add_parser("demo", help="random test of the paper's SDOF system at several levels: "
+                       "run file, FRF overlay, reverse-path estimate and HTML report")
     p.add_argument("--out", default="demo-out", metavar="DIR",
-                   help="directory for the run file and figures (default demo-out)")
+                   help="directory for the run file, figures, estimate JSON and report "
+                   "(default demo-out)")
     p.add_argument("--levels", type=float, nargs="+", metavar="N",
                    help="force levels, N rms (default 0.5 5 15 30)")
     p.add_argument("--duration", type=float, default=128.0, help="seconds per level")
