@@ -312,6 +312,9 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
         bench.daq.configure(c.fs, c.channels, frame_size=c.frame_size)
         settings = {"campaign": c.raw, "shaker_url": c.shaker_url, "daq_url": c.daq_url,
                     "source_file": str(c.source) if c.source else None}
+        if bench.rig is not None:
+            # the simulated rig holds the drive linearly between samples (analysis.plant)
+            settings["force_hold"] = "linear"
         with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
                        n_dof=c.n_dof, response_kind=c.response_kind,
                        channels=_store_channels(c), settings=settings,

@@ -70,9 +70,19 @@ def read_npz(path: str | os.PathLike) -> Recording:
             response_kind=(_scalar(data, "response_kind", str, path)
                            if "response_kind" in data else "displacement"),
             freqs=np.asarray(data["freqs"], dtype=float) if "freqs" in data else None,
-            level=_level(data, path), meta={"source": str(path)})
+            level=_level(data, path), meta=_meta(data, path))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
+
+
+def _meta(data: dict, path: Path) -> dict:
+    meta = {"source": str(path)}
+    if "force_hold" in data:
+        hold = _scalar(data, "force_hold", str, path)
+        if hold not in ("none", "linear"):
+            raise RecordingFileError(f"{path}: force_hold '{hold}' must be none or linear")
+        meta["force_hold"] = hold
+    return meta
 
 
 def _level(data: dict, path: Path) -> float | None:
@@ -89,6 +99,8 @@ def write_npz(path: str | os.PathLike, rec: Recording) -> None:
            "response_kind": np.str_(rec.response_kind)}
     if rec.freqs is not None:
         out["freqs"] = rec.freqs
+    if rec.meta.get("force_hold"):
+        out["force_hold"] = np.str_(rec.meta["force_hold"])
     if rec.level is not None:
         key = "force_rms" if rec.excitation == "random" else "force_amplitude"
         out[key] = np.float64(rec.level)

@@ -499,6 +499,9 @@ class Run:
                 "status": self.status, "seq": seg["seq"], "t": seg["t"],
                 "channels": self.channels, "excitation_settings":
                 self.meta.get("excitation_settings", {}), "settings": self.meta.get("settings")}
+        hold = (self.meta.get("settings") or {}).get("force_hold")
+        if hold:
+            meta["force_hold"] = hold
         common = dict(fs=self.meta["fs"], excitation=self.meta["excitation"],
                       force_dofs=self.meta["force_dofs"],
                       response_kind=self.meta["response_kind"],

@@ -47,7 +47,8 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
-                     meta={"model": model.name, "noise_std": noise_std, "seed": seed})
+                     meta={"model": model.name, "noise_std": noise_std, "seed": seed,
+                           "force_hold": "linear"})  # the plant's drive definition
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         store.save_recording(out, rec, source="sim", model_toml=model_path.read_text(),
                              settings={"drive": str(args.drive), "noise_std": args.noise,
-                                       "seed": args.seed})
+                                       "seed": args.seed, "force_hold": "linear"})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,
