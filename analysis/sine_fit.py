@@ -56,6 +56,22 @@ def sine_fit(block: np.ndarray, fs: float, freq: float,
     return out if x.ndim > 1 else out[:, 0]
 
 
+def hold_gain(freq: np.ndarray | float, fs: float, hold: str | None) -> np.ndarray:
+    """Gain from the recorded force samples to the force that acted, at ``freq``.
+
+    A force applied as the first-order hold of its samples (``hold="linear"``, the simulated
+    plant's drive) acts in band with ``sinc^2(f / fs)`` of the sampled amplitude; a force
+    measured by a transducer behind an anti-alias filter (``None`` or ``"none"``) acts as
+    recorded.
+    """
+    f = np.asarray(freq, dtype=float)
+    if hold in (None, "none"):
+        return np.ones_like(f)
+    if hold == "linear":
+        return np.sinc(f / fs) ** 2
+    raise RecordingError(f"force_hold '{hold}' must be none or linear")
+
+
 @dataclass
 class SteppedSineFRF:
     """FRF and harmonic content of one stepped-sine level.
@@ -91,7 +107,8 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
     """Sine-fit every step of a stepped-sine recording.
 
     Velocity and acceleration responses are converted to displacement harmonics
-    (division by ``j h ω`` or ``-(h ω)^2``).
+    (division by ``j h ω`` or ``-(h ω)^2``); the force amplitude is the one that acted
+    (`hold_gain` of the recording's ``meta["force_hold"]``).
     """
     if recording.excitation != "stepped-sine":
         raise RecordingError("harmonic balance needs stepped-sine recordings, got "
@@ -103,6 +120,7 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
     if h.min() < 1:
         raise RecordingError("sine-fit harmonics must be orders >= 1")
     n_steps = recording.freqs.size
+    gain = hold_gain(recording.freqs, recording.fs, recording.meta.get("force_hold"))
     X = np.empty((n_steps, h.size, recording.n_dof), dtype=complex)
     force = np.empty(n_steps)
     for s, f in enumerate(recording.freqs):
@@ -118,7 +136,7 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
         elif recording.response_kind == "acceleration":
             xc = xc / (-(w ** 2))[:, None]
         X[s] = xc
-        force[s] = abs(fc)
+        force[s] = abs(fc) * gain[s]
     level = float(recording.level) if recording.level else float(force.mean())
     return SteppedSineFRF(recording.freqs.copy(), h, force, X, level,
                           int(recording.force_dofs[input_index]))

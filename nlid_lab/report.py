@@ -16,6 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from analysis import spectral
+from analysis.sine_fit import hold_gain, sine_fit
 from analysis.errors import InputError
 from analysis.recording import Recording
 
@@ -145,24 +146,10 @@ def sine_frf(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
     """
     H = np.empty((rec.freqs.size, rec.n_dof, rec.n_in), complex)
     for i, f in enumerate(rec.freqs):
-        X = harmonic_amplitudes(rec.response[i], rec.fs, f, (1,))[0]     # (n_dof,)
-        F = harmonic_amplitudes(rec.force[i], rec.fs, f, (1,))[0]        # (n_in,)
-        H[i] = X[:, None] / F[None, :]
+        X = sine_fit(rec.response[i], rec.fs, f)[0]     # (n_dof,)
+        F = sine_fit(rec.force[i], rec.fs, f)[0]        # (n_in,)
+        H[i] = X[:, None] / (F[None, :] * hold_gain(f, rec.fs, rec.meta.get("force_hold")))
     return rec.freqs.copy(), H
-
-
-def harmonic_amplitudes(x: np.ndarray, fs: float, freq: float,
-                        orders: tuple[int, ...] = (1, 3, 5)) -> np.ndarray:
-    """Complex amplitudes (len(orders), channels) of a steady-state block by least squares.
-
-    ``x(t) ~ c + sum Re(A_k exp(i k w t))``; valid for blocks that are not whole periods.
-    """
-    t = np.arange(x.shape[0]) / fs
-    cols = [np.ones_like(t)]
-    for k in orders:
-        cols += [np.cos(2 * np.pi * k * freq * t), np.sin(2 * np.pi * k * freq * t)]
-    coef = np.linalg.lstsq(np.stack(cols, axis=1), x, rcond=None)[0]
-    return coef[1::2] - 1j * coef[2::2]
 
 
 def all_level_frfs(run: RunData, progress: Callable[[int], None] | None = None
@@ -346,7 +333,7 @@ def _hbm_frf(model, frf: LevelFRF, rec: Recording) -> tuple[np.ndarray, np.ndarr
     """Fundamental FRF of ``model`` at the level's drive amplitude (same response kind)."""
     from analysis.hbm import HBMSystem
     amp = rec.level if rec.level else float(np.median(np.abs(
-        [harmonic_amplitudes(rec.force[i, :, :1], rec.fs, f, (1,))[0, 0]
+        [sine_fit(rec.force[i, :, 0], rec.fs, f)[0]
          for i, f in enumerate(rec.freqs)])))
     system = HBMSystem(model, force_dofs=rec.force_dofs[:1])
     sweep = system.sweep(rec.freqs, [amp])

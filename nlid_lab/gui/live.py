@@ -16,6 +16,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis import spectral
+from analysis.sine_fit import sine_fit
 
 from ..report import FRF_UNITS, LevelFRF, frf_from_spectra
 from . import plots
@@ -174,11 +175,10 @@ class LiveView(QtWidgets.QWidget):
 
     def _on_step(self, level: int, index: int, freq: float, force: np.ndarray,
                  response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
-        from ..report import harmonic_amplitudes
         if level != self.level:
             self.level = level
             self.steps = []
-        f1 = harmonic_amplitudes(force[:, :1], self.fs, freq, (1,))[0, 0]
+        f1 = sine_fit(force[:, 0], self.fs, freq)[0]
         h = harmonics[self._h1_row(len(harmonics))] / f1 if f1 != 0 else np.full(harmonics.shape[1], np.nan)
         self.steps.append((freq, h, control_error))
         self.harmonics = harmonics
