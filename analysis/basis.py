@@ -143,46 +143,68 @@ def aliasing_factor(order: int, bandwidth: float, fs: float, band_hi: float) -> 
     return int(math.ceil((span + band_hi) / fs))
 
 
-def evaluate(basis: Basis, s: np.ndarray, upsample: int = 1,
-             noise_var: float = 0.0) -> np.ndarray:
-    """Apply ``basis`` to the signal ``s`` (shape (n,)), optionally alias-free and debiased.
+def evaluate(basis: Basis, s: np.ndarray, upsample: int = 1, noise_var: float = 0.0,
+             periodic: bool = False) -> np.ndarray:
+    """Apply ``basis`` to the signal ``s`` (time along the last axis), alias-free and debiased.
 
     ``noise_var > 0`` subtracts ``basis.debias(s, noise_var)`` (the conditional bias caused by
     sensor noise of that variance on ``s``; nothing when the basis has no correction).
-    With ``upsample > 1`` the signal is interpolated band-limitedly (zero-padded FFT of its
-    even extension, exact in band, no filter ripple), the function applied, and everything
-    above the original ``fs/2`` discarded, so that it is removed instead of folded into the
-    band. The first and last few hundred samples carry end effects; callers trim them.
+    With ``upsample > 1`` the signal is interpolated band-limitedly, the function applied,
+    and everything above the original ``fs/2`` discarded, so that it is removed instead of
+    folded into the band. A ``periodic`` signal (one whole period) is interpolated from its
+    own DFT, exactly; otherwise from the zero-padded FFT of its even extension (exact in
+    band, no filter ripple), whose first and last few hundred samples carry end effects that
+    callers trim.
     """
     if upsample <= 1:
         out = basis(s)
+    elif periodic:
+        out = _periodic_upsampled(basis, s, upsample)
     else:
-        n = s.shape[0]
-        spec = np.fft.rfft(np.concatenate([s, s[::-1]]))
+        n = s.shape[-1]
+        spec = np.fft.rfft(np.concatenate([s, s[..., ::-1]], axis=-1))
         fine = np.fft.irfft(spec, 2 * n * upsample) * upsample
-        back = np.fft.rfft(basis(fine))[: n + 1] / upsample
-        out = np.fft.irfft(back, 2 * n)[:n]
+        back = np.fft.rfft(basis(fine))[..., : n + 1] / upsample
+        out = np.fft.irfft(back, 2 * n)[..., :n]
     if noise_var > 0 and basis.debias is not None:
         out = out - basis.debias(s, noise_var)
     return out
 
 
+def _periodic_upsampled(basis: Basis, s: np.ndarray, upsample: int) -> np.ndarray:
+    """``basis`` of a periodic signal formed on an ``upsample``-fold finer grid."""
+    n = s.shape[-1]
+    spec = np.fft.rfft(s)
+    if n % 2 == 0:
+        spec[..., -1] *= 0.5          # the Nyquist line splits into +-fs/2 on the fine grid
+    fine = np.fft.irfft(spec, n * upsample) * upsample
+    back = np.fft.rfft(basis(fine))[..., : n // 2 + 1] / upsample
+    if n % 2 == 0:
+        back[..., -1] = 2 * back[..., -1].real
+    return np.fft.irfft(back, n)
+
+
 def alias_error(basis: Basis, s: np.ndarray, fs: float, band: tuple[float, float],
-                upsample: int, n_probe: int = 1 << 15) -> float:
+                upsample: int, n_probe: int = 1 << 15, periodic: bool = False) -> float:
     """Relative in-band rms error of forming ``basis`` at ``fs`` instead of alias-free.
 
-    Measured on the middle ``n_probe`` samples (enough for a spectral estimate, cheap on
-    long records): the basis formed directly and after ``upsample``-fold interpolation are
-    compared within ``band``.
+    The basis formed directly and after ``upsample``-fold interpolation are compared within
+    ``band``: on the exact DFT lines of a ``periodic`` signal (one or more whole periods along
+    the last axis), else on the Hann-windowed middle ``n_probe`` samples (enough for a
+    spectral estimate, cheap on long records).
     """
-    n = s.shape[0]
-    mid = s[max(0, (n - n_probe) // 2): (n + n_probe) // 2]
-    edge = mid.size // 8
-    plain = evaluate(basis, mid)[edge:-edge]
-    clean = evaluate(basis, mid, upsample)[edge:-edge]
-    f = np.fft.rfftfreq(plain.size, 1 / fs)
+    if periodic:
+        plain, clean = evaluate(basis, s), evaluate(basis, s, upsample, periodic=True)
+        win = 1.0
+    else:
+        n = s.shape[0]
+        mid = s[max(0, (n - n_probe) // 2): (n + n_probe) // 2]
+        edge = mid.size // 8
+        plain = evaluate(basis, mid)[edge:-edge]
+        clean = evaluate(basis, mid, upsample)[edge:-edge]
+        win = np.hanning(plain.size)
+    f = np.fft.rfftfreq(plain.shape[-1], 1 / fs)
     inband = (f >= band[0]) & (f <= band[1])
-    win = np.hanning(plain.size)
-    ref = np.abs(np.fft.rfft(clean * win)[inband]) ** 2
-    diff = np.abs(np.fft.rfft((plain - clean) * win)[inband]) ** 2
+    ref = np.abs(np.fft.rfft(clean * win)[..., inband]) ** 2
+    diff = np.abs(np.fft.rfft((plain - clean) * win)[..., inband]) ** 2
     return float(np.sqrt(diff.sum() / max(ref.sum(), 1e-300)))

@@ -13,15 +13,9 @@ Uncertainty: the H1 covariance of output row ``y`` is ``sigma_y^2 G_RR^-1 / n_ef
 frequency average and its 95 % interval use those variances, inflated by the window's bin
 correlation, and never narrower than the observed spread over frequency.
 
-Sensor noise on the response enters the basis functions (errors in variables) and biases H1
-low. ``noise="iv"`` replaces H1 by an instrumental-variable estimate ``H = G_XZ G_RZ^-1``:
-the instruments ``Z`` are the same basis functions evaluated on the response *simulated* from
-the measured force through the candidate model with the current estimates, so they are
-independent of the sensor noise at every lag (a delayed copy of the measured response is not:
-a delay only multiplies its spectrum by a phase). The noise variance, read off the white floor
-of the response spectrum above the band, removes the conditional bias of each basis
-(`basis.Basis.debias`), and the response is low-passed where its spectrum sinks into that floor
-before the basis is formed (the differentiated noise of a velocity grows with f^2).
+Sensor noise on the response (errors in variables) is treated in `analysis.reverse_path_noise`:
+instrumental variables for random records, and period averaging with split-period
+instruments for periodic-random (multisine) records, which this module hands over whole.
 """
 
 from __future__ import annotations
@@ -30,21 +24,17 @@ from dataclasses import dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
-import scipy.signal
 
 from . import basis as bas
 from .elements import restoring_force
-from .errors import InputError, ModelError
+from .errors import InputError
 from .model import Element, Model
-from .plant import Plant, PlantError
 from .recording import Recording
-from .signals import KIND_ORDER, excitation_band, signal_bandwidth, to_kinematics
+from .signals import excitation_band, signal_bandwidth, to_kinematics
 from .spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
 
 Z95 = 1.959963984540054
 ALIAS_TOLERANCE = 2e-4   # relative in-band error of a basis that triggers the aliasing fix
-NOISE_THRESHOLD = 5e-3   # relative sensor-noise std above which noise="auto" uses "iv"
-IV_PASSES = 2            # instrument refinements (each re-simulates with the latest estimate)
 
 
 @dataclass
@@ -198,14 +188,18 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
                  response_kind: str = "displacement", band: tuple[float, float] | None = None,
                  nperseg: int | None = None, window: str = "hann", overlap: float = 0.5,
                  antialias: str = "auto", method: str = "direct",
-                 force_hold: str | None = None, noise: str = "auto") -> ReversePathResult:
+                 force_hold: str | None = None, noise: str = "auto",
+                 period: int | None = None, transient_periods: int | None = None,
+                 realizations: int | None = None) -> ReversePathResult:
     """Estimate the unknown element parameters of ``model`` and the underlying linear FRF.
 
     Parameters
     ----------
     data : Recording, list of Recording, or (force, response) arrays
         Random-excitation records at one or several levels (pooled). ``response`` holds
-        every DOF of the model.
+        every DOF of the model. Periodic-random (multisine) records, marked by
+        ``meta["period"]`` or ``period=``, go to the period-averaging estimator
+        (`analysis.reverse_path_noise.periodic_reverse_path`).
     model : Model
         Candidate: elements with omitted parameters are estimated; complete elements are
         included as known nonlinear forces.
@@ -229,9 +223,15 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
         ``meta["force_hold"]``, else "none" (a force transducer behind an anti-alias filter).
     noise : {"auto", "iv", "none"}
-        "iv": instrumental variables and debiased bases (module docstring), "none": H1
-        (biased low by sensor noise), "auto": "iv" when the response's white noise floor
-        exceeds ``NOISE_THRESHOLD`` of its rms.
+        "iv": instrumental variables and debiased bases (`analysis.reverse_path_noise`),
+        "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
+        noise floor exceeds ``NOISE_THRESHOLD`` of its rms (random records) or when there
+        are two or more steady periods (periodic records).
+    period, transient_periods, realizations : int, optional
+        Periodic-random records: samples per period, leading periods of each realization
+        dropped as transient (default 1) and realizations (blocks with their own random
+        phases) per record (default 1); default: the recording's ``meta`` entries of the
+        same names. Each realization holds ``transient_periods + P`` whole periods.
 
     Returns
     -------
@@ -245,17 +245,24 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         raise InputError(f"method must be direct or conditioned, got '{method}'")
     if noise not in ("auto", "iv", "none"):
         raise InputError(f"noise must be auto, iv or none, got '{noise}'")
+    # imported here: the noise module builds on this one's channel and estimate helpers
+    from . import reverse_path_noise as noise_mod
     recs = _records(data, fs, force_dofs, response_kind)
     rec0 = recs[0][0]
     if rec0.n_dof != model.n_dof:
         raise InputError(f"the response has {rec0.n_dof} channels but the model has "
                          f"{model.n_dof} DOFs; reverse path needs every DOF measured")
     unknown, known = _elements(model)
+    warnings: list[str] = []
+    layouts = [noise_mod.periodic_layout(r, period, transient_periods, realizations)
+               for r, _ in recs]
+    if any(lay is not None for lay in layouts):
+        return noise_mod.periodic_reverse_path(recs, layouts, model, unknown, known, band,
+                                               antialias, force_hold, noise, warnings)
     fsr = float(rec0.fs)
     fdofs = rec0.force_dofs
     n_min = min(r.force.shape[0] for r, _ in recs)
     nps = nperseg or _default_nperseg(n_min)
-    warnings: list[str] = []
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
                                               overlap=overlap) for r, _ in recs])
@@ -264,7 +271,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     if not 0 <= lo < hi <= fsr / 2:
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
                          f"{fsr / 2:g}")
-    info, floors = _noise_info([r for r, _ in recs], fsr, hi, noise, warnings)
+    info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, noise, warnings)
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
     built = []
@@ -272,7 +279,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         proc = _Processing(fsr, kind, (lo, hi), antialias,
                            force_hold or rec.meta.get("force_hold", "none"),
                            info["lowpass_hz"])
-        nvar = proc.noise_var(floor) if info["method"] == "iv" else None
+        nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
                                      known, warnings, nvar)
         built.append((rec, proc, channels))
@@ -283,57 +290,11 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     if info["method"] != "iv":
         warnings.extend(first)
     else:
-        result = _iv_passes(result, model, built, unknown, known, welch, info, warnings)
+        result = noise_mod.iv_passes(result, model, built, unknown, known, welch, info,
+                                     warnings)
     result.warnings = sorted(set(warnings), key=warnings.index)
     result.noise = info
     return result
-
-
-def _noise_floor(response: np.ndarray, fs: float,
-                 band_hi: float) -> tuple[np.ndarray | None, float]:
-    """White sensor-noise density per channel (one-sided, unit^2/Hz) or None; cut-off, Hz.
-
-    The floor is read off the response spectrum between ``max(1.2 band_hi, 0.55 fs/2)`` and
-    ``0.9 fs/2``, where the structure's own response has rolled off: the smaller median of
-    the two halves of that range, None unless both agree within 1.5x (white). The
-    cut-off is the highest frequency where some channel still exceeds twice its floor:
-    above it the record holds noise only.
-    """
-    lo_f, hi_f = max(1.2 * band_hi, 0.55 * fs / 2), 0.9 * fs / 2
-    n = response.shape[0]
-    f, p = scipy.signal.welch(response, fs, nperseg=min(4096, n), axis=0)
-    idx = np.flatnonzero((f >= lo_f) & (f <= hi_f))
-    if idx.size < 8:
-        return None, fs / 2
-    half = idx.size // 2
-    m1, m2 = np.median(p[idx[:half]], axis=0), np.median(p[idx[half:]], axis=0)
-    if np.any(np.maximum(m1, m2) > 1.5 * np.minimum(m1, m2)):
-        return None, fs / 2     # not a flat (white) floor: structural or aliased content
-    floor = np.minimum(m1, m2)
-    above = np.flatnonzero(np.any(p > 2 * floor, axis=1))
-    return floor, float(min(fs / 2, max(f[above[-1]] if above.size else 0.0, band_hi)))
-
-
-def _noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
-                warnings: list[str]) -> tuple[dict[str, Any], list[np.ndarray | None]]:
-    """Noise floors of the records and the noise treatment chosen."""
-    found = [_noise_floor(r.response, fs, band_hi) for r in recs]
-    floors = [f for f, _ in found]
-    rel = None
-    if all(f is not None for f in floors):
-        rel = np.max([np.sqrt(f * fs / 2) / np.maximum(r.response.std(axis=0), 1e-300)
-                      for f, r in zip(floors, recs)], axis=0)
-    noisy = rel is not None and rel.max() > NOISE_THRESHOLD
-    chosen = ("iv" if noisy else "none") if mode == "auto" else mode
-    if chosen == "none" and noisy:
-        warnings.append(f"the response carries about {100 * rel.max():.2g} % white sensor "
-                        "noise (std / rms); the basis functions inherit it and the estimates "
-                        "are biased low: use noise='iv' (--noise iv)")
-    if chosen == "iv" and rel is None:
-        warnings.append("no white noise floor above the band to read the noise level from: "
-                        "basis functions are not debiased; record with fs > 2.5x the band")
-    return {"method": chosen, "relative_std": None if rel is None else rel.tolist(),
-            "lowpass_hz": min(c for _, c in found) if chosen == "iv" else None}, floors
 
 
 @dataclass
@@ -346,59 +307,6 @@ class _Processing:
     antialias: str
     hold: str
     lowpass: float | None
-
-    def noise_var(self, floor: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
-        """Per-DOF noise variance of the formed displacement and velocity.
-
-        White noise of density ``floor`` in the recorded kind (order ``k``) becomes
-        ``floor (2 pi f)^(2 (j - k))`` in the kind of order ``j``, integrated over the band
-        kept by the high-pass and (velocity only) the low-pass.
-        """
-        if floor is None:
-            return None
-        k = KIND_ORDER[self.kind]
-        f0 = self.band[0] / 2 if k else 0.0
-        out = []
-        for j in (0, 1):
-            f1 = self.lowpass if j == 1 and self.lowpass else self.fs / 2
-            a = 2 * (j - k)
-            out.append(floor * (2 * np.pi) ** a * (f1 ** (a + 1) - f0 ** (a + 1)) / (a + 1))
-        return out[0], out[1]
-
-
-def _iv_passes(result: ReversePathResult, model: Model, built, unknown, known,
-               welch: dict[str, Any], info: dict[str, Any],
-               warnings: list[str]) -> ReversePathResult:
-    """Instrumental-variable refinements: simulate, form instruments, re-estimate."""
-    n_dof = model.n_dof
-    for _ in range(IV_PASSES):
-        try:
-            current = result.estimated_model(model)
-            parts = []
-            for rec, proc, channels in built:
-                out = Plant(current, rec.fs, rec.force_dofs).run(rec.force)
-                sim = {"displacement": out.displacement, "velocity": out.velocity,
-                       "acceleration": out.acceleration}[proc.kind]
-                z, _ = _channels(sim, rec.force, rec.force_dofs, proc, unknown, known, [],
-                                 None)
-                parts.append(spectral_matrix(np.column_stack([channels, z[:, n_dof:]]),
-                                             rec.fs, **welch))
-        except (PlantError, ModelError) as exc:
-            warnings.append(f"noise correction skipped: the candidate with the current "
-                            f"estimates cannot be simulated ({exc}); estimates biased low")
-            info["method"] = "none"
-            return result
-        scratch: list[str] = []
-        result = _estimate(Spectra.pool(parts), n_dof, result.force_dofs, unknown,
-                           result.inputs, result.band, "direct", scratch, iv=True)
-    warnings.extend(scratch)
-    coh = result.noise.get("instrument_coherence", [])
-    info["instrument_coherence"] = coh
-    if coh and min(coh) < 0.3:
-        warnings.append(f"weak instruments (median coherence with the regressors "
-                        f"{min(coh):.2f}): wide intervals; check the candidate's linear part "
-                        "or record longer")
-    return result
 
 
 def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray,
@@ -435,15 +343,7 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
             labels.append(f"-{el.kind}@{i}(known)")
     for i, el, _, fn in unknown:
         s = bas.deformation(el.w, x if fn.variable == "x" else v)
-        factor = bas.aliasing_factor(fn.order, signal_bandwidth(s[: 1 << 16], fs), fs, hi)
-        err = bas.alias_error(fn, s, fs, proc.band, factor) if factor > 1 else 0.0
-        if err > ALIAS_TOLERANCE and proc.antialias != "off":
-            what = (f"upsampled x{factor} before forming it" if proc.antialias == "auto"
-                    else "raise fs or use antialias='auto'")
-            warnings.append(f"aliasing: basis {fn.name} of element {i} spans "
-                            f"{fn.order * signal_bandwidth(s, fs):.0f} Hz and folds into the "
-                            f"band ({100 * err:.2g} % in-band error) at fs = {fs:g} Hz; {what}")
-        up = factor if err > ALIAS_TOLERANCE and proc.antialias == "auto" else 1
+        up = _alias_upsampling(fn, s, i, proc, warnings)
         s2 = 0.0
         if noise_var is not None:
             s2 = float(noise_var[0 if fn.variable == "x" else 1] @ (el.w ** 2))
@@ -454,6 +354,22 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
         labels.append(f"-{fn.name}@{i}")
     data = np.column_stack([x, force] + cols)
     return data[edge: n - edge], labels
+
+
+def _alias_upsampling(fn: bas.Basis, s: np.ndarray, i: int, proc: _Processing,
+                      warnings: list[str], periodic: bool = False) -> int:
+    """Upsampling factor for forming basis ``fn`` of signal ``s`` (element ``i``), warning
+    when it would alias into the band."""
+    fs, hi = proc.fs, proc.band[1]
+    factor = bas.aliasing_factor(fn.order, signal_bandwidth(s[: 1 << 16], fs), fs, hi)
+    err = bas.alias_error(fn, s, fs, proc.band, factor, periodic=periodic) if factor > 1 else 0.0
+    if err > ALIAS_TOLERANCE and proc.antialias != "off":
+        what = (f"upsampled x{factor} before forming it" if proc.antialias == "auto"
+                else "raise fs or use antialias='auto'")
+        warnings.append(f"aliasing: basis {fn.name} of element {i} spans "
+                        f"{fn.order * signal_bandwidth(s, fs):.0f} Hz and folds into the "
+                        f"band ({100 * err:.2g} % in-band error) at fs = {fs:g} Hz; {what}")
+    return factor if err > ALIAS_TOLERANCE and proc.antialias == "auto" else 1
 
 
 def _linear_hold(force: np.ndarray, fs: float) -> np.ndarray:
@@ -477,42 +393,33 @@ def _row_covariance(spec_rr_inv: np.ndarray, sigma2: np.ndarray, n_dof: np.ndarr
 
 def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: list[str],
               band: tuple[float, float], method: str, warnings: list[str],
-              iv: bool = False) -> ReversePathResult:
-    """H1 (or, with ``iv``, instrumental-variable) estimate from the spectral matrix.
+              solved: tuple[np.ndarray, np.ndarray, np.ndarray, dict] | None = None
+              ) -> ReversePathResult:
+    """Estimate from the spectral matrix of ``[X, R]`` (later channels are ignored).
 
-    Channels are ``[X, R]``, with ``iv`` ``[X, R, Z]`` (one instrument per input).
+    H1 unless ``solved = (H, cov, sigma2, noise)`` gives another estimator's transfer matrix,
+    its row covariance (`_row_covariance` order) and per-output residual variance;
+    coherences always come from ``spec``.
     """
-    n_in = fdofs.size
-    n_r = (spec.S.shape[1] - n_dof) // (2 if iv else 1)
+    n_in, n_r = fdofs.size, len(inputs)
     xs, rs = slice(0, n_dof), slice(n_dof, n_dof + n_r)
     S_xx = spec.S[:, xs, xs].diagonal(axis1=1, axis2=2).real
     S_xr, S_rr = spec.S[:, xs, rs], spec.S[:, rs, rs]
     cond = conditioned_inputs(S_xx, S_xr, S_rr)
     coh_nl = cond.coherence.sum(axis=2)
     coh_lin = multiple_coherence(S_xx, S_xr[:, :, :n_in], S_rr[:, :n_in, :n_in])
-    dof = max(spec.n_eff - n_r, 1.0)
-    noise: dict[str, Any] = {}
-    if iv:
-        H, rr_inv, resid = _iv(spec.S, xs, rs, slice(n_dof + n_r, n_dof + 2 * n_r))
-        sigma2 = np.maximum(resid, 1e-15 * S_xx) / dof
-        auto = np.einsum("fii->fi", spec.S).real
-        r_z = [(n_dof + k, n_dof + n_r + k) for k in range(n_in, n_r)]
-        noise["instrument_coherence"] = [float(np.median(np.abs(spec.S[:, r, z]) ** 2
-                                                         / (auto[:, r] * auto[:, z])))
-                                         for r, z in r_z]
-    else:
+    if solved is None:
         H = cond.transfer() if method == "conditioned" else h1(S_xr, S_rr)
+        dof = max(spec.n_eff - n_r, 1.0)
         sigma2 = np.maximum((1 - coh_nl) * S_xx, 1e-15 * S_xx) / dof
         rr_inv = np.linalg.inv(S_rr)
-    n_known = n_r - n_in - len(unknown)
-    coefs = []
-    for k, (i, el, param, fn) in enumerate(unknown):
-        col = n_in + n_known + k
-        est, var = _element_estimates(H, rr_inv, sigma2, el.w, fdofs, col)
-        coefs.append(_average(i, el, param, fn.name, est, var, spec.bin_factor))
-        c = coefs[-1]
+        noise: dict[str, Any] = {}
+    else:
+        H, rr_inv, sigma2, noise = solved
+    coefs = _coefficients(H, rr_inv, sigma2, fdofs, unknown, spec.bin_factor)
+    for c in coefs:
         if abs(c.imag) > max(0.1 * abs(c.value), 3 * c.std):
-            warnings.append(f"element {i} ({el.kind}): p(f) has a large imaginary part "
+            warnings.append(f"element {c.element} ({c.kind}): p(f) has a large imaginary part "
                             f"({100 * abs(c.imag / c.value):.0f} % of the real value); the "
                             "basis function or its location is probably wrong: try --screen")
     if coh_nl.min() < 0.9:
@@ -523,27 +430,14 @@ def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: lis
                              cond.coherence, inputs, band, spec, fdofs, warnings, noise)
 
 
-def _iv(S: np.ndarray, xs: slice, rs: slice, zs: slice
-        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Instrumental-variable ``H = S_XZ S_RZ^-1``, its row covariance matrix, residual PSD.
-
-    With ``A = S_RZ^-1`` the row error ``dh = s_EZ A`` has covariance
-    ``sigma^2 A^H S_ZZ A / n`` (in the index order `_row_covariance` expects); ``sigma^2``
-    is the auto-spectrum of the residual ``X - H R``.
-    """
-    S_xz, S_rz, S_zz = S[:, xs, zs], S[:, rs, zs], S[:, zs, zs]
-    S_xx, S_xr, S_rr = S[:, xs, xs], S[:, xs, rs], S[:, rs, rs]
-    try:
-        a = np.linalg.inv(S_rz)
-    except np.linalg.LinAlgError:
-        raise InputError("the instruments do not span the inputs (singular G_RZ): an input "
-                         "is repeated or not excited; remove it or use noise='none'") from None
-    H = S_xz @ a
-    cov = a.conj().transpose(0, 2, 1) @ S_zz @ a
-    hs = H @ S_xr.conj().transpose(0, 2, 1)
-    resid = (np.einsum("fii->fi", S_xx).real - 2 * np.einsum("fii->fi", hs).real
-             + np.einsum("fya,fab,fyb->fy", H, S_rr, H.conj()).real)
-    return H, cov, resid
+def _coefficients(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, fdofs: np.ndarray,
+                  unknown, bin_factor: float) -> list[Coefficient]:
+    """Frequency-averaged estimate of every unknown parameter from ``H_M`` (last columns)."""
+    n_r = H.shape[2]
+    return [_average(i, el, param, fn.name,
+                     *_element_estimates(H, rr_inv, sigma2, el.w, fdofs,
+                                         n_r - len(unknown) + k), bin_factor)
+            for k, (i, el, param, fn) in enumerate(unknown)]
 
 
 def _element_estimates(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, w: np.ndarray,
@@ -589,10 +483,11 @@ def _average(i: int, el: Element, param: str, name: str, est: np.ndarray, var: n
     wts = 2 / var                       # the real part carries half the complex variance
     value = float(np.sum(wts * est.real) / wts.sum())
     std_model = np.sqrt(bin_factor / wts.sum())
-    n_kish = wts.sum() ** 2 / np.sum(wts**2)
-    spread = np.sum(wts * (est.real - value) ** 2) / wts.sum()
-    std_spread = np.sqrt(bin_factor * spread / n_kish)
-    std = float(max(std_model, std_spread))
+    # observed spread: the heteroscedasticity-robust (sandwich) variance of the weighted
+    # mean, valid whatever the quality of the weights
+    n = est.size
+    spread = np.sum(wts**2 * (est.real - value) ** 2) / wts.sum() ** 2 * n / max(n - 1, 1)
+    std = float(max(std_model, np.sqrt(bin_factor * spread)))
     return Coefficient(i, el.kind, el.w.copy(), param, name, est, var, value, std,
                        (value - Z95 * std, value + Z95 * std),
                        float(np.sum(wts * est.imag) / wts.sum()))

@@ -162,3 +162,102 @@ def signal_bandwidth(signal: np.ndarray, fs: float, *, fraction: float = 1 - 1e-
             out = max(out, float(f[np.searchsorted(cum[:, j], fraction * total[j])
                                    .clip(max=f.size - 1)]))
     return out
+
+
+def steady_periods(signal: np.ndarray, period: int, *, transient_periods: int = 1,
+                   realizations: int = 1) -> np.ndarray:
+    """Steady-state periods of a periodic-drive record, shape (realizations, P, period, ...).
+
+    The record (time along axis 0) holds ``realizations`` consecutive blocks of equal length,
+    each a whole number of periods of ``period`` samples; the first ``transient_periods`` of
+    every block (the response settling after a change of drive) are dropped.
+
+    Raises
+    ------
+    InputError
+        When the record does not split into whole periods or no steady period remains.
+    """
+    x = np.asarray(signal, dtype=float)
+    n = x.shape[0]
+    if period < 2 or realizations < 1 or transient_periods < 0:
+        raise InputError(f"period ({period}) must be >= 2 samples, realizations "
+                         f"({realizations}) >= 1 and transient periods ({transient_periods}) "
+                         ">= 0")
+    block = n // realizations
+    if block * realizations != n or block % period:
+        raise InputError(f"a record of {n} samples does not split into {realizations} "
+                         f"realization(s) of whole {period}-sample periods; check the period "
+                         "and realization count")
+    n_per = block // period
+    if n_per <= transient_periods:
+        raise InputError(f"each realization holds {n_per} period(s), none left after "
+                         f"{transient_periods} transient period(s); record more periods")
+    return x.reshape((realizations, n_per, period) + x.shape[1:])[:, transient_periods:]
+
+
+def periodic_kinematics(periods: np.ndarray, fs: float, kind: str, *,
+                        lowpass: float | None = None,
+                        weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Displacement and velocity of exactly periodic records (one period along axis -2).
+
+    Each period is transformed once and multiplied by ``(i 2 pi f)^k`` at its exact DFT
+    lines: no extension, no end effect, no leakage. Integration sets the mean (DC line) to
+    zero, odd orders drop the Nyquist line; ``lowpass`` zeroes the lines above it.
+
+    Parameters
+    ----------
+    periods : ndarray, shape (..., period, n_ch)
+    fs : float
+    kind : {"displacement", "velocity", "acceleration"}
+    lowpass : float, optional
+        Hz.
+    weights : ndarray, shape (period // 2 + 1,) or (period // 2 + 1, n_ch), optional
+        Further per-line gains (a smoothing filter, for example).
+
+    Returns
+    -------
+    x, v : ndarray, same shape as ``periods``
+    """
+    if kind not in KIND_ORDER:
+        raise InputError(f"response kind '{kind}' is not one of {', '.join(KIND_ORDER)}")
+    k = KIND_ORDER[kind]
+    n = periods.shape[-2]
+    f = np.fft.rfftfreq(n, 1 / fs)
+    spec = scipy.fft.rfft(periods, axis=-2)
+    if weights is not None:
+        spec = spec * (weights if np.ndim(weights) == 2 else weights[:, None])
+    out = []
+    for j in (0, 1):
+        gain = np.zeros(f.size, dtype=complex)
+        gain[1:] = (2j * np.pi * f[1:]) ** (j - k)
+        gain[0] = 1.0 if j == k == 0 else 0.0
+        if (j - k) % 2 and n % 2 == 0:
+            gain[-1] = 0.0                  # the Nyquist line of an odd derivative is not real
+        if lowpass is not None:
+            gain[f > lowpass] = 0.0
+        out.append(scipy.fft.irfft(spec * gain[:, None], n, axis=-2))
+    return out[0], out[1]
+
+
+def period_spectra(periods: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signal power of the period average and its noise power, per DFT line and channel.
+
+    Parameters
+    ----------
+    periods : ndarray, shape (M, P, period, n_ch)
+        Steady-state periods of ``M`` realizations (`steady_periods`), ``P >= 2``.
+
+    Returns
+    -------
+    signal, noise : ndarray, shape (period // 2 + 1, n_ch)
+        ``|DFT|^2`` of the mean over periods and the noise variance of that mean (the
+        variance across periods / P, Pintelon & Schoukens' nonparametric noise estimate),
+        both averaged over the realizations.
+    """
+    n_p = periods.shape[1]
+    if n_p < 2:
+        raise InputError("a noise estimate needs at least 2 steady-state periods")
+    spec = scipy.fft.rfft(periods, axis=2)
+    mean = spec.mean(axis=1)
+    noise = (np.abs(spec - mean[:, None]) ** 2).sum(axis=1) / ((n_p - 1) * n_p)
+    return (np.abs(mean) ** 2).mean(axis=0), noise.mean(axis=0)

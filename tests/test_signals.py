@@ -42,3 +42,25 @@ def test_excitation_band():
     f = np.linspace(0, 500, 501)
     p = np.where((f >= 20) & (f <= 300), 1.0, 1e-6)
     assert excitation_band(f, p) == (20.0, 300.0)
+
+
+def test_periodic_helpers():
+    from analysis.signals import period_spectra, periodic_kinematics, steady_periods
+    fs, n = 1000.0, 1000
+    t = np.arange(3 * 2 * n) / fs
+    x = np.sin(2 * np.pi * 7 * t) + 0.5 * np.cos(2 * np.pi * 40 * t)
+    per = steady_periods(np.c_[x, 2 * x], n, transient_periods=1, realizations=2)
+    assert per.shape == (2, 2, n, 2)
+    xd, v = periodic_kinematics(per, fs, "displacement")
+    tt = t[:n]
+    vt = 2 * np.pi * 7 * np.cos(2 * np.pi * 7 * tt) - 40 * np.pi * np.sin(2 * np.pi * 40 * tt)
+    assert np.abs(v[0, 0, :, 0] - vt).max() < 1e-9 * np.abs(vt).max()   # exact, no edges
+    xi, _ = periodic_kinematics(v, fs, "velocity")
+    np.testing.assert_allclose(xi, xd, atol=1e-9)
+    rng = np.random.default_rng(0)
+    noisy = np.tile(per[:, :1], (1, 16, 1, 1)) + 0.1 * rng.standard_normal((2, 16, n, 2))
+    sig, noise = period_spectra(noisy)
+    # white noise of variance 0.01: |DFT|^2 = n 0.01 per line, / 16 for the average
+    assert np.median(noise) == pytest.approx(n * 0.01 / 16, rel=0.05)
+    with pytest.raises(Exception, match="whole"):
+        steady_periods(x[:-1], n)
