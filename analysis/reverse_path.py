@@ -11,7 +11,9 @@ equation gives an estimate of ``p_m(f)``, combined with inverse-variance weights
 Uncertainty: the H1 covariance of output row ``y`` is ``sigma_y^2 G_RR^-1 / n_eff`` with
 ``sigma_y^2 = (1 - gamma_y^2) G_yy`` (Bendat & Piersol), propagated to each ``p_m(f)``; the
 frequency average and its 95 % interval use those variances, inflated by the window's bin
-correlation, and never narrower than the observed spread over frequency.
+correlation, and are never narrower than the observed spread over frequency: line by line
+(sandwich variance) nor between contiguous sub-bands (batch means, Student t quantile), so
+errors correlated over many lines, such as leakage bias at a resonance, widen the interval.
 
 Sensor noise on the response (errors in variables) is treated in `analysis.reverse_path_noise`:
 instrumental variables for random records, and period averaging with split-period
@@ -24,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
+from scipy.stats import t as student_t
 
 from . import basis as bas
 from .elements import restoring_force
@@ -34,6 +37,7 @@ from .signals import excitation_band, signal_bandwidth, to_kinematics
 from .spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
 
 Z95 = 1.959963984540054
+N_BATCHES = 8             # sub-bands of the batch-means interval
 ALIAS_TOLERANCE = 2e-4   # relative in-band error of a basis that triggers the aliasing fix
 
 
@@ -487,7 +491,27 @@ def _average(i: int, el: Element, param: str, name: str, est: np.ndarray, var: n
     # mean, valid whatever the quality of the weights
     n = est.size
     spread = np.sum(wts**2 * (est.real - value) ** 2) / wts.sum() ** 2 * n / max(n - 1, 1)
-    std = float(max(std_model, np.sqrt(bin_factor * spread)))
+    std_batch, dof = _batch_means_std(est.real, wts, value)
+    std = float(max(std_model, np.sqrt(bin_factor * spread), std_batch))
+    q = float(student_t.ppf(0.975, dof)) if dof else Z95
     return Coefficient(i, el.kind, el.w.copy(), param, name, est, var, value, std,
-                       (value - Z95 * std, value + Z95 * std),
+                       (value - q * std, value + q * std),
                        float(np.sum(wts * est.imag) / wts.sum()))
+
+
+def _batch_means_std(x: np.ndarray, wts: np.ndarray, value: float) -> tuple[float, int]:
+    """Standard error of a weighted mean by batch means over contiguous frequency bands.
+
+    Errors that are correlated over many lines (leakage bias around a resonance, a slowly
+    varying model error) make line-by-line variances too optimistic; the spread of the means
+    of `N_BATCHES` contiguous sub-bands sees them. Returns (std, degrees of freedom), or
+    (0, 0) when the band is too short to split.
+    """
+    k = min(N_BATCHES, x.size // 4)
+    if k < 3:
+        return 0.0, 0
+    parts = np.array_split(np.arange(x.size), k)
+    w = np.array([wts[p].sum() for p in parts])
+    m = np.array([np.sum(wts[p] * x[p]) / wts[p].sum() for p in parts])
+    var = np.sum(w**2 * (m - value) ** 2) / w.sum() ** 2 * k / (k - 1)
+    return float(np.sqrt(var)), k - 1
