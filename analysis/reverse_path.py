@@ -365,9 +365,11 @@ def _alias_upsampling(fn: bas.Basis, s: np.ndarray, i: int, proc: _Processing,
     """Upsampling factor for forming basis ``fn`` of signal ``s`` (element ``i``), warning
     when it would alias into the band."""
     fs, hi = proc.fs, proc.band[1]
+    if proc.antialias == "off":
+        return 1
     factor = bas.aliasing_factor(fn.order, signal_bandwidth(s[: 1 << 16], fs), fs, hi)
     err = bas.alias_error(fn, s, fs, proc.band, factor, periodic=periodic) if factor > 1 else 0.0
-    if err > ALIAS_TOLERANCE and proc.antialias != "off":
+    if err > ALIAS_TOLERANCE:
         what = (f"upsampled x{factor} before forming it" if proc.antialias == "auto"
                 else "raise fs or use antialias='auto'")
         warnings.append(f"aliasing: basis {fn.name} of element {i} spans "
@@ -392,7 +394,8 @@ def _row_covariance(spec_rr_inv: np.ndarray, sigma2: np.ndarray, n_dof: np.ndarr
     outputs with covariance ``sigma_y^2 [G_RR^-1]_{ba}`` (``sigma2`` already divided by the
     degrees of freedom).
     """
-    return np.einsum("fya,fyb,fba,fy->f", beta, gamma.conj(), spec_rr_inv, sigma2)
+    return np.einsum("fyb,fyb,fy->f", beta @ spec_rr_inv.transpose(0, 2, 1), gamma.conj(),
+                     sigma2)
 
 
 def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: list[str],
