@@ -316,7 +316,7 @@ class _Processing:
 def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray,
               proc: _Processing, unknown, known, warnings: list[str],
               noise_var: tuple[np.ndarray, np.ndarray] | None
-              ) -> tuple[np.ndarray, list[str]]:
+              ) -> tuple[list[np.ndarray], list[str]]:
     """Time-domain channels ``[x_0.., f_0.., r_known.., r_1..]`` of one record, input labels."""
     fs, n = proc.fs, response.shape[0]
     lo, hi = proc.band
@@ -356,8 +356,8 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
                                 "its estimate stays biased by the noise")
         cols.append(-bas.evaluate(fn, s, up, s2))
         labels.append(f"-{fn.name}@{i}")
-    data = np.column_stack([x, force] + cols)
-    return data[edge: n - edge], labels
+    # a list of (strided) columns: spectral_matrix reads them in place, no stacked copy
+    return [c[edge: n - edge] for c in (*x.T, *force.T, *cols)], labels
 
 
 def _alias_upsampling(fn: bas.Basis, s: np.ndarray, i: int, proc: _Processing,

@@ -65,7 +65,8 @@ def noise_floor(response: np.ndarray, fs: float,
     """
     lo_f, hi_f = max(1.2 * band_hi, 0.55 * fs / 2), 0.9 * fs / 2
     n = response.shape[0]
-    f, p = scipy.signal.welch(response, fs, nperseg=min(4096, n), axis=0)
+    spec = spectral_matrix(response, fs, nperseg=min(4096, n))  # = scipy.signal.welch
+    f, p = spec.freqs, spec.auto()
     idx = np.flatnonzero((f >= lo_f) & (f <= hi_f))
     if idx.size < 8:
         return None, fs / 2
@@ -135,8 +136,7 @@ def iv_passes(result: ReversePathResult, model: Model, built, unknown, known,
                        "acceleration": out.acceleration}[proc.kind]
                 z, _ = _channels(sim, rec.force, rec.force_dofs, proc, unknown, known, [],
                                  None)
-                parts.append(spectral_matrix(np.column_stack([channels, z[:, n_dof:]]),
-                                             rec.fs, **welch))
+                parts.append(spectral_matrix([*channels, *z[n_dof:]], rec.fs, **welch))
         except (PlantError, ModelError) as exc:
             warnings.append(f"noise correction skipped: the candidate with the current "
                             f"estimates cannot be simulated ({exc}); estimates biased low")
