@@ -58,10 +58,13 @@ def _open(path: Path, mode: str) -> h5py.File:
     readers and writers (HDF5 refuses a second open with other flags in one process)."""
     try:
         if mode == "r":
-            try:
-                return h5py.File(path, "r", swmr=True, locking="best-effort")
-            except OSError:  # not a latest-format file: plain read
+            try:  # plain first: a SWMR reader retries a corrupt file's metadata for minutes
                 return h5py.File(path, "r", locking="best-effort")
+            except OSError as exc:
+                if "open for" not in str(exc) and "consistency" not in str(exc):
+                    raise
+                # flagged as open by a (live or crashed) SWMR writer: read as SWMR
+                return h5py.File(path, "r", swmr=True, locking="best-effort")
         return h5py.File(path, mode, libver="latest", locking="best-effort")
     except FileNotFoundError:
         raise StoreError(f"run file {path} not found; check the path") from None
