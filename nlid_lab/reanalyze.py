@@ -1,0 +1,395 @@
+"""Offline reanalysis of many stored runs on Dask (issue 8).
+
+One Dask task per run file: the task opens the file itself (h5py objects do not pickle, and HDF5
+calls serialise within one process, so worker processes, not threads, give the speed-up), runs
+the chosen estimator on every level and returns one flat row per level. A run that cannot be
+read or analysed becomes a row with ``status = "failed"`` and a one-line ``error``; the other
+runs carry on. Rows are gathered in input order (run, then level), so the table does not
+depend on the number of workers or on completion order.
+"""
+
+from __future__ import annotations
+
+import faulthandler
+import math
+import os
+import statistics
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from analysis.errors import InputError
+from analysis.model import Model
+from analysis.recording import Recording
+
+METHODS = ("reverse-path", "hbm", "auto")
+RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
+HEAD = ("path", "level_index", "level", "excitation", "method", "status")
+TAIL = ("coherence_min", "cost", "warnings", "error")
+CONNECT_TIMEOUT_S = 10.0
+MAX_LISTED = 20  # failed rows named in the summary
+NANNY_ENVIRON = "distributed.nanny.pre-spawn-environ"
+
+
+class ReanalysisError(InputError):
+    """Bad reanalysis input: no runs, unknown method, unreachable scheduler."""
+
+
+@dataclass
+class Reanalysis:
+    """Gathered result of `reanalyze`.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One row per run and level, every row holding every column (missing -> None).
+    method : str
+    n_runs : int
+    n_workers : int
+        Workers the cluster had when the work was submitted.
+    scheduler : str
+        Address of the scheduler used.
+    elapsed_s : float
+        Wall time from submission to the last gathered result.
+    attrs : dict
+        Extra table attributes: model name and TOML, estimator options.
+    """
+
+    rows: list[dict[str, Any]]
+    method: str
+    n_runs: int
+    n_workers: int
+    scheduler: str
+    elapsed_s: float
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_ok(self) -> int:
+        return sum(row["status"] == "ok" for row in self.rows)
+
+    @property
+    def n_failed(self) -> int:
+        return len(self.rows) - self.n_ok
+
+    @property
+    def failed_runs(self) -> list[str]:
+        """Paths with at least one failed row, in input order."""
+        return list(dict.fromkeys(r["path"] for r in self.rows if r["status"] != "ok"))
+
+    def parameter_columns(self) -> list[str]:
+        """Estimate columns (``e{i}.{kind}.{param}``), without their intervals."""
+        return [c for c in self.rows[0] if c not in HEAD + TAIL and ".ci95_" not in c] \
+            if self.rows else []
+
+    def summary(self) -> str:
+        """A few lines for the terminal: counts, failures, parameter spread."""
+        lines = [f"reanalysed {self.n_runs} run(s), {len(self.rows)} level(s) with "
+                 f"{self.method} on {self.n_workers} worker(s) in {self.elapsed_s:.1f} s: "
+                 f"{self.n_ok} ok, {self.n_failed} failed"]
+        failed = [row for row in self.rows if row["status"] != "ok"]
+        for row in failed[:MAX_LISTED]:
+            where = "" if row["level_index"] < 0 else f" level {row['level_index']}"
+            lines.append(f"  FAILED {row['path']}{where}: {row['error']}")
+        if len(failed) > MAX_LISTED:
+            lines.append(f"  ... and {len(failed) - MAX_LISTED} more failed rows (see the table)")
+        ok = [row for row in self.rows if row["status"] == "ok"]
+        for col in self.parameter_columns():
+            values = [row[col] for row in ok if _finite(row[col])]
+            if values:
+                lines.append(f"  {col}: median {statistics.median(values):.5g} "
+                             f"[{min(values):.5g} .. {max(values):.5g}] over {len(values)}")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"method": self.method, "n_runs": self.n_runs, "n_rows": len(self.rows),
+                "n_ok": self.n_ok, "n_failed": self.n_failed, "n_workers": self.n_workers,
+                "scheduler": self.scheduler, "elapsed_s": self.elapsed_s,
+                "failed_runs": self.failed_runs,
+                "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                          for k, v in row.items()} for row in self.rows]}
+
+
+# --- inputs --------------------------------------------------------------------------------
+def expand_runs(items: Sequence[str | Path]) -> list[str]:
+    """Run files from paths and directories (a directory gives its *.h5/*.hdf5/*.npz, sorted).
+
+    Raises `ReanalysisError` for a path that does not exist or a directory without runs.
+    """
+    runs: list[str] = []
+    for item in items:
+        path = Path(item)
+        if path.is_dir():
+            found = sorted(p for p in path.iterdir() if p.suffix.lower() in RUN_SUFFIXES)
+            if not found:
+                raise ReanalysisError(f"{path}: directory holds no {'/'.join(RUN_SUFFIXES)} "
+                                      "runs; give run files or a campaign directory")
+            runs += [str(p) for p in found]
+        elif path.exists():
+            runs.append(str(path))
+        else:
+            raise ReanalysisError(f"{path}: no such run file; check the path")
+    if not runs:
+        raise ReanalysisError("no runs given; name run files or a campaign directory")
+    return runs
+
+
+def check_request(model: Model, method: str, run_timeout_s: float | None = None) -> None:
+    """Raise `ReanalysisError` for an unknown method, a model with nothing to estimate or a
+    time limit that is not positive."""
+    if run_timeout_s is not None and not run_timeout_s > 0:
+        raise ReanalysisError(f"the run time limit must be > 0 s, got {run_timeout_s:g}")
+    if method not in METHODS:
+        raise ReanalysisError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")
+    if model.complete:
+        raise ReanalysisError(f"the candidate model '{model.name}' has no unknown parameter; "
+                              "omit the parameters to estimate from its elements")
+
+
+# --- the task ------------------------------------------------------------------------------
+def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
+                timeout_s: float | None = None) -> list[dict[str, Any]]:
+    """Rows of one run: open ``path`` here (on the worker), estimate every level.
+
+    Never raises for a bad run: failures become rows with ``status = "failed"``; a run that
+    cannot be read gives a single row with ``level_index = -1``. With ``timeout_s`` (worker
+    processes with one thread only!) the process dumps its stacks to stderr and exits when the
+    run takes longer: a thread stuck inside HDF5 holds the GIL, so only faulthandler's C-level
+    watchdog can still act; Dask's nanny then starts a fresh worker.
+    """
+    if timeout_s:
+        faulthandler.dump_traceback_later(timeout_s, exit=True)
+    try:
+        return _analyse_levels(path, model, method, options)
+    finally:
+        if timeout_s:
+            faulthandler.cancel_dump_traceback_later()
+
+
+def _analyse_levels(path: str, model: Model, method: str,
+                    options: dict[str, Any]) -> list[dict[str, Any]]:
+    from nlid_lab.store import load_recordings  # the worker opens the file itself
+    try:
+        recordings = load_recordings(path)
+    except Exception as exc:  # noqa: BLE001 - any unreadable run is reported, not raised
+        return [_failed_row(path, -1, None, None, method, exc)]
+    rows = []
+    for index, rec in enumerate(recordings):
+        chosen = _method_for(rec, method)
+        try:
+            result = estimate(rec, model, chosen, options)
+        except Exception as exc:  # noqa: BLE001 - one bad level must not stop the others
+            rows.append(_failed_row(path, index, rec.level, rec.excitation, chosen, exc))
+        else:
+            rows.append(_ok_row(path, index, rec, chosen, result))
+    return rows
+
+
+def estimate(rec: Recording, model: Model, method: str,
+             options: dict[str, Any]) -> dict[str, Any]:
+    """The estimator's JSON (contracts section 4) for one level."""
+    if method == "reverse-path":
+        from analysis.reverse_path import reverse_path
+        kwargs = {k: options[k] for k in ("band", "nperseg") if options.get(k) is not None}
+        return reverse_path(rec, model, **kwargs).to_json()
+    from analysis.hbm import parse_harmonics
+    from analysis.hbm_fit import fit_hbm
+    from analysis.sine_fit import stepped_sine_frf
+    from nlid_lab.analyze_hbm import element_json
+    harmonics = parse_harmonics(options.get("harmonics") or "1,3,5,7")
+    fit = fit_hbm(model, [stepped_sine_frf(rec, harmonics[harmonics > 0])], harmonics)
+    return {"elements": element_json(model, fit), "warnings": fit.warnings, "cost": fit.cost}
+
+
+def _method_for(rec: Recording, method: str) -> str:
+    if method != "auto":
+        return method
+    return "reverse-path" if rec.excitation == "random" else "hbm"
+
+
+def _ok_row(path: str, index: int, rec: Recording, method: str,
+            result: dict[str, Any]) -> dict[str, Any]:
+    row: dict[str, Any] = {"path": path, "level_index": index, "level": rec.level,
+                           "excitation": rec.excitation, "method": method, "status": "ok"}
+    for i, el in enumerate(result.get("elements", [])):
+        ci95 = el.get("ci95") or {}
+        estimated = el.get("estimated", el.get("params", {}))  # hbm lists known ones too
+        for name, value in el.get("params", {}).items():
+            if name not in estimated:
+                continue
+            col = f"e{i}.{el['kind']}.{name}"
+            lo, hi = ci95.get(name) or (None, None)
+            row.update({col: _num(value), f"{col}.ci95_lo": _num(lo), f"{col}.ci95_hi": _num(hi)})
+    coherence = result.get("multiple_coherence") or {}
+    row["coherence_min"] = _num(coherence.get("min"))
+    row["cost"] = _num(result.get("cost"))
+    row["warnings"] = " | ".join(str(w) for w in result.get("warnings", []))
+    row["error"] = ""
+    return row
+
+
+def _failed_row(path: str, index: int, level: float | None, excitation: str | None,
+                method: str, exc: BaseException | str) -> dict[str, Any]:
+    text = " ".join(str(exc).split()) or "no message"
+    if isinstance(exc, BaseException) and not isinstance(exc, InputError):
+        text = f"{type(exc).__name__}: {text}"
+    return {"path": path, "level_index": index, "level": level, "excitation": excitation,
+            "method": method, "status": "failed", "warnings": "", "error": text}
+
+
+def _num(value: Any) -> float | None:
+    return None if value is None else float(value)
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+# --- the cluster ---------------------------------------------------------------------------
+def default_workers() -> int:
+    """Cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+
+
+@contextmanager
+def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
+    """A `distributed.Client`: to ``scheduler`` if given, else to a new `LocalCluster`.
+
+    The local cluster has ``workers`` process workers (default: one per core) with one thread
+    each; Dask's nanny pins BLAS/OpenMP to one thread per worker.
+    """
+    import logging
+
+    import dask
+    from distributed import Client, LocalCluster
+    if scheduler:
+        if workers is not None:
+            raise ReanalysisError("--workers applies to the local cluster only; start the "
+                                  "wanted workers on the cluster behind --scheduler instead")
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ReanalysisError(f"cannot reach Dask scheduler at {scheduler} "
+                                  f"({' '.join(str(exc).split())}); check the address "
+                                  "(tcp://host:port) and that the scheduler runs") from None
+        with client:
+            yield client
+        return
+    n = default_workers() if workers is None else workers
+    if n < 1:
+        raise ReanalysisError(f"--workers must be at least 1, got {n}")
+    with dask.config.set({NANNY_ENVIRON: worker_environ()}), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                         dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as client:
+        yield client
+
+
+def worker_environ() -> dict[str, Any]:
+    """Dask's pre-spawn worker environment without ``MALLOC_TRIM_THRESHOLD_``.
+
+    Dask sets it to return freed memory to the OS early; setting it also switches off glibc's
+    dynamic mmap threshold, so every large numpy temporary is a fresh mmap with page faults:
+    measured 29 -> 42 ms per run of reverse path (+45 %). The BLAS/OpenMP one-thread pins stay.
+    """
+    import dask
+
+    environ = dict(dask.config.get(NANNY_ENVIRON, default={}))
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return environ
+
+
+def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
+              method: str = "reverse-path", options: dict[str, Any] | None = None,
+              progress: bool = True, run_timeout_s: float | None = None) -> Reanalysis:
+    """Map `analyse_run` over ``runs`` on ``client`` and gather one table.
+
+    Parameters
+    ----------
+    runs : sequence of path
+        Run files (use `expand_runs` for directories); workers must see the same paths.
+    model : Model
+        Candidate model; elements without parameters are estimated.
+    client : distributed.Client
+        From `dask_client` or any connected client.
+    method : {"reverse-path", "hbm", "auto"}
+        ``auto`` uses reverse path for random levels and HBM for stepped-sine levels.
+    options : dict, optional
+        Estimator settings: ``band``, ``nperseg`` (reverse path), ``harmonics`` (hbm).
+    progress : bool
+        Show a tqdm bar on stderr while results come in.
+    run_timeout_s : float, optional
+        Time limit per run: a worker whose run takes longer ends itself (its nanny restarts
+        it) and the run becomes a failed row. Dask retries a task whose worker died (config
+        ``distributed.scheduler.allowed-failures``, default 3), so a hanging run costs up to
+        four times the limit.
+
+    Returns
+    -------
+    Reanalysis
+    """
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    check_request(model, method, run_timeout_s)
+    paths = [os.path.abspath(p) for p in runs]  # workers may run in another directory
+    if not paths:
+        raise ReanalysisError("no runs given; name run files or a campaign directory")
+    options = dict(options or {})
+    n_workers = len(client.scheduler_info(n_workers=-1).get("workers", {}))
+    start = time.perf_counter()
+    futures = client.map(analyse_run, paths, model=model, method=method, options=options,
+                         timeout_s=run_timeout_s, pure=False)
+    order = {f.key: i for i, f in enumerate(futures)}
+    gathered: list[list[dict[str, Any]]] = [[] for _ in paths]
+    failed = 0
+    with tqdm(total=len(paths), unit="run", file=sys.stderr, disable=not progress,
+              desc="reanalyze") as bar:
+        for future, result in as_completed(futures, with_results=True, raise_errors=False):
+            i = order[future.key]
+            if future.status != "finished":  # worker died, result not picklable, ...
+                result = [_failed_row(paths[i], -1, None, None, method,
+                                      _lost(future.exception(), run_timeout_s))]
+            gathered[i] = result
+            failed += any(row["status"] != "ok" for row in result)
+            bar.set_postfix(failed=failed, refresh=False)
+            bar.update()
+    elapsed = time.perf_counter() - start
+    rows = _complete_columns([row for rows in gathered for row in rows])
+    return Reanalysis(rows, method, len(paths), n_workers, client.scheduler.address, elapsed,
+                      {"model_name": model.name, "model_toml": model.dumps(),
+                       "options": options})
+
+
+def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | str:
+    """The error of a task without result; a dead worker explained in words."""
+    from distributed import KilledWorker
+    if not isinstance(exc, KilledWorker):
+        return exc
+    why = f"took over the {run_timeout_s:g} s run time limit or crashed" if run_timeout_s \
+        else "crashed"
+    return (f"no result: the worker analysing this run {why} (Dask gave up after "
+            f"{exc.allowed_failures + 1} attempt(s))")
+
+
+def _complete_columns(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every row with every column: head, parameters (first-seen order), tail."""
+    middle: list[str] = []
+    for row in rows:
+        middle += [k for k in row if k not in HEAD + TAIL and k not in middle]
+    tail = [k for k in TAIL if any(row.get(k) is not None for row in rows) or k in
+            ("warnings", "error")]
+    columns = list(HEAD) + middle + tail
+    return [{c: row.get(c) for c in columns} for row in rows]
+
+
+def write_results(result: Reanalysis, out: str | Path) -> None:
+    """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store_tables`)."""
+    from nlid_lab.store_tables import write_table
+    attrs = {"kind": "nlid-lab reanalysis", "method": result.method,
+             "n_runs": result.n_runs, "n_ok": result.n_ok, "n_failed": result.n_failed,
+             "n_workers": result.n_workers, "elapsed_s": result.elapsed_s, **result.attrs}
+    write_table(out, result.rows, attrs)
