@@ -387,8 +387,8 @@ def _complete_columns(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def write_results(result: Reanalysis, out: str | Path) -> None:
-    """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store_tables`)."""
-    from nlid_lab.store_tables import write_table
+    """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store.tables`)."""
+    from nlid_lab.store import write_table
     attrs = {"kind": "nlid-lab reanalysis", "method": result.method,
              "n_runs": result.n_runs, "n_ok": result.n_ok, "n_failed": result.n_failed,
              "n_workers": result.n_workers, "elapsed_s": result.elapsed_s, **result.attrs}

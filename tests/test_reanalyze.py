@@ -22,7 +22,7 @@ from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
 from nlid_lab import cli, reanalyze as rea
 from nlid_lab.store import RunWriter, load_recordings, save_recording
-from nlid_lab.store_tables import TableError, read_table, write_table
+from nlid_lab.store import TableError, read_table, write_table
 
 pytest.importorskip("distributed")
 
@@ -278,13 +278,15 @@ def test_run_time_limit_frees_a_stuck_worker(campaign, tmp_path):
     os.mkfifo(stuck)
     model = Model.load(campaign["candidate"])
     good = campaign["good"][1]
+    # two single-thread workers: each run gets its own, so the stuck run's worker dying
+    # cannot take the good run (queued behind it on one worker) down with it
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
-            rea.dask_client(workers=1) as client:
+            rea.dask_client(workers=2) as client:
         client.run(rea.analyse_run, good, model, "reverse-path", {})   # imports, numba
         result = rea.reanalyze([good, str(stuck)], model, client, progress=False,
                                run_timeout_s=3.0)
     ok, lost = result.rows
-    assert ok["status"] == "ok"
+    assert ok["status"] == "ok", ok["error"]
     assert lost["status"] == "failed" and "3 s run time limit" in lost["error"]
 
 

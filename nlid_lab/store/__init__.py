@@ -1,0 +1,25 @@
+"""HDF5 run store: one file per run, schema in docs/run-format.md (the only h5py importer).
+
+Crash safety: after its header is built (in a temporary file renamed into place) a run file
+is only ever modified in HDF5 SWMR mode, and each block is written data first, flushed, then
+indexed in ``/segments`` and flushed again. SWMR orders metadata writes so that the file on
+disk is always readable, hence a writer killed at any moment (SIGKILL included) leaves a file
+holding every block whose index row was flushed. Such a file still carries the "open by a
+SWMR writer" superblock flag: `open_run` reads it in SWMR mode, and ``mode="resume"`` rebuilds
+it into a clean file (temporary file + atomic rename) before appending again.
+
+Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recording helpers),
+`tables` (result tables of reanalysis), `_common` (schema constants and HDF5 helpers).
+"""
+
+from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
+from .reader import Level, Run, load_recordings, open_run, save_recording, save_result
+from .tables import TableError, read_table, write_table
+from .writer import LevelWriter, RunWriter
+
+__all__ = [
+    "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now",
+    "Level", "Run", "load_recordings", "open_run", "save_recording", "save_result",
+    "TableError", "read_table", "write_table",
+    "LevelWriter", "RunWriter",
+]

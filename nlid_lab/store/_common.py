@@ -1,0 +1,155 @@
+"""Schema constants and low-level HDF5 helpers shared by the run writer and reader."""
+
+from __future__ import annotations
+
+import json
+import time
+import zlib
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from analysis.errors import InputError
+
+SCHEMA_VERSION = 1
+
+
+FORMAT = "nlid-lab run"
+
+
+STATUSES = ("running", "complete", "aborted", "interrupted")
+
+
+RESPONSE_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+
+
+CHUNK_ROWS = 4096
+
+
+CHANNEL_DTYPE = np.dtype([("name", "S64"), ("unit", "S16"), ("dof", "<i4"),
+                          ("sensitivity", "<f8"), ("kind", "S16")])
+
+
+LEVEL_DTYPE = np.dtype([("index", "<i4"), ("nominal", "<f8"), ("complete", "u1")])
+
+
+SEGMENT_DTYPE = np.dtype([("level", "<i4"), ("seq", "<i8"), ("t", "<f8"), ("start", "<i8"),
+                          ("length", "<i8"), ("freq", "<f8"), ("amplitude", "<f8"),
+                          ("crc", "<u4"), ("extra_start", "<i8"), ("extra_length", "<i8")])
+
+
+LOG_DTYPE = np.dtype([("t", "<f8"), ("kind", "S16"), ("start", "<i8"), ("length", "<i8")])
+
+
+_TABLES = {"levels": LEVEL_DTYPE, "segments": SEGMENT_DTYPE, "log": LOG_DTYPE}
+
+
+class StoreError(InputError):
+    """A run file is missing, unreadable or inconsistent with what is written to it."""
+
+
+def utc_now() -> str:
+    """Current time as an ISO-8601 UTC string."""
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+def _open(path: Path, mode: str) -> h5py.File:
+    """Open ``path``. Locking is best-effort (file systems without locks work) and the same for
+    readers and writers (HDF5 refuses a second open with other flags in one process)."""
+    try:
+        if mode == "r":
+            try:  # plain first: a SWMR reader retries a corrupt file's metadata for minutes
+                return h5py.File(path, "r", locking="best-effort")
+            except OSError as exc:
+                if "open for" not in str(exc) and "consistency" not in str(exc):
+                    raise
+                # flagged as open by a (live or crashed) SWMR writer: read as SWMR
+                return h5py.File(path, "r", swmr=True, locking="best-effort")
+        return h5py.File(path, mode, libver="latest", locking="best-effort")
+    except FileNotFoundError:
+        raise StoreError(f"run file {path} not found; check the path") from None
+    except OSError as exc:
+        if "already open for write" in str(exc):
+            raise
+        raise StoreError(f"cannot open {path} as an HDF5 run file ({' '.join(str(exc).split())})"
+                         "; is it a run written by nlid-lab?") from None
+
+
+def _crc(force: np.ndarray, response: np.ndarray) -> int:
+    return zlib.crc32(response.tobytes(), zlib.crc32(force.tobytes()))
+
+
+def _default_channels(force_dofs: np.ndarray, n_dof: int, response_kind: str) -> list[dict]:
+    chans = [{"name": f"force{i}", "unit": "N", "dof": int(d), "kind": "force"}
+             for i, d in enumerate(force_dofs)]
+    chans += [{"name": f"{response_kind[0]}{j}", "unit": RESPONSE_UNITS[response_kind],
+               "dof": j, "kind": "response"} for j in range(n_dof)]
+    return chans
+
+
+def _channel_table(channels: list[dict], force_dofs: np.ndarray, n_dof: int) -> np.ndarray:
+    table = np.zeros(len(channels), CHANNEL_DTYPE)
+    for i, ch in enumerate(channels):
+        try:
+            table[i] = (str(ch["name"]).encode(), str(ch.get("unit", "")).encode(),
+                        int(ch["dof"]), float(ch.get("sensitivity", 1.0)),
+                        str(ch["kind"]).encode())
+        except (KeyError, ValueError, TypeError) as exc:
+            raise StoreError(f"channel {i} {ch!r} is malformed ({exc}); give name, unit, dof, "
+                             "kind and optionally sensitivity") from None
+    forces = table[table["kind"] == b"force"]["dof"]
+    responses = table[table["kind"] == b"response"]["dof"]
+    if forces.tolist() != force_dofs.tolist() or sorted(responses.tolist()) != list(range(n_dof)):
+        raise StoreError("channels must list one force channel per force DOF (in force_dofs "
+                         "order) and one response channel per DOF 0..n_dof-1")
+    return table
+
+
+def _append_row(f: h5py.File, name: str, row: tuple) -> None:
+    ds = f[name]
+    ds.resize((ds.shape[0] + 1,))
+    ds[-1] = np.array(row, dtype=ds.dtype)
+
+
+def _write_text(f: h5py.File, payload: Any) -> tuple[int, int]:
+    """Append ``payload`` as JSON to the ``/text`` byte stream; returns (start, length)."""
+    raw = np.frombuffer(json.dumps(payload, default=_json_default).encode(), np.uint8)
+    ds = f["text"]
+    start = ds.shape[0]
+    ds.resize((start + raw.size,))
+    ds[start:] = raw
+    return start, raw.size
+
+
+def _append_log(f: h5py.File, kind: str, payload: dict) -> None:
+    start, length = _write_text(f, payload)
+    _append_row(f, "log", (time.time(), kind.encode()[:16], start, length))
+    f.flush()
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _valid_segments(f: h5py.File) -> np.ndarray:
+    """Index rows whose samples are on disk (checksums are verified when data are read)."""
+    seg = f["segments"][:]
+    n = min(f["data/force"].shape[0], f["data/response"].shape[0])
+    return seg[seg["start"] + seg["length"] <= n]
+
+
+def _json_at(text, start: int, length: int) -> Any:
+    """JSON payload at ``text[start:start + length]`` (None when length is 0)."""
+    return json.loads(np.asarray(text[start:start + length]).tobytes()) if length else None
+
+
+def _read_status(f: h5py.File) -> tuple[str, str, str]:
+    st = f["state"]
+    return tuple(st[k][()].decode() for k in ("status", "reason", "updated_utc"))

@@ -1,0 +1,194 @@
+"""Reading run files (`open_run`, `Run`) and one-shot helpers for whole recordings."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analysis.recording import Recording
+
+from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
+                      _read_status, _valid_segments)
+from .writer import RunWriter, _repair
+
+# --- read side -------------------------------------------------------------------------------
+
+
+@dataclass
+
+
+class Level:
+    """One level of a run as stored."""
+
+    index: int
+    nominal: float
+    complete: bool
+    n_segments: int
+    n_samples: int
+
+
+@dataclass
+
+
+class Run:
+    """A run file's metadata and index; data are read on demand by `recording`.
+
+    ``status`` is as last written: ``"running"`` in a file no process writes any more means
+    the writer was killed; every indexed block is still readable.
+    """
+
+    path: Path
+    meta: dict[str, Any]
+    channels: list[dict[str, Any]]
+    status: str
+    reason: str
+    updated_utc: str
+    losses: dict[str, int]
+    levels: list[Level]
+    segments: np.ndarray
+    log: list[dict[str, Any]]
+    results: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+
+    def level_index(self, level: int | None) -> int:
+        """Resolve ``level`` (None: the only level with data) to a stored level index."""
+        with_data = [lv.index for lv in self.levels if lv.n_segments]
+        if level is None:
+            if len(with_data) != 1:
+                raise StoreError(f"{self.path} holds levels {with_data}; choose one")
+            return with_data[0]
+        if level not in with_data:
+            raise StoreError(f"{self.path} has no data for level {level}; levels with data: "
+                             f"{with_data}")
+        return level
+
+    def recording(self, level: int | None = None) -> Recording:
+        """The data of one level as a `Recording` (blocks concatenated in sequence order).
+
+        Stepped-sine steps of different lengths are cut to the shortest, keeping each step's
+        last samples (the most settled ones).
+        """
+        index = self.level_index(level)
+        seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
+        lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
+        with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
+            force, response, text = f["data/force"][lo:hi], f["data/response"][lo:hi], f["text"]
+            extra = [_json_at(text, s["extra_start"], s["extra_length"]) for s in seg]
+        parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n])
+                 for s, n in zip(seg["start"], seg["length"])]
+        keep = [i for i, (fo, re) in enumerate(parts) if _crc(fo, re) == seg["crc"][i]]
+        if len(keep) < len(seg):
+            self.warnings.append(f"level {index}: {len(seg) - len(keep)} block(s) failed their "
+                                 "checksum and were skipped")
+        seg, parts, extra = seg[keep], [parts[i] for i in keep], [extra[i] for i in keep]
+        if not parts:
+            raise StoreError(f"{self.path} level {index}: no intact block")
+        nominal = next(lv.nominal for lv in self.levels if lv.index == index)
+        meta = {"run": str(self.path), "level_index": index, "source": self.meta.get("source"),
+                "status": self.status, "seq": seg["seq"], "t": seg["t"],
+                "channels": self.channels, "excitation_settings":
+                self.meta.get("excitation_settings", {}), "settings": self.meta.get("settings")}
+        hold = (self.meta.get("settings") or {}).get("force_hold")
+        if hold:
+            meta["force_hold"] = hold
+        common = dict(fs=self.meta["fs"], excitation=self.meta["excitation"],
+                      force_dofs=self.meta["force_dofs"],
+                      response_kind=self.meta["response_kind"],
+                      level=None if np.isnan(nominal) else nominal)
+        if self.meta["excitation"] == "random":
+            meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+            meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
+            return Recording(force=np.concatenate([p[0] for p in parts]),
+                             response=np.concatenate([p[1] for p in parts]), meta=meta,
+                             **common)
+        n = min(len(p[0]) for p in parts)
+        meta.update(step_amplitude=seg["amplitude"], step_extra=extra,
+                    step_lengths=seg["length"])
+        return Recording(force=np.stack([p[0][-n:] for p in parts]),
+                         response=np.stack([p[1][-n:] for p in parts]), freqs=seg["freq"],
+                         meta=meta, **common)
+
+    def recordings(self) -> list[Recording]:
+        """One `Recording` per level holding data, in level order."""
+        return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
+
+
+def open_run(path: str | os.PathLike) -> Run:
+    """Read a run file's metadata and block index (works on crashed files too)."""
+    path = Path(path)
+    with _open(path, "r") as f:
+        if f.attrs.get("format") != FORMAT:
+            raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
+        version = int(f.attrs["schema_version"])
+        if version > SCHEMA_VERSION:
+            raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
+                             f"{SCHEMA_VERSION}: upgrade nlid-lab")
+        meta = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
+        for key in ("excitation_settings", "settings"):
+            meta[key] = json.loads(meta[key])
+        meta["force_dofs"] = np.asarray(meta["force_dofs"], dtype=int)
+        channels = [{"name": c["name"].decode(), "unit": c["unit"].decode(),
+                     "dof": int(c["dof"]), "sensitivity": float(c["sensitivity"]),
+                     "kind": c["kind"].decode()} for c in f["channels"][:]]
+        status, reason, updated = _read_status(f)
+        lost = f["state/losses"][:]
+        segments = _valid_segments(f)
+        text = f["text"][:]
+        log = [{"t": float(row["t"]), "kind": row["kind"].decode(),
+                **_json_at(text, row["start"], row["length"])}
+               for row in f["log"][:] if row["start"] + row["length"] <= text.size]
+        levels = [Level(int(lv["index"]), float(lv["nominal"]), bool(lv["complete"]),
+                        int(np.count_nonzero(segments["level"] == lv["index"])),
+                        int(segments["length"][segments["level"] == lv["index"]].sum()))
+                  for lv in np.sort(f["levels"][:], order="index")]
+    results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
+    return Run(path, meta, channels, status, reason, updated,
+               {"frames": int(lost[0]), "samples": int(lost[1])}, levels, segments, log,
+               results)
+
+
+def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
+    """Add an analysis result to an existing run file (crash-safely, in SWMR mode)."""
+    path = Path(path)
+    _repair(path)
+    with _open(path, "r+") as f:
+        f.swmr_mode = True
+        _append_log(f, "result", {"name": name, "value": result})
+
+
+def save_recording(path: str | os.PathLike, rec: Recording, **meta: Any) -> None:
+    """Write one `Recording` as a complete single-level run file (overwriting ``path``).
+
+    ``meta`` goes to `RunWriter` (``source``, ``model_toml``, ``settings``, ``channels``).
+    """
+    excitation = meta.pop("excitation_settings", None) or {"kind": rec.excitation}
+    with RunWriter(path, fs=rec.fs, excitation=excitation, force_dofs=rec.force_dofs,
+                   n_dof=rec.n_dof, response_kind=rec.response_kind, mode="overwrite",
+                   **meta) as run:
+        lv = run.level(0, np.nan if rec.level is None else rec.level)
+        if rec.excitation == "random":
+            lv.append_block(rec.force, rec.response)
+        else:
+            for freq, force, response in zip(rec.freqs, rec.force, rec.response):
+                lv.append_step(freq, force, response, amplitude=rec.level)
+        lv.complete()
+
+
+def load_recordings(path: str | os.PathLike) -> list[Recording]:
+    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``."""
+    from .. import recordings_io
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".h5", ".hdf5"):
+        return open_run(path).recordings()
+    if suffix == ".npz":
+        return [recordings_io.read_npz(path)]
+    if suffix == ".csv":
+        return [recordings_io.read_csv(path)]
+    raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")

@@ -1,0 +1,297 @@
+"""Writing run files: `RunWriter` (one per run) and `LevelWriter` (one per level)."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Callable
+
+import h5py
+import numpy as np
+
+from analysis.recording import EXCITATIONS, RESPONSE_KINDS
+
+from .. import __version__
+from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, STATUSES, _TABLES, StoreError,
+                      _append_log, _append_row, _channel_table, _crc, _default_channels,
+                      _json_default, _open, _valid_segments, _write_text, utc_now)
+
+
+class LevelWriter:
+    """Appends blocks (random) or steps (stepped sine) of one level of a run."""
+
+    def __init__(self, run: "RunWriter", index: int) -> None:
+        self._run = run
+        self.index = index
+        seg = run._file["segments"][:]
+        mine = seg[seg["level"] == index]
+        self.n_segments = len(mine)
+        self.n_samples = int(mine["length"].sum())
+        self.next_seq = int(mine["seq"].max()) + 1 if len(mine) else 0
+
+    def append_block(self, force: np.ndarray, response: np.ndarray, seq: int | None = None,
+                     t: float | None = None) -> int:
+        """Append one random-excitation block; returns its sequence number."""
+        return self._append(force, response, seq, t, np.nan, np.nan, None)
+
+    def append_step(self, freq: float, force: np.ndarray, response: np.ndarray,
+                    amplitude: float | None = None, extra: dict | None = None,
+                    seq: int | None = None, t: float | None = None) -> int:
+        """Append one stepped-sine step (steady-state samples at ``freq``)."""
+        if not np.isfinite(freq) or freq <= 0:
+            raise StoreError(f"step frequency must be a positive number, got {freq}")
+        amp = np.nan if amplitude is None else float(amplitude)
+        return self._append(force, response, seq, t, float(freq), amp, extra)
+
+    def complete(self) -> None:
+        """Mark this level as fully measured."""
+        ds = self._run._file["levels"]
+        pos = int(np.nonzero(ds["index"] == self.index)[0][0])
+        row = ds[pos]
+        row["complete"] = 1
+        ds[pos] = row
+        self._run._file.flush()
+
+    def _append(self, force, response, seq, t, freq, amp, extra) -> int:
+        run = self._run
+        force = np.ascontiguousarray(force, dtype="<f8")
+        response = np.ascontiguousarray(response, dtype="<f8")
+        n_in, n_dof = run.force_dofs.size, run.n_dof
+        force = force[:, None] if force.ndim == 1 and n_in == 1 else force
+        response = response[:, None] if response.ndim == 1 and n_dof == 1 else response
+        if force.ndim != 2 or force.shape[1] != n_in or response.shape != (len(force), n_dof):
+            raise StoreError(f"block shapes force {force.shape}, response {response.shape}; "
+                             f"expected (n, {n_in}) and (n, {n_dof})")
+        if len(force) == 0:
+            raise StoreError("empty block; append at least one sample")
+        seq = self.next_seq if seq is None else int(seq)
+        f = run._file
+        start = f["data/force"].shape[0]
+        for name, block in (("force", force), ("response", response)):
+            f[f"data/{name}"].resize((start + len(block), block.shape[1]))
+            f[f"data/{name}"][start:] = block
+        f.flush()  # data on disk before the index row that makes them visible
+        ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
+        _append_row(f, "segments", (self.index, seq, time.time() if t is None else float(t),
+                                    start, len(force), freq, amp, _crc(force, response),
+                                    ex_start, ex_len))
+        f.flush()
+        self.n_segments += 1
+        self.n_samples += len(force)
+        self.next_seq = seq + 1
+        return seq
+
+
+class RunWriter:
+    """Writes one run file; a context manager.
+
+    Parameters
+    ----------
+    path : path-like
+        The run file (``.h5``).
+    fs : float
+        Sample rate, Hz.
+    excitation : str or dict
+        ``"random"`` or ``"stepped-sine"``, or a settings dict whose ``"kind"`` is one of them
+        (stored whole as the ``excitation_settings`` JSON attribute).
+    force_dofs : sequence of int
+        DOF (0-based) each force channel acts on.
+    n_dof : int
+        Number of response DOFs (one response channel each).
+    response_kind : {"displacement", "velocity", "acceleration"}
+    channels : list of dict, optional
+        ``{"name", "unit", "dof", "kind": "force"|"response", "sensitivity"}``; defaults
+        derived from ``force_dofs`` and ``n_dof``. Data are stored in physical units.
+    settings : dict, optional
+        Free-form run settings (campaign, backend), stored as JSON.
+    model_toml : str, optional
+        Text of the model file when the run is simulated.
+    source : str
+        Where the data come from (``"sim"``, ``"serial"``, ``"can"``, ``"import"``...).
+    mode : {"create", "overwrite", "resume"}
+        ``create`` refuses an existing file; ``resume`` continues one (a crashed file is
+        rebuilt first) after checking it matches fs, excitation, force_dofs and n_dof.
+    """
+
+    def __init__(self, path: str | os.PathLike, *, fs: float, excitation: str | dict,
+                 force_dofs, n_dof: int, response_kind: str = "displacement",
+                 channels: list[dict] | None = None, settings: dict | None = None,
+                 model_toml: str | None = None, source: str = "sim",
+                 mode: str = "create") -> None:
+        self.path = Path(path)
+        exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
+        self.excitation = exc_settings.get("kind")
+        self.fs = float(fs)
+        self.force_dofs = np.atleast_1d(np.asarray(force_dofs, dtype=int))
+        self.n_dof = int(n_dof)
+        self._check_args(response_kind, mode)
+        attrs = {
+            "format": FORMAT, "schema_version": SCHEMA_VERSION,
+            "software": f"nlid-lab {__version__}", "created_utc": utc_now(),
+            "source": source, "fs": self.fs, "excitation": self.excitation,
+            "excitation_settings": json.dumps(exc_settings, default=_json_default),
+            "settings": json.dumps(settings or {}, default=_json_default),
+            "force_dofs": self.force_dofs, "n_dof": self.n_dof,
+            "response_kind": response_kind, "model_toml": model_toml or "",
+        }
+        chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind)
+        table = _channel_table(chans, self.force_dofs, self.n_dof)
+        if mode == "resume" and self.path.exists():
+            self._file = self._resume(attrs)
+        else:
+            if mode == "create" and self.path.exists():
+                raise StoreError(f"{self.path} already exists; resume it or choose a new name")
+            _create(self.path, attrs, table)
+            self._file = _open(self.path, "r+")
+            self._file.swmr_mode = True
+        self.set_status("running")
+
+    def _check_args(self, response_kind: str, mode: str) -> None:
+        for what, value, allowed in (("excitation kind", self.excitation, EXCITATIONS),
+                                     ("response_kind", response_kind, RESPONSE_KINDS),
+                                     ("mode", mode, ("create", "overwrite", "resume"))):
+            if value not in allowed:
+                raise StoreError(f"{what} {value!r} is not one of {', '.join(allowed)}")
+        if not np.isfinite(self.fs) or self.fs <= 0 or self.n_dof < 1:
+            raise StoreError("fs must be > 0 and n_dof >= 1")
+        if self.force_dofs.size == 0 or self.force_dofs.min() < 0 \
+                or self.force_dofs.max() >= self.n_dof:
+            raise StoreError(f"force_dofs {self.force_dofs.tolist()} must be 0-based DOFs "
+                             f"below n_dof={self.n_dof}")
+
+    def _resume(self, attrs: dict) -> h5py.File:
+        rebuilt = _repair(self.path)
+        f = _open(self.path, "r+")
+        for key in ("fs", "excitation", "n_dof", "force_dofs"):
+            have = f.attrs[key]
+            if not np.array_equal(have, attrs[key]):
+                f.close()
+                raise StoreError(f"cannot resume {self.path}: its {key} is {have!r}, not "
+                                 f"{attrs[key]!r}; use the same settings or a new file")
+        f.swmr_mode = True
+        self._file = f
+        self.log("resume", {"rebuilt_after_crash": rebuilt})
+        return f
+
+    # --- public API ------------------------------------------------------------------------
+    def level(self, index: int, nominal: float) -> LevelWriter:
+        """Writer for level ``index`` (created, or continued when resuming)."""
+        levels = self._file["levels"][:]
+        hit = levels[levels["index"] == index]
+        if len(hit):
+            if not np.isclose(hit["nominal"][0], nominal, equal_nan=True):
+                raise StoreError(f"level {index} exists with nominal {hit['nominal'][0]}, "
+                                 f"not {nominal}")
+        else:
+            _append_row(self._file, "levels", (int(index), float(nominal), 0))
+            self._file.flush()
+        return LevelWriter(self, int(index))
+
+    def count_loss(self, frames: int = 0, samples: int = 0, note: str = "",
+                   level: int | None = None) -> None:
+        """Add lost/dropped frames and samples to the run's counters (and log them)."""
+        counts = self._file["state/losses"]
+        counts[...] = counts[...] + np.array([frames, samples])
+        self.log("loss", {"frames": frames, "samples": samples, "note": note, "level": level})
+
+    def set_status(self, status: str, reason: str = "") -> None:
+        """Set the run status (one of `STATUSES`)."""
+        if status not in STATUSES:
+            raise StoreError(f"status {status!r} is not one of {', '.join(STATUSES)}")
+        state = self._file["state"]
+        state["status"][()] = status.encode()
+        state["reason"][()] = reason.encode()[:256]
+        state["updated_utc"][()] = utc_now().encode()
+        self.status = status
+        self.log("status", {"status": status, "reason": reason})
+
+    def save_result(self, name: str, result: dict) -> None:
+        """Store an analysis result (JSON-able dict) under ``name``; later saves win."""
+        self.log("result", {"name": name, "value": result})
+
+    def log(self, kind: str, payload: dict) -> None:
+        """Append an event to the run's log."""
+        _append_log(self._file, kind, payload)
+
+    def close(self) -> None:
+        if self._file.id.valid:
+            self._file.close()
+
+    def __enter__(self) -> "RunWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if self._file.id.valid:
+            if exc_type is KeyboardInterrupt:
+                self.set_status("interrupted", "interrupted by the user")
+            elif exc_type is not None:
+                self.set_status("aborted", f"{exc_type.__name__}: {exc}")
+            elif self.status == "running":
+                self.set_status("complete")
+        self.close()
+
+
+def _create(path: Path, attrs: dict, channels: np.ndarray,
+            fill: Callable[[h5py.File], None] | None = None) -> None:
+    """Build a run file (header, empty tables, then ``fill``) in ``path.tmp``, rename it."""
+    tmp = path.with_name(path.name + ".tmp")
+    n_in, n_dof = len(attrs["force_dofs"]), int(attrs["n_dof"])
+    try:
+        with h5py.File(tmp, "w", libver="latest", locking="best-effort") as f:
+            f.attrs.update(attrs)
+            f.create_dataset("channels", data=channels)
+            st = f.create_group("state")
+            st.create_dataset("status", data=np.bytes_("running"), dtype="S16")
+            st.create_dataset("reason", data=np.bytes_(""), dtype="S256")
+            st.create_dataset("updated_utc", data=np.bytes_(attrs["created_utc"]), dtype="S32")
+            st.create_dataset("losses", data=np.zeros(2, "<i8"))
+            for name, dtype in _TABLES.items():
+                f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(256,), dtype=dtype)
+            f.create_dataset("text", shape=(0,), maxshape=(None,), chunks=(65536,), dtype="u1")
+            for name, width in (("force", n_in), ("response", n_dof)):
+                f.create_dataset(f"data/{name}", shape=(0, width), maxshape=(None, width),
+                                 chunks=(CHUNK_ROWS, width), dtype="<f8")
+            if fill:
+                fill(f)
+    except OSError as exc:
+        raise StoreError(f"cannot write {path}: {' '.join(str(exc).split())}") from None
+    os.replace(tmp, path)
+
+
+def _repair(path: Path) -> bool:
+    """Make a crashed run file writable again; returns True if it had to be rebuilt.
+
+    The file is read in SWMR mode, its valid content (every indexed, checksum-correct segment
+    and complete log entry) copied into a fresh file, which then replaces the original.
+    """
+    try:
+        h5py.File(path, "r+", libver="latest", locking="best-effort").close()
+        return False
+    except OSError as exc:
+        if "already open for write" not in str(exc):
+            raise StoreError(f"cannot resume {path}: {' '.join(str(exc).split())}") from None
+    with _open(path, "r") as old:
+        seg_ok = _valid_segments(old)
+        end = int((seg_ok["start"] + seg_ok["length"]).max()) if len(seg_ok) else 0
+        log = old["log"][:]
+        text_n = old["text"].shape[0]
+        log = log[log["start"] + log["length"] <= text_n]
+
+        def copy(f: h5py.File) -> None:
+            st = f["state"]
+            for key in ("status", "reason", "updated_utc", "losses"):
+                st[key][()] = old["state"][key][()]
+            for name, rows in (("levels", old["levels"][:]), ("segments", seg_ok), ("log", log)):
+                f[name].resize((len(rows),))
+                f[name][:] = rows
+            f["text"].resize((text_n,))
+            f["text"][:] = old["text"][:text_n]
+            for name in ("force", "response"):
+                src, dst = old[f"data/{name}"], f[f"data/{name}"]
+                dst.resize((end, src.shape[1]))
+                for i in range(0, end, 1 << 20):
+                    dst[i:i + (1 << 20)] = src[i:min(end, i + (1 << 20))]
+        _create(path, dict(old.attrs), old["channels"][:], copy)
+    return True
