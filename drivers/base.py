@@ -192,6 +192,12 @@ class SignalGenerator(_Lifecycle, ABC):
     def close(self) -> None:
         """Release the device; a running output is stopped first."""
 
+    def check_link(self) -> None:
+        """Raise the `CommsError` a background link check (e.g. the watchdog feeder) met.
+
+        Cheap; callers that stream for long without commanding the shaker call it per chunk.
+        """
+
     @staticmethod
     def check_level(level: float) -> float:
         if not (isinstance(level, (int, float)) and math.isfinite(level) and level >= 0):

@@ -2,10 +2,13 @@
 
 Every command is one ASCII line ending in ``\\n``; the device answers one line: ``OK``, a
 value for a query, or ``ERR <code>,"<text>"``. pyserial exceptions become `Disconnected`.
+Commands are serialised by a lock, so a background thread (the shaker's watchdog feeder) may
+share the link with the caller.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 
 import serial
@@ -20,6 +23,8 @@ class SerialLink:
         self.what = what
         self.port = port
         self._left = b""  # bytes read past a reply line, handed out by the next read
+        self.lock = threading.Lock()
+        self.last_command = 0.0  # monotonic time the last command was sent
         try:
             self.ser = serial.serial_for_url(port, baudrate=baud, timeout=0.0)
         except (serial.SerialException, OSError, ValueError) as exc:
@@ -52,8 +57,19 @@ class SerialLink:
 
     def command(self, line: str, timeout: float) -> str:
         """Send one command line and return the reply line (``ERR`` raises)."""
+        if not self.lock.acquire(timeout=max(timeout, 0.0)):
+            raise DriverTimeout(f"{self.what} on {self.port} busy: could not send '{line}' "
+                                f"within {timeout:g} s")
+        try:
+            return self._command(line, timeout)
+        finally:
+            self.lock.release()
+
+    def _command(self, line: str, timeout: float) -> str:
+        self._discard_input()  # a late reply to a timed-out command must not answer this one
         self.write(line.encode("ascii") + b"\n")
-        deadline = time.monotonic() + timeout
+        self.last_command = time.monotonic()
+        deadline = self.last_command + timeout
         buf = b""
         while b"\n" not in buf:
             left = deadline - time.monotonic()
@@ -66,6 +82,13 @@ class SerialLink:
         if reply.startswith("ERR"):
             raise DeviceError(f"{self.what} rejected '{line}': {reply[3:].strip()}")
         return reply
+
+    def _discard_input(self) -> None:
+        self._left = b""
+        try:
+            self.ser.reset_input_buffer()
+        except (serial.SerialException, OSError) as exc:
+            raise Disconnected(f"{self.what} on {self.port} went away: {exc}") from None
 
     def drain_until(self, marker: bytes, timeout: float) -> None:
         """Discard input until it ends with ``marker`` (e.g. the reply after a stream)."""

@@ -1,10 +1,23 @@
-"""``serial://`` shaker controller speaking the SCPI-style command set of docs/drivers.md."""
+"""``serial://`` shaker controller speaking the SCPI-style command set of docs/drivers.md.
+
+Link watchdog: the driver arms the controller's watchdog (``SYST:WDOG <s>``) and a daemon
+thread feeds it (``SYST:WDOG:FEED``) whenever no other command went out for a fifth of the
+period. If the host dies (even by SIGKILL) or the cable is pulled, the feeds stop and the
+controller ramps the drive to zero on its own once the period has passed.
+"""
 
 from __future__ import annotations
 
+import math
+import threading
+import time
+
 from .base import Output, RandomOutput, SignalGenerator, SineOutput, check_output
-from .errors import CommsError
+from .errors import CommsError, DeviceError, DriverConfigError
 from .serial_link import SerialLink
+
+FEEDS_PER_PERIOD = 5
+MIN_WATCHDOG = 0.02  # s; shorter periods leave no room for a feed round trip
 
 
 class SerialShaker(SignalGenerator):
@@ -18,12 +31,58 @@ class SerialShaker(SignalGenerator):
         Baud rate (ignored by pseudo-terminals).
     ramp_time : float
         Seconds over which `stop` ramps the drive down.
+    watchdog : float
+        Link watchdog period, seconds (0 disables it): the controller zeroes the drive when
+        it hears nothing from the host for this long.
     """
 
-    def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = 0.05) -> None:
+    def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = 0.05,
+                 watchdog: float = 0.5) -> None:
+        if not (isinstance(watchdog, (int, float)) and math.isfinite(watchdog)
+                and (watchdog == 0 or MIN_WATCHDOG <= watchdog <= 60)):
+            raise DriverConfigError(f"shaker watchdog must be 0 (off) or {MIN_WATCHDOG:g}..60 "
+                                    f"s, got {watchdog!r}")
         self.link = SerialLink(port, baud, what="shaker")
         self.ramp_time = ramp_time
-        self.idn = self.link.command("*IDN?", 1.0)
+        self.watchdog = float(watchdog)
+        self.feed_error: CommsError | None = None
+        self._halt = threading.Event()
+        self._feeder: threading.Thread | None = None
+        try:
+            self.idn = self.link.command("*IDN?", 1.0)
+            if self.watchdog:
+                self._arm_watchdog()
+        except BaseException:
+            self.link.close()
+            raise
+
+    def _arm_watchdog(self) -> None:
+        try:
+            self.link.command(f"SYST:WDOG {self.watchdog:.6g}", 1.0)
+        except DeviceError as exc:
+            raise DriverConfigError(f"shaker on {self.link.port} has no link watchdog "
+                                    f"(SYST:WDOG: {exc}); use a controller that has one, or "
+                                    "open it with ?watchdog=0 to run unguarded") from None
+        self._feeder = threading.Thread(target=self._feed, name="shaker-watchdog",
+                                        daemon=True)
+        self._feeder.start()
+
+    def _feed(self) -> None:
+        """Feed the controller's watchdog until closed; stop at the first failure (the
+        controller then zeroes the drive, and `check_link` reports why)."""
+        period = self.watchdog / FEEDS_PER_PERIOD
+        while not self._halt.wait(period):
+            if self.link.lock.locked() or time.monotonic() - self.link.last_command < period:
+                continue  # a command is going out or just went out: that feeds it
+            try:  # a reply slower than a whole period means the link is dead
+                self.link.command("SYST:WDOG:FEED", self.watchdog)
+            except CommsError as exc:
+                self.feed_error = exc
+                return
+
+    def check_link(self) -> None:
+        if self.feed_error is not None:
+            raise type(self.feed_error)(f"shaker watchdog feed failed: {self.feed_error}")
 
     def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
         self._require("new", "configured", "stopped", action="configure")
@@ -69,8 +128,13 @@ class SerialShaker(SignalGenerator):
     def close(self) -> None:
         if self._state == "closed":
             return
+        self._halt.set()
+        if self._feeder is not None:
+            self._feeder.join(1.0)
         try:
             self.stop(timeout=0.5)
+            if self.watchdog and self.feed_error is None:
+                self.link.command("SYST:WDOG 0", 0.5)
         except CommsError:
             pass
         finally:

@@ -12,6 +12,7 @@ or step.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -78,8 +79,9 @@ def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndar
 
 class _Runner:
     def __init__(self, c: Campaign, bench: Bench, writer: RunWriter,
-                 observer: CampaignObserver) -> None:
+                 observer: CampaignObserver, stop: threading.Event | None = None) -> None:
         self.c, self.bench, self.writer, self.observer = c, bench, writer, observer
+        self.stop = stop
         names = [ch.name for ch in c.channels]
         self.force_col = next(i for i, ch in enumerate(c.channels) if ch.quantity == "force")
         resp = sorted((ch.dof, i) for i, ch in enumerate(c.channels) if ch.quantity != "force")
@@ -95,6 +97,9 @@ class _Runner:
     def _chunk(self) -> Block:
         """Next DAQ chunk, safety-checked; losses counted in the run."""
         daq = self.bench.daq
+        if self.stop is not None and self.stop.is_set():
+            raise KeyboardInterrupt("campaign stopped by the user")
+        self.bench.shaker.check_link()
         block = daq.read(timeout=max(self.c.comms_timeout, 4 * self.c.frame_size / self.c.fs))
         for col, name, limit in self.limits:
             peak = float(np.max(np.abs(block.data[:, col])))
@@ -254,9 +259,13 @@ class _Runner:
     def run(self) -> None:
         c = self.c
         per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else len(c.plan.freqs)
-        self.observer.campaign_started({
-            "fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof], "n_dof": c.n_dof,
-            "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels})
+        info = {"fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof],
+                "n_dof": c.n_dof, "response_kind": c.response_kind,
+                "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
+                "block_len": c.plan.block_size}
+        if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
+            info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
+        self.observer.campaign_started(info)
         with progress(total=per_level * len(c.levels), desc=c.name,
                       unit="block" if c.kind == "random" else "step") as bar:
             bar.update(sum(lv.n_segments for lv in
@@ -295,13 +304,16 @@ def _excitation(c: Campaign) -> dict[str, Any]:
 
 
 def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
-                 observer: CampaignObserver | None = None,
-                 on_bench=None) -> CampaignResult:
+                 observer: CampaignObserver | None = None, on_bench=None,
+                 stop: threading.Event | None = None) -> CampaignResult:
     """Run campaign ``c`` into the run file ``out``.
 
     ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
-    emulators). Raises `CampaignAborted` on a safety limit and `drivers.errors.CommsError`
-    on communication failure; the run file is marked aborted and keeps its data either way.
+    emulators). Setting ``stop`` (from another thread) ends the campaign at the next DAQ
+    chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
+    `KeyboardInterrupt` raised. Raises `CampaignAborted` on a safety limit and
+    `drivers.errors.CommsError` on communication failure; the run file is marked aborted
+    and keeps its data either way.
     """
     out = Path(out)
     observer = observer or NullObserver()
@@ -320,7 +332,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
                        channels=_store_channels(c), settings=settings,
                        model_toml=bench.model_toml, source=bench.source,
                        mode="resume" if resume else "create") as writer:
-            runner = _Runner(c, bench, writer, observer)
+            runner = _Runner(c, bench, writer, observer, stop)
             try:
                 runner.run()
                 status = "complete"

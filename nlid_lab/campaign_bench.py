@@ -95,13 +95,16 @@ def _closing_emulator(emu: Any, emulators: list[Any], stack: contextlib.ExitStac
 def _open_shaker(c: Campaign, rig: SimRig | None, emulators: list[Any],
                  stack: contextlib.ExitStack) -> SignalGenerator:
     kind = scheme(c.shaker_url)
-    if kind == "sim":
+    if kind == "sim":  # in-process: the drive dies with the host, no link to watch
         return open_shaker("sim://", rig=rig, ramp_time=c.ramp_time)
+    options: dict[str, Any] = {"ramp_time": c.ramp_time}
+    if c.watchdog is not None:
+        options["watchdog"] = c.watchdog
     if kind == "serial-emu":
         from drivers.emulators.serial_emu import SerialShakerEmulator
         emu = _closing_emulator(SerialShakerEmulator(rig), emulators, stack)
-        return open_shaker(f"serial://{emu.port}", ramp_time=c.ramp_time)
-    return open_shaker(c.shaker_url, ramp_time=c.ramp_time)
+        return open_shaker(f"serial://{emu.port}", **options)
+    return open_shaker(c.shaker_url, **options)
 
 
 def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],

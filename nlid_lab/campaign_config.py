@@ -81,6 +81,7 @@ class Campaign:
     ramp_time: float = 0.05
     gain_guess: float = 1.0
     max_drive: float = 10.0
+    watchdog: float | None = None
     limits: dict[str, float] = field(default_factory=dict)
     pace: float | None = None
     faults: dict[str, Any] = field(default_factory=dict)
@@ -286,7 +287,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     if kind not in KINDS:
         raise CampaignError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
     shaker, daq = _table(data, "shaker"), _table(data, "daq")
-    _unknown(shaker, {"url", "ramp_time", "gain_guess", "max_drive"}, "shaker")
+    _unknown(shaker, {"url", "ramp_time", "gain_guess", "max_drive", "watchdog"}, "shaker")
     _unknown(daq, {"url", "fs", "frame_size", "response_kind", "comms_timeout"}, "daq")
     shaker_url, daq_url = _url(shaker, "shaker"), _url(daq, "daq")
     fs = _num(daq, "fs", "daq", lo=0.0, open_lo=True, hi=1e6)
@@ -339,6 +340,12 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         FaultPlan.from_dict(faults, "emulator.faults")
     except DriverConfigError as exc:
         raise CampaignError(str(exc)) from None
+    watchdog = None
+    if "watchdog" in shaker:
+        watchdog = _num(shaker, "watchdog", "shaker", lo=0.0, hi=60)
+        if 0 < watchdog < 0.02:
+            raise CampaignError(f"[shaker] watchdog must be 0 (off) or 0.02..60 s, got "
+                                f"{watchdog!r}")
     frame_default = max(1, min(256, int(fs / 32)))
     name = data.get("name", "campaign")
     if not isinstance(name, str):
@@ -354,6 +361,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         ramp_time=_num(shaker, "ramp_time", "shaker", default=0.05, lo=0.0, hi=10),
         gain_guess=_num(shaker, "gain_guess", "shaker", default=1.0, lo=0.0, open_lo=True),
         max_drive=_num(shaker, "max_drive", "shaker", default=10.0, lo=0.0, open_lo=True),
+        watchdog=watchdog,
         limits={k: float(v) for k, v in limits.items()}, pace=pace, faults=dict(faults),
         source=None, raw=data)
 

@@ -10,9 +10,9 @@ from analysis.model import Model
 from drivers import open_daq, open_shaker
 from drivers.base import Channel, RandomOutput, SineOutput
 from drivers.emulators.faults import FaultPlan
-from drivers.emulators.serial_emu import SerialDaqEmulator, SerialShakerEmulator
-from drivers.errors import (DeviceError, Disconnected, DriverConfigError, DriverTimeout,
-                            StateError, UnknownBackendError)
+from drivers.emulators.serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
+from drivers.errors import (CommsError, DeviceError, Disconnected, DriverConfigError,
+                            DriverTimeout, StateError, UnknownBackendError)
 from drivers.rig import SimRig
 
 MODEL = Path(__file__).resolve().parents[1] / "examples" / "models" / "sdof-cubic-quaddamp.toml"
@@ -36,14 +36,14 @@ def stream(shaker, daq, n_frames, output=RandomOutput((5.0, 200.0), 1)):
 def emulated():
     made = []
 
-    def make(pace=0.0, faults=None):
+    def make(pace=0.0, faults=None, watchdog=0.5):
         rig = make_rig()
         se, de = SerialShakerEmulator(rig), SerialDaqEmulator(rig, CHANNELS, pace=pace,
                                                               faults=faults)
         se.start()
         de.start()
         made.extend([se, de])
-        sh = open_shaker(f"serial://{se.port}")
+        sh = open_shaker(f"serial://{se.port}", watchdog=watchdog)
         dq = open_daq(f"serial://{de.port}?baud=921600", stall_timeout=0.1)
         made[:0] = [sh, dq]
         return rig, se, de, sh, dq
@@ -136,3 +136,59 @@ def test_realtime_pacing(emulated):
     t = time.monotonic()
     stream(sh, dq, 16)  # 512 samples = 0.5 s of real time
     assert time.monotonic() - t == pytest.approx(0.5, abs=0.2)
+
+
+def wait_for(predicate, timeout):
+    deadline = time.monotonic() + timeout
+    while not predicate() and time.monotonic() < deadline:
+        time.sleep(0.002)
+    return predicate()
+
+
+def drive_after_trip(rig):
+    """Force the rig delivers over the next 50 ms of signal (the DAQ's view of the drive)."""
+    return rig.advance(int(0.05 * FS)).force[:, 0]
+
+
+def test_watchdog_fed_while_idle_trips_when_link_dies(emulated):
+    period = 0.2
+    rig, se, _, sh, _ = emulated(watchdog=period)
+    assert sh.link.command("SYST:WDOG?", 1.0) == "0.2"
+    sh.configure(SineOutput(40.0), 0.3)
+    sh.start()
+    assert np.abs(drive_after_trip(rig)).max() > 0
+    time.sleep(4 * period)          # no commands from the caller: the feeder keeps it alive
+    assert se.trips == [] and sh.feed_error is None
+    se.unplugged = True             # cable pulled: nothing reaches the controller any more
+    assert wait_for(lambda: se.trips, 10 * period)
+    deadline, tripped = se.trips[0]
+    last_heard = se.log[-1][0]
+    assert deadline == pytest.approx(last_heard + period, abs=1e-6)
+    # drive commanded to zero, and ramped out, within 100 ms of the heartbeat deadline
+    assert 0 <= rig.zero_commanded_at - deadline + ESTOP_RAMP < 0.1
+    force = drive_after_trip(rig)
+    assert np.all(force[int(ESTOP_RAMP * FS) + 1:] == 0.0)
+    assert wait_for(lambda: sh.feed_error is not None, 4 * period)
+    with pytest.raises(CommsError, match="watchdog"):
+        sh.check_link()
+    se.unplugged = False            # plugged back: the controller says what happened
+    assert sh.link.command("OUTP?", 1.0) == "0"
+    assert sh.link.command("SYST:ERR?", 1.0).startswith("-300")
+
+
+def test_watchdog_options(emulated):
+    with pytest.raises(DriverConfigError, match="watchdog"):
+        emulated(watchdog=0.001)
+    _, se, _, sh, _ = emulated(watchdog=0)
+    assert se.watchdog == 0 and sh.link.command("SYST:WDOG?", 1.0) == "0"
+    sh.close()
+    rig = make_rig()
+    old = SerialShakerEmulator(rig)  # a controller without the watchdog command
+    old._dispatch = lambda head, arg, orig=old._dispatch: (
+        'ERR -113,"Undefined header"' if head.startswith("SYST:WDOG") else orig(head, arg))
+    old.start()
+    try:
+        with pytest.raises(DriverConfigError, match="watchdog=0"):
+            open_shaker(f"serial://{old.port}")
+    finally:
+        old.close()

@@ -21,6 +21,8 @@ from .pty_server import OUT_CAP, PtyServer, short_form
 BAD_HEADER = 'ERR -113,"Undefined header"'
 BAD_DATA = 'ERR -222,"Data out of range"'
 CONFLICT = 'ERR -221,"Settings conflict"'
+EXPIRED = 'ERR -300,"Watchdog expired: drive zeroed, output off"'
+ESTOP_RAMP = 0.01  # s, longest ramp of ABOR and of a watchdog trip
 FRAMES_PER_TICK = 4
 
 
@@ -32,7 +34,11 @@ def _split(line: str) -> tuple[str, str]:
 class SerialShakerEmulator(PtyServer):
     """SCPI-style shaker controller acting on ``rig``.
 
-    ``stall`` (set it True) makes the controller stop answering, as a hung device would.
+    ``stall`` (set it True) makes the controller stop answering, as a hung device would;
+    ``unplugged`` loses every byte from the host, as a pulled cable would. Neither stops the
+    link watchdog: armed by ``SYST:WDOG <s>`` and fed by every line received, it ramps the
+    drive to zero (within `ESTOP_RAMP`) when nothing arrived for ``<s>`` seconds and logs
+    ``(deadline, tripped_at)`` in ``trips``.
     """
 
     IDN = "NLID-LAB,SHAKER-EMU,0,1.0"
@@ -41,6 +47,11 @@ class SerialShakerEmulator(PtyServer):
         super().__init__("shaker-emulator")
         self.rig = rig
         self.stall = False
+        self.unplugged = False
+        self.watchdog = 0.0
+        self.fed_at = time.monotonic()
+        self.tripped = False
+        self.trips: list[tuple[float, float]] = []
         self._func = "SIN"
         self._freq = 10.0
         self._band = (0.0, rig.fs / 2)
@@ -49,19 +60,46 @@ class SerialShakerEmulator(PtyServer):
         self.log: deque[tuple[float, str]] = deque(maxlen=10000)
 
     def handle(self, line: str) -> str | None:
-        self.log.append((time.monotonic(), line))
+        if self.unplugged:
+            return None
+        now = time.monotonic()
+        self.log.append((now, line))
         if self.stall:
             return None
+        self.fed_at = now
         head, arg = _split(line)
         try:
             return self._dispatch(head, arg)
         except (ValueError, DriverConfigError):
             return BAD_DATA
 
+    def tick(self) -> float:
+        """Trip the watchdog when its deadline has passed."""
+        if not self.watchdog or self.tripped:
+            return float("inf")
+        deadline = self.fed_at + self.watchdog
+        now = time.monotonic()
+        if now < deadline:
+            return deadline - now
+        self.rig.set_on(False, min(self._ramp, ESTOP_RAMP))
+        self.tripped = True
+        self.trips.append((deadline, now))
+        return float("inf")
+
     def _dispatch(self, head: str, arg: str) -> str:
         rig = self.rig
         if head == "*IDN?":
             return self.IDN
+        if head == "SYST:WDOG":
+            period = float(arg)
+            if not 0 <= period <= 3600:
+                return BAD_DATA
+            self.watchdog, self.tripped = period, False
+            return "OK"
+        if head == "SYST:WDOG?":
+            return f"{self.watchdog:.6g}"
+        if head == "SYST:WDOG:FEED":
+            return EXPIRED if self.tripped else "OK"
         if head == "*RST":
             rig.set_on(False, self._ramp)
             return "OK"
@@ -107,14 +145,15 @@ class SerialShakerEmulator(PtyServer):
             if not on and arg.upper() not in ("OFF", "0"):
                 return BAD_DATA
             rig.set_on(on, self._ramp)
+            self.tripped = self.tripped and not on
             return "OK"
         if head == "OUTP?":
             return "0" if rig.drive_is_zero else "1"
         if head == "ABOR":
-            rig.set_on(False, min(self._ramp, 0.01))
+            rig.set_on(False, min(self._ramp, ESTOP_RAMP))
             return "OK"
         if head == "SYST:ERR?":
-            return '0,"No error"'
+            return '-300,"Watchdog expired"' if self.tripped else '0,"No error"'
         return BAD_HEADER
 
     def _apply(self) -> None:
