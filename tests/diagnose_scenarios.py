@@ -159,5 +159,34 @@ def masked_friction(noise: float = 0.10, seed: int = 3) -> Scenario:
                     "stick_slip", [0, 1], {"kd": kd, "fd": fd}, True)
 
 
+def stepped_stiffness_error(noise: float = 0.05, seed: int = 7) -> Scenario:
+    """3-DOF chain, stepped sine at DOF 0: the spring between DOFs 1 and 2 is 10 % stiffer
+    than the model says (level independent)."""
+    truth = chain([1.2, 0.8, 1.0], [2.0e4, 1.5e4], [1.0e4, 0.0, 0.8e4])
+    start = chain([1.2, 0.8, 1.0], [2.0e4, 1.5e4 / 1.1], [1.0e4, 0.0, 0.8e4])
+    start.damping = truth.damping.copy()
+    freqs = np.linspace(10.0, 45.0, 16)
+    recs = stepped_runs(truth, 0, [3.0, 12.0], freqs, settle=60, measure=16, noise=noise,
+                        seed=seed)
+    return Scenario("level-independent stiffness error (stepped sine)", truth, start, recs,
+                    "discrepancy", "stiffness_error", [1, 2],
+                    {"delta_stiffness": 1.5e4 - 1.5e4 / 1.1}, False)
+
+
+def two_effects(n: int = 1 << 15, seed: int = 51) -> Scenario:
+    """3-DOF chain missing two effects: a cubic spring between DOFs 0 and 1 and a 2e3 N/m
+    stiffer ground spring at DOF 2 (the forced DOF). ``kind``/``dofs``/``params`` describe
+    the cubic spring; `TWO_EFFECTS_STIFFNESS` the linear error."""
+    start = chain([0.8, 1.4, 1.1], [1.8e4, 2.6e4], [1.2e4, 0.0, 0.7e4])
+    lin = chain([0.8, 1.4, 1.1], [1.8e4, 2.6e4], [1.2e4, 0.0, 0.7e4 + TWO_EFFECTS_STIFFNESS])
+    lin.damping = start.damping.copy()
+    truth = lin.with_elements([Element("cubic_spring", [-1.0, 1.0, 0.0], {"p": 3.0e9})])
+    recs = random_runs(truth, 2, [1.5, 6.0, 15.0], n=n, seed=seed)
+    return Scenario("two missing effects", truth, start, recs, "discrepancy", "cubic_spring",
+                    [0, 1], {"p": 3.0e9}, True)
+
+
+TWO_EFFECTS_STIFFNESS = 2.0e3
+
 SCENARIOS = {"hidden_cubic": hidden_cubic, "relative_damping": relative_damping,
              "linear_mass_error": linear_mass_error, "no_discrepancy": no_discrepancy}

@@ -11,9 +11,9 @@ from analysis.diagnose import diagnose
 from analysis.model import Model
 from nlid_lab.cli import main
 from nlid_lab.recordings_io import write_npz
-from nlid_lab.store import save_recording
+from nlid_lab.store import open_run, save_recording
 
-from diagnose_scenarios import hidden_cubic, masked_friction
+from diagnose_scenarios import hidden_cubic, masked_friction, stepped_stiffness_error
 from test_diagnose import check
 
 
@@ -23,6 +23,13 @@ def test_stick_slip_masked_by_ten_percent_noise_on_stepped_sine():
     check(sc, d, rel_tol=0.05)
     assert d.evidence["odd_harmonic_ratio"] > 0.01     # harmonic signature of the friction
     assert d.ranking[0]["evidence"]["estimator"] == "harmonic-balance fit"
+
+
+def test_level_independent_stiffness_error_on_stepped_sine():
+    sc = stepped_stiffness_error()
+    d = diagnose(sc.start, sc.recordings)
+    check(sc, d, rel_tol=0.05)
+    assert d.model.stiffness[1, 2] == pytest.approx(-1.5e4, rel=0.01)
 
 
 @pytest.fixture(scope="module")
@@ -75,3 +82,19 @@ def test_stepped_sine_adequate_model_gives_no_false_alarm():
     d = diagnose(sc.truth, sc.recordings)
     assert d.verdict == "adequate", d.explanation
     assert d.level_dependent is True
+
+
+def test_cli_store_puts_the_diagnosis_into_the_run_report(cubic_files, tmp_path):
+    sc, root, _, h5 = cubic_files
+    import shutil
+    run = tmp_path / "run.h5"
+    shutil.copy(h5[-1], run)
+    rc = main(["diagnose", str(root / "start.toml"), *h5[:-1], str(run), "--store", str(run),
+               "--json", str(tmp_path / "out.json")])
+    assert rc == 0
+    stored = open_run(run).results["diagnose"]
+    assert stored == json.loads((tmp_path / "out.json").read_text())
+    assert main(["report", str(run), "--out", str(tmp_path / "report")]) == 0
+    assert (tmp_path / "report" / "diagnosis_fit.png").exists()
+    assert "Diagnosis" in (tmp_path / "report" / "index.html").read_text()
+    assert main(["diagnose", str(root / "start.toml"), *h5, "--store", "x.npz"]) == 2

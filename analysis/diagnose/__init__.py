@@ -4,13 +4,16 @@
 whether the structure behaves nonlinearly (homogeneity across levels), searches the one
 candidate library (`candidates.library`: nonlinear elements and linear errors at every DOF
 and DOF pair) by information criterion, estimates the chosen candidate's parameters (reverse
-path for random data, harmonic-balance fit for stepped sine) and shows the improvement on a
-recording held back from fitting. See docs/diagnose.md.
+path for random data, harmonic-balance fit for stepped sine), searches again on the corrected
+model for a further effect (accepted ones are refitted jointly) and shows the improvement on
+a recording held back from fitting: FRFs per level and time residuals of replays of the
+measured force (`replay`). See docs/diagnose.md.
 """
 
 from __future__ import annotations
 
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -18,19 +21,27 @@ from ..model import Model
 from ..recording import Recording
 from .candidates import Candidate, library
 from .compare import FLOOR, choose_nperseg, level_frf, model_frf, unit_force, weighted_error
+from .joint import joint_refit
 from .locate import level_dependence, mismatch_band
 from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random,
                       record_level, split_segment)
-from .report import METRIC, Diagnosis, LevelCurves, explain
-from .select import SHORTLIST, RandomSearch, corrected_model
+from .replay import horizon_samples, replay
+from .report import METRIC, Diagnosis, LevelCurves, explain, time_fit
+from .select import SHORTLIST, Fit, RandomSearch, Search, corrected_model
 
 BIC_MIN = 10.0
 """Minimum BIC gain ("very strong" evidence, Kass & Raftery) for a discrepancy."""
 MIN_REDUCTION = 0.25
 """Minimum relative reduction of the weighted misfit for a discrepancy."""
+MIN_REDUCTION_NEXT = 0.5
+"""The same for a further effect (second pass): what remains after a correction holds the
+first estimate's error and model-form approximations, so a further effect must explain at
+least half of it."""
 
 MIN_EFFECT = 2 * FLOOR
 """Minimum relative change of the fitting levels' model FRFs the correction must make."""
+MAX_EFFECTS = 2
+"""Search passes: after a found effect the library is searched again on the corrected model."""
 
 __all__ = ["diagnose", "Diagnosis", "Candidate", "library", "DiagnoseInputError"]
 
@@ -127,48 +138,122 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     if min(p.x.shape[0] for p in fit_preps + held) < 4 * nps:
         raise DiagnoseInputError(f"records are too short for segments of {nps} samples; give "
                                  "longer runs or a smaller --nperseg")
-    search = RandomSearch(model, fit_preps, band, nps, floor)
-    fits = search.screen()
-    nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0][:SHORTLIST]
-    refined = [search.refine(f) for f in nonlinear]
-    pool = sorted(refined + [f for f in fits if f.cand.linear], key=lambda f: -f.delta_bic)
-    best = pool[0] if pool else None
-    reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
-    found = best is not None and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION
-    fixed = corrected_model(model, best) if found else model
-    curves = [_curves(model, fixed, p, band, nps, floor, i >= len(fit_preps))
+    passes = []
+    current = model
+    for _ in range(MAX_EFFECTS):
+        step = _search_pass(current, fit_preps, band, nps, floor, further=bool(passes))
+        passes.append(step)
+        if not step.found:
+            break
+        current = step.fixed
+    first = passes[0]
+    chosen = joint_refit(model, first.search, [s.best for s in passes if s.found])
+    current = _apply(model, chosen)
+    horizon = horizon_samples(model, recs[0].fs)
+    curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps), horizon)
               for i, p in enumerate(fit_preps + held)]
-    effect = model_change([c for c in curves if not c.held_back])
-    if found and effect < MIN_EFFECT:
-        found, fixed = False, model
-        curves = [_curves(model, model, p, band, nps, floor, i >= len(fit_preps))
-                  for i, p in enumerate(fit_preps + held)]
     held_curves = [c for c in curves if c.held_back]
     before = float(np.mean([c.error_before for c in held_curves]))
     after = float(np.mean([c.error_after for c in held_curves]))
-    dep = level_dependence(search.levels + ([_level(model, h, band, nps, floor) for h in held]
-                                            if hold is not None else []))
-    top = max(search.levels, key=lambda lf: lf.level)
-    loc_band = mismatch_band(top, search.H0s[search.levels.index(top)])
-    location = {"dofs": list(best.cand.dofs) if found else [],
-                "band_hz": [loc_band[0], loc_band[1]] if found else None}
+    dep = level_dependence(first.search.levels + (
+        [_level(model, h, band, nps, floor) for h in held] if hold is not None else []))
+    top = max(first.search.levels, key=lambda lf: lf.level)
+    loc_band = mismatch_band(top, first.search.H0s[first.search.levels.index(top)])
+    location = {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
+                "band_hz": [loc_band[0], loc_band[1]] if chosen else None}
     d = Diagnosis(
-        "discrepancy" if found else "adequate",
+        "discrepancy" if chosen else "adequate",
         dep.dependent if dep else None,
-        best.to_json() if found else None,
-        [f.to_json() for f in pool[:8]],
+        [f.to_json() for f in chosen],
+        [f.to_json() for f in first.pool[:8]],
         location,
         {"metric": METRIC, "before": before, "after": after,
-         "held_back": [h.label for h in held]},
-        fixed, curves,
-        {"chi2_start": search.chi2_0, "n_values": search.n_values,
-         "chi2_reduction": reduction, "band_hz": list(band), "nperseg": nps,
-         "model_change": effect,
+         "held_back": [h.label for h in held], "time_residual": time_fit(held_curves)},
+        current, curves,
+        {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
+         "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
+         "model_change": first.effect, "replay_horizon_samples": horizon,
+         "passes": [s.to_json() for s in passes],
          "level_dependence": dep.to_json() if dep else None,
-         "residual_share_by_dof": _share(search)},
+         "residual_share_by_dof": _share(first.search)},
         warnings)
-    d.explanation = explain(d, best.cand if found else None)
+    d.explanation = explain(d, [f.cand for f in chosen])
     return d
+
+
+def _apply(model: Model, fits: list[Fit]) -> Model:
+    """The model with every accepted candidate added, in order."""
+    for f in fits:
+        model = corrected_model(model, f)
+    return model
+
+
+@dataclass
+class SearchPass:
+    """One search of the library on the current model and its decision."""
+
+    search: Search
+    pool: list[Fit]
+    reduction: float
+    found: bool
+    fixed: Model
+    effect: float
+
+    @property
+    def best(self) -> Fit:
+        return self.pool[0]
+
+    def to_json(self) -> dict:
+        b = self.pool[0] if self.pool else None
+        return {"best": b.cand.label if b else None,
+                "delta_bic": float(b.delta_bic) if b else None,
+                "chi2_start": float(self.search.chi2_0),
+                "chi2_reduction": float(self.reduction),
+                "model_change": float(self.effect), "accepted": bool(self.found)}
+
+
+def decide(model: Model, search: Search, pool: list[Fit],
+           change: Callable[[Model], float], *, further: bool = False) -> SearchPass:
+    """Accept the best candidate of ``pool`` if it passes all three thresholds (a stricter
+    misfit reduction for a ``further`` effect)."""
+    best = pool[0] if pool else None
+    reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
+    min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
+    found = best is not None and best.delta_bic > BIC_MIN and reduction > min_red
+    fixed = corrected_model(model, best) if found else model
+    effect = change(fixed) if found else 0.0
+    if found and effect < MIN_EFFECT:
+        found, fixed = False, model
+    return SearchPass(search, pool, reduction, found, fixed, effect)
+
+
+def linear_only(search: Search) -> bool:
+    """True when the fitting levels' FRFs are the same within their random error: then no
+    nonlinear candidate is supported by the data (homogeneity, paper chapter 2)."""
+    dep = level_dependence(search.levels)
+    return dep is not None and not dep.dependent
+
+
+def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
+                 floor: float, further: bool) -> SearchPass:
+    """Screen the library, refine the best nonlinear ones by reverse path, decide."""
+    search = RandomSearch(model, fit_preps, band, nps, floor)
+    fits = search.screen()
+    if linear_only(search):
+        fits = [f for f in fits if f.cand.linear]
+    nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0][:SHORTLIST]
+    refined = [search.refine(f) for f in nonlinear]
+    pool = sorted(refined + [f for f in fits if f.cand.linear], key=lambda f: -f.delta_bic)
+    if pool and not pool[0].cand.linear and pool[0].delta_bic > BIC_MIN:
+        # Final estimate of the leading candidate, debiased for sensor noise when needed.
+        screened = nonlinear[refined.index(pool[0])]
+        final = search.refine(screened, noise="auto")
+        pool[0] = final if final is not screened else pool[0]
+
+    def change(fixed: Model) -> float:
+        return model_change([_curves(model, fixed, p, band, nps, floor, False)
+                             for p in fit_preps])
+    return decide(model, search, pool, change, further=further)
 
 
 def model_change(curves: list[LevelCurves]) -> float:
@@ -197,8 +282,13 @@ def _predicted(model: Model, p: Prepared, band, nps: int, floor: float):
 
 
 def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,
-            held: bool) -> LevelCurves:
+            held: bool, horizon: int | None = None) -> LevelCurves:
+    """FRFs of one level before/after; with ``horizon``, also the short-horizon replays."""
     lf, h_before = _predicted(start, p, band, nps, floor)
     _, h_after = _predicted(fixed, p, band, nps, floor)
-    return LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
-                       weighted_error(lf, h_before), weighted_error(lf, h_after))
+    c = LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
+                    weighted_error(lf, h_before), weighted_error(lf, h_after), lf.coh)
+    if horizon is not None:
+        c.replay_before = replay(start, p, horizon)
+        c.replay_after = c.replay_before if fixed is start else replay(fixed, p, horizon)
+    return c

@@ -130,7 +130,7 @@ class Search:
         for c in self.cands:
             if c.linear:
                 delta, se = fit_linear_error(c, self.levels, self.H_lins, self.H0s)
-                if not self._linear_ok(c, delta):
+                if not self.linear_ok(c, delta):
                     continue
                 x2 = sum(chi2(lf, updated_frf(c, delta, lf.freqs, hl, h0))
                          for lf, hl, h0 in zip(self.levels, self.H_lins, self.H0s))
@@ -152,7 +152,7 @@ class Search:
                             self.bic_gain(x2, k), {"estimator": "frf-screen"}))
         return sorted(fits, key=lambda f: -f.delta_bic)
 
-    def _linear_ok(self, c: Candidate, delta: float) -> bool:
+    def linear_ok(self, c: Candidate, delta: float) -> bool:
         """A linear update must leave the mass positive definite and C, K semi-definite."""
         ww = np.outer(c.w, c.w)
         mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
@@ -181,14 +181,19 @@ class RandomSearch(Search):
                 bases[(kind, dofs, e)] = unit_force(kind, unit_params(kind, e), w, p)
         return level_frf(p, self.band, self.nperseg, bases, floor=floor)
 
-    def refine(self, fit: Fit) -> Fit:
-        """Re-estimate a nonlinear candidate's coefficient from the data by reverse path."""
+    def refine(self, fit: Fit, noise: str = "none") -> Fit:
+        """Re-estimate a nonlinear candidate's coefficient from the data by reverse path.
+
+        ``noise`` is passed to `analysis.reverse_path.reverse_path`: "none" (H1) ranks the
+        shortlist quickly; "auto" (noise-debiased when the records are noisy) gives the
+        final estimate of the chosen candidate.
+        """
         c = fit.cand
         name = coef_name(c.kind)
         known = {k: v for k, v in fit.params.items() if k != name}
         trial = self.model.with_elements(self.model.elements + [Element(c.kind, c.w, known)])
         recs = [Recording(p.fs, "random", p.force_dofs, p.force, p.x) for p in self.preps]
-        opts: dict[str, Any] = {"band": self.band, "nperseg": self.nperseg}
+        opts: dict[str, Any] = {"band": self.band, "nperseg": self.nperseg, "noise": noise}
         if self.preps[0].period is not None:
             opts.update(nperseg=self.preps[0].period, window="boxcar", overlap=0.0)
         try:
@@ -205,7 +210,7 @@ class RandomSearch(Search):
         vals = coef.values
         scale = max(abs(p), 1e-300)
         evidence = {
-            "estimator": "reverse-path",
+            "estimator": "reverse-path" + ("" if noise == "none" else f" (noise {noise})"),
             "coef_imag_ratio": float(np.sum(wts * np.abs(vals.imag)) / np.sum(wts) / scale),
             "coef_spread": float(np.sqrt(np.sum(wts * (vals.real - p) ** 2) / np.sum(wts))
                                  / scale),

@@ -30,12 +30,15 @@ from ..recording import Recording
 from ..sine_fit import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2
+from .joint import joint_refit
 from .locate import level_dependence, mismatch_band
-from .report import Diagnosis, LevelCurves, explain
+from .replay import periodic_replay
+from .report import Diagnosis, LevelCurves, explain, time_fit
 from .select import Fit, Search, candidate_extras, unit_params
 
 HARMONICS = (1, 3, 5, 7)
 N_TIME = 256
+PERIODS_MEMORY = 3
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
 
@@ -73,19 +76,23 @@ def _motion(frf: SteppedSineFRF, w: np.ndarray, s: int) -> tuple[np.ndarray, np.
     return (e @ U).real, (e @ (1j * h * om * U)).real
 
 
-def _fundamental(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray) -> complex:
-    """Fundamental ``G_1`` of a restoring force along a periodic motion (steady state)."""
-    if KINDS[kind].memory:
-        g = restoring_force(kind, params, np.tile(u, 3), np.tile(v, 3))[0][-N_TIME:]
-    else:
-        g = restoring_force(kind, params, u, v)[0]
-    return complex(2 / N_TIME * np.sum(g * np.exp(-2j * np.pi * np.arange(N_TIME) / N_TIME)))
-
-
 def _transfer(frf: SteppedSineFRF, kind: str, params: dict[str, float], w: np.ndarray
               ) -> np.ndarray:
-    g1 = [_fundamental(kind, params, *_motion(frf, w, s)) for s in range(frf.freqs.size)]
-    return (np.asarray(g1) / frf.force)[:, None]
+    """``G_1 / F_1`` of every step, shape (n_steps, 1): the fundamental of the element force
+    along the steady periodic motion (memory kinds: the last of `PERIODS_MEMORY` periods)."""
+    n_s, h = frf.freqs.size, np.asarray(frf.harmonics)
+    Uh = frf.X @ w                                                        # (n_s, n_h)
+    spec = np.zeros((2, n_s, N_TIME // 2 + 1), dtype=complex)
+    spec[0][:, h] = Uh * (N_TIME / 2)
+    spec[1][:, h] = 1j * h * 2 * np.pi * frf.freqs[:, None] * Uh * (N_TIME / 2)
+    # FFTs, not small matrix products: BLAS threads stall on a busy machine.
+    u, v = np.fft.irfft(spec, N_TIME, axis=-1)                            # (n_s, N) each
+    # All steps in one call of the force law (per-call overhead dominates otherwise); a
+    # memory element carries its state into the next step and settles there in two periods.
+    reps = PERIODS_MEMORY if KINDS[kind].memory else 1
+    g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
+    g1 = np.fft.rfft(g.reshape(n_s, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1] * (2 / N_TIME)
+    return (g1 / frf.force)[:, None]
 
 
 def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor: float,
@@ -132,7 +139,8 @@ class SteppedSearch(Search):
         """Nonlinear least squares of a memory element (log parameters, a few starts)."""
         names = KINDS[c.kind].params
         k_w = float(c.w @ self.model.stiffness @ c.w)
-        u_amp = float(np.median([np.abs(f.X[:, 0] @ c.w).max() for f in self.frfs]))
+        amps = [float(np.abs(f.X[:, 0] @ c.w).max()) for f in self.frfs]
+        u_amp, u_max = float(np.median(amps)), max(amps)
         best = None
 
         def resid(z: np.ndarray) -> np.ndarray:
@@ -144,19 +152,26 @@ class SteppedSearch(Search):
                 out += [r.real.ravel(), r.imag.ravel()]
             return np.concatenate(out)
 
-        for kd in (0.3 * k_w, 3 * k_w):
-            for frac in (0.1, 0.5):
-                start = [kd, kd * frac * u_amp] + ([2.0] if c.kind == "hysteresis" else [])
-                try:
-                    sol = least_squares(resid, np.log(start), max_nfev=40, method="trf",
-                                        bounds=(np.log(start) - 9, np.log(start) + 9))
-                except (ValueError, FloatingPointError):
-                    continue
-                if best is None or sol.cost < best.cost:
-                    best = sol
+        starts = [np.log([kd, kd * frac * u_amp] + ([2.0] if c.kind == "hysteresis" else []))
+                  for kd in (0.3 * k_w, 3 * k_w) for frac in (0.1, 0.5)]
+        # Local searches from the two most promising starts only (each costs ~40 sweeps).
+        costs = [float(np.sum(resid(z) ** 2)) for z in starts]
+        for i in np.argsort(costs)[:2]:
+            z0 = starts[i]
+            try:
+                sol = least_squares(resid, z0, max_nfev=40, method="trf",
+                                    bounds=(z0 - 9, z0 + 9))
+            except (ValueError, FloatingPointError):
+                continue
+            if best is None or sol.cost < best.cost:
+                best = sol
         if best is None:
             return None
         params = {n: float(v) for n, v in zip(names, np.exp(best.x))}
+        if params["kd"] * u_max < (1.0 if c.kind == "stick_slip" else 0.5) * params["fd"]:
+            # The element never reaches its slip force in the data: it acts as a linear
+            # spring, which the library holds as a stiffness error (one parameter fewer).
+            return None
         x2 = self._chi2_memory(c, params)
         return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params),
                    {"estimator": "measured-motion harmonic balance"})
@@ -166,12 +181,13 @@ class SteppedSearch(Search):
         return [f for f in fits if f is not None]
 
 
-def _hbm_frf(model: Model, frf: SteppedSineFRF) -> np.ndarray:
-    """Fundamental receptance of a harmonic-balance sweep at the level's force (n_steps, n_dof)."""
+def _hbm(model: Model, frf: SteppedSineFRF) -> np.ndarray:
+    """Harmonics of a harmonic-balance sweep at the level's mean force, scaled to each step's
+    force amplitude: shape (n_steps, n_h, n_dof)."""
     system = HBMSystem(model, [frf.force_dof], HARMONICS)
     amp = float(np.mean(frf.force))
     res = system.sweep(frf.freqs, [amp])
-    return res.X[:, 0, :] / amp
+    return res.X * (frf.force / amp)[:, None, None]
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
@@ -199,11 +215,40 @@ def _refit(model: Model, fit: Fit, frfs: list[SteppedSineFRF]) -> tuple[Fit, lis
     return Fit(c, params, ci, fit.chi2, fit.delta_bic, ev), list(res.warnings)
 
 
+def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
+    """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
+    from . import BIC_MIN, MIN_REDUCTION, linear_only
+    if linear_only(search):
+        return [f for f in search.screen() if f.cand.linear]
+    pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
+    best = pool[0]
+    reduction = (search.chi2_0 - best.chi2) / search.chi2_0
+    if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION):
+        return pool
+    # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
+    # harmonic-balance fit itself (BIC with the residual variance unknown).
+    rivals = [f for f in pool[:3] if f.cand.memory and f.cand.dofs == best.cand.dofs]
+    refits = [_refit(model, f, search.frfs) for f in rivals]
+    n_res = 2 * sum(f.frf.size for f in search.frfs)
+
+    def hbm_bic(item: tuple[Fit, list[str]]) -> float:
+        cost = item[0].evidence.get("hbm_cost")
+        if cost is None:
+            return np.inf
+        return n_res * np.log(cost**2 / n_res) + item[0].cand.n_params * np.log(n_res)
+    best, warn = min(refits, key=hbm_bic)
+    warnings += warn
+    for f, _ in refits:
+        f.evidence["hbm_bic"] = hbm_bic((f, []))
+    refitted = [f for f, _ in refits]
+    return ([best] + [f for f in refitted if f is not best]
+            + [f for f in pool if all(f.cand != r.cand for r in refitted)])
+
+
 def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                      holdout: float | str | None, floor: float) -> Diagnosis:
     """Stepped-sine counterpart of `analysis.diagnose.diagnose` (same selection rules)."""
-    from . import BIC_MIN, MIN_EFFECT, MIN_REDUCTION, _pick_holdout, model_change
-    from .select import corrected_model
+    from . import MAX_EFFECTS, _apply, _pick_holdout, decide, model_change
 
     frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
     order = np.argsort([f.level for f in frfs])
@@ -213,61 +258,62 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                          "back); record another level")
     hold = _pick_holdout([f.level for f in frfs], holdout)
     fit_idx = [i for i in range(len(frfs)) if i != hold]
-    search = SteppedSearch(model, [frfs[i] for i in fit_idx], [recs[i] for i in fit_idx],
-                           floor)
-    pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
-    best = pool[0]
-    reduction = (search.chi2_0 - best.chi2) / search.chi2_0
-    found = best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION
+    cache: dict[tuple[int, int], np.ndarray] = {}
+
+    def hbm(m: Model, i: int) -> np.ndarray:
+        if (id(m), i) not in cache:
+            cache[(id(m), i)] = _hbm(m, frfs[i])
+        return cache[(id(m), i)]
+
+    def curve(start: Model, fixed: Model, i: int) -> LevelCurves:
+        f, i1 = frfs[i], list(HARMONICS).index(1)
+        xb, xa = hbm(start, i), hbm(fixed, i)
+        hb, ha = xb[:, i1] / f.force[:, None], xa[:, i1] / f.force[:, None]
+        return LevelCurves(f"level {f.level:g}", f.level, i == hold, f.freqs,
+                           f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
+                           _error(f, hb), _error(f, ha), None,
+                           periodic_replay(f.freqs, f.harmonics, f.X, xb),
+                           periodic_replay(f.freqs, f.harmonics, f.X, xa))
+
     warnings: list[str] = []
-    if found and best.cand.memory:
-        # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
-        # harmonic-balance fit itself (BIC with the residual variance unknown).
-        rivals = [f for f in pool[:3] if f.cand.memory and f.cand.dofs == best.cand.dofs]
-        refits = [_refit(model, f, search.frfs) for f in rivals]
-        n_res = 2 * sum(f.frf.size for f in search.frfs)
-        def hbm_bic(item: tuple[Fit, list[str]]) -> float:
-            cost = item[0].evidence.get("hbm_cost")
-            if cost is None:
-                return np.inf
-            return n_res * np.log(cost**2 / n_res) + item[0].cand.n_params * np.log(n_res)
-        best, warnings = min(refits, key=hbm_bic)
-        for f, _ in refits:
-            f.evidence["hbm_bic"] = hbm_bic((f, []))
-        refitted = [f for f, _ in refits]
-        pool = ([best] + [f for f in refitted if f is not best]
-                + [f for f in pool if all(f.cand != r.cand for r in refitted)])
-    fixed = corrected_model(model, best) if found else model
-    curves = []
-    for i, f in enumerate(frfs):
-        hb = _hbm_frf(model, f)
-        ha = _hbm_frf(fixed, f) if found else hb
-        curves.append(LevelCurves(f"level {f.level:g}", f.level, i == hold, f.freqs,
-                                  f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
-                                  _error(f, hb), _error(f, ha)))
-    effect = model_change([c for c in curves if not c.held_back])
-    if found and effect < MIN_EFFECT:
-        found, fixed = False, model
-        for c in curves:
-            c.after, c.error_after = c.before, c.error_before
+    passes = []
+    current = model
+    for _ in range(MAX_EFFECTS):
+        search = SteppedSearch(current, [frfs[i] for i in fit_idx],
+                               [recs[i] for i in fit_idx], floor)
+        pool = _pool(current, search, warnings)
+        start = current
+        step = decide(current, search, pool, lambda fixed: model_change(
+            [curve(start, fixed, i) for i in fit_idx]), further=bool(passes))
+        passes.append(step)
+        if not step.found:
+            break
+        current = step.fixed
+    first = passes[0]
+    chosen = joint_refit(model, first.search, [s.best for s in passes if s.found])
+    current = _apply(model, chosen) if len(chosen) > 1 else current
+    curves = [curve(model, current, i) for i in range(len(frfs))]
     held = curves[hold]
-    all_levels = search.levels + [_level(model, recs[hold], frfs[hold], {}, floor, "held")]
+    all_levels = first.search.levels + [_level(model, recs[hold], frfs[hold], {}, floor,
+                                               "held")]
     dep = level_dependence(all_levels)
-    top = int(np.argmax([lf.level for lf in search.levels]))
-    lo, hi = mismatch_band(search.levels[top], search.H0s[top])
+    top = int(np.argmax([lf.level for lf in first.search.levels]))
+    lo, hi = mismatch_band(first.search.levels[top], first.search.H0s[top])
     d = Diagnosis(
-        "discrepancy" if found else "adequate", dep.dependent if dep else None,
-        best.to_json() if found else None, [f.to_json() for f in pool[:8]],
-        {"dofs": list(best.cand.dofs) if found else [], "band_hz": [lo, hi] if found else None},
+        "discrepancy" if chosen else "adequate", dep.dependent if dep else None,
+        [f.to_json() for f in chosen], [f.to_json() for f in first.pool[:8]],
+        {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
+         "band_hz": [lo, hi] if chosen else None},
         {"metric": METRIC, "before": held.error_before, "after": held.error_after,
-         "held_back": [held.label]},
-        fixed, curves,
-        {"chi2_start": search.chi2_0, "n_values": search.n_values, "chi2_reduction": reduction,
-         "model_change": effect,
+         "held_back": [held.label], "time_residual": time_fit([held])},
+        current, curves,
+        {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
+         "chi2_reduction": first.reduction, "model_change": first.effect,
+         "passes": [s.to_json() for s in passes],
          "level_dependence": dep.to_json() if dep else None,
-         "odd_harmonic_ratio": _odd_ratio(search.frfs[-1])},
+         "odd_harmonic_ratio": _odd_ratio(first.search.frfs[-1])},
         warnings)
-    d.explanation = explain(d, best.cand if found else None)
+    d.explanation = explain(d, [f.cand for f in chosen])
     return d
 
 

@@ -1,7 +1,9 @@
 """``nlid-lab diagnose MODEL.toml RUN... --json OUT.json --model-out FIXED.toml``.
 
 Locates the mismatch between a model and recordings, names and estimates the missing
-physics and reports the fit before/after on a held-back level (docs/diagnose.md).
+physics and reports the fit before/after on a held-back level (docs/diagnose.md);
+``--report DIR`` writes FRF overlays and time residuals, ``--store RUN.h5`` saves the result
+into a run for ``nlid-lab report``.
 """
 
 from __future__ import annotations
@@ -9,8 +11,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
 from analysis.diagnose import DiagnoseInputError, Diagnosis, diagnose
 from analysis.model import Model
+
+RESULT_NAME = "diagnose"
+"""Name of the stored result (run results are stored by command name; see nlid_lab.report)."""
 
 
 def _holdout(text: str) -> float | str:
@@ -38,14 +45,22 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="period of a periodic (multisine) drive: transients dropped, periods "
                    "averaged")
     p.add_argument("--report", metavar="DIR",
-                   help="write before/after FRF overlays (PNG) and report.md here")
+                   help="write before/after FRF overlays and time residuals (PNG) and "
+                   "report.md here")
+    p.add_argument("--store", metavar="RUN.h5",
+                   help="also save the result into this HDF5 run (shown by 'nlid-lab report')")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from nlid_lab.cli import write_json
-    from nlid_lab.store import load_recordings
+    from nlid_lab.store import load_recordings, open_run, save_result
 
+    if args.store:
+        if Path(args.store).suffix.lower() not in (".h5", ".hdf5"):
+            raise DiagnoseInputError(f"--store {args.store}: the result can only be stored in "
+                                     "an HDF5 run (.h5); pass one of the runs")
+        open_run(args.store)     # fails early (exit 2) when it is not a run file
     model = Model.load(args.model)
     recs = [r for path in args.runs for r in load_recordings(path)]
     period = None
@@ -62,45 +77,71 @@ def run(args: argparse.Namespace) -> int:
         d.model.save(args.model_out)
     if args.report:
         write_report(d, Path(args.report))
-    write_json(d.to_json(), args.json)
+    result = d.to_json()
+    if args.store:
+        save_result(args.store, RESULT_NAME, result)
+    write_json(result, args.json)
     if not args.json:
         print(f"{d.verdict}: {d.explanation}")
     return 0
 
 
 def write_report(d: Diagnosis, out: Path) -> None:
-    """Before/after FRF overlays per level and DOF, plus a short markdown report."""
+    """Before/after FRF overlays and time residuals per level, plus a markdown report."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",
-             d.explanation, "", "| level | held back | error before | error after |",
-             "|---|---|---|---|"]
+             d.explanation, "", "| level | held back | FRF error before | FRF error after | "
+             "time residual before | time residual after |", "|---|---|---|---|---|---|"]
+    figs = []
     for i, c in enumerate(d.curves):
+        res = c.residuals().get("time")
+        tb, ta = ((f"{np.mean(res['before']):.4g}", f"{np.mean(res['after']):.4g}") if res
+                  else ("-", "-"))
         lines.append(f"| {c.level:g} | {'yes' if c.held_back else 'no'} | "
-                     f"{c.error_before:.4g} | {c.error_after:.4g} |")
+                     f"{c.error_before:.4g} | {c.error_after:.4g} | {tb} | {ta} |")
+        title = f"{c.label}{' (held back)' if c.held_back else ''}"
         n_dof = c.measured.shape[1]
-        fig, axes = plt.subplots(n_dof, 1, figsize=(7, 2.2 * n_dof), sharex=True,
-                                 squeeze=False)
-        for dof, ax in enumerate(axes[:, 0]):
+        fig, axes = plt.subplots(n_dof, 2, figsize=(12, 2.2 * n_dof), squeeze=False)
+        for dof in range(n_dof):
+            ax = axes[dof, 0]
             ax.semilogy(c.freqs, np.abs(c.measured[:, dof, 0]), "k", lw=1.2, label="measured")
             ax.semilogy(c.freqs, np.abs(c.before[:, dof, 0]), "C3--", lw=1, label="model before")
             ax.semilogy(c.freqs, np.abs(c.after[:, dof, 0]), "C0", lw=1, label="model after")
             ax.set_ylabel(f"|H| DOF {dof} (m/N)")
-        axes[0, 0].set_title(f"{c.label}{' (held back)' if c.held_back else ''}")
+            _time_panel(axes[dof, 1], c, dof)
+        axes[0, 0].set_title(f"{title}: FRF")
+        axes[0, 1].set_title(f"{title}: time residual (replay of the measured force)")
         axes[0, 0].legend(fontsize=8)
+        axes[0, 1].legend(fontsize=8)
         axes[-1, 0].set_xlabel("frequency (Hz)")
+        axes[-1, 1].set_xlabel("time (s)")
         fig.tight_layout()
         name = f"frf-level-{i}.png"
         fig.savefig(out / name, dpi=90)
         plt.close(fig)
-        lines.append("")
-        lines.append(f"![{c.label}]({name})")
-    lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |", "|---|---|---|---|"]
+        figs += ["", f"![{c.label}]({name})"]
+    lines += figs
+    lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |",
+              "|---|---|---|---|"]
     for r in d.ranking:
         params = ", ".join(f"{k}={v:.4g}" for k, v in r["params"].items())
         lines.append(f"| {r['kind']} | {r['dofs']} | {params} | {r['delta_bic']:.4g} |")
     (out / "report.md").write_text("\n".join(lines) + "\n")
+
+
+def _time_panel(ax, c, dof: int) -> None:
+    """Measured displacement and the residuals of the replays before/after."""
+    rb, ra = c.replay_before, c.replay_after
+    if rb is None or ra is None or rb.t.size == 0:
+        ax.text(0.5, 0.5, "no replay", transform=ax.transAxes, ha="center")
+        return
+    ax.plot(rb.t, rb.measured[:, dof], "k", lw=1.0, label="measured")
+    ax.plot(rb.t, rb.measured[:, dof] - rb.predicted[:, dof], "C3--", lw=1,
+            label=f"residual before ({rb.residual[dof]:.3g})")
+    ax.plot(ra.t, ra.measured[:, dof] - ra.predicted[:, dof], "C0", lw=1,
+            label=f"residual after ({ra.residual[dof]:.3g})")
+    ax.set_ylabel(f"x DOF {dof} (m)")
