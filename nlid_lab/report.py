@@ -354,6 +354,11 @@ def diagnosis_section(run: RunData) -> Section | None:
         sec.figures.append(("diagnosis_fit", figures.diagnosis_fit(
             str(fit.get("metric", "misfit")), float(fit["before"]), float(fit["after"]),
             str(res["verdict"]))))
+    tr = fit.get("time_residual")
+    if tr and tr.get("before") is not None and tr.get("after") is not None:
+        sec.figures.append(("diagnosis_time", figures.diagnosis_fit(
+            str(tr.get("metric", "time residual")), float(tr["before"]), float(tr["after"]),
+            str(res["verdict"]))))
     return sec
 
 
