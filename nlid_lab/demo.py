@@ -1,8 +1,8 @@
 """The built-in demo: a random test of the paper's SDOF system at several force levels.
 
-Steps (one function each, run in order by `run_demo`): load the model, simulate the test
-level by level into one HDF5 run file (blocks streamed through the plant as a campaign
-would), overlay the H1 FRF of every level (the paper's fig 3.5), estimate the nonlinear
+Steps (one function each, run in order by `run_demo`): load the model, run a random campaign
+on the simulated rig (`sim://` shaker and DAQ, level control, every block written as it
+arrives) into one HDF5 run file, overlay the H1 FRF of every level (the paper's fig 3.5), estimate the nonlinear
 coefficients by reverse path from all levels pooled (paper section 3.3.1: true vs estimated,
 95 % intervals, multiple coherence, modes of the underlying linear system; JSON next to the
 run and stored in it), and write the HTML report of the run.
@@ -41,7 +41,6 @@ class DemoConfig:
     fs: float = 1024.0
     duration: float = 128.0
     band: tuple[float, float] = (5.0, 200.0)
-    block: int = 1024
     nperseg: int = 8192
     # reverse path needs a resolution well below the resonance's half-power bandwidth
     # (0.8 Hz): 32 s segments (0.03 Hz) cut the leakage bias of the damping estimate from
@@ -63,35 +62,31 @@ def step_model(cfg: DemoConfig) -> Model:
     return Model.load(cfg.model_file)
 
 
+def campaign_dict(cfg: DemoConfig) -> dict:
+    """The demo's random campaign on the in-process simulated rig (`sim://`)."""
+    block = 4096
+    return {
+        "name": "demo", "kind": "random",
+        "plant": {"model": str(cfg.model_file), "seed": cfg.seed, "shaker_gain": 20.0,
+                  "noise_std": cfg.noise_std, "oversample": cfg.oversample},
+        "shaker": {"url": "sim://", "gain_guess": 20.0},
+        "daq": {"url": "sim://", "fs": cfg.fs, "response_kind": "displacement"},
+        "channel": [{"name": "F0", "quantity": "force", "dof": 0},
+                    {"name": "x0", "quantity": "displacement", "dof": 0}],
+        "random": {"levels": list(cfg.levels), "band": list(cfg.band), "block_size": block,
+                   "averages": max(1, int(round(cfg.duration * cfg.fs / block)))},
+    }
+
+
 def step_simulate(cfg: DemoConfig, model: Model) -> Path:
-    """Simulate every level on the plant and store them as levels of one run file."""
-    from analysis.excitation import random_gaussian
-    from analysis.plant import Plant
+    """Run the random campaign on the simulated rig: every level into one HDF5 run file."""
+    from .campaign import run_campaign
+    from .campaign_config import parse_campaign
 
     cfg.out.mkdir(parents=True, exist_ok=True)
     path = cfg.out / "sdof-random.h5"
-    n = int(round(cfg.duration * cfg.fs))
-    settings = {"kind": "random", "band": list(cfg.band), "levels_rms": list(cfg.levels),
-                "duration": cfg.duration, "seed": cfg.seed}
-    with store.RunWriter(path, fs=cfg.fs, excitation=settings, force_dofs=[0],
-                         n_dof=model.n_dof, model_toml=cfg.model_file.read_text(),
-                         source="sim", mode="overwrite",
-                         settings={"demo": True, "noise_std": cfg.noise_std,
-                                   # the plant interpolates the drive linearly between samples
-                                   "force_hold": "linear"}) as run:
-        bar = progress(total=n * len(cfg.levels), desc="demo: simulate", unit="sample")
-        for i, rms in enumerate(cfg.levels):
-            force = random_gaussian(n, cfg.fs, cfg.band, rms, cfg.seed + i)
-            force = np.asarray(force, dtype=float).reshape(n, 1)
-            plant = Plant(model, cfg.fs, [0], oversample=cfg.oversample,
-                          noise_std=cfg.noise_std, seed=cfg.seed + 100 + i)
-            level = run.level(i, rms)
-            for start in range(0, n, cfg.block):
-                piece = force[start:start + cfg.block]
-                level.append_block(piece, plant.run(piece).response)
-                bar.update(len(piece))
-            level.complete()
-        bar.close()
+    path.unlink(missing_ok=True)
+    run_campaign(parse_campaign(campaign_dict(cfg), cfg.model_file.parent), path)
     return path
 
 

@@ -55,8 +55,10 @@ def test_demo_estimate_table_json_and_stored_result(demo):
         assert abs(value - truth) <= 1e-3 * truth + (hi - lo) / 2, (e["kind"], value)
     mc = est["multiple_coherence"]
     assert mc["min"] >= 0.99 and mc["min_linear"] < 0.5       # paper fig 3.9
-    assert mc["band_hz"][0] == pytest.approx(5.0, abs=0.2)
-    assert mc["band_hz"][1] == pytest.approx(200.0, abs=0.2)
+    # the campaign drives independent random blocks: their joins spread the drive spectrum a
+    # little past the band edges that the band selection reads off the force spectrum
+    assert mc["band_hz"][0] == pytest.approx(5.0, abs=0.5)
+    assert mc["band_hz"][1] == pytest.approx(200.0, abs=0.5)
     # underlying linear system: one mode at the model's natural frequency; Hann leakage at
     # resolution df widens the resonance by about 0.4 df / fn in damping ratio
     (mode,) = est["modal"]["modes"]
