@@ -7,11 +7,10 @@ the balance is condensed onto the element deformations ``U_k = w_m . X_k``::
 
     R_k(U) = U_k - W^T H(h_k ω) B F δ(h_k, 1) + W^T H(h_k ω) W G_k(U) = 0
 
-``G_k`` are the Fourier coefficients of the element forces, evaluated in the time domain over one
-period by the numba kernel of `analysis.elements` (AFT). Elements with memory (stick-slip,
-hysteresis) run period after period until the force cycle repeats. Newton's method uses the
-AFT-consistent Jacobian: every coefficient is perturbed through the same periodic time loop, so
-the Jacobian matches the discrete map exactly, memory kinds included. The sensitivities with
+``G_k`` are the Fourier coefficients of the element forces over one period, with their exact
+derivatives ``dG/dU`` (`analysis.aft`). Each frequency point is solved by Newton's method in one
+compiled function (``J = I + W^T H W dG/dU``, backtracking when the residual grows), starting
+from a quadratic extrapolation of the previous points of the sweep. The sensitivities with
 respect to element parameters (for fitting) follow from the implicit-function theorem.
 
 Unknown vector layout (real): ``y[e * 2H + part * H + i]`` with part 0 = Re, 1 = Im of ``U_i``
@@ -26,11 +25,19 @@ from typing import Callable, Sequence
 import numba
 import numpy as np
 
-from .elements import KINDS, N_PARAM, N_STATE, element_force, pack_params, restoring_force
+from .aft import aft_tables, periodic_forces
+from .elements import KINDS, N_PARAM, pack_params, restoring_force
 from .errors import InputError
 from .model import Model
 
 Receptance = Callable[[np.ndarray], np.ndarray]  # freqs (n,) Hz -> (n, n_dof, n_dof)
+
+# AFT samples per period = _OVERSAMPLE x the highest order, rounded up to a power of two
+# (at least 32). Slip onsets fall between samples, so the AFT error of friction laws decays
+# only as 1/n_time^2: 16x keeps it below 0.25 % (or below the truncation error at order 7)
+# on the Jenkins sweeps of tests/test_hbm.py, where 8x reaches 1 %.
+_OVERSAMPLE = 16
+_MIN_ALPHA = 1e-3       # smallest damping factor of a Newton step
 
 
 class HBMError(InputError):
@@ -38,157 +45,19 @@ class HBMError(InputError):
 
 
 @numba.njit(cache=True)
-def _time_series(y, omega, harm, cos_t, sin_t, u, v):
-    nh = harm.shape[0]
-    for n in range(u.shape[0]):
-        su = 0.0
-        sv = 0.0
-        for i in range(nh):
-            a = y[i]
-            b = y[nh + i]
-            c = cos_t[i, n]
-            s = sin_t[i, n]
-            su += a * c - b * s
-            sv += harm[i] * omega * (-a * s - b * c)
-        u[n] = su
-        v[n] = sv
-
-
-@numba.njit(cache=True)
-def _deformation_at(y, harm, theta):
-    nh = harm.shape[0]
-    u = 0.0
-    for i in range(nh):
-        u += y[i] * np.cos(harm[i] * theta) - y[nh + i] * np.sin(harm[i] * theta)
-    return u
-
-
-@numba.njit(cache=True)
-def _one_period(code, p, memory, y, harm, u, v, s, g):
-    """Element forces over one period from state ``s`` (updated in place). For memory kinds
-    the kernel is also called at each turning point of ``u`` (located between samples), so
-    the stored reversal state — and the AFT map — is continuous in ``y``: turning points on
-    the grid make jumps of O(dθ^2) at which Newton stalls."""
-    s_next = np.empty_like(s)
-    nt = u.shape[0]
-    dtheta = 2 * np.pi / nt
-    v_prev = v[nt - 1]
-    for n in range(nt):
-        if memory and v_prev * v[n] < 0.0:
-            frac = v_prev / (v_prev - v[n])
-            theta = (n - 1 + frac) * dtheta
-            element_force(code, p, _deformation_at(y, harm, theta), 1e-300 * np.sign(v[n]),
-                          s, s_next)
-            s[:] = s_next
-        g[n] = element_force(code, p, u[n], v[n], s, s_next)
-        s[:] = s_next
-        if v[n] != 0.0:
-            v_prev = v[n]
-
-
-@numba.njit(cache=True)
-def _coefficients(g, harm, cos_t, sin_t, out):
-    nh = harm.shape[0]
-    nt = g.shape[0]
-    for i in range(nh):
-        c = 0.0
-        s = 0.0
-        for n in range(nt):
-            c += g[n] * cos_t[i, n]
-            s += g[n] * sin_t[i, n]
-        w = 1.0 / nt if harm[i] == 0 else 2.0 / nt
-        out[i] = w * c
-        out[nh + i] = -w * s
-
-
-@numba.njit(cache=True)
-def _periodic(code, p, memory, y, harm, u, v, s0, max_periods, tol, g):
-    """Run periods from state ``s0`` until the cycle repeats (same state at the start and
-    end of a period, or the same forces twice); returns the start state of the last period."""
-    s = s0.copy()
-    start = s.copy()
-    if not memory:
-        _one_period(code, p, memory, y, harm, u, v, s, g)
-        return start
-    g_prev = np.empty_like(g)
-    for k in range(max_periods):
-        start[:] = s
-        _one_period(code, p, memory, y, harm, u, v, s, g)
-        same = True
-        for i in range(s.shape[0]):
-            if abs(s[i] - start[i]) > tol * max(abs(s[i]), abs(start[i])):
-                same = False
-        if same:
-            return start
-        if k > 0:
-            diff = 0.0
-            big = 0.0
-            for n in range(g.shape[0]):
-                diff = max(diff, abs(g[n] - g_prev[n]))
-                big = max(big, abs(g[n]))
-            if diff <= tol * big + 1e-300:
-                return start
-        g_prev[:] = g
-    return start
-
-
-@numba.njit(cache=True)
-def _element_aft(code, p, memory, y, omega, harm, cos_t, sin_t, max_periods, tol, scale,
-                 G, dG, jac):
-    """Fourier coefficients ``G`` (2H) of one element and, if ``jac``, dG/dy (2H, 2H)."""
-    nt = cos_t.shape[1]
-    m = y.shape[0]
-    u = np.empty(nt)
-    v = np.empty(nt)
-    g = np.empty(nt)
-    _time_series(y, omega, harm, cos_t, sin_t, u, v)
-    start = _periodic(code, p, memory, y, harm, u, v, np.zeros(N_STATE), max_periods,
-                      tol, g)
-    _coefficients(g, harm, cos_t, sin_t, G)
-    if not jac:
-        return start
-    norm = 0.0
-    for i in range(m):
-        norm += y[i] * y[i]
-    eps = 1e-7 * max(np.sqrt(norm), scale)
-    yp = y.copy()
-    up = np.empty(nt)
-    vp = np.empty(nt)
-    Gp = np.empty(m)
-    reps = 2 if memory else 1
-    for d in range(m):
-        yp[d] = y[d] + eps
-        _time_series(yp, omega, harm, cos_t, sin_t, up, vp)
-        s = start.copy()
-        for _ in range(reps):
-            _one_period(code, p, memory, yp, harm, up, vp, s, g)
-        _coefficients(g, harm, cos_t, sin_t, Gp)
-        for i in range(m):
-            dG[i, d] = (Gp[i] - G[i]) / eps
-        yp[d] = y[d]
-    return start
-
-
-@numba.njit(cache=True)
-def _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t, max_periods, tol,
-              scale, jac):
-    """Condensed residual ``r`` and (if ``jac``) its Jacobian, plus the block dG/dy."""
-    m = y.shape[0]
+def _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, phi, dphi, dft, max_periods, tol,
+              G, dGb):
+    """Condensed residual ``y - ylin + Hr G(y)``; fills ``G`` and the per-element blocks
+    ``dGb`` = dG/dy (n_el, 2H, 2H), unless they are empty (n_el, 0, 0)."""
     nb = 2 * harm.shape[0]
-    n_el = codes.shape[0]
-    Gv = np.zeros(m)
-    dGb = np.zeros((n_el, nb, nb))
-    for e in range(n_el):
-        sl = slice(e * nb, (e + 1) * nb)
-        _element_aft(codes[e], P[e], mem[e], y[sl], omega, harm, cos_t, sin_t, max_periods,
-                     tol, scale, Gv[sl], dGb[e], jac)
-    r = y - ylin + Hr @ Gv
-    J = _assemble(Hr, dGb) if jac else np.zeros((m, m))
-    return r, J, Gv, dGb
+    for e in range(codes.shape[0]):
+        periodic_forces(codes[e], P[e], mem[e], y[e * nb:(e + 1) * nb], omega, phi, dphi, dft,
+                        harm, max_periods, tol, G[e * nb:(e + 1) * nb], dGb[e])
+    return y - ylin + Hr @ G
 
 
 @numba.njit(cache=True)
-def _assemble(Hr, dGb):
+def _jacobian(Hr, dGb):
     """Condensed Jacobian ``I + Hr blockdiag(dG/dy)``."""
     m = Hr.shape[0]
     nb = dGb.shape[1]
@@ -199,57 +68,62 @@ def _assemble(Hr, dGb):
 
 
 @numba.njit(cache=True)
-def _newton(y0, dGb0, ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t, max_periods, tol,
-            scale, max_iter, need_jac):
-    """Newton–chord iteration from ``y0`` with the (possibly stale) AFT blocks ``dGb0``.
+def _norm(x):
+    return np.sqrt(np.sum(x * x))
 
-    The AFT Jacobian costs 2H+1 time loops per element, a residual one, so the Jacobian is
-    kept while each step at least halves the residual and refreshed (then backtracked) when
-    it does not. Returns y, converged, iterations, G, dG/dy blocks and the Jacobian (fresh
-    at the solution if ``need_jac``, else the last one used).
+
+@numba.njit(cache=True)
+def _newton(y0, ylin, Hr, codes, P, mem, omega, harm, phi, dphi, dft, max_periods, tol,
+            scale, max_iter, min_alpha):
+    """Newton's method from ``y0`` with the exact AFT Jacobian; the step is halved while
+    the residual grows, down to ``min_alpha`` (1: full steps, which usually converge where a
+    kink of the map is crossed and damping is slow: the sweep tries them first).
+
+    Converged when the step, or the next one estimated from the contraction of the last two
+    (θ/(1 - θ) |dy|, θ = |dy_k| / |dy_k-1| < 1/2), is below ``tol (|y| + scale)``; that
+    last step is applied to ``y`` and, to first order, to ``G``. Returns y, converged,
+    evaluations, G, dG/dy blocks and the Jacobian at the last evaluated point.
     """
+    m = y0.shape[0]
+    nb = 2 * harm.shape[0]
+    n_el = codes.shape[0]
     y = y0.copy()
-    J = _assemble(Hr, dGb0)
-    r, _j, Gv, _d = _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t,
-                              max_periods, tol, scale, False)
-    dGb = dGb0.copy()
-    rn = np.sqrt(np.sum(r * r))
-    fresh = False
-    converged = False
-    it = 0
-    while it < max_iter:
-        it += 1
+    G = np.zeros(m)
+    dGb = np.zeros((n_el, nb, nb))
+    r = _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, phi, dphi, dft, max_periods, tol,
+                  G, dGb)
+    rn = _norm(r)
+    n_eval = 1
+    Gt = np.zeros(m)
+    dGt = np.zeros((n_el, nb, nb))
+    J = _jacobian(Hr, dGb)
+    last = np.inf
+    while n_eval < max_iter and np.isfinite(rn):
         dy = np.linalg.solve(J, -r)
-        step = np.sqrt(np.sum(dy * dy))
-        yt = y + dy
-        rt, _j, Gt, _d = _evaluate(yt, ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t,
-                                   max_periods, tol, scale, False)
-        rtn = np.sqrt(np.sum(rt * rt))
-        small = step <= tol * (np.sqrt(np.sum(yt * yt)) + scale)
-        if not small and rtn > 0.5 * rn:
-            if not fresh:  # re-linearise at y and retry
-                r, J, Gv, dGb = _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, cos_t,
-                                          sin_t, max_periods, tol, scale, True)
-                fresh = True
-                continue
-            alpha = 1.0
-            for _ in range(12):
-                alpha *= 0.5
-                yt = y + alpha * dy
-                rt, _j, Gt, _d = _evaluate(yt, ylin, Hr, codes, P, mem, omega, harm, cos_t,
-                                           sin_t, max_periods, tol, scale, False)
-                rtn = np.sqrt(np.sum(rt * rt))
-                if rtn < rn:
-                    break
-        y, r, Gv, rn = yt, rt, Gt, rtn
-        fresh = False
-        if small:
-            converged = True
-            break
-    if need_jac:
-        r, J, Gv, dGb = _evaluate(y, ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t,
-                                  max_periods, tol, scale, True)
-    return y, converged, it, Gv, dGb, J
+        step = _norm(dy)
+        theta = step / last if np.isfinite(last) else 1.0
+        if step <= tol * (_norm(y) + scale) or (
+                theta < 0.5 and theta / (1.0 - theta) * step <= tol * (_norm(y) + scale)):
+            y += dy
+            for e in range(n_el):
+                G[e * nb:(e + 1) * nb] += dGb[e] @ dy[e * nb:(e + 1) * nb]
+            return y, True, n_eval, G, dGb, J
+        alpha = 1.0
+        while True:
+            yt = y + alpha * dy
+            rt = _evaluate(yt, ylin, Hr, codes, P, mem, omega, harm, phi, dphi, dft,
+                           max_periods, tol, Gt, dGt)
+            n_eval += 1
+            rtn = _norm(rt)
+            if rtn < rn or alpha <= min_alpha or n_eval >= max_iter:
+                break
+            alpha *= 0.5
+        last = alpha * step
+        y, r, rn = yt, rt, rtn
+        G[:] = Gt
+        dGb[:] = dGt
+        J = _jacobian(Hr, dGb)
+    return y, False, n_eval, G, dGb, J
 
 
 @numba.njit(cache=True)
@@ -269,32 +143,53 @@ def _rotate(y, harm, factor, phi):
 
 
 @numba.njit(cache=True)
-def _ramp(ylin, Hr, codes, P, mem, omega, harm, cos_t, sin_t, max_periods, tol, scale,
-          max_iter, need_jac):
+def _ramp(ylin, Hr, codes, P, mem, omega, harm, phi, dphi, dft, max_periods, tol, scale,
+          max_iter):
     """Restart: continuation in the force amplitude from 1/1024 of it (where the elements
     act with their initial tangent) up to the full force, doubling it each time."""
     lam = 1.0 / 1024.0
     y = lam * ylin
     total = 0
     while True:
-        _r, _j, _g, dGb = _evaluate(y, lam * ylin, Hr, codes, P, mem, omega, harm, cos_t,
-                                    sin_t, max_periods, tol, scale * lam, True)
-        y, conv, it, Gv, dGb, J = _newton(y, dGb, lam * ylin, Hr, codes, P, mem, omega, harm,
-                                          cos_t, sin_t, max_periods, tol, scale * lam,
-                                          max_iter, need_jac)
+        y, conv, it, G, dGb, J = _newton(y, lam * ylin, Hr, codes, P, mem, omega, harm, phi,
+                                         dphi, dft, max_periods, tol, scale * lam, max_iter,
+                                         _MIN_ALPHA)
         total += it
         if not conv or lam == 1.0:
-            return y, conv, total, Gv, dGb, J
+            return y, conv, total, G, dGb, J
         new = min(1.0, 2.0 * lam)
         y = y * (new / lam)
         lam = new
 
 
 @numba.njit(cache=True)
-def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, cos_t, sin_t, max_periods, tol,
+def _predict(Y, ok, omegas, j):
+    """Start of point ``j`` of a sweep: the constant, linear or quadratic (Lagrange)
+    extrapolation through the converged points just before it; rest if there is none (the
+    first Newton step is then the response with the elements' initial tangents, e.g. stick)."""
+    k = 0
+    while k < 3 and j - k - 1 >= 0 and ok[j - k - 1]:
+        k += 1
+    w = omegas[j]
+    if k == 0:
+        return np.zeros(Y.shape[1])
+    if k == 1 or omegas[j - 1] == omegas[j - 2]:
+        return Y[j - 1].copy()
+    w1, w2 = omegas[j - 1], omegas[j - 2]
+    if k == 2 or omegas[j - 3] == w1 or omegas[j - 3] == w2:
+        return Y[j - 1] + (Y[j - 1] - Y[j - 2]) * ((w - w1) / (w1 - w2))
+    w3 = omegas[j - 3]
+    l1 = (w - w2) * (w - w3) / ((w1 - w2) * (w1 - w3))
+    l2 = (w - w1) * (w - w3) / ((w2 - w1) * (w2 - w3))
+    l3 = (w - w1) * (w - w2) / ((w3 - w1) * (w3 - w2))
+    return l1 * Y[j - 1] + l2 * Y[j - 2] + l3 * Y[j - 3]
+
+
+@numba.njit(cache=True)
+def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, phi, dphi, dft, max_periods, tol,
            scale, max_iter, sens_el, sens_slot, Y0, use_Y0):
-    """Natural continuation over frequencies (or from the guesses ``Y0``); optional
-    parameter sensitivities dG/dθ."""
+    """Points in the given order, each from the extrapolation of the previous ones (or from
+    the guesses ``Y0``); optional parameter sensitivities dG/dθ."""
     nf, m = ylin_all.shape
     nb = 2 * harm.shape[0]
     ns = sens_el.shape[0]
@@ -303,33 +198,43 @@ def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, cos_t, sin_t, max_peri
     dGp = np.zeros((nf, m, ns))
     ok = np.zeros(nf, dtype=np.bool_)
     iters = np.zeros(nf, dtype=np.int64)
-    y = Y0[0].copy() if use_Y0 else ylin_all[0].copy()
-    _r, _j, _g, dGb = _evaluate(y, ylin_all[0], Hr_all[0], codes, P, mem, omegas[0], harm,
-                                cos_t, sin_t, max_periods, tol, scale, True)
     for j in range(nf):
-        if use_Y0:
-            y = Y0[j].copy()
-        elif j >= 2:  # secant predictor along the sweep
-            y = Y[j - 1] + (Y[j - 1] - Y[j - 2]) * ((omegas[j] - omegas[j - 1])
-                                                    / (omegas[j - 1] - omegas[j - 2]))
-        y, conv, it, Gv, dGb, J = _newton(y, dGb, ylin_all[j], Hr_all[j], codes, P, mem,
-                                          omegas[j], harm, cos_t, sin_t, max_periods, tol,
-                                          scale, max_iter, ns > 0)
-        # a sweep past a fold jumps to another branch: try scaled and phase-shifted guesses
-        base = Y[j - 1].copy() if j > 0 else ylin_all[j].copy()
+        y0 = Y0[j].copy() if use_Y0 else _predict(Y, ok, omegas, j)
+        # full Newton steps first, then damped ones from the same start
+        y, conv, it, Gv, dGb, J = _newton(y0, ylin_all[j], Hr_all[j], codes, P, mem,
+                                          omegas[j], harm, phi, dphi, dft, max_periods, tol,
+                                          scale, min(max_iter, 16), 1.0)
+        if not conv:
+            y, conv, it2, Gv, dGb, J = _newton(y0, ylin_all[j], Hr_all[j], codes, P, mem,
+                                               omegas[j], harm, phi, dphi, dft, max_periods,
+                                               tol, scale, max_iter, _MIN_ALPHA)
+            it += it2
+        if not conv and j == 0 and not use_Y0:
+            y, conv, it2, Gv, dGb, J = _ramp(ylin_all[j], Hr_all[j], codes, P, mem, omegas[j],
+                                             harm, phi, dphi, dft, max_periods, tol, scale,
+                                             max_iter)
+            it += it2
+        # a sweep past a fold jumps to another branch: try scaled and phase-shifted copies
+        # of the last converged point
+        base = ylin_all[j].copy()
+        for i in range(j - 1, -1, -1):
+            if ok[i]:
+                base = Y[i].copy()
+                break
         for factor in (1.0, 2.0, 0.5, 4.0):
-            for phi in (-0.5 * np.pi, 0.5 * np.pi, -0.25 * np.pi, 0.25 * np.pi):
+            for phase in (0.0, -0.5 * np.pi, 0.5 * np.pi, -0.25 * np.pi, 0.25 * np.pi):
                 if conv:
                     break
-                y, conv, it2, Gv, dGb, J = _newton(_rotate(base, harm, factor, phi), dGb,
+                y, conv, it2, Gv, dGb, J = _newton(_rotate(base, harm, factor, phase),
                                                    ylin_all[j], Hr_all[j], codes, P, mem,
-                                                   omegas[j], harm, cos_t, sin_t,
-                                                   max_periods, tol, scale, 20, ns > 0)
+                                                   omegas[j], harm, phi, dphi, dft,
+                                                   max_periods, tol, scale,
+                                                   min(max_iter, 20), _MIN_ALPHA)
                 it += it2
         if not conv:
-            y, conv, it2, Gv, dGb, J = _ramp(ylin_all[j], Hr_all[j], codes, P, mem,
-                                             omegas[j], harm, cos_t, sin_t, max_periods, tol,
-                                             scale, max_iter, ns > 0)
+            y, conv, it2, Gv, dGb, J = _ramp(ylin_all[j], Hr_all[j], codes, P, mem, omegas[j],
+                                             harm, phi, dphi, dft, max_periods, tol, scale,
+                                             max_iter)
             it += it2
         Y[j] = y
         G[j] = Gv
@@ -337,17 +242,22 @@ def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, cos_t, sin_t, max_peri
         iters[j] = it
         if ns:
             dth = np.zeros((m, ns))  # explicit dG/dθ, by perturbing each parameter
+            G0 = np.empty(m)         # G at y itself (Gv is its first-order update)
             Gq = np.empty(nb)
-            dummy = np.empty((nb, nb))
+            none = np.empty((0, 0))
+            for e in range(codes.shape[0]):
+                periodic_forces(codes[e], P[e], mem[e], y[e * nb:(e + 1) * nb], omegas[j],
+                                phi, dphi, dft, harm, max_periods, tol,
+                                G0[e * nb:(e + 1) * nb], none)
             for q in range(ns):
                 e = sens_el[q]
                 pq = P[e].copy()
                 h = 1e-7 * max(abs(pq[sens_slot[q]]), 1e-12)
                 pq[sens_slot[q]] += h
-                _element_aft(codes[e], pq, mem[e], y[e * nb:(e + 1) * nb], omegas[j], harm,
-                             cos_t, sin_t, max_periods, tol, scale, Gq, dummy, False)
+                periodic_forces(codes[e], pq, mem[e], y[e * nb:(e + 1) * nb], omegas[j], phi,
+                                dphi, dft, harm, max_periods, tol, Gq, none)
                 for i in range(nb):
-                    dth[e * nb + i, q] = (Gq[i] - Gv[e * nb + i]) / h
+                    dth[e * nb + i, q] = (Gq[i] - G0[e * nb + i]) / h
             dy = np.linalg.solve(J, -(Hr_all[j] @ dth))
             tot = dth.copy()
             for e in range(codes.shape[0]):
@@ -397,6 +307,7 @@ class HBMResult:
         Element force coefficients.
     converged : ndarray of bool, shape (n_f,)
     iterations : ndarray of int, shape (n_f,)
+        Residual and Jacobian evaluations (AFT periods with derivatives) per point.
     dG : ndarray, complex, shape (n_f, n_h, n_el, n_sens), optional
         Total derivative of ``G`` with respect to the requested parameters.
     """
@@ -430,9 +341,14 @@ class HBMSystem:
     receptance : callable, optional
         Underlying linear receptance ``H(freqs) -> (n, n_dof, n_dof)``; the model's by default.
     n_time : int, optional
-        AFT samples per period (default: power of two >= 16 * max harmonic, at least 64).
+        AFT samples per period (default: power of two >= 16 x the highest order, at least
+        32: 128 for orders up to 7).
     tol : float
         Relative Newton and periodicity tolerance.
+    max_iter : int
+        Newton evaluations per attempt at a point.
+    max_periods : int
+        Periods run at most for a memory element to become periodic.
     """
 
     def __init__(self, model: Model, force_dofs: Sequence[int] = (0,),
@@ -445,15 +361,13 @@ class HBMSystem:
         if np.any(self.force_dofs < 0) or np.any(self.force_dofs >= model.n_dof):
             raise HBMError(f"force_dofs {self.force_dofs.tolist()} outside 0..{model.n_dof - 1}")
         hmax = int(self.harmonics.max())
-        self.n_time = int(n_time or max(64, 1 << int(np.ceil(np.log2(16 * hmax)))))
+        self.n_time = int(n_time or max(32, 1 << int(np.ceil(np.log2(_OVERSAMPLE * hmax)))))
         if self.n_time < 2 * hmax + 2:
             raise HBMError(f"n_time {self.n_time} is too small for harmonic {hmax}; use at "
                            f"least {2 * hmax + 2}")
         self.receptance = receptance or model_receptance(model)
         self.tol, self.max_iter, self.max_periods = tol, max_iter, max_periods
-        theta = 2 * np.pi * np.arange(self.n_time) / self.n_time
-        self._cos = np.ascontiguousarray(np.cos(np.outer(self.harmonics, theta)))
-        self._sin = np.ascontiguousarray(np.sin(np.outer(self.harmonics, theta)))
+        self._tables = aft_tables(self.harmonics, self.n_time)
         els = model.elements
         self.W = np.array([el.w for el in els]).T.reshape(model.n_dof, len(els))
         self.B = np.zeros((model.n_dof, self.force_dofs.size))
@@ -534,7 +448,7 @@ class HBMSystem:
         scale = max(float(np.abs(ylin).max()), 1e-300)
         Y, Gv, dGp, ok, iters = _sweep(
             Hr, ylin, 2 * np.pi * freqs, self.codes, P, self.memory, self.harmonics,
-            self._cos, self._sin, self.max_periods, self.tol, scale, self.max_iter,
+            *self._tables, self.max_periods, self.tol, scale, self.max_iter,
             np.ascontiguousarray(sens[:, 0]), np.ascontiguousarray(sens[:, 1]),
             ylin if guess is None else _to_real(np.asarray(guess)), guess is not None)
         U = _to_complex(Y, n_el, nh)
@@ -550,10 +464,13 @@ class HBMSystem:
     def _point(self, y, freq, force, jac):
         freqs, force, P = self._check([freq], force, None)
         H, Hr, ylin = self._linear(freqs, force)
-        scale = max(float(np.abs(ylin).max()), 1e-300)
-        r, J, Gv, _ = _evaluate(np.asarray(y, dtype=float), ylin[0], Hr[0], self.codes, P,
-                                self.memory, 2 * np.pi * freq, self.harmonics, self._cos,
-                                self._sin, self.max_periods, self.tol, scale, jac)
+        nb = 2 * self.harmonics.size
+        Gv, dGb = np.zeros(nb * self.n_el), np.zeros((self.n_el, nb, nb) if jac else
+                                                     (self.n_el, 0, 0))
+        r = _evaluate(np.asarray(y, dtype=float), ylin[0], Hr[0], self.codes, P, self.memory,
+                      2 * np.pi * freq, self.harmonics, *self._tables, self.max_periods,
+                      self.tol, Gv, dGb)
+        J = _jacobian(Hr[0], dGb) if jac else None
         return H[0], force[0], ylin[0], r, J, Gv
 
     def linear_state(self, freq: float, force: Sequence[float] | float) -> np.ndarray:
@@ -585,7 +502,6 @@ def _to_complex(Y: np.ndarray, n_el: int, nh: int) -> np.ndarray:
     """(n_f, m) real layout -> (n_f, n_h, n_el) complex."""
     Y = Y.reshape(Y.shape[0], n_el, 2, nh)
     return (Y[:, :, 0] + 1j * Y[:, :, 1]).transpose(0, 2, 1)
-
 
 
 def loop(kind: str, params: dict[str, float], amplitude: float,

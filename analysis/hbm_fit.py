@@ -276,7 +276,8 @@ def _starting_points(problem: HBMFit, n_starts: int, seed: int | None,
 
 
 def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
-            harmonics: Sequence[int] = (1, 3, 5, 7), *, receptance: Receptance | None = None, method: str = "least-squares",
+            harmonics: Sequence[int] = (1, 3, 5, 7), *, receptance: Receptance | None = None,
+            method: str = "least-squares",
             n_starts: int = 4, start: dict[tuple[int, str], float] | None = None,
             starts: np.ndarray | None = None, seed: int | None = 0,
             dofs: Sequence[int] | None = None, n_time: int | None = None) -> FitResult:

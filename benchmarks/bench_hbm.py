@@ -4,12 +4,16 @@
    200 frequencies, by `analysis.hbm` (target <= 50 ms).
 2. The same FRF by time-domain stepped-sine simulation on `analysis.plant.Plant` (phase-
    continuous up-sweep, settle and measure cycles, sine fit), timed in the same run: the ratio
-   (target >= 100x) and the largest difference between the two FRFs.
+   (target >= 100x; the simulation alone is timed, not its sine fits). Fairness: both are
+   compared with a finely resolved balance (odd orders to 31, 2048 samples per period) at the
+   same frequencies; the time-domain FRF is repeated with twice the settle cycles (it has
+   settled) and timed once more at twice the sample rate with half the settle cycles, which
+   reaches the accuracy of the HBM (at 16384 Hz the stick-slip transition is 0.6 % off).
 3. The full Table 4.1 fit: six levels 1 N .. 1 kN x 27 steps, 10 % noise on every response
    block, eq 34 hysteresis (kd, fd, n) by the default least squares with multi-start
    (target <= 10 s), errors against the reference kd, fd, the n reached and every start.
 
-    python benchmarks/bench_hbm.py [--level 100] [--settle-cycles 150] [--starts 4]
+    python benchmarks/bench_hbm.py [--level 100] [--settle-cycles 150] [--fs 16384] [--starts 4]
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--level", type=float, default=100.0, help="force amplitude, N")
     parser.add_argument("--settle-cycles", type=float, default=150.0)
+    parser.add_argument("--fs", type=float, default=16384.0, help="time-domain sample rate")
     parser.add_argument("--starts", type=int, default=4)
     args = parser.parse_args()
     model = Model.load(ROOT / "examples" / "models" / "sdof-stick-slip.toml")
@@ -54,25 +59,45 @@ def main() -> None:
     t_hbm, res = best_of(lambda: system.sweep(freqs, args.level), 5)
     h_hbm = res.frf(0, args.level)
     print(f"1. analytical FRF, SDOF Jenkins, harmonics 1,3,5,7, {freqs.size} frequencies, "
-          f"{args.level:g} N: {1e3 * t_hbm:.1f} ms (target <= 50 ms); "
-          f"{res.iterations.mean():.1f} Newton-chord iterations per point, "
-          f"{system.n_time} AFT samples per period")
+          f"{args.level:g} N: {1e3 * t_hbm:.2f} ms (target <= 50 ms); "
+          f"{res.iterations.mean():.2f} Newton evaluations per point, "
+          f"{system.n_time} AFT samples per period, all converged: {res.converged.all()}")
 
-    simulate_levels(model, [args.level], freqs[:2], noise=0.0, settle_cycles=2,
-                    measure_cycles=2)                         # JIT warm-up
-    t0 = time.perf_counter()
-    [rec] = simulate_levels(model, [args.level], freqs, noise=0.0,
-                            settle_cycles=args.settle_cycles, measure_cycles=30)
-    t_sim = time.perf_counter() - t0
-    h_td = stepped_sine_frf(rec, (1, 3, 5, 7)).frf[:, 0]
-    hold = 1 - (np.pi * freqs / rec.fs) ** 2 / 3
-    diff = np.abs(h_hbm * hold - h_td) / np.abs(h_td)
-    sim_seconds = rec.force.shape[1] * freqs.size / rec.fs
-    print(f"2. time-domain stepped sine (Plant, fs {rec.fs:g} Hz, {args.settle_cycles:g} settle "
-          f"+ 30 measured cycles per step): {t_sim:.2f} s; ratio {t_sim / t_hbm:.0f}x "
-          f"(target >= 100x); |H_hbm - H_time| / |H_time|: max {100 * diff.max():.2f} %, "
-          f"median {100 * np.median(diff):.3f} % (measure blocks {sim_seconds:.1f} s "
-          "simulated in total plus settling)")
+    def simulate(settle, fs):
+        """Time-domain FRF (simulation timed, not its sine fits: a conservative ratio)."""
+        t0 = time.perf_counter()
+        [rec] = simulate_levels(model, [args.level], freqs, noise=0.0, settle_cycles=settle,
+                                measure_cycles=30, fs=fs)
+        seconds = time.perf_counter() - t0
+        hold = 1 - (np.pi * freqs / fs) ** 2 / 3          # first-order hold of the drive
+        return stepped_sine_frf(rec, (1, 3, 5, 7)).frf[:, 0] / hold, seconds
+
+    def spread(h, ref):
+        d = np.abs(h / ref - 1)
+        return (f"max {100 * d.max():.3f} % at {freqs[d.argmax()]:.1f} Hz, 95th percentile "
+                f"{100 * np.percentile(d, 95):.3f} %, median {100 * np.median(d):.4f} %")
+
+    for fs in (args.fs, 2 * args.fs):                         # JIT warm-up
+        simulate_levels(model, [args.level], freqs[:2], noise=0.0, settle_cycles=2,
+                        measure_cycles=2, fs=fs)
+    h_ref = HBMSystem(model, [0], range(1, 32, 2), n_time=2048).sweep(
+        freqs, args.level).frf(0, args.level)
+    h_td, t_sim = simulate(args.settle_cycles, args.fs)
+    h_long, _ = simulate(2 * args.settle_cycles, args.fs)
+    h_eq, t_eq = simulate(args.settle_cycles / 2, 2 * args.fs)
+    print(f"2. the same FRF by time-domain stepped sine (Plant, phase-continuous up-sweep, "
+          f"30 measured cycles per step), ratios timed in this run (target >= 100x):")
+    print(f"   a. fs {args.fs:g} Hz, {args.settle_cycles:g} settle cycles: {t_sim:.2f} s, "
+          f"ratio {t_sim / t_hbm:.0f}x")
+    print(f"   b. fs {2 * args.fs:g} Hz, {args.settle_cycles / 2:g} settle cycles (the HBM's "
+          f"accuracy): {t_eq:.2f} s, ratio {t_eq / t_hbm:.0f}x")
+    print("   accuracy against H_ref, a balance with odd orders to 31 and 2048 samples per "
+          "period (worst at the stick-to-slip transition):")
+    print(f"   HBM [1 3 5 7]: {spread(h_hbm, h_ref)}")
+    print(f"   time domain a: {spread(h_td, h_ref)}")
+    print(f"   time domain b: {spread(h_eq, h_ref)}")
+    print(f"   settling of a: {2 * args.settle_cycles:g} vs {args.settle_cycles:g} cycles differ "
+          f"by {spread(h_long, h_td)}")
 
     levels_n = [1.0, 10.0, 30.0, 100.0, 300.0, 1000.0]
     recs = simulate_levels(model, levels_n, np.linspace(60.0, 320.0, 27), seed=1)

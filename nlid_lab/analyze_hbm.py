@@ -40,7 +40,7 @@ def linear_from_run(path: str, model: Model, harmonics: np.ndarray) -> MeasuredR
     return MeasuredReceptance(top.freqs[order], top.frf[order, 0])
 
 
-def _element_json(model: Model, result: FitResult) -> list[dict]:
+def element_json(model: Model, result: FitResult) -> list[dict]:
     out = []
     for e, el in enumerate(result.model.elements):
         ci = {name: list(result.ci95[(e, name)]) for (i, name) in result.ci95 if i == e}
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
               f"[{lo:12.5g}, {hi:12.5g}]")
     for w in result.warnings:
         print(f"warning: {w}")
-    write_json({"elements": _element_json(model, result), "warnings": result.warnings,
+    write_json({"elements": element_json(model, result), "warnings": result.warnings,
                 "cost": result.cost, "method": result.method,
                 "harmonics": harmonics.tolist(),
                 "levels": [lv.level for lv in levels],

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from analysis.elements import restoring_force
+from analysis.aft import aft_tables, periodic_forces
+from analysis.elements import KINDS, pack_params, restoring_force
 from analysis.errors import InputError
 from analysis.hbm import HBMSystem, parse_harmonics
 from analysis.model import Element, Model
@@ -106,6 +107,66 @@ def test_mdof_cubic_and_stick_slip_matches_plant():
         for dof in (0, 2):
             ref = _plant_steady(model, freq, 30.0, dof=dof, force_dof=2)
             assert abs(res.X[0, 0, dof]) == pytest.approx(abs(ref), rel=5e-3)
+
+
+@pytest.mark.parametrize("kind,params,amp", [
+    ("stick_slip", {"kd": 2.4e7, "fd": 246.0}, 2e-5),
+    ("hysteresis", {"kd": 2.4e7, "fd": 246.0, "n": 2.0}, 2e-5),
+    ("hysteresis", {"kd": 2.4e7, "fd": 246.0, "n": 50.0}, 2e-5),
+    ("cubic_spring", {"p": 1e8}, 1e-2),
+    ("quadratic_spring", {"p": 1e6}, 1e-2),
+    ("quadratic_damping", {"p": 5.0}, 1e-3),
+    ("cubic_damping", {"p": 5.0}, 1e-3),
+    ("coulomb_friction", {"fc": 3.0}, 1e-4),
+    ("gap", {"k": 1e5, "g": 1e-3}, 2e-3)])
+def test_aft_jacobian_is_the_derivative_of_the_discrete_map(kind, params, amp):
+    """dG/dy propagated through the time loop (memory state and turning points included)
+    equals central differences of the AFT map itself, for every kind, with strong higher
+    harmonics (several turning points per period). Differences with steps of 1e-7 of the
+    amplitude agree with a smooth map to ~1e-8; a kink crossed by a step would show as O(1)."""
+    harm = np.array([0, 1, 2, 3, 5, 7])
+    tables = aft_tables(harm, 64)
+    code, memory = KINDS[kind].code, KINDS[kind].memory
+    p = pack_params(kind, params)
+    rng = np.random.default_rng(1)
+    y = amp * np.concatenate([[0.05, 1.0], 0.2 * rng.standard_normal(4),
+                              [0.0, 0.3], 0.2 * rng.standard_normal(4)])
+
+    def forces(yy, jac):
+        G, dG = np.zeros(y.size), np.zeros((y.size, y.size) if jac else (0, 0))
+        periodic_forces(code, p, memory, yy, 2 * np.pi * 100.0, *tables, harm, 50, 1e-12,
+                        G, dG)
+        return G, dG
+
+    _, dG = forces(y, True)
+    h = 1e-7 * amp
+    fd = np.column_stack([(forces(y + h * e, False)[0] - forces(y - h * e, False)[0]) / (2 * h)
+                          for e in np.eye(y.size)])
+    np.testing.assert_allclose(dG, fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+
+
+def test_default_sampling_is_not_the_accuracy_limit():
+    """The default 16 samples per period of the highest order: on 200-step sweeps of the
+    Jenkins system the AFT error (against 1024 samples) stays within a quarter of the 0.5 %
+    accuracy target, or below the error of truncating at order 7 where that is larger (300 N:
+    0.5 % at the stick-slip transition, truncation 1.1 %). Measured 0.06, 0.08, 0.50,
+    0.08 %; 8 samples per order would give 0.26, 0.63, 1.0, 0.41 %."""
+    model = Model.load(STICK_SLIP)
+    freqs = np.linspace(50.0, 350.0, 200)
+    for level in (20.0, 100.0, 300.0, 1000.0):
+        default = HBMSystem(model, [0]).sweep(freqs, level).frf(0, level)
+        fine = HBMSystem(model, [0], n_time=1024).sweep(freqs, level).frf(0, level)
+        more = HBMSystem(model, [0], range(1, 16, 2), n_time=1024).sweep(freqs, level)
+        truncation = np.abs(fine / more.frf(0, level) - 1).max()
+        assert np.abs(default / fine - 1).max() <= max(2.5e-3, truncation)
+
+
+def test_sweep_converges_in_few_newton_evaluations():
+    """The exact Jacobian and the extrapolated start: about two residual evaluations per
+    point through stick, partial slip and slip (a guard on the Jacobian, not on time)."""
+    res = HBMSystem(Model.load(STICK_SLIP), [0]).sweep(np.linspace(50.0, 350.0, 200), 100.0)
+    assert res.converged.all()
+    assert res.iterations.mean() <= 3.0
 
 
 def test_parameter_sensitivities_match_finite_differences():

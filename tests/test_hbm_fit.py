@@ -21,25 +21,25 @@ FS = 16384.0
 
 
 def simulate_levels(model, levels, freqs, *, noise=0.10, seed=0, settle_cycles=150,
-                    measure_cycles=30):
+                    measure_cycles=30, fs=FS):
     """Phase-continuous stepped-sine up-sweeps on the plant, one Recording per level, with
     ``noise`` x rms Gaussian noise on every response block (paper section 4.2)."""
     rng = np.random.default_rng(seed)
     recs = []
     for level in levels:
-        plant = Plant(model, FS, [0])
-        steps = stepped_sine_plan(freqs, fs=FS, settle_cycles=settle_cycles,
+        plant = Plant(model, fs, [0])
+        steps = stepped_sine_plan(freqs, fs=fs, settle_cycles=settle_cycles,
                                   measure_cycles=measure_cycles)
         n_meas = min(s.n_measure for s in steps)
         force, resp, phase = [], [], 0.0
         for s in steps:
             n = s.n_settle + n_meas
-            f = sine_block(s.freq, level, n, FS, phase)
-            phase += 2 * np.pi * s.freq * n / FS
+            f = sine_block(s.freq, level, n, fs, phase)
+            phase += 2 * np.pi * s.freq * n / fs
             out = plant.run(f[:, None])
             force.append(f[s.n_settle:, None])
             resp.append(add_relative_noise(out.displacement[s.n_settle:], noise, rng))
-        recs.append(Recording(FS, "stepped-sine", [0], np.array(force), np.array(resp),
+        recs.append(Recording(fs, "stepped-sine", [0], np.array(force), np.array(resp),
                               freqs=np.array([s.freq for s in steps]), level=level))
     return recs
 
