@@ -244,11 +244,11 @@ def sdof_periodic():
             for s in (1, 2, 3)]
 
 
-def test_periodic_output_noise_5pct_sdof(sdof_periodic):
+def test_periodic_output_noise_5pct_sdof_cubic(sdof_periodic):
     """5 % output noise, 8 realizations x 8 periods: the cubic spring within 1 % on every
-    seed; the quadratic damping unbiased within its wide (+-12..35 %) interval:
-    information-limited (docs/reverse-path.md). 95 % intervals: at most one miss in three
-    per coefficient (measured coverage 9/10 for each, docs)."""
+    seed. The quadratic damping needs far more data (below); here it is only unbiased
+    within its wide interval. 95 % intervals: at most one miss in three per coefficient
+    (measured coverage 9/10 for each, docs)."""
     covered = {"cubic_spring": 0, "quadratic_damping": 0}
     for seed, (model, rec) in enumerate(sdof_periodic):
         res = reverse_path(_noisy(rec, 0.05, seed), _candidate(model))
@@ -261,15 +261,49 @@ def test_periodic_output_noise_5pct_sdof(sdof_periodic):
     assert min(covered.values()) >= 2, covered
 
 
+# Data for the 1 % target at 5 % output noise (measured, docs/reverse-path.md "How much
+# data"): the 3-DOF cubic element (deformation ~60 % noise per sample) needs 16 realizations
+# x 32 periods. The SDOF quadratic damping is identified only by its distortion (the rest is
+# absorbed in the nonparametric H_L): 64 x 32 periods (18 M samples) still leave it at
+# +-1.3 % rms, its interval (+-2.5 %) covering.
+MDOF_5PCT = dict(realizations=16, periods=32, transient=1)
+SDOF_5PCT = dict(realizations=64, periods=32, transient=2)
+
+
+def _errors_5pct(case, layout, seed):
+    model, rec = _periodic_run(*case, **layout, seed=seed)
+    res = reverse_path(_noisy(rec, 0.05, seed), _candidate(model))
+    assert res.noise["realizations"] == layout["realizations"]
+    return {c.kind: (*_errors(model, res)[c.kind],
+                     (c.ci95[1] - c.ci95[0]) / 2 / model.elements[c.element].params[c.param])
+            for c in res.coefficients}
+
+
+def _mdof_target(seed):
+    for kind, (e, covered, _) in _errors_5pct(MDOF_P, MDOF_5PCT, seed).items():
+        assert abs(e) < 0.01 and covered, (kind, e, seed)
+
+
 def test_periodic_output_noise_5pct_mdof():
-    """3-DOF at 5 %: the x|x| element within 1 % and covered; the cubic element between
-    DOFs 1 and 2 (its deformation carries ~60 % noise per sample) is covered by its
-    +-2.5..3.5 % interval."""
-    model, rec = _periodic_run(*MDOF_P, realizations=8, periods=8, transient=1, seed=1)
-    noisy = _noisy(rec, 0.05, 1)
-    iv = _errors(model, reverse_path(noisy, _candidate(model)))
-    assert abs(iv["quadratic_spring"][0]) < 0.01 and iv["quadratic_spring"][1], iv
-    assert iv["cubic_spring"][1], iv
+    """3-DOF at 5 %, 16 realizations x 32 periods: both elements within 1 %, covered."""
+    _mdof_target(1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [2, 3, 4, 5])
+def test_periodic_output_noise_5pct_mdof_seeds(seed):
+    _mdof_target(seed)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_periodic_output_noise_5pct_sdof_damping(seed):
+    """SDOF at 5 %, 64 x 32 periods: cubic spring within 0.2 %, damping covered by its
+    +-2.5 % interval (the 1 % target is not reached at this data size, docs)."""
+    err = _errors_5pct(SDOF_P, SDOF_5PCT, seed)
+    assert abs(err["cubic_spring"][0]) < 2e-3 and err["cubic_spring"][1], err
+    e, covered, half = err["quadratic_damping"]
+    assert covered and half < 0.03, err
 
 
 def test_periodic_transient_warning_and_inputs():
