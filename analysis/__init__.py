@@ -1,19 +1,39 @@
 """nlid-lab numerical core: models, element laws, simulated plant and estimators.
 
-Pure numpy/scipy/numba on arrays; no devices, no files other than model TOML.
+Pure numpy/scipy/numba on arrays; no devices, no files other than model TOML. The public names
+below are imported lazily (PEP 562), so ``import analysis.errors`` (as the CLI does for every
+command) does not pay for numba and scipy start-up.
 """
 
-from .elements import KINDS, restoring_force
-from .errors import EstimationError, InputError, ModelError, RecordingError
-from .model import Element, Model
-from .plant import Plant, PlantOutput, add_relative_noise, simulate
-from .recording import Recording
-from .reverse_path import ReversePathResult, reverse_path
+from __future__ import annotations
 
-__all__ = [
-    "KINDS", "restoring_force",
-    "EstimationError", "InputError", "ModelError", "RecordingError",
-    "Element", "Model", "Recording",
-    "Plant", "PlantOutput", "add_relative_noise", "simulate",
-    "ReversePathResult", "reverse_path",
-]
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "KINDS": "elements", "restoring_force": "elements",
+    "EstimationError": "errors", "InputError": "errors", "ModelError": "errors",
+    "RecordingError": "errors",
+    "Element": "model", "Model": "model", "Recording": "recording",
+    "Plant": "plant", "PlantOutput": "plant", "add_relative_noise": "plant",
+    "simulate": "plant",
+    "ReversePathResult": "reverse_path", "reverse_path": "reverse_path",
+    "ScreeningResult": "screening", "screen_candidates": "screening",
+    "HBMSystem": "hbm", "FitResult": "hbm_fit", "fit_hbm": "hbm_fit",
+    "sine_fit": "sine_fit", "stepped_sine_frf": "sine_fit",
+    "Diagnosis": "diagnose",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'analysis' has no attribute '{name}'")
+    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

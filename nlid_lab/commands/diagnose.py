@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.diagnose import DiagnoseInputError, Diagnosis, diagnose
-from analysis.model import Model
+if TYPE_CHECKING:
+    from analysis.diagnose import Diagnosis
 
 RESULT_NAME = "diagnose"
 """Name of the stored result (run results are stored by command name; see nlid_lab.report)."""
@@ -53,6 +54,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from analysis.diagnose import DiagnoseInputError, diagnose
+    from analysis.model import Model
+
     from nlid_lab.cli import write_json
     from nlid_lab.store import load_recordings, open_run, save_result
 

@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.model import Model
 from analysis.recording import RESPONSE_KINDS, Recording
 
-from .. import recordings_io, store
+from .. import recordings_io
 from ..cli import write_json
 from ..progress import progress
+
+if TYPE_CHECKING:
+    from analysis.model import Model
 
 OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
 
@@ -52,6 +55,10 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
 
 
 def run(args: argparse.Namespace) -> int:
+    from analysis.model import Model
+
+    from .. import store
+
     out = Path(args.out)
     if out.suffix.lower() not in OUT_SUFFIXES:
         raise InputError(f"--out {out}: use a .npz or .h5 file name")
