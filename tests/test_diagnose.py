@@ -148,3 +148,26 @@ def test_replay_restarts_reproduce_the_exact_model():
         assert exact.residual.max() < tol
         assert wrong.residual.min() > 10 * exact.residual.max()
         assert exact.t.size == exact.measured.shape[0] == exact.predicted.shape[0]
+
+
+def test_unconfirmed_finding_is_flagged(tmp_path):
+    """Two levels of a structure missing two effects: the held-back (lower) level barely
+    exercises them. The tool may still name physics, but never silently: whenever the held-back
+    error is not at least halved, a warning and a tentative explanation say so."""
+    from pathlib import Path
+
+    from analysis.model import Model
+    from nlid_lab.campaign import run_campaign
+    from nlid_lab.campaign_config import load_campaign
+    from nlid_lab.store import load_recordings
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    run = tmp_path / "run.h5"
+    run_campaign(load_campaign(examples / "campaign-sim-random.toml"), run)
+    full = Model.load(examples / "models" / "sdof-cubic-quaddamp.toml")
+    d = diagnose(full.with_elements([]), load_recordings(run))
+    assert d.verdict == "discrepancy" and d.level_dependent
+    confirmed = d.fit["after"] <= 0.5 * d.fit["before"]
+    flagged = any("does not confirm" in w for w in d.warnings)
+    assert confirmed != flagged
+    assert flagged == ("tentative" in d.explanation)

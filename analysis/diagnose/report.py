@@ -128,8 +128,27 @@ def _fmt(params: dict[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
 
 
+UNCONFIRMED = 0.5   # held-back error kept above this fraction: the found physics is tentative
+
+
 def explain(d: Diagnosis, cands: list[Candidate]) -> str:
-    """One paragraph a test engineer can act on."""
+    """One paragraph a test engineer can act on.
+
+    When the corrected model does not at least halve the held-back error, a warning is added to
+    ``d.warnings`` and the paragraph says the finding is tentative.
+    """
+    fit = d.fit
+    if d.verdict != "adequate" and fit["after"] > UNCONFIRMED * fit["before"]:
+        d.warnings.append(
+            f"the held-back recording does not confirm the finding (error {fit['before']:.3g} "
+            f"-> {fit['after']:.3g}): the fitting levels cannot tell the candidates apart")
+        return (_explain(d, cands) + " The held-back recording does not confirm this, so treat "
+                "it as tentative: record more levels spanning the nonlinearity (the held-back "
+                "level should exercise it) and diagnose again.")
+    return _explain(d, cands)
+
+
+def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     band = d.location.get("band_hz")
     lvl = ("The measured FRFs change with excitation level beyond their random error, so the "
            "structure is nonlinear. " if d.level_dependent else
