@@ -16,7 +16,7 @@ from analysis.recording import Recording
 from analysis.sine_fit import SteppedSineFRF, stepped_sine_frf
 
 from .cli import write_json
-from .store import load_recordings
+from .store import check_result_target, load_recordings, save_result
 
 
 def _stepped(paths: list[str]) -> list[Recording]:
@@ -50,6 +50,8 @@ def element_json(model: Model, result: FitResult) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "store", None):
+        check_result_target(args.store)      # before the work: a bad target exits 2 at once
     model = Model.load(args.model)
     harmonics = parse_harmonics(args.harmonics)
     levels = [stepped_sine_frf(rec, harmonics[harmonics > 0]) for rec in _stepped(args.runs)]
@@ -67,12 +69,15 @@ def run(args: argparse.Namespace) -> int:
               f"[{lo:12.5g}, {hi:12.5g}]")
     for w in result.warnings:
         print(f"warning: {w}")
-    write_json({"elements": element_json(model, result), "warnings": result.warnings,
-                "cost": result.cost, "method": result.method,
-                "harmonics": harmonics.tolist(),
-                "levels": [lv.level for lv in levels],
-                "linear_from": args.linear_from or "model",
-                "starts": result.starts, "n_evaluations": result.n_evaluations}, args.json)
+    out = {"elements": element_json(model, result), "warnings": result.warnings,
+           "cost": result.cost, "method": result.method,
+           "harmonics": harmonics.tolist(),
+           "levels": [lv.level for lv in levels],
+           "linear_from": args.linear_from or "model",
+           "starts": result.starts, "n_evaluations": result.n_evaluations}
+    write_json(out, args.json)
+    if getattr(args, "store", None):
+        save_result(args.store, "analyze-hbm", out)
     if args.figure:
         reference = Model.load(args.reference) if args.reference else None
         figures(result, levels, harmonics, receptance, reference, Path(args.figure))

@@ -21,7 +21,7 @@ from analysis.reverse_path import ReversePathResult, reverse_path
 from analysis.screening import screen_candidates
 
 from .cli import write_json
-from .store import load_recordings
+from .store import check_result_target, load_recordings, save_result
 
 FORCE_HOLDS = ("none", "linear")
 
@@ -124,6 +124,8 @@ def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = No
 
 
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "store", None):
+        check_result_target(args.store)      # before the work: a bad target exits 2 at once
     model = Model.load(args.model)
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result, out = estimate(recs, model, force_hold=getattr(args, "force_hold", None),
@@ -139,4 +141,6 @@ def run(args: argparse.Namespace) -> int:
         print(screening.table(), file=stream)
         out["screening"] = screening.to_json()
     write_json(out, args.json)
+    if getattr(args, "store", None):
+        save_result(args.store, "analyze-reverse-path", out)
     return 0

@@ -122,3 +122,25 @@ def test_report_bad_candidate(tmp_path, bad):
     path = random_run(tmp_path / "r.h5", seconds=4.0)
     assert main(["report", str(path), "--out", str(tmp_path), "--model",
                  str(tmp_path / bad)]) == 2
+
+
+def test_analyze_store_then_report(tmp_path):
+    """campaign -> analyze hbm --store RUN -> report shows the fitted-model section."""
+    from nlid_lab.campaign import run_campaign
+    from nlid_lab.campaign_config import load_campaign
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    run = tmp_path / "stepped.h5"
+    run_campaign(load_campaign(examples / "campaign-sim-stepped.toml"), run)
+    cand = Model.load(examples / "models" / "sdof-cubic-quaddamp.toml")
+    cand_file = tmp_path / "cand.toml"
+    cand.with_elements([type(e)(e.kind, e.w, {}) for e in cand.elements]).save(cand_file)
+    assert main(["analyze", "hbm", str(run), "--model", str(cand_file), "--store",
+                 str(run)]) == 0
+    stored = store.open_run(run).results["analyze-hbm"]
+    p = {e["kind"]: e["params"]["p"] for e in stored["elements"]}
+    assert p["cubic_spring"] == pytest.approx(6e10, rel=0.02)
+    out = write_report(load_run(run), tmp_path / "rep")
+    assert any("hbm_fit" in str(f) for f in out["figures"])
+    assert main(["analyze", "hbm", str(run), "--model", str(cand_file), "--store",
+                 str(cand_file)]) == 2

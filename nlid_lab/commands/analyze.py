@@ -12,6 +12,12 @@ def _delegate(module: str):
     return run
 
 
+def _store_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--store", metavar="RUN.h5",
+                   help="also save the result into this HDF5 run (as 'analyze-<method>'), where "
+                   "`nlid-lab report` and `view` show it")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("analyze", help="estimate nonlinear parameters from stored runs")
     kinds = p.add_subparsers(dest="method", metavar="METHOD")
@@ -32,6 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "else none)")
     rp.add_argument("--screen", action="store_true",
                     help="also rank the candidate basis library by conditioned coherence")
+    _store_option(rp)
     rp.set_defaults(func=_delegate("analyze_reverse_path"))
 
     hb = kinds.add_parser("hbm", help="stepped sine: multi-harmonic balance fit")
@@ -50,4 +57,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="multi-start count of the least-squares fit (default 4)")
     hb.add_argument("--reference", metavar="MODEL",
                     help="reference model whose element loop is drawn next to the estimate")
+    _store_option(hb)
     hb.set_defaults(func=_delegate("analyze_hbm"))

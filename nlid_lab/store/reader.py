@@ -152,6 +152,14 @@ def open_run(path: str | os.PathLike) -> Run:
                results)
 
 
+def check_result_target(path: str | os.PathLike) -> None:
+    """Raise `StoreError` unless ``path`` is a run file a result can be saved into."""
+    if Path(path).suffix.lower() not in (".h5", ".hdf5"):
+        raise StoreError(f"{path}: results can only be stored in an HDF5 run file (.h5); "
+                         "give a run written by nlid-lab")
+    open_run(path)
+
+
 def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
     """Add an analysis result to an existing run file (crash-safely, in SWMR mode)."""
     path = Path(path)
