@@ -20,6 +20,9 @@ def run(args: argparse.Namespace) -> int:
         uff.write_uff(args.out, sets, bar.update)
     kinds = {uff.FUNC_FRF: "frf", uff.FUNC_COHERENCE: "coherence"}
     counts = {name: sum(s["func_type"] == t for s in sets) for t, name in kinds.items()}
+    if args.json != "-":
+        print(f"wrote {len(sets)} UFF58 datasets ({counts['frf']} FRF, {counts['coherence']} "
+              f"coherence) to {args.out}")
     write_json({"uff": str(Path(args.out)), "datasets": len(sets), **counts}, args.json)
     return 0
 
