@@ -263,9 +263,11 @@ def test_periodic_output_noise_5pct_sdof_cubic(sdof_periodic):
 
 # Data for the 1 % target at 5 % output noise (measured, docs/reverse-path.md "How much
 # data"): the 3-DOF cubic element (deformation ~60 % noise per sample) needs 16 realizations
-# x 32 periods. The SDOF quadratic damping is identified only by its distortion (the rest is
-# absorbed in the nonparametric H_L): 64 x 32 periods (18 M samples) still leave it at
-# +-1.3 % rms, its interval (+-2.5 %) covering.
+# x 32 periods. The SDOF quadratic damping estimated jointly with the cubic spring stays at
+# +-1.3 % rms with 64 x 32 periods (18 M samples): per line both coefficients are free
+# complex numbers, and the distortion of v|v| is nearly collinear with a phase-rotated x^3
+# distortion. Re-estimating it with the (0.2 %-accurate) spring fixed reaches the target
+# with 24 x 16 periods (SDOF_DAMPING_5PCT).
 MDOF_5PCT = dict(realizations=16, periods=32, transient=1)
 SDOF_5PCT = dict(realizations=64, periods=32, transient=2)
 
@@ -304,6 +306,41 @@ def test_periodic_output_noise_5pct_sdof_damping(seed):
     assert abs(err["cubic_spring"][0]) < 2e-3 and err["cubic_spring"][1], err
     e, covered, half = err["quadratic_damping"]
     assert covered and half < 0.03, err
+
+
+SDOF_DAMPING_5PCT = dict(realizations=24, periods=16, transient=2)
+
+
+def _damping_two_stage(seed):
+    """Joint estimate, then the damping alone with the cubic spring fixed at its estimate.
+
+    The damping moves by 0.05 % per 1 % of spring error (measured), so the spring's
+    +-0.3 % interval adds nothing visible to the damping's."""
+    model, rec = _periodic_run(*SDOF_P, **SDOF_DAMPING_5PCT, seed=seed)
+    rec = _noisy(rec, 0.05, seed)
+    joint = reverse_path(rec, _candidate(model))
+    spring = joint.coefficients[0]
+    assert spring.kind == "cubic_spring"
+    cand = model.with_elements([Element("cubic_spring", [1.0], {"p": spring.value}),
+                                Element("quadratic_damping", [1.0], {})])
+    (damping,) = reverse_path(rec, cand).coefficients
+    truth = model.elements[1].params["p"]
+    half = (damping.ci95[1] - damping.ci95[0]) / 2 / truth
+    half_joint = (joint.coefficients[1].ci95[1] - joint.coefficients[1].ci95[0]) / 2 / truth
+    assert abs(damping.value / truth - 1) < 0.01, (seed, damping.value)
+    assert damping.ci95[0] <= truth <= damping.ci95[1] and half < 0.015, (seed, damping.ci95)
+    assert half < 0.5 * half_joint            # measured 0.93 % vs 5.6 % (mean, seeds 1-4)
+
+
+def test_periodic_output_noise_5pct_sdof_damping_two_stage():
+    """SDOF at 5 %, 24 x 16 periods (3.5 M samples): damping within 1 %, covered."""
+    _damping_two_stage(1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [2, 3, 4, 5])
+def test_periodic_output_noise_5pct_sdof_damping_two_stage_seeds(seed):
+    _damping_two_stage(seed)
 
 
 def test_periodic_transient_warning_and_inputs():
