@@ -390,12 +390,12 @@ def _row_covariance(spec_rr_inv: np.ndarray, sigma2: np.ndarray, n_dof: np.ndarr
                     beta: np.ndarray, gamma: np.ndarray) -> np.ndarray:
     """``E[(sum beta dH)(sum gamma dH)^*]`` per frequency for linear forms of H_M.
 
-    ``beta``, ``gamma`` have shape (n_f, n_dof, n_r); row errors are independent across
-    outputs with covariance ``sigma_y^2 [G_RR^-1]_{ba}`` (``sigma2`` already divided by the
-    degrees of freedom).
+    ``beta``, ``gamma`` have shape (n_dof, n_r), the same at every frequency; row errors are
+    independent across outputs with covariance ``sigma_y^2 [G_RR^-1]_{ba}`` (``sigma2``
+    already divided by the degrees of freedom).
     """
-    return np.einsum("fyb,fyb,fy->f", beta @ spec_rr_inv.transpose(0, 2, 1), gamma.conj(),
-                     sigma2)
+    t = spec_rr_inv @ beta.T                               # (f, a, y): sum_b inv[a, b] beta[y, b]
+    return np.einsum("ya,fay,fy->f", gamma.conj(), t, sigma2)
 
 
 def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: list[str],
@@ -470,14 +470,12 @@ def _element_estimates(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, w:
     num = np.zeros(n_f, dtype=complex)
     den = np.zeros(n_f)
     for beta, alpha in forms:
-        b_ = np.broadcast_to(beta, H.shape)
-        a_ = np.broadcast_to(alpha, H.shape)
         b = np.einsum("fya,ya->f", H, beta)
         a = np.einsum("fya,ya->f", H, alpha)
         p = b / a
-        var = (_row_covariance(rr_inv, sigma2, n_dof, b_, b_).real
-               + np.abs(p) ** 2 * _row_covariance(rr_inv, sigma2, n_dof, a_, a_).real
-               - 2 * (p.conj() * _row_covariance(rr_inv, sigma2, n_dof, b_, a_)).real)
+        var = (_row_covariance(rr_inv, sigma2, n_dof, beta, beta).real
+               + np.abs(p) ** 2 * _row_covariance(rr_inv, sigma2, n_dof, alpha, alpha).real
+               - 2 * (p.conj() * _row_covariance(rr_inv, sigma2, n_dof, beta, alpha)).real)
         var = np.maximum(var, 1e-300) / np.abs(a) ** 2
         num += p / var
         den += 1 / var

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from analysis.basis import LIBRARY, alias_error, aliasing_factor, element_basis, evaluate
+from analysis.basis import (LIBRARY, alias_error, aliasing_factor, deformation, element_basis,
+                            evaluate)
 from analysis.errors import EstimationError, InputError
 from analysis.model import Element
 
@@ -31,3 +32,12 @@ def test_aliasing_factor_and_correction():
     spec = np.abs(np.fft.rfft(clean[2000:-2000] * np.hanning(n - 4000)))
     f = np.fft.rfftfreq(n - 4000, 1 / fs)
     assert spec[(f > 80) & (f < 120)].max() < 1e-3 * spec.max()
+
+
+def test_deformation_matches_matmul():
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((1000, 6))[:, ::2]          # strided (n, 3) view
+    for w in ([0.0, -1.0, 1.0], [1.0, 0.0, 0.0], [0.3, 0.7, -1.1], [0.0, 0.0, 0.0]):
+        w = np.array(w)
+        np.testing.assert_allclose(deformation(w, x), x @ w, rtol=1e-14, atol=1e-15)
+    np.testing.assert_array_equal(deformation(np.array([0.0, -1.0, 1.0]), x), x[:, 2] - x[:, 1])
