@@ -14,6 +14,9 @@ import numba
 import numpy as np
 
 from .elements import element_force
+from ._numba_cache import guard
+
+guard(__file__, "elements")
 
 # The same force law compiled for inlining into the hot loop (a call with array arguments
 # costs more than the law itself); `_virgin` is re-jitted alongside since it is called inside.

@@ -28,6 +28,9 @@ import numba
 import numpy as np
 
 from .elements import N_STATE, element_force
+from ._numba_cache import guard
+
+guard(__file__, "elements")
 
 # The laws are written once in analysis.elements; their source is compiled inline here and
 # specialised per kind by `_run`: a call per sample (array arguments) and the run-time

@@ -29,6 +29,9 @@ from .aft import aft_tables, periodic_forces
 from .elements import KINDS, N_PARAM, pack_params, restoring_force
 from .errors import InputError
 from .model import Model
+from ._numba_cache import guard
+
+guard(__file__, "aft", "elements")
 
 Receptance = Callable[[np.ndarray], np.ndarray]  # freqs (n,) Hz -> (n, n_dof, n_dof)
 
