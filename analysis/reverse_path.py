@@ -22,6 +22,7 @@ instruments for periodic-random (multisine) records, which this module hands ove
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
@@ -296,9 +297,42 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     else:
         result = noise_mod.iv_passes(result, model, built, unknown, known, welch, info,
                                      warnings)
-    result.warnings = sorted(set(warnings), key=warnings.index)
+    result.warnings = _merge_alias_warnings(warnings)
     result.noise = info
     return result
+
+
+_ALIAS = re.compile(r"^(aliasing: basis .+? of element \d+) spans (\d+) Hz and folds into the "
+                    r"band \(([\d.e+-]+) % in-band error\) at fs = (\S+) Hz; (.*)$")
+
+
+def _merge_alias_warnings(warnings: list[str]) -> list[str]:
+    """Unique warnings in order, one aliasing line per basis instead of one per record."""
+    out: list[str] = []
+    groups: dict[str, list[re.Match]] = {}
+    for w in warnings:
+        m = _ALIAS.match(w)
+        if m is None:
+            if w not in out:
+                out.append(w)
+            continue
+        if m.group(1) not in groups:
+            groups[m.group(1)] = []
+            out.append(m.group(1))           # placeholder, keeps the order
+        groups[m.group(1)].append(m)
+    for key, ms in groups.items():
+        if len(ms) == 1:
+            text = ms[0].group(0)
+        else:
+            factors = sorted({int(f) for x in ms for f in re.findall(r"upsampled x(\d+)",
+                                                                      x.group(5))})
+            what = (f"upsampled x{'-x'.join(map(str, (factors[0], factors[-1])))} before "
+                    "forming it" if len(factors) > 1 else ms[0].group(5))
+            text = (f"{key} spans up to {max(int(x.group(2)) for x in ms)} Hz and folds into "
+                    f"the band (up to {max(float(x.group(3)) for x in ms):.2g} % in-band error, "
+                    f"{len(ms)} records) at fs = {ms[0].group(4)} Hz; {what}")
+        out[out.index(key)] = text
+    return out
 
 
 @dataclass

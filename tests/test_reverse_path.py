@@ -371,3 +371,17 @@ def test_periodic_basis_upsampling_is_exact():
     assert np.abs(exact[folded]).max() < 1e-9 * np.abs(exact).max()
     kept = [30, 50, 70, 90]                  # true lines of the cube below n/2
     np.testing.assert_allclose(exact[kept], plain[kept], atol=1e-9 * np.abs(exact).max())
+
+
+def test_aliasing_warnings_merge_per_basis():
+    from analysis.reverse_path import _merge_alias_warnings
+    w = ["noise note",
+         "aliasing: basis v|v| of element 1 spans 1000 Hz and folds into the band (0.09 % "
+         "in-band error) at fs = 1024 Hz; upsampled x2 before forming it",
+         "aliasing: basis v|v| of element 1 spans 1200 Hz and folds into the band (0.15 % "
+         "in-band error) at fs = 1024 Hz; upsampled x3 before forming it",
+         "noise note"]
+    out = _merge_alias_warnings(w)
+    assert out[0] == "noise note" and len(out) == 2
+    assert "up to 1200 Hz" in out[1] and "up to 0.15 %" in out[1] and "2 records" in out[1]
+    assert "x2-x3" in out[1]
