@@ -18,7 +18,7 @@ from types import TracebackType
 
 import numpy as np
 
-from .errors import DriverConfigError, StateError
+from .errors import CommsError, DriverConfigError, StateError
 
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
 UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
@@ -233,9 +233,20 @@ class Acquirer(_Lifecycle, ABC):
     def stop(self, *, timeout: float = 1.0) -> None:
         """Stop streaming."""
 
-    @abstractmethod
     def close(self) -> None:
-        """Release the device."""
+        """Stop streaming if needed (a dead link is ignored) and release the device."""
+        if self._state == "closed":
+            return
+        try:
+            self.stop(timeout=0.5)
+        except CommsError:
+            pass
+        finally:
+            self._release()
+            self._state = "closed"
+
+    def _release(self) -> None:
+        """Free the transport (port, bus); nothing by default."""
 
     @staticmethod
     def check_config(fs: float, channels: list[Channel], frame_size: int) -> None:

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import can_protocol as proto
 from .base import Acquirer, Block, Channel
-from .errors import CommsError, DeviceError, Disconnected, DriverConfigError, DriverTimeout
+from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
 
 
 class CanDaq(Acquirer):
@@ -193,13 +193,5 @@ class CanDaq(Acquirer):
         self._state = "stopped"
         self._control(0, timeout)
 
-    def close(self) -> None:
-        if self._state == "closed":
-            return
-        try:
-            self.stop(timeout=0.5)
-        except CommsError:
-            pass
-        finally:
-            self.bus.shutdown()
-            self._state = "closed"
+    def _release(self) -> None:
+        self.bus.shutdown()

@@ -8,7 +8,7 @@ from collections import deque
 import numpy as np
 
 from .base import Acquirer, Block, Channel
-from .errors import CommsError, DriverTimeout, ProtocolError
+from .errors import DriverTimeout, ProtocolError
 from .frame import Frame, FrameParser
 from .serial_link import SerialLink
 
@@ -106,13 +106,5 @@ class SerialDaq(Acquirer):
         self.link.write(b"ABOR\n")
         self.link.drain_until(b"OK\n", timeout)
 
-    def close(self) -> None:
-        if self._state == "closed":
-            return
-        try:
-            self.stop(timeout=0.5)
-        except CommsError:
-            pass
-        finally:
-            self.link.close()
-            self._state = "closed"
+    def _release(self) -> None:
+        self.link.close()
