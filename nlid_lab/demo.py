@@ -21,7 +21,6 @@ from analysis.model import Model
 from . import store
 from .analyze_reverse_path import estimate, format_table, recorded_force_hold
 from .cli import write_json
-from .progress import progress
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
     / "sdof-cubic-quaddamp.toml"
@@ -93,27 +92,24 @@ def step_simulate(cfg: DemoConfig, model: Model) -> Path:
 def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[dict]]:
     """H1 FRF of each level, overlaid with the underlying linear FRF, as a PNG."""
     import matplotlib
-    import scipy.signal
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from .report import level_frf
 
     run = store.open_run(run_path)
     fig, ax = plt.subplots(figsize=(8, 5))
     peaks = []
-    for rec in run.recordings():
-        nperseg = min(cfg.nperseg, rec.force.shape[0] // 4)
-        f = rec.force[:, 0]
-        x = rec.response[:, 0]
-        freqs, p_ff = scipy.signal.welch(f, rec.fs, nperseg=nperseg)
-        _, p_fx = scipy.signal.csd(f, x, rec.fs, nperseg=nperseg)
-        keep = (freqs >= cfg.band[0]) & (freqs <= cfg.band[1])
-        h1 = np.abs(p_fx[keep] / p_ff[keep])
-        peak = freqs[keep][np.argmax(h1)]
+    for i, rec in enumerate(run.recordings()):
+        frf = level_frf(rec, i, nperseg=min(cfg.nperseg, rec.force.shape[0] // 4))
+        keep = (frf.freqs >= cfg.band[0]) & (frf.freqs <= cfg.band[1])
+        freqs, h1 = frf.freqs[keep], np.abs(frf.H[keep, 0, 0])
+        peak = freqs[np.argmax(h1)]
         peaks.append({"level_rms": rec.level, "peak_hz": float(peak), "peak_m_per_n":
                       float(h1.max())})
-        ax.semilogy(freqs[keep], h1, label=f"{rec.level:g} N rms (peak {peak:.1f} Hz)")
-    lin = np.abs(model.linear_frf(freqs[keep], [0])[:, 0, 0])
-    ax.semilogy(freqs[keep], lin, "k--", lw=1, label="underlying linear")
+        ax.semilogy(freqs, h1, label=f"{rec.level:g} N rms (peak {peak:.1f} Hz)")
+    lin = np.abs(model.linear_frf(freqs, [0])[:, 0, 0])
+    ax.semilogy(freqs, lin, "k--", lw=1, label="underlying linear")
     fn = float(model.natural_frequencies()[0])
     ax.set_xlim(max(cfg.band[0], fn / 2), min(cfg.band[1], 2 * fn))
     ax.set(xlabel="frequency [Hz]", ylabel="|H1| [m/N]",
