@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-import numba
 import numpy as np
 
 from .elements import KINDS
@@ -128,27 +127,7 @@ def element_basis(el: Element, index: int = 0) -> tuple[str, Basis]:
 
 def deformation(w: np.ndarray, signal: np.ndarray) -> np.ndarray:
     """``u = signal @ w`` for a (n, n_dof) displacement or velocity record."""
-    signal = np.asarray(signal, dtype=float)
-    w = np.asarray(w, dtype=float)
-    if signal.ndim != 2:
-        return signal @ w
-    return _deformation(w, signal, np.empty(signal.shape[0]))
-
-
-@numba.njit(cache=True)
-def _deformation(w: np.ndarray, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """``out = x @ w`` skipping the zero entries of ``w`` (position vectors are sparse).
-
-    Hand-written: a BLAS gemv on a tall (n, 3) array streams every column and costs about
-    2.5x this single pass over the rows.
-    """
-    nz = np.flatnonzero(w)
-    for i in range(x.shape[0]):
-        acc = 0.0
-        for k in nz:
-            acc += w[k] * x[i, k]
-        out[i] = acc
-    return out
+    return np.asarray(signal, dtype=float) @ np.asarray(w, dtype=float)
 
 
 def aliasing_factor(order: int, bandwidth: float, fs: float, band_hi: float) -> int:

@@ -85,6 +85,9 @@ class ReversePathResult:
     noise : dict
         Noise treatment: ``method``, ``relative_std`` per DOF, ``lowpass_hz``, and for
         "iv" ``instrument_coherence`` (median per estimated input).
+    refine : dict
+        Empty for a joint estimate; for ``refine="sequential"`` the method and the joint
+        values and intervals (`analysis.reverse_path_stages`).
     """
 
     freqs: np.ndarray
@@ -100,6 +103,7 @@ class ReversePathResult:
     force_dofs: np.ndarray
     warnings: list[str] = field(default_factory=list)
     noise: dict[str, Any] = field(default_factory=dict)
+    refine: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         """Contracts section 4 dictionary."""
@@ -119,6 +123,7 @@ class ReversePathResult:
             "n_averages": self.spectra.n_avg,
             "resolution_hz": self.spectra.fs / self.spectra.nperseg,
             "noise": dict(self.noise),
+            "refine": dict(self.refine) or {"method": "joint"},
         }
 
     def estimated_model(self, candidate: Model) -> Model:
@@ -195,7 +200,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
                  antialias: str = "auto", method: str = "direct",
                  force_hold: str | None = None, noise: str = "auto",
                  period: int | None = None, transient_periods: int | None = None,
-                 realizations: int | None = None) -> ReversePathResult:
+                 realizations: int | None = None, refine: str = "joint") -> ReversePathResult:
     """Estimate the unknown element parameters of ``model`` and the underlying linear FRF.
 
     Parameters
@@ -237,6 +242,11 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         dropped as transient (default 1) and realizations (blocks with their own random
         phases) per record (default 1); default: the recording's ``meta`` entries of the
         same names. Each realization holds ``transient_periods + P`` whole periods.
+    refine : {"joint", "sequential"}
+        "sequential": after the joint estimate, re-estimate each coefficient with the
+        elements on forced DOFs fixed at their joint estimates, their uncertainty propagated
+        (`analysis.reverse_path_stages`; for a basis that shares its deformation with
+        another, such as v|v| next to x^3).
 
     Returns
     -------
@@ -250,6 +260,15 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         raise InputError(f"method must be direct or conditioned, got '{method}'")
     if noise not in ("auto", "iv", "none"):
         raise InputError(f"noise must be auto, iv or none, got '{noise}'")
+    if refine not in ("joint", "sequential"):
+        raise InputError(f"refine must be joint or sequential, got '{refine}'")
+    if refine == "sequential":
+        from .reverse_path_stages import sequential
+        opts = dict(fs=fs, force_dofs=force_dofs, response_kind=response_kind, band=band,
+                    nperseg=nperseg, window=window, overlap=overlap, antialias=antialias,
+                    method=method, force_hold=force_hold, noise=noise, period=period,
+                    transient_periods=transient_periods, realizations=realizations)
+        return sequential(lambda cand: reverse_path(data, cand, **opts), model)
     # imported here: the noise module builds on this one's channel and estimate helpers
     from . import reverse_path_noise as noise_mod
     recs = _records(data, fs, force_dofs, response_kind)
@@ -367,7 +386,7 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
         x, v = to_kinematics(response, fs, proc.kind, highpass=hp)
         if proc.lowpass is not None and needs_v:
             v = to_kinematics(response, fs, proc.kind, highpass=hp, lowpass=proc.lowpass)[1]
-    force = force_in.copy() if proc.hold == "none" else _linear_hold(force_in, fs)
+    force = force_in if proc.hold == "none" else _linear_hold(force_in, fs)
     cols: list[np.ndarray] = []
     labels: list[str] = []
     for i, el in known:
@@ -375,7 +394,7 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
                             bas.deformation(el.w, v))[0]
         a = _force_span(el.w, force_dofs)
         if a is not None:
-            force -= np.outer(g, a)      # a known force on forced DOFs: subtract it
+            force = force - np.outer(g, a)   # a known force on forced DOFs: subtract it
         else:
             cols.append(-g)              # elsewhere: a nuisance input with its own column
             labels.append(f"-{el.kind}@{i}(known)")
@@ -420,16 +439,23 @@ def _linear_hold(force: np.ndarray, fs: float) -> np.ndarray:
     return np.fft.irfft(spec, 2 * n, axis=0)[:n]
 
 
-def _row_covariance(spec_rr_inv: np.ndarray, sigma2: np.ndarray, n_dof: np.ndarray,
-                    beta: np.ndarray, gamma: np.ndarray) -> np.ndarray:
-    """``E[(sum beta dH)(sum gamma dH)^*]`` per frequency for linear forms of H_M.
+def _form_covariance(rr_inv: np.ndarray, sigma2: np.ndarray, forms: np.ndarray) -> np.ndarray:
+    """``E[(sum v_k dH)(sum v_l dH)^*]`` per frequency for real linear forms ``v_k`` of H_M.
 
-    ``beta``, ``gamma`` have shape (n_dof, n_r), the same at every frequency; row errors are
+    ``forms`` has shape (n_forms, n_dof, n_r), the same at every frequency; row errors are
     independent across outputs with covariance ``sigma_y^2 [G_RR^-1]_{ba}`` (``sigma2``
-    already divided by the degrees of freedom).
+    already divided by the degrees of freedom). Returns shape (n_f, n_forms, n_forms).
     """
-    t = spec_rr_inv @ beta.T                               # (f, a, y): sum_b inv[a, b] beta[y, b]
-    return np.einsum("ya,fay,fy->f", gamma.conj(), t, sigma2)
+    cov = np.zeros((rr_inv.shape[0], forms.shape[0], forms.shape[0]), dtype=complex)
+    for y in range(forms.shape[1]):
+        rows = np.flatnonzero(forms[:, y, :].any(axis=1))     # forms that read output y
+        if rows.size:
+            v = forms[rows, y, :]
+            # q[l, f, k] = v_l^T inv_f v_k: two flat matrix products (a broadcast matmul
+            # over the frequencies is one small product per line)
+            q = np.tensordot(v, rr_inv, axes=(1, 1)) @ v.T
+            cov[:, rows[:, None], rows] += sigma2[:, y, None, None] * q.transpose(1, 2, 0)
+    return cov
 
 
 def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: list[str],
@@ -439,7 +465,7 @@ def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: lis
     """Estimate from the spectral matrix of ``[X, R]`` (later channels are ignored).
 
     H1 unless ``solved = (H, cov, sigma2, noise)`` gives another estimator's transfer matrix,
-    its row covariance (`_row_covariance` order) and per-output residual variance;
+    its row covariance (`_form_covariance` order) and per-output residual variance;
     coherences always come from ``spec``.
     """
     n_in, n_r = fdofs.size, len(inputs)
@@ -484,7 +510,7 @@ def _coefficients(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, fdofs: 
 def _element_estimates(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, w: np.ndarray,
                        fdofs: np.ndarray, col: int) -> tuple[np.ndarray, np.ndarray]:
     """Inverse-variance combination of the equations ``H_M[y, col] = p a_y`` per frequency."""
-    n_f, n_dof, n_r = H.shape
+    _, n_dof, n_r = H.shape
     a_span = _force_span(w, fdofs)
     forms = []   # (beta, alpha): p = (beta . H) / (alpha . H)
     if a_span is not None:
@@ -501,18 +527,17 @@ def _element_estimates(H: np.ndarray, rr_inv: np.ndarray, sigma2: np.ndarray, w:
             alpha = np.zeros((n_dof, n_r))
             alpha[:, j] = w
             forms.append((beta, alpha))
-    num = np.zeros(n_f, dtype=complex)
-    den = np.zeros(n_f)
-    for beta, alpha in forms:
-        b = np.einsum("fya,ya->f", H, beta)
-        a = np.einsum("fya,ya->f", H, alpha)
-        p = b / a
-        var = (_row_covariance(rr_inv, sigma2, n_dof, beta, beta).real
-               + np.abs(p) ** 2 * _row_covariance(rr_inv, sigma2, n_dof, alpha, alpha).real
-               - 2 * (p.conj() * _row_covariance(rr_inv, sigma2, n_dof, beta, alpha)).real)
-        var = np.maximum(var, 1e-300) / np.abs(a) ** 2
-        num += p / var
-        den += 1 / var
+    m = len(forms)
+    v = np.array([beta for beta, _ in forms] + [alpha for _, alpha in forms])
+    lin = np.einsum("fya,kya->fk", H, v)
+    b, a = lin[:, :m], lin[:, m:]
+    p = b / a
+    cov = _form_covariance(rr_inv, sigma2, v)
+    k = np.arange(m)
+    var = (cov[:, k, k].real + np.abs(p) ** 2 * cov[:, k + m, k + m].real
+           - 2 * (p.conj() * cov[:, k, k + m]).real)
+    var = np.maximum(var, 1e-300) / np.abs(a) ** 2
+    num, den = np.sum(p / var, axis=1), np.sum(1 / var, axis=1)
     return num / den, 1 / den
 
 

@@ -51,37 +51,52 @@ from .spectral import Spectra, spectral_matrix
 
 NOISE_THRESHOLD = 5e-3   # relative sensor-noise std above which noise="auto" uses "iv"
 IV_PASSES = 2            # instrument refinements (each re-simulates with the latest estimate)
+FLOOR_SEGMENTS = 128     # Welch segments averaged at most for the sensor-noise floor
 
 
 def noise_floor(response: np.ndarray, fs: float, band_hi: float,
-                cutoff: bool = True) -> tuple[np.ndarray | None, float]:
-    """White sensor-noise density per channel (one-sided, unit^2/Hz) or None; cut-off, Hz.
+                cutoff: bool = True) -> tuple[np.ndarray | None, float, np.ndarray | None]:
+    """White sensor-noise density per channel (one-sided, unit^2/Hz) or None; cut-off, Hz;
+    the response's standard deviation over the samples read (None with no floor).
 
     The floor is read off the response spectrum between ``max(1.2 band_hi, 0.55 fs/2)`` and
     ``0.9 fs/2``, where the structure's own response has rolled off: the smaller median of
-    the two halves of that range, None unless both agree within 1.5x (white). The
-    cut-off is the highest frequency where some channel still exceeds twice its floor:
+    the two halves of that range (corrected to a mean), None unless both agree within 1.5x
+    (white). The spectrum averages at most `FLOOR_SEGMENTS` segments spread over the record.
+    The cut-off is the highest frequency where some channel still exceeds twice its floor:
     above it the record holds noise only. ``cutoff=False`` skips it (returns ``fs/2``) and
     accumulates the spectrum on the floor's range only.
     """
     lo_f, hi_f = max(1.2 * band_hi, 0.55 * fs / 2), 0.9 * fs / 2
-    nps = min(4096, response.shape[0])
+    n = response.shape[0]
+    nps = min(4096, n)
     f = np.fft.rfftfreq(nps, 1 / fs)
     if np.count_nonzero((f >= lo_f) & (f <= hi_f)) < 8:
-        return None, fs / 2
-    spec = spectral_matrix(response, fs, nperseg=nps,  # = scipy.signal.welch
-                           band=None if cutoff else (lo_f, hi_f))
+        return None, fs / 2, None
+    band = None if cutoff else (lo_f, hi_f)
+    if n < (FLOOR_SEGMENTS + 1) * nps // 2:
+        read = response
+        spec = spectral_matrix(read, fs, nperseg=nps, band=band)  # = scipy.signal.welch
+    else:
+        # a median over hundreds of lines of FLOOR_SEGMENTS averages is good to about 1 %;
+        # whole-record Welch would transform every sample for nothing better
+        starts = np.linspace(0, n - nps, FLOOR_SEGMENTS).astype(int)
+        read = np.concatenate([response[i:i + nps] for i in starts])
+        spec = spectral_matrix(read, fs, nperseg=nps, overlap=0.0, band=band)
     f, p = spec.freqs, spec.auto()
     idx = np.flatnonzero((f >= lo_f) & (f <= hi_f))
     half = idx.size // 2
     m1, m2 = np.median(p[idx[:half]], axis=0), np.median(p[idx[half:]], axis=0)
     if np.any(np.maximum(m1, m2) > 1.5 * np.minimum(m1, m2)):
-        return None, fs / 2     # not a flat (white) floor: structural or aliased content
-    floor = np.minimum(m1, m2)
+        return None, fs / 2, None   # not a flat (white) floor: structural or aliased content
+    # a line of white noise is chi^2 with nu = 2 n_eff degrees of freedom over nu: its
+    # median lies (1 - 2 / (9 nu))^3 below its mean (Wilson-Hilferty)
+    floor = np.minimum(m1, m2) / (1 - 2 / (9 * 2 * spec.n_eff)) ** 3
     if not cutoff:
-        return floor, fs / 2
+        return floor, fs / 2, _std(read)
     above = np.flatnonzero(np.any(p > 2 * floor, axis=1))
-    return floor, float(min(fs / 2, max(f[above[-1]] if above.size else 0.0, band_hi)))
+    return floor, float(min(fs / 2, max(f[above[-1]] if above.size else 0.0, band_hi))), \
+        _std(read)
 
 
 def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
@@ -89,13 +104,11 @@ def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
     """Noise floors of the records and the noise treatment chosen."""
     # the cut-off only sets the "iv" low-pass: not needed when the mode rules "iv" out
     found = [noise_floor(r.response, fs, band_hi, cutoff=mode != "none") for r in recs]
-    floors = [f for f, _ in found]
+    floors = [f for f, _, _ in found]
     rel = None
     if all(f is not None for f in floors):
-        # std of contiguous rows: a column-wise std of an (n, n_dof) array is ~2.5x slower
-        rel = np.max([np.sqrt(f * fs / 2) / np.maximum(
-            np.ascontiguousarray(r.response.T).std(axis=1), 1e-300)
-            for f, r in zip(floors, recs)], axis=0)
+        rel = np.max([np.sqrt(f * fs / 2) / np.maximum(std, 1e-300) for f, _, std in found],
+                     axis=0)
     noisy = rel is not None and rel.max() > NOISE_THRESHOLD
     chosen = ("iv" if noisy else "none") if mode == "auto" else mode
     if chosen == "none" and noisy:
@@ -106,7 +119,23 @@ def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
         warnings.append("no white noise floor above the band to read the noise level from: "
                         "basis functions are not debiased; record with fs > 2.5x the band")
     return {"method": chosen, "relative_std": None if rel is None else rel.tolist(),
-            "lowpass_hz": min(c for _, c in found) if chosen == "iv" else None}, floors
+            "lowpass_hz": min(c for _, c, _ in found) if chosen == "iv" else None}, floors
+
+
+def _std(x: np.ndarray) -> np.ndarray:
+    """Column standard deviations of an (n, n_ch) record.
+
+    ``E[x^2] - mean^2`` in streaming BLAS passes (``np.std`` over columns is several times
+    slower); the exact two-pass form when a large mean would cancel the digits of the variance.
+    """
+    n = x.shape[0]
+    mean = np.ones(n) @ x / n
+    sq = np.einsum("ij,ij->j", x, x) / n
+    var = sq - mean**2
+    if np.any(var < 1e-6 * sq):
+        d = x - mean
+        var = np.einsum("ij,ij->j", d, d) / n
+    return np.sqrt(np.maximum(var, 0.0))
 
 
 def noise_variances(proc: _Processing, floor: np.ndarray | None
@@ -185,7 +214,7 @@ def _iv(S: np.ndarray, xs: slice, rs: slice, zs: slice
     """Instrumental-variable ``H = S_XZ S_RZ^-1``, its row covariance matrix, residual PSD.
 
     With ``A = S_RZ^-1`` the row error ``dh = s_EZ A`` has covariance
-    ``sigma^2 A^H S_ZZ A / n`` (in the index order `_row_covariance` expects); ``sigma^2``
+    ``sigma^2 A^H S_ZZ A / n`` (in the index order `_form_covariance` expects); ``sigma^2``
     is the auto-spectrum of the residual ``X - H R``.
     """
     S_xz, S_rz, S_zz = S[:, xs, zs], S[:, rs, zs], S[:, zs, zs]
@@ -364,7 +393,7 @@ def _lines_iv(X: np.ndarray, R: np.ndarray, Z: np.ndarray
     """Per-line IV over observations (axis 0): transfer, row covariance, residual variance.
 
     ``H = S_XZ S_RZ^-1`` with sums over observations; the row covariance is
-    ``sigma^2 A^H S_ZZ A`` (``A = S_RZ^-1``, `_row_covariance` order) with ``sigma^2`` the
+    ``sigma^2 A^H S_ZZ A`` (``A = S_RZ^-1``, `_form_covariance` order) with ``sigma^2`` the
     residual variance per observation. Also the median coherence of each input with its
     instrument.
     """

@@ -85,8 +85,8 @@ def main() -> None:
     h_td, t_sim = simulate(args.settle_cycles, args.fs)
     h_long, _ = simulate(2 * args.settle_cycles, args.fs)
     h_eq, t_eq = simulate(args.settle_cycles / 2, 2 * args.fs)
-    print(f"2. the same FRF by time-domain stepped sine (Plant, phase-continuous up-sweep, "
-          f"30 measured cycles per step), ratios timed in this run (target >= 100x):")
+    print("2. the same FRF by time-domain stepped sine (Plant, phase-continuous up-sweep, "
+          "30 measured cycles per step), ratios timed in this run (target >= 100x):")
     print(f"   a. fs {args.fs:g} Hz, {args.settle_cycles:g} settle cycles: {t_sim:.2f} s, "
           f"ratio {t_sim / t_hbm:.0f}x")
     print(f"   b. fs {2 * args.fs:g} Hz, {args.settle_cycles / 2:g} settle cycles (the HBM's "

@@ -5,19 +5,24 @@ channels over the whole record, both as the estimator receives them (columns of 
 array, ``axis=0``) and as contiguous rows (the faster, stricter baseline); the Welch spectral
 matrix alone; and a pairwise ``scipy.signal.csd`` route over the same channel pairs with the
 same segment length, window (Hann), overlap (50 %) and mean removal.
-Targets: full <= 2x bare FFT, >= 20x faster than pairwise. All single-threaded FFTs.
-Each time is the best of several repeats, interleaved so that load from other processes hits
-every route alike.
+Targets: full <= 2x bare FFT, >= 20x faster than pairwise. Everything single-threaded: FFTs
+and, pinned below, BLAS. Each time is the best of several repeats, interleaved so that load
+from other processes hits every route alike.
 """
 
-import time
+import os
 
-import numpy as np
-import scipy.signal
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy loads its BLAS
 
-from analysis.model import Element, Model
-from analysis.reverse_path import reverse_path
-from analysis.spectral import spectral_matrix
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+import scipy.signal  # noqa: E402
+
+from analysis.model import Element, Model  # noqa: E402
+from analysis.reverse_path import reverse_path  # noqa: E402
+from analysis.spectral import spectral_matrix  # noqa: E402
 
 N, FS, NPERSEG, BAND = 2**20, 4096.0, 4096, (5.0, 1500.0)
 REPEATS = 5

@@ -74,11 +74,13 @@ def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
     """Readable summary: coefficients (with the true value when ``reference`` has it), 95 %
     intervals, multiple coherence and modes."""
     ref_col = reference is not None
+    how = "sequential (each with the others fixed)" if result.refine else "joint"
     lines = [f"reverse path: band {result.band[0]:.1f}-{result.band[1]:.1f} Hz, "
              f"{result.spectra.n_avg} averages at {result.spectra.fs / result.spectra.nperseg:.3g}"
              f" Hz resolution",
              f"multiple coherence min {result.coherence_nonlinear.min():.4f} nonlinear, "
              f"{result.coherence_linear.min():.4f} linear only",
+             f"coefficients: {how} estimate",
              f"{'element':>7}  {'kind':<18} {'param':<5} "
              + (f"{'true':>12} " if ref_col else "")
              + f"{'estimate':>12}  {'95 % interval':>27}" + ("  error" if ref_col else "")]
@@ -103,8 +105,8 @@ def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
 
 
 def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = None,
-             band: tuple[float, float] | None = None, nperseg: int | None = None
-             ) -> tuple[ReversePathResult, dict[str, Any]]:
+             band: tuple[float, float] | None = None, nperseg: int | None = None,
+             refine: str = "joint") -> tuple[ReversePathResult, dict[str, Any]]:
     """Reverse path with modal parameters; returns the result and its JSON dictionary.
 
     ``force_hold`` None takes each recording's declared hold (`recorded_force_hold`).
@@ -114,7 +116,8 @@ def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = No
         raise InputError("the runs declare different force holds; analyse them separately "
                          "or give --force-hold")
     hold = holds.pop() or "none"
-    result = reverse_path(recs, model, band=band, nperseg=nperseg, force_hold=hold)
+    result = reverse_path(recs, model, band=band, nperseg=nperseg, force_hold=hold,
+                          refine=refine)
     try:
         modal = modal_summary(result, model.n_dof)
     except (EstimationError, InputError) as exc:
@@ -129,7 +132,8 @@ def run(args: argparse.Namespace) -> int:
     model = Model.load(args.model)
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result, out = estimate(recs, model, force_hold=getattr(args, "force_hold", None),
-                           band=tuple(args.band) if args.band else None, nperseg=args.nperseg)
+                           band=tuple(args.band) if args.band else None, nperseg=args.nperseg,
+                           refine=getattr(args, "refine", "joint"))
     # with --json - the table goes to stderr so stdout stays pure JSON
     stream: TextIO = sys.stderr if args.json == "-" else sys.stdout
     print(f"{len(recs)} record(s), force hold '{out['force_hold']}'", file=stream)

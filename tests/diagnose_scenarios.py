@@ -35,7 +35,6 @@ class Scenario:
 def chain(masses, springs, grounds, zeta_k: float = 2e-4) -> Model:
     """Chain of masses: ``springs[i]`` joins DOF i and i+1, ``grounds[i]`` DOF i to ground;
     stiffness-proportional damping ``C = zeta_k K`` plus a little mass-proportional part."""
-    n = len(masses)
     k = np.diag(np.asarray(grounds, dtype=float))
     for i, s in enumerate(springs):
         k[i, i] += s

@@ -108,3 +108,19 @@ def test_cli_on_demo_run_reproduces_it_and_honours_force_hold(demo, tmp_path, ca
     # coefficient comes out high by at least that factor at the resonance (0.8 %), roughly
     ratio = none["elements"][0]["params"]["p"] / js["elements"][0]["params"]["p"]
     assert ratio > 1 + 0.5 * (1 / np.sinc(FN / FS) ** 2 - 1)
+
+
+def test_cli_sequential_refinement(demo, tmp_path, capsys):
+    out, _ = demo
+    run = str(out / "sdof-random.h5")
+    base = ["analyze", "reverse-path", run, "--model", str(_candidate(tmp_path)),
+            "--nperseg", str(NPERSEG), "--json", "-"]
+    assert main(base + ["--refine", "sequential"]) == 0
+    captured = capsys.readouterr()
+    js = json.loads(captured.out)
+    assert "sequential (each with the others fixed)" in captured.err
+    assert js["refine"]["method"] == "sequential"
+    # both elements act on the forced DOF: each refined value inside its joint interval
+    for el, joint in zip(js["elements"], js["refine"]["joint"]):
+        lo, hi = joint["ci95"]
+        assert lo <= el["params"]["p"] <= hi, (el, joint)

@@ -38,6 +38,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "else none)")
     rp.add_argument("--screen", action="store_true",
                     help="also rank the candidate basis library by conditioned coherence")
+    rp.add_argument("--refine", choices=("joint", "sequential"), default="joint",
+                    help="'sequential': re-estimate each coefficient with the elements on "
+                    "forced DOFs fixed at their joint estimates (narrower intervals when two "
+                    "bases share a deformation, e.g. v|v| next to x^3; docs/reverse-path.md)")
     _store_option(rp)
     rp.set_defaults(func=_delegate("analyze_reverse_path"))
 
