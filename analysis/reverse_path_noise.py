@@ -339,7 +339,7 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
     H, cov, sigma2, coh = _lines_iv(X, R, Z)
     C = np.concatenate([np.concatenate([f.X, f.R], axis=2) for f in fulls])
     S = np.einsum("ofa,ofb->fab", C, C.conj()) * (2 / (fs * n * n_real))
-    spec = Spectra(freqs[idx], S, n_real, float(n_real), 1.0, fs, n)
+    spec = Spectra(freqs[idx], S, n_real, float(n_real), 1.0, fs, n, window=None)
     first: list[str] = []
     result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), "direct",
                        first, (H, cov, sigma2, {}))

@@ -51,6 +51,9 @@ class Spectra:
         correlation, ``1 + 2 sum_k rho_k^2``.
     fs : float
     nperseg : int
+    window : str or None
+        Window of the Welch segments; None for exact-line (leakage-free) DFTs of whole
+        periods.
     """
 
     freqs: np.ndarray
@@ -60,6 +63,7 @@ class Spectra:
     bin_factor: float
     fs: float
     nperseg: int
+    window: str | None = "hann"
 
     def block(self, rows: slice | list[int], cols: slice | list[int]) -> np.ndarray:
         """Sub-matrix ``S[:, rows, cols]`` (lists select channels in the given order)."""
@@ -74,13 +78,15 @@ class Spectra:
         """Average spectra of several records (same fs, nperseg, band) by segment count."""
         first = parts[0]
         for p in parts[1:]:
-            if p.fs != first.fs or p.nperseg != first.nperseg or p.S.shape != first.S.shape:
-                raise InputError("records to pool differ in sample rate, segment length or "
-                                 "channels; analyse them separately or resample first")
+            if p.fs != first.fs or p.nperseg != first.nperseg or p.S.shape != first.S.shape \
+                    or p.window != first.window:
+                raise InputError("records to pool differ in sample rate, segment length, "
+                                 "window or channels; analyse them separately or resample "
+                                 "first")
         total = sum(p.n_avg for p in parts)
         S = sum(p.S * (p.n_avg / total) for p in parts)
         return Spectra(first.freqs, S, total, sum(p.n_eff for p in parts), first.bin_factor,
-                       first.fs, first.nperseg)
+                       first.fs, first.nperseg, first.window)
 
 
 def _segments(n: int, nperseg: int, step: int) -> int:
@@ -188,7 +194,7 @@ def spectral_matrix(data: np.ndarray | Sequence[np.ndarray], fs: float, *, npers
     if nperseg % 2 == 0 and k1 == freqs.size:
         S[-1] /= 2
     return Spectra(freqs[k0:k1], S, n_avg, effective_averages(win, step, n_avg),
-                   _bin_factor(win), float(fs), nperseg)
+                   _bin_factor(win), float(fs), nperseg, window)
 
 
 def _channels(data: np.ndarray | Sequence[np.ndarray]) -> list[np.ndarray]:

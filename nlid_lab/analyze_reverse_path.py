@@ -2,7 +2,8 @@
 
 Besides the contracts section 4 keys, the JSON holds ``"force_hold"`` (how the applied force
 was taken to behave between samples) and ``"modal"``: natural frequencies, damping ratios and
-mode shapes of the estimated underlying linear FRF columns (`analysis.modal.modal_fit`).
+mode shapes of the estimated underlying linear FRF columns (`analysis.modal.modal_fit`;
+through the Welch kernel on the residual-force H1 where that applies, docs/reverse-path.md).
 """
 
 from __future__ import annotations
@@ -14,11 +15,13 @@ from typing import Any, TextIO
 import numpy as np
 
 from analysis.errors import EstimationError, InputError
-from analysis.modal import modal_fit
+from analysis.modal import modal_fit, welch_smoothing
 from analysis.model import Model
 from analysis.recording import Recording
 from analysis.reverse_path import ReversePathResult, reverse_path
+from analysis.reverse_path_linear import residual_force_frf
 from analysis.screening import screen_candidates
+from analysis.spectral import Spectra, multiple_coherence
 
 from .cli import write_json
 from .store import check_result_target, load_recordings, save_result
@@ -35,17 +38,35 @@ def recorded_force_hold(rec: Recording) -> str | None:
     return hold
 
 
-def modal_summary(result: ReversePathResult, n_modes: int) -> dict[str, Any]:
+def modal_summary(result: ReversePathResult, n_modes: int,
+                  linear: tuple[np.ndarray, np.ndarray, Spectra] | None = None
+                  ) -> dict[str, Any]:
     """Modes of the estimated underlying linear FRF columns (rational-fraction fit).
 
     All columns share the poles; each mode shape is the residue vector of the first forced
     column, scaled to a unit largest component. ``n_modes`` is the model's DOF count, for
     which the fit of a lumped system's receptance is exact; modes outside the analysed band
-    are extrapolated and flagged ``in_band: false``.
+    are extrapolated and flagged ``in_band: false``. With ``linear`` (the residual-force H1,
+    `analysis.reverse_path_linear.residual_force_frf`) the fit goes through the Welch
+    window's smoothing kernel, which removes the leakage bias of the damping; otherwise the
+    reverse path's ``H_linear`` is fitted directly.
     """
-    n_in = result.H_linear.shape[2]
-    fit = modal_fit(result.freqs, result.H_linear, n_modes,
-                    weights=result.coherence_nonlinear.min(axis=1))
+    if linear is not None:
+        freqs, frf, spec = linear
+        n = frf.shape[1]
+        coh = multiple_coherence(spec.auto()[:, :n], spec.S[:, :n, n:], spec.S[:, n:, n:])
+        inputs = spec.auto()[:, n:].sum(axis=1)
+        smoothing = welch_smoothing(spec.window, spec.nperseg, spec.fs,
+                                    input_spectrum=(freqs, inputs))
+        fit = modal_fit(freqs, frf, n_modes, weights=coh.min(axis=1), smoothing=smoothing)
+        method = ("global rational fraction polynomial on the residual-force H1, through "
+                  f"the {spec.window} window's Welch kernel")
+    else:
+        frf = result.H_linear
+        fit = modal_fit(result.freqs, frf, n_modes,
+                        weights=result.coherence_nonlinear.min(axis=1))
+        method = "global rational fraction polynomial on the reverse-path H_linear"
+    n_in = frf.shape[2]
     lo, hi = result.band
     modes = []
     for f, zeta, r in zip(fit.freqs_hz, fit.damping, fit.residues):
@@ -56,8 +77,7 @@ def modal_summary(result: ReversePathResult, n_modes: int) -> dict[str, Any]:
         modes.append({"freq_hz": float(f), "damping_ratio": float(zeta),
                       "shape": [float(v) for v in shape.real],
                       "in_band": bool(lo <= f <= hi)})
-    return {"method": "global rational fraction polynomial", "force_dof":
-            int(result.force_dofs[0]), "modes": modes}
+    return {"method": method, "force_dof": int(result.force_dofs[0]), "modes": modes}
 
 
 def result_json(result: ReversePathResult, modal: dict[str, Any] | None,
@@ -119,7 +139,9 @@ def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = No
     result = reverse_path(recs, model, band=band, nperseg=nperseg, force_hold=hold,
                           refine=refine)
     try:
-        modal = modal_summary(result, model.n_dof)
+        linear = residual_force_frf(recs, result.estimated_model(model), result,
+                                    force_hold=hold)
+        modal = modal_summary(result, model.n_dof, linear)
     except (EstimationError, InputError) as exc:
         result.warnings.append(f"modal parameters not estimated: {exc}")
         modal = None

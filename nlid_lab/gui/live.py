@@ -92,7 +92,7 @@ class FrfAccumulator:
             return None
         t = self.template
         mean = spectral.Spectra(t.freqs, self.S_sum / self.n_avg, self.n_avg, t.n_eff,
-                                t.bin_factor, t.fs, t.nperseg)
+                                t.bin_factor, t.fs, t.nperseg, t.window)
         return frf_from_spectra(mean, self.n_in, **labels)
 
 
