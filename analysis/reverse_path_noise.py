@@ -95,8 +95,8 @@ def noise_floor(response: np.ndarray, fs: float, band_hi: float,
     if not cutoff:
         return floor, fs / 2, _std(read)
     above = np.flatnonzero(np.any(p > 2 * floor, axis=1))
-    return floor, float(min(fs / 2, max(f[above[-1]] if above.size else 0.0, band_hi))), \
-        _std(read)
+    top = float(min(fs / 2, max(f[above[-1]] if above.size else 0.0, band_hi)))
+    return floor, top, _std(read)
 
 
 def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
