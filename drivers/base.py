@@ -135,22 +135,37 @@ class RandomOutput:
 
 
 @dataclass(frozen=True)
+class MultisineOutput:
+    """Periodic random: a random-phase multisine with a flat amplitude spectrum in ``band``,
+    one period of ``period`` samples at the DAQ's sample rate (generator and DAQ share the
+    sample clock), repeated; ``level`` is the drive rms in volts."""
+
+    band: tuple[float, float]
+    period: int
+    seed: int | None = None
+
+
+@dataclass(frozen=True)
 class SineOutput:
     """Pure sine at ``freq`` Hz; ``level`` is the drive amplitude in volts."""
 
     freq: float
 
 
-Output = RandomOutput | SineOutput
+Output = RandomOutput | MultisineOutput | SineOutput
 
 
 def check_output(output: Output, fs: float | None = None) -> None:
     """Raise `DriverConfigError` if an output description is unusable."""
-    if isinstance(output, RandomOutput):
+    if isinstance(output, (RandomOutput, MultisineOutput)):
         lo, hi = output.band
         if not (0 <= lo < hi) or (fs is not None and hi > fs / 2):
             raise DriverConfigError(f"random band {list(output.band)} must satisfy "
                                     "0 <= lo < hi <= fs/2")
+        if isinstance(output, MultisineOutput) and not (
+                isinstance(output.period, int) and 16 <= output.period <= 1 << 24):
+            raise DriverConfigError(f"multisine period {output.period} must be an integer "
+                                    "number of samples in 16..2^24")
     elif isinstance(output, SineOutput):
         if not output.freq > 0 or (fs is not None and output.freq >= fs / 2):
             raise DriverConfigError(f"sine frequency {output.freq} Hz must lie in (0, fs/2)")

@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.excitation import random_gaussian, sine_block
+from analysis.excitation import multisine, random_gaussian, sine_block
 from analysis.model import Model
 from analysis.plant import Plant
 
-from .base import Channel, Output, RandomOutput, SineOutput, check_output
+from .base import Channel, MultisineOutput, Output, RandomOutput, SineOutput, check_output
 from .errors import DriverConfigError
 
 # Random drive is generated in chunks of this many samples, independent of the DAQ frame
@@ -107,6 +107,8 @@ class SimRig:
         self._chunk: np.ndarray | None = None
         self._chunk_index = -1
         self._chunk_pos = 0
+        self._period: np.ndarray | None = None     # one multisine period
+        self._period_pos = 0
         self.sample_index = 0
         self.zero_commanded_at: float | None = None
 
@@ -117,6 +119,9 @@ class SimRig:
             self._output = output
             if isinstance(output, RandomOutput):
                 self._chunk, self._chunk_index, self._chunk_pos = None, -1, 0
+            if isinstance(output, MultisineOutput):
+                self._period = multisine(output.period, self.fs, output.band, 1.0, output.seed)
+                self._period_pos = 0
 
     def set_level(self, level: float) -> None:
         with self.lock:
@@ -169,11 +174,17 @@ class SimRig:
             if isinstance(self._output, SineOutput):
                 self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
                     % (2 * np.pi)
+            if isinstance(self._output, MultisineOutput):
+                self._period_pos = (self._period_pos + n) % self._period.size
             return np.zeros(n)
         if isinstance(self._output, SineOutput):
             wave = sine_block(self._output.freq, 1.0, n, self.fs, phase=self._phase)
             self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
                 % (2 * np.pi)
+        elif isinstance(self._output, MultisineOutput):
+            idx = (self._period_pos + np.arange(n)) % self._period.size
+            wave = self._period[idx]
+            self._period_pos = int(idx[-1] + 1) % self._period.size
         else:
             wave = self._random(n)
         return self._level * env * wave

@@ -12,7 +12,8 @@ import math
 import threading
 import time
 
-from .base import Output, RandomOutput, SignalGenerator, SineOutput, check_output
+from .base import (MultisineOutput, Output, RandomOutput, SignalGenerator, SineOutput,
+                   check_output)
 from .errors import CommsError, DeviceError, DriverConfigError
 from .serial_link import SerialLink
 
@@ -92,6 +93,10 @@ class SerialShaker(SignalGenerator):
             cmds = [f"SOUR:RAND:SEED {int(output.seed)}"] if output.seed is not None else []
             cmds += [f"SOUR:RAND:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
                      "SOUR:FUNC RAND"]
+        elif isinstance(output, MultisineOutput):
+            cmds = [f"SOUR:MSIN:SEED {int(output.seed)}"] if output.seed is not None else []
+            cmds += [f"SOUR:MSIN:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
+                     f"SOUR:MSIN:PER {output.period}", "SOUR:FUNC MSIN"]
         else:
             assert isinstance(output, SineOutput)
             cmds = ["SOUR:FUNC SIN", f"SOUR:FREQ {output.freq:.12g}"]

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from drivers.base import Block, RandomOutput, SineOutput
+from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutput
 from drivers.errors import CommsError
 
 from .campaign_bench import Bench, open_bench
@@ -143,7 +143,7 @@ class _Runner:
     def split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return data[:, [self.force_col]], data[:, self.resp_cols]
 
-    def _start(self, output: RandomOutput | SineOutput, drive: float) -> None:
+    def _start(self, output: Output, drive: float) -> None:
         self.bench.shaker.configure(output, drive)
         self.bench.daq.start()
         self.bench.shaker.start()
@@ -159,6 +159,9 @@ class _Runner:
 
     # --- random --------------------------------------------------------------------------
     def random(self, plan: RandomSpec, bar) -> None:
+        if plan.periodic:
+            self.periodic_random(plan, bar)
+            return
         for i, level in enumerate(plan.levels):
             self.level = i
             lw = self.writer.level(i, level)
@@ -168,23 +171,7 @@ class _Runner:
             drive = min(level / self.gain, self.c.max_drive)
             seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
             self._start(RandomOutput(plan.band, seed), drive)
-            data = None
-            for _ in range(plan.max_control_iterations):
-                for _ in range(plan.settle_blocks):
-                    self.take(plan.block_size)
-                data, t0 = self.take(plan.block_size)
-                rms = float(np.std(data[:, self.force_col]))
-                if rms <= 0:
-                    break
-                self.gain = rms / drive
-                if abs(rms / level - 1) <= plan.tolerance:
-                    break
-                drive = self._new_drive(drive, level / self.gain)
-                self.bench.shaker.set_level(drive)
-                data = None
-            else:
-                self.warnings.append(f"level {i}: force rms not within {plan.tolerance:.0%} "
-                                     f"of {level} N after {plan.max_control_iterations} tries")
+            _, data, t0 = self._control_rms(plan, i, level, drive)
             while lw.n_segments < plan.averages:
                 if data is None:
                     data, t0 = self.take(plan.block_size)
@@ -195,6 +182,54 @@ class _Runner:
                 data = None
             lw.complete()
             self._stop()
+
+    def periodic_random(self, plan: RandomSpec, bar) -> None:
+        """Per level ``averages`` realizations, each a multisine with its own phases held for
+        transient + steady periods and stored as one block; the drive is ramped down and up
+        between realizations (the transient periods absorb it)."""
+        n = (plan.transient_periods + plan.periods) * plan.block_size
+        for i, level in enumerate(plan.levels):
+            self.level = i
+            lw = self.writer.level(i, level)
+            drive = min(level / self.gain, self.c.max_drive)
+            base = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i
+            controlled = False
+            while lw.n_segments < plan.averages:
+                self._start(MultisineOutput(plan.band, plan.block_size, base + lw.n_segments),
+                            drive)
+                if not controlled:   # on whole periods: a period's rms is the level's
+                    drive = self._control_rms(plan, i, level, drive)[0]
+                    controlled = True
+                data, t0 = self.take(n)
+                force, resp = self.split(data)
+                seq = lw.append_block(force, resp, t=t0)
+                self.observer.block(i, seq, force, resp)
+                bar.update(1)
+                self._stop()
+            lw.complete()
+
+    def _control_rms(self, plan: RandomSpec, i: int, level: float, drive: float
+                     ) -> tuple[float, np.ndarray | None, float]:
+        """Bring the force rms within tolerance of ``level``; returns the drive and the last
+        block measured at it (None if the drive changed after it) with its time."""
+        data, t0 = None, 0.0
+        for _ in range(plan.max_control_iterations):
+            for _ in range(plan.settle_blocks):
+                self.take(plan.block_size)
+            data, t0 = self.take(plan.block_size)
+            rms = float(np.std(data[:, self.force_col]))
+            if rms <= 0:
+                break
+            self.gain = rms / drive
+            if abs(rms / level - 1) <= plan.tolerance:
+                break
+            drive = self._new_drive(drive, level / self.gain)
+            self.bench.shaker.set_level(drive)
+            data = None
+        else:
+            self.warnings.append(f"level {i}: force rms not within {plan.tolerance:.0%} "
+                                 f"of {level} N after {plan.max_control_iterations} tries")
+        return drive, data, t0
 
     # --- stepped sine ----------------------------------------------------------------------
     def stepped(self, plan: SteppedSpec, bar) -> None:
@@ -263,6 +298,8 @@ class _Runner:
                 "n_dof": c.n_dof, "response_kind": c.response_kind,
                 "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
                 "block_len": c.plan.block_size}
+        if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
+            info["block_len"] *= c.plan.transient_periods + c.plan.periods
         if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
             info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
         self.observer.campaign_started(info)

@@ -49,6 +49,9 @@ class RandomSpec:
     settle_blocks: int = 1
     tolerance: float = 0.05
     max_control_iterations: int = 6
+    periodic: bool = False       # periodic random: block_size = period, averages = realizations
+    periods: int = 8             # steady periods per realization (periodic only)
+    transient_periods: int = 1   # leading periods per realization, dropped (periodic only)
 
 
 @dataclass
@@ -239,18 +242,43 @@ def _freqs(t: dict) -> list[float]:
     return up + up[::-1][1:]
 
 
+def _periodic(t: dict, spec: RandomSpec, fs: float) -> RandomSpec:
+    """The periodic-random keys of [random]: a multisine of period block_size, ``averages``
+    realizations of transient_periods + periods periods each."""
+    periodic = t.get("periodic", False)
+    if not isinstance(periodic, bool):
+        raise CampaignError(f"[random] periodic must be true or false, got {periodic!r}")
+    if not periodic:
+        extra = sorted({"periods", "transient_periods"} & set(t))
+        if extra:
+            raise CampaignError(f"[random] {', '.join(extra)} needs periodic = true")
+        return spec
+    lo, hi = spec.band
+    df = fs / spec.block_size
+    if math.floor(hi / df) < max(math.ceil(lo / df), 1):
+        raise CampaignError(f"[random] band {lo:g}-{hi:g} Hz holds no line of a "
+                            f"{spec.block_size}-sample period (lines every {df:g} Hz); widen "
+                            "the band or lengthen block_size")
+    spec.periodic = True
+    spec.periods = _num(t, "periods", "random", default=8, lo=1, integer=True, hi=10000)
+    spec.transient_periods = _num(t, "transient_periods", "random", default=1, lo=1,
+                                  integer=True, hi=1000)
+    return spec
+
+
 def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec:
     if kind == "random":
         t = _table(data, "random")
         _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
-                     "tolerance", "max_control_iterations"}, "random")
+                     "tolerance", "max_control_iterations", "periodic", "periods",
+                     "transient_periods"}, "random")
         band = t.get("band")
         if not (isinstance(band, list) and len(band) == 2 and all(
                 isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
                 and 0 <= band[0] < band[1] <= fs / 2):
             raise CampaignError(f"[random] band must be [lo, hi] Hz with 0 <= lo < hi <= fs/2 "
                                 f"= {fs / 2:g}, got {band!r}")
-        return RandomSpec(_levels(t, "random"), _num(t, "averages", "random", lo=1,
+        spec = RandomSpec(_levels(t, "random"), _num(t, "averages", "random", lo=1,
                                                      integer=True, hi=100000),
                           _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
                           (float(band[0]), float(band[1])),
@@ -259,6 +287,7 @@ def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec:
                                hi=1),
                           _num(t, "max_control_iterations", "random", default=6, lo=1,
                                integer=True, hi=100))
+        return _periodic(t, spec, fs)
     t = _table(data, "stepped")
     _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
                  "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",

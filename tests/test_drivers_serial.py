@@ -8,7 +8,7 @@ import pytest
 
 from analysis.model import Model
 from drivers import open_daq, open_shaker
-from drivers.base import Channel, RandomOutput, SineOutput
+from drivers.base import Channel, MultisineOutput, RandomOutput, SineOutput
 from drivers.emulators.faults import FaultPlan
 from drivers.emulators.serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
 from drivers.errors import (CommsError, DeviceError, Disconnected, DriverConfigError,
@@ -68,6 +68,21 @@ def test_serial_stream_equals_in_process_sim(emulated):
     assert [blk.first_sample for blk in ser] == list(range(0, 3200, 32))
     assert dq.stats.lost_samples == 0 and dq.stats.samples == 3200
     assert ser[5].t0 == pytest.approx(5 * 32 / FS)
+
+
+def test_multisine_over_serial_is_periodic_and_equals_sim(emulated):
+    """SOUR:FUNC MSIN with its band, period and seed reaches the rig: the force repeats
+    with the period once the start ramp is over, sample for sample as in-process."""
+    out = MultisineOutput((5.0, 200.0), 256, 7)
+    rig = make_rig()
+    sim = stream(open_shaker("sim://", rig=rig), open_daq("sim://", rig=rig), 64, out)
+    rig_e, _, _, sh, dq = emulated()
+    ser = stream(sh, dq, 64, out)
+    assert rig_e._output == out
+    a = np.vstack([b.data for b in sim])[:, 0]
+    b = np.vstack([b.data for b in ser])[:, 0]
+    np.testing.assert_allclose(b, a, rtol=2e-7, atol=1e-7 * np.abs(a).max())
+    np.testing.assert_allclose(b[1024:1280], b[1280:1536], atol=1e-6 * np.abs(b).max())
 
 
 def test_faults_are_counted_never_silent(emulated):

@@ -11,7 +11,7 @@ from collections import deque
 
 import numpy as np
 
-from ..base import Channel, RandomOutput, SineOutput
+from ..base import Channel, MultisineOutput, RandomOutput, SineOutput
 from ..errors import DriverConfigError
 from ..frame import MAX_SAMPLES, encode_frame
 from ..rig import SimRig
@@ -56,6 +56,9 @@ class SerialShakerEmulator(PtyServer):
         self._freq = 10.0
         self._band = (0.0, rig.fs / 2)
         self._seed: int | None = None
+        self._ms_band = (0.0, rig.fs / 2)
+        self._ms_seed: int | None = None
+        self._ms_period = 1024
         self._ramp = 0.05
         self.log: deque[tuple[float, str]] = deque(maxlen=10000)
 
@@ -104,9 +107,10 @@ class SerialShakerEmulator(PtyServer):
             rig.set_on(False, self._ramp)
             return "OK"
         if head == "SOUR:FUNC":
-            if arg.upper()[:3] not in ("RAN", "SIN"):
+            funcs = {"RAN": "RAND", "SIN": "SIN", "MSI": "MSIN"}
+            if arg.upper()[:3] not in funcs:
                 return BAD_DATA
-            self._func = "RAND" if arg.upper().startswith("RAN") else "SIN"
+            self._func = funcs[arg.upper()[:3]]
             self._apply()
             return "OK"
         if head == "SOUR:FREQ":
@@ -123,6 +127,17 @@ class SerialShakerEmulator(PtyServer):
         if head == "SOUR:RAND:SEED":
             self._seed = int(arg)
             if self._func == "RAND":
+                self._apply()
+            return "OK"
+        if head in ("SOUR:MSIN:BAND", "SOUR:MSIN:SEED", "SOUR:MSIN:PER"):
+            if head == "SOUR:MSIN:BAND":
+                lo, hi = (float(x) for x in arg.split(","))
+                self._ms_band = (lo, hi)
+            elif head == "SOUR:MSIN:SEED":
+                self._ms_seed = int(arg)
+            else:
+                self._ms_period = int(arg)
+            if self._func == "MSIN":
                 self._apply()
             return "OK"
         if head == "SOUR:RAMP":
@@ -159,6 +174,8 @@ class SerialShakerEmulator(PtyServer):
     def _apply(self) -> None:
         if self._func == "SIN":
             self.rig.set_output(SineOutput(self._freq))
+        elif self._func == "MSIN":
+            self.rig.set_output(MultisineOutput(self._ms_band, self._ms_period, self._ms_seed))
         else:
             self.rig.set_output(RandomOutput(self._band, self._seed))
 

@@ -103,6 +103,7 @@ class Run:
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
+            meta.update(_periodic_layout(meta["excitation_settings"], parts))
             return Recording(force=np.concatenate([p[0] for p in parts]),
                              response=np.concatenate([p[1] for p in parts]), meta=meta,
                              **common)
@@ -116,6 +117,18 @@ class Run:
     def recordings(self) -> list[Recording]:
         """One `Recording` per level holding data, in level order."""
         return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
+
+
+def _periodic_layout(settings: dict, parts: list) -> dict[str, int]:
+    """Periodic-random runs: one block per realization, so the reverse path splits the
+    level's record into periods (`analysis.reverse_path_noise.periodic_layout`)."""
+    if not settings.get("periodic"):
+        return {}
+    period, transient = int(settings["block_size"]), int(settings["transient_periods"])
+    n = (transient + int(settings["periods"])) * period
+    if any(len(p[0]) != n for p in parts):
+        return {}
+    return {"period": period, "transient_periods": transient, "realizations": len(parts)}
 
 
 def open_run(path: str | os.PathLike) -> Run:
