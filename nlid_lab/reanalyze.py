@@ -193,7 +193,8 @@ def estimate(rec: Recording, model: Model, method: str,
     """The estimator's JSON (contracts section 4) for one level."""
     if method == "reverse-path":
         from analysis.reverse_path import reverse_path
-        kwargs = {k: options[k] for k in ("band", "nperseg") if options.get(k) is not None}
+        kwargs = {k: options[k] for k in ("band", "nperseg", "refine")
+                  if options.get(k) is not None}
         return reverse_path(rec, model, **kwargs).to_json()
     from analysis.hbm import parse_harmonics
     from analysis.hbm_fit import fit_hbm

@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
         raise ReanalysisError(f"--out {args.out}: its directory does not exist; create it "
                               "first (checked before the runs are analysed)")
     options = {"band": tuple(args.band) if args.band else None, "nperseg": args.nperseg,
-               "harmonics": args.harmonics}
+               "refine": args.refine, "harmonics": args.harmonics}
     with dask_client(args.workers, args.scheduler) as client:
         result = reanalyze(runs, model, client, args.method, options,
                            progress=not args.no_progress, run_timeout_s=args.run_timeout)
@@ -61,6 +61,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--band", type=float, nargs=2, metavar=("LO", "HI"),
                    help="reverse path analysis band in Hz")
     p.add_argument("--nperseg", type=int, help="reverse path Welch segment length")
+    p.add_argument("--refine", choices=("joint", "sequential"),
+                   help="reverse path: 'sequential' re-estimates each coefficient with the "
+                   "others fixed (see `analyze reverse-path --refine`)")
     p.add_argument("--harmonics", help="hbm harmonic orders, e.g. 1,3,5,7")
     p.add_argument("--run-timeout", type=float, metavar="S",
                    help="time limit per run: a worker stuck longer on one run is restarted "
