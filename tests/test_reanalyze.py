@@ -138,10 +138,10 @@ def test_task_matches_direct_reverse_path(campaign):
         assert row[P_COL] == el["params"]["p"]
         assert [row[P_COL + ".ci95_lo"], row[P_COL + ".ci95_hi"]] == el["ci95"]["p"]
         assert row["coherence_min"] == direct["multiple_coherence"]["min"]
+        assert row["warnings"] == " | ".join(direct["warnings"])
     seq = rea.analyse_run(campaign["good"][1], model, "reverse-path", {"refine": "sequential"})
     direct = reverse_path(load_recordings(campaign["good"][1])[0], model, refine="sequential")
     assert seq[0][P_COL] == direct.to_json()["elements"][0]["params"]["p"]
-        assert row["warnings"] == " | ".join(direct["warnings"])
 
 
 def test_task_turns_failures_into_rows(campaign):
