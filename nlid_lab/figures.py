@@ -82,6 +82,27 @@ def multiple_coherence_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     return fig
 
 
+def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
+    """Robust BLA per periodic-random level: |G|, the total standard deviation of G (noise +
+    nonlinear distortion, dashed) and its noise standard deviation (dotted)."""
+    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    for k, (frf, colour) in enumerate(zip(frfs, level_colours(len(frfs)))):
+        b = frf.bla
+        ax.semilogy(b.freqs, np.abs(b.G[:, out]), color=colour, lw=1.3, label=frf.label)
+        ax.semilogy(b.freqs, np.sqrt(b.var_total[:, out]), "--", color=colour, lw=0.9,
+                    label="std, total (noise + distortion)" if k == 0 else None)
+        ax.semilogy(b.freqs, np.sqrt(b.var_noise[:, out]), ":", color=colour, lw=0.9,
+                    label="std, noise" if k == 0 else None)
+    ax.set_title(f"Best linear approximation, {_pair_name(frfs[0], out, 0)}")
+    ax.set_xlabel("Frequency [Hz]")
+    ax.set_ylabel(f"|G| [{frfs[0].units}]")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small")
+    _fit_band(ax, frfs)
+    return fig
+
+
 def _coherence_axes(ax, title: str) -> None:
     ax.set_title(title)
     ax.set_xlabel("Frequency [Hz]")

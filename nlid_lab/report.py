@@ -16,6 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from analysis import spectral
+from analysis.bla import best_linear_approximation
 from analysis.sine_fit import hold_gain, sine_fit
 from analysis.errors import InputError
 from analysis.recording import Recording
@@ -46,6 +47,9 @@ class LevelFRF:
         Ordinary coherence of each output/input pair (random only).
     multiple_coherence : ndarray, shape (n_f, n_dof), optional
         Multiple coherence of each output with all inputs (random only).
+    bla : analysis.bla.BLA, optional
+        Periodic-random levels: the robust best linear approximation (``H`` is its ``G``)
+        with its noise and total variances.
     """
 
     label: str
@@ -58,6 +62,7 @@ class LevelFRF:
     coherence: np.ndarray | None = None
     multiple_coherence: np.ndarray | None = None
     n_averages: int = 1
+    bla: Any = None
 
     @property
     def units(self) -> str:
@@ -114,6 +119,14 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
+    if rec.meta.get("period") and rec.n_in == 1 and rec.meta.get("realizations", 1) >= 2:
+        b = best_linear_approximation(rec.force, rec.response, rec.fs, int(rec.meta["period"]),
+                                      transient_periods=int(rec.meta.get("transient_periods", 1)),
+                                      realizations=int(rec.meta["realizations"]),
+                                      force_hold=rec.meta.get("force_hold"))
+        return LevelFRF(freqs=b.freqs, H=b.G[:, :, None], coherence=b.coherence[:, :, None],
+                        multiple_coherence=b.coherence, n_averages=b.realizations, bla=b,
+                        **common)
     nseg = nperseg or default_nperseg(rec.force.shape[0], rec.fs)
     spec = spectral.spectral_matrix(np.concatenate([rec.force, rec.response], axis=1),
                                     rec.fs, nperseg=nseg)
@@ -202,7 +215,8 @@ def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
     random = [f for f in frfs if f.multiple_coherence is not None]
     if random:
         coh = Section("Multiple coherence per level (linear analysis)",
-                      "Coherence of each response with the applied forces. A dip near "
+                      "Coherence of each response with the applied forces (periodic-random "
+                      "levels: of the period averages across realizations). A dip near "
                       "resonance that deepens with level is distortion the linear model "
                       "cannot explain.")
         coh.figures = [(f"coherence_levels_out{q}", figures.multiple_coherence_levels(random, q))
@@ -362,9 +376,41 @@ def diagnosis_section(run: RunData) -> Section | None:
     return sec
 
 
+def distortion_section(frfs: list[LevelFRF]) -> Section | None:
+    """Periodic-random levels: BLA with noise and nonlinear-distortion levels, and the
+    detection verdict per level and response."""
+    shown = [f for f in frfs if f.bla is not None]
+    if not shown:
+        return None
+    lines = []
+    for frf in shown:
+        det = frf.bla.detection()
+        for q, o in enumerate(det["outputs"]):
+            what = (f"nonlinear distortion on {100 * o['share_flagged']:.0f} % of the lines "
+                    f"({o['band_hz'][0]:.1f}-{o['band_hz'][1]:.1f} Hz), median "
+                    f"{o['median_ratio_db']:+.1f} dB over the noise" if o["nonlinear"] else
+                    f"no distortion above the noise ({100 * o['share_flagged']:.1f} % of the "
+                    "lines flagged, as noise alone gives)")
+            lines.append(f"{frf.label}, response DOF {q}: {what}.")
+    sec = Section("Best linear approximation and nonlinear distortion (periodic random)",
+                  "Robust method (Pintelon & Schoukens): the BLA averaged over the "
+                  f"{shown[0].bla.realizations} realizations, the standard deviation of that "
+                  "average from the spread over periods (noise) and over realizations (noise + "
+                  "stochastic nonlinear distortion). Where the total lies above the noise, a "
+                  "linear model cannot explain the response. A line is flagged when the ratio "
+                  "exceeds the 99 % quantile a linear system would give. " + " ".join(lines))
+    n_dof = shown[0].H.shape[1]
+    sec.figures = [(f"bla_distortion_out{q}", figures.bla_levels(shown, q))
+                   for q in range(n_dof)]
+    return sec
+
+
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
     out = frf_sections(frfs)
+    distortion = distortion_section(frfs)
+    if distortion is not None:
+        out.append(distortion)
     for extra in (reverse_path_section(run, candidate), *hbm_sections(run, frfs),
                   diagnosis_section(run)):
         if extra is not None:
