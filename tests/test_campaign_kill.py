@@ -139,6 +139,27 @@ def test_stepped_sigkill_then_resume(tmp_path):
     assert any(0 < n < STEPS * STEPPED_LEVELS for n in cut), cut  # some kills hit mid-run
 
 
+def test_periodic_sigkill_then_resume(tmp_path):
+    """Realizations on file when killed stay intact; ``--resume`` adds the missing ones with
+    the seeds an uninterrupted run uses, and the level keeps its periodic layout."""
+    campaign = _campaign(tmp_path, "campaign-sim-periodic.toml", {
+        "averages = 8": "averages = 6", "periods = 8 ": "periods = 3 "})
+    clock = Clock()
+    run_campaign(load_campaign(campaign), tmp_path / "ref.h5", observer=clock)
+    duration = clock.finished - clock.started
+    rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "3")))
+    cut = []
+    for trial in range(3):
+        d = tmp_path / f"t{trial}"
+        d.mkdir()
+        before, _ = _kill_and_resume(campaign, d / "run.h5", rng.uniform(0.0, duration), 6, 1)
+        cut.append(before)
+        rec = open_run(d / "run.h5").recording(0)
+        assert (rec.meta["realizations"], rec.meta["period"]) == (6, 4096)
+    print(f"realizations on file when killed: {cut} of 6")
+    assert any(0 < n < 6 for n in cut), cut  # some kills hit mid-run
+
+
 @pytest.mark.slow
 def test_sigkill_many_trials(tmp_path):
     rng = random.Random(11)
