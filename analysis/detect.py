@@ -1,0 +1,140 @@
+"""Is the structure nonlinear? Statistical tests on the measured data alone (no model).
+
+Random levels (Welch)
+    A linear structure has one FRF at every level. The H1 estimates of the lowest and the
+    highest level are compared line by line against their random error (MIMO H1 variance
+    ``sigma_y^2 [G_FF^-1]_aa / n_eff`` with ``sigma_y^2 = (1 - gamma_y^2) G_yy``, Bendat &
+    Piersol): ``z = |H_lo - H_hi|^2 / (var_lo + var_hi)`` is exponential with unit mean for a
+    linear structure, so lines above its 99 % quantile are flagged.
+Periodic-random levels
+    The robust BLA's total against its noise variance (`analysis.bla`).
+
+Either way about 1 % of the lines are flagged by chance; a share above 1 % plus four binomial
+standard deviations (widened by the window's bin correlation for Welch lines) detects a
+nonlinearity. The flagged band says where in frequency (which elements and where on the
+structure: `analysis.screening`, `analysis.diagnose`).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from .bla import DETECT_QUANTILE, best_linear_approximation
+from .errors import InputError
+from .recording import Recording
+from .signals import excitation_band
+from .spectral import h1, multiple_coherence, spectral_matrix
+from .sine_fit import hold_gain
+
+
+def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> dict[str, Any]:
+    """Run every test the recordings allow.
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        Levels of one structure (random and/or periodic-random; stepped-sine levels are
+        skipped with a note).
+    nperseg : int, optional
+        Welch segment length for random levels (default: a power of two <= n/16, <= 8192).
+
+    Returns
+    -------
+    dict
+        ``verdict`` ("nonlinear" or "no evidence"), ``tests`` (one entry per test with
+        ``method``, ``nonlinear``, ``share_flagged``, ``share_limit``, ``band_hz``,
+        ``by_output``) and ``notes``.
+    """
+    recs = list(recordings)
+    periodic = [r for r in recs if r.excitation == "random" and r.meta.get("period")]
+    random = [r for r in recs if r.excitation == "random" and not r.meta.get("period")]
+    notes = []
+    if len(recs) > len(periodic) + len(random):
+        notes.append("stepped-sine levels are not tested here: compare them with "
+                     "`nlid-lab report` or test a model with `nlid-lab diagnose`")
+    tests = [_bla_test(r) for r in periodic]
+    if len(random) >= 2:
+        tests.append(level_dependence(random, nperseg=nperseg))
+    elif random:
+        notes.append("one random level: the level-dependence test needs two or more")
+    if not tests:
+        raise InputError("no level to test: give random runs at two or more levels, or "
+                         "periodic-random runs")
+    return {"verdict": "nonlinear" if any(t["nonlinear"] for t in tests) else "no evidence",
+            "tests": tests, "notes": notes}
+
+
+def level_dependence(recordings: Sequence[Recording], *, nperseg: int | None = None
+                     ) -> dict[str, Any]:
+    """Compare the H1 of the lowest and the highest random level (module docstring)."""
+    recs = sorted(recordings, key=lambda r: (r.level is None, r.level or 0.0))
+    lo, hi = recs[0], recs[-1]
+    if lo.fs != hi.fs or list(lo.force_dofs) != list(hi.force_dofs) or lo.n_dof != hi.n_dof:
+        raise InputError("the levels differ in sample rate, forces or responses; test runs of "
+                         "one set-up together")
+    n = min(lo.force.shape[0], hi.force.shape[0])
+    nps = nperseg or int(min(2 ** int(np.log2(max(n // 16, 64))), 8192))
+    est = [_h1(r, nps) for r in (lo, hi)]
+    band = (max(e[3][0] for e in est), min(e[3][1] for e in est))
+    if band[0] >= band[1]:
+        raise InputError("the levels excite no common band")
+    f = est[0][0]
+    keep = (f >= band[0]) & (f <= band[1])
+    (H0, v0), (H1, v1) = [(e[1][keep], e[2][keep]) for e in est]
+    z = np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)          # (n_f, n_out, n_in)
+    flagged = z.max(axis=2) > -np.log(1 - DETECT_QUANTILE) + np.log(z.shape[2])
+    out = _summary(f[keep], flagged, est[0][4], "level-dependence")
+    out.update(levels=[lo.level, hi.level], resolution_hz=lo.fs / nps,
+               median_change_db=[float(10 * np.log10(np.median(z[:, q].max(axis=1))))
+                                 for q in range(z.shape[1])])
+    return out
+
+
+def _h1(rec: Recording, nps: int):
+    """H1, its variance, the excited band and the bin correlation factor of one level."""
+    n_in = rec.n_in
+    spec = spectral_matrix(np.concatenate([rec.force, rec.response], axis=1), rec.fs,
+                           nperseg=nps)
+    auto = spec.auto()
+    S = spec.S
+    S_ff, S_xf = S[:, :n_in, :n_in], S[:, n_in:, :n_in]
+    gain = hold_gain(spec.freqs, rec.fs, rec.meta.get("force_hold"))[:, None, None]
+    H = h1(S_xf, S_ff) / gain
+    coh = multiple_coherence(auto[:, n_in:], S_xf, S_ff)
+    sigma2 = np.maximum(1 - coh, 0.0) * auto[:, n_in:] / max(spec.n_eff - n_in, 1.0)
+    inv = np.linalg.inv(S_ff).diagonal(axis1=1, axis2=2).real                 # (n_f, n_in)
+    var = sigma2[:, :, None] * inv[:, None, :] / gain**2
+    band = excitation_band(spec.freqs, auto[:, :n_in])
+    return spec.freqs, H, var, band, spec.bin_factor
+
+
+def _bla_test(rec: Recording) -> dict[str, Any]:
+    if rec.n_in != 1:
+        raise InputError("the BLA test takes one force channel")
+    b = best_linear_approximation(rec.force, rec.response, rec.fs, int(rec.meta["period"]),
+                                  transient_periods=int(rec.meta.get("transient_periods", 1)),
+                                  realizations=int(rec.meta.get("realizations", 1)),
+                                  force_hold=rec.meta.get("force_hold"))
+    ratio = b.var_total / np.maximum(b.var_noise, 1e-300)
+    out = _summary(b.freqs, ratio > b.threshold(), 1.0, "bla")
+    out.update(levels=[rec.level], realizations=b.realizations, periods=b.periods,
+               median_change_db=[float(10 * np.log10(np.median(ratio[:, q])))
+                                 for q in range(ratio.shape[1])])
+    return out
+
+
+def _summary(freqs: np.ndarray, flagged: np.ndarray, bin_factor: float,
+             method: str) -> dict[str, Any]:
+    """Share of flagged lines against the chance share, band and share per output."""
+    p = 1 - DETECT_QUANTILE
+    limit = p + 4 * np.sqrt(p * (1 - p) * bin_factor / freqs.size)
+    any_line = flagged.any(axis=1)
+    share = float(flagged.mean())
+    lines = freqs[any_line]
+    by_out = flagged.mean(axis=0)
+    return {"method": method, "nonlinear": bool(share > limit), "share_flagged": share,
+            "share_limit": float(limit),
+            "band_hz": [float(lines.min()), float(lines.max())] if lines.size else None,
+            "by_output": [float(s) for s in by_out]}

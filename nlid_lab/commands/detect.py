@@ -1,0 +1,45 @@
+"""``nlid-lab detect RUN... [--nperseg N] [--json FILE]``: is the structure nonlinear?"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..cli import write_json
+
+
+def format_tests(result: dict[str, Any]) -> str:
+    """One line per test plus the verdict and the notes."""
+    lines = []
+    for t in result["tests"]:
+        what = ("BLA distortion (periodic random, "
+                f"{t['realizations']} x {t['periods']} periods, level {t['levels'][0]:g})"
+                if t["method"] == "bla" else
+                f"level dependence (random, {t['levels'][0]:g} vs {t['levels'][1]:g}, "
+                f"{t['resolution_hz']:.3g} Hz lines)")
+        band = (f", {t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz" if t["nonlinear"] else "")
+        lines.append(f"{what}: {'NONLINEAR' if t['nonlinear'] else 'no evidence'} - "
+                     f"{100 * t['share_flagged']:.1f} % of the lines beyond the noise "
+                     f"(chance: up to {100 * t['share_limit']:.1f} %){band}")
+    lines.append(f"verdict: {result['verdict']}")
+    lines += [f"note: {n}" for n in result["notes"]]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from analysis.detect import detect
+    from ..store import load_recordings
+    recs = [rec for path in args.runs for rec in load_recordings(path)]
+    result = detect(recs, nperseg=args.nperseg)
+    print(format_tests(result), file=sys.stderr if args.json == "-" else sys.stdout)
+    write_json(result, args.json)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("detect", help="test stored runs for nonlinearity (no model needed)")
+    p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs or NPZ recordings")
+    p.add_argument("--nperseg", type=int, help="Welch segment length for random levels")
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    p.set_defaults(func=run)
