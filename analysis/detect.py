@@ -17,6 +17,7 @@ structure: `analysis.screening`, `analysis.diagnose`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
@@ -66,9 +67,37 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
             "tests": tests, "notes": notes}
 
 
+@dataclass
+class LevelChange:
+    """Line-by-line change of the FRF between the lowest and the highest random level.
+
+    Attributes
+    ----------
+    freqs : ndarray, shape (n_f,)
+        Lines of the common excited band, Hz.
+    z : ndarray, shape (n_f, n_out)
+        ``|H_lo - H_hi|^2 / (var_lo + var_hi)``, largest over the inputs.
+    threshold : float
+        Value a linear structure exceeds on 1 % of the lines.
+    summary : dict
+        The test's entry of `detect` (``method`` "level-dependence").
+    """
+
+    freqs: np.ndarray
+    z: np.ndarray
+    threshold: float
+    summary: dict[str, Any]
+
+
 def level_dependence(recordings: Sequence[Recording], *, nperseg: int | None = None
                      ) -> dict[str, Any]:
     """Compare the H1 of the lowest and the highest random level (module docstring)."""
+    return level_change(recordings, nperseg=nperseg).summary
+
+
+def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
+                 ) -> LevelChange:
+    """`level_dependence` with its per-line statistic."""
     recs = sorted(recordings, key=lambda r: (r.level is None, r.level or 0.0))
     lo, hi = recs[0], recs[-1]
     if lo.fs != hi.fs or list(lo.force_dofs) != list(hi.force_dofs) or lo.n_dof != hi.n_dof:
@@ -83,13 +112,13 @@ def level_dependence(recordings: Sequence[Recording], *, nperseg: int | None = N
     f = est[0][0]
     keep = (f >= band[0]) & (f <= band[1])
     (H0, v0), (H1, v1) = [(e[1][keep], e[2][keep]) for e in est]
-    z = np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)          # (n_f, n_out, n_in)
-    flagged = z.max(axis=2) > -np.log(1 - DETECT_QUANTILE) + np.log(z.shape[2])
-    out = _summary(f[keep], flagged, est[0][4], "level-dependence")
+    z = (np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)).max(axis=2)   # (n_f, n_out)
+    threshold = float(-np.log(1 - DETECT_QUANTILE) + np.log(H0.shape[2]))
+    out = _summary(f[keep], z > threshold, est[0][4], "level-dependence")
     out.update(levels=[lo.level, hi.level], resolution_hz=lo.fs / nps,
-               median_change_db=[float(10 * np.log10(np.median(z[:, q].max(axis=1))))
+               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
                                  for q in range(z.shape[1])])
-    return out
+    return LevelChange(f[keep], z, threshold, out)
 
 
 def _h1(rec: Recording, nps: int):

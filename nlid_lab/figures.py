@@ -82,6 +82,27 @@ def multiple_coherence_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     return fig
 
 
+def level_change(change) -> Figure:
+    """Change of the FRF between two levels over its noise, per response, in dB, with the
+    line a linear structure exceeds on 1 % of the lines (`analysis.detect.LevelChange`)."""
+    fig = Figure(figsize=(FIGSIZE[0], 3.8), dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    z = np.maximum(change.z, 1e-6)
+    for q, colour in zip(range(z.shape[1]), level_colours(z.shape[1])):
+        ax.plot(change.freqs, 10 * np.log10(z[:, q]), color=colour, lw=0.9,
+                label=f"response DOF {q}")
+    ax.axhline(10 * np.log10(change.threshold), color="k", ls="--", lw=1,
+               label="linear structure: exceeded on 1 % of lines")
+    lo, hi = change.summary["levels"]
+    ax.set_title(f"FRF change between {lo:g} and {hi:g} N rms over its noise")
+    ax.set_xlabel("Frequency [Hz]")
+    ax.set_ylabel("|ΔH|² / var [dB]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    ax.set_xlim(change.freqs[0], change.freqs[-1])
+    return fig
+
+
 def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     """Robust BLA per periodic-random level: |G|, the total standard deviation of G (noise +
     nonlinear distortion, dashed) and its noise standard deviation (dotted)."""

@@ -376,6 +376,33 @@ def diagnosis_section(run: RunData) -> Section | None:
     return sec
 
 
+def level_change_section(run: RunData) -> Section | None:
+    """Two or more random (Welch) levels: where the FRF changes with level beyond its noise
+    (`analysis.detect.level_change`)."""
+    from analysis.detect import level_change
+    random = [r for r in run.recordings
+              if r.excitation == "random" and not r.meta.get("period")]
+    if len(random) < 2:
+        return None
+    try:
+        change = level_change(random)
+    except InputError:
+        return None
+    t = change.summary
+    verdict = (f"the FRF changes beyond its noise on {100 * t['share_flagged']:.0f} % of the "
+               f"lines ({t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz): the structure is "
+               "nonlinear" if t["nonlinear"] else
+               f"{100 * t['share_flagged']:.1f} % of the lines change beyond the noise, as "
+               "noise alone gives: no evidence of nonlinearity")
+    sec = Section("Level dependence of the FRF (random levels)",
+                  f"H1 at {t['levels'][0]:g} against {t['levels'][1]:g} N rms, line by line, "
+                  "relative to the variance of their difference; a linear structure exceeds "
+                  f"the dashed line on 1 % of the lines (chance up to "
+                  f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
+    sec.figures = [("level_change", figures.level_change(change))]
+    return sec
+
+
 def distortion_section(frfs: list[LevelFRF]) -> Section | None:
     """Periodic-random levels: BLA with noise and nonlinear-distortion levels, and the
     detection verdict per level and response."""
@@ -408,9 +435,9 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
     out = frf_sections(frfs)
-    distortion = distortion_section(frfs)
-    if distortion is not None:
-        out.append(distortion)
+    for extra in (level_change_section(run), distortion_section(frfs)):
+        if extra is not None:
+            out.append(extra)
     for extra in (reverse_path_section(run, candidate), *hbm_sections(run, frfs),
                   diagnosis_section(run)):
         if extra is not None:
