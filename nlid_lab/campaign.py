@@ -300,6 +300,7 @@ class _Runner:
                 "block_len": c.plan.block_size}
         if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
             info["block_len"] *= c.plan.transient_periods + c.plan.periods
+            info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
         if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
             info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
         self.observer.campaign_started(info)

@@ -124,9 +124,7 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
                                       transient_periods=int(rec.meta.get("transient_periods", 1)),
                                       realizations=int(rec.meta["realizations"]),
                                       force_hold=rec.meta.get("force_hold"))
-        return LevelFRF(freqs=b.freqs, H=b.G[:, :, None], coherence=b.coherence[:, :, None],
-                        multiple_coherence=b.coherence, n_averages=b.realizations, bla=b,
-                        **common)
+        return frf_from_bla(b, **common)
     nseg = nperseg or default_nperseg(rec.force.shape[0], rec.fs)
     spec = spectral.spectral_matrix(np.concatenate([rec.force, rec.response], axis=1),
                                     rec.fs, nperseg=nseg)
@@ -149,6 +147,13 @@ def frf_from_spectra(spec: spectral.Spectra, n_in: int, **common: Any) -> LevelF
     mcoh = spectral.multiple_coherence(auto[keep][:, fout], S_xr, S_rr)
     return LevelFRF(freqs=spec.freqs[keep], H=spectral.h1(S_xr, S_rr), coherence=coh,
                     multiple_coherence=mcoh, n_averages=spec.n_avg, **common)
+
+
+def frf_from_bla(b, **common: Any) -> LevelFRF:
+    """A periodic-random level's FRFs: the BLA (`analysis.bla.BLA`) and its coherence across
+    realizations."""
+    return LevelFRF(freqs=b.freqs, H=b.G[:, :, None], coherence=b.coherence[:, :, None],
+                    multiple_coherence=b.coherence, n_averages=b.realizations, bla=b, **common)
 
 
 def sine_frf(rec: Recording) -> tuple[np.ndarray, np.ndarray]:

@@ -16,9 +16,10 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis import spectral
+from analysis.bla import best_linear_approximation
 from analysis.sine_fit import sine_fit
 
-from ..report import FRF_UNITS, LevelFRF, frf_from_spectra
+from ..report import FRF_UNITS, LevelFRF, frf_from_bla, frf_from_spectra
 from . import plots
 
 #: Seconds of time history kept per channel (ring buffer).
@@ -96,6 +97,27 @@ class FrfAccumulator:
         return frf_from_spectra(mean, self.n_in, **labels)
 
 
+class BlaAccumulator:
+    """Periodic-random levels: each block is one realization; the estimate is the robust BLA
+    over the realizations received so far (from the second one on)."""
+
+    def __init__(self, fs: float, period: int, transient_periods: int) -> None:
+        self.fs, self.period, self.transient = fs, period, transient_periods
+        self.blocks: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def add(self, force: np.ndarray, response: np.ndarray) -> None:
+        self.blocks.append((force, response))
+
+    def estimate(self, **labels: Any) -> LevelFRF | None:
+        if len(self.blocks) < 2:
+            return None
+        b = best_linear_approximation(np.concatenate([f for f, _ in self.blocks]),
+                                      np.concatenate([x for _, x in self.blocks]), self.fs,
+                                      self.period, transient_periods=self.transient,
+                                      realizations=len(self.blocks))
+        return frf_from_bla(b, **labels)
+
+
 def live_nperseg(fs: float, block_len: int | None) -> int:
     """Segment length for live averaging: ~0.5 Hz resolution, at most one block, power of 2."""
     target = min(int(2 * fs), block_len or int(2 * fs))
@@ -117,7 +139,7 @@ class LiveView(QtWidgets.QWidget):
         self.harmonics: np.ndarray | None = None
         self.level: int | None = None
         self.frf: LevelFRF | None = None
-        self._acc: FrfAccumulator | None = None
+        self._acc: FrfAccumulator | BlaAccumulator | None = None
         self._ring: RingBuffer | None = None
         self._dirty = False
         self.label = QtWidgets.QLabel("waiting for a campaign ...")
@@ -163,8 +185,12 @@ class LiveView(QtWidgets.QWidget):
     def _on_block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         if level != self.level:
             self.level = level
-            self._acc = FrfAccumulator(self.fs, force.shape[1], live_nperseg(
-                self.fs, self.info.get("block_len") or force.shape[0]))
+            if self.info.get("period"):
+                self._acc = BlaAccumulator(self.fs, int(self.info["period"]),
+                                           int(self.info.get("transient_periods", 1)))
+            else:
+                self._acc = FrfAccumulator(self.fs, force.shape[1], live_nperseg(
+                    self.fs, self.info.get("block_len") or force.shape[0]))
         self._acc.add(force, response)
         self._ring.extend(np.concatenate([force, response], axis=1))
         self.blocks += 1
