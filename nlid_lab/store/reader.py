@@ -103,7 +103,11 @@ class Run:
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
-            meta.update(_periodic_layout(meta["excitation_settings"], parts))
+            layout = _periodic_layout(meta["excitation_settings"], parts)
+            if layout is None:
+                self.warnings.append(f"level {index}: periodic-random blocks of unequal "
+                                     "length; the level is analysed as plain random data")
+            meta.update(layout or {})
             return Recording(force=np.concatenate([p[0] for p in parts]),
                              response=np.concatenate([p[1] for p in parts]), meta=meta,
                              **common)
@@ -119,15 +123,16 @@ class Run:
         return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
 
 
-def _periodic_layout(settings: dict, parts: list) -> dict[str, int]:
+def _periodic_layout(settings: dict, parts: list) -> dict[str, int] | None:
     """Periodic-random runs: one block per realization, so the reverse path splits the
-    level's record into periods (`analysis.reverse_path_noise.periodic_layout`)."""
+    level's record into periods (`analysis.reverse_path_noise.periodic_layout`); empty for
+    other runs, None when a block does not hold one whole realization."""
     if not settings.get("periodic"):
         return {}
     period, transient = int(settings["block_size"]), int(settings["transient_periods"])
     n = (transient + int(settings["periods"])) * period
     if any(len(p[0]) != n for p in parts):
-        return {}
+        return None
     return {"period": period, "transient_periods": transient, "realizations": len(parts)}
 
 
