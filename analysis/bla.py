@@ -14,13 +14,12 @@ A linear system leaves only noise, so both variances agree; stochastic nonlinear
 phases) make the total exceed the noise. Per line, ``total / noise`` is F-distributed with
 ``(2 (M - 1), 2 M (P - 1))`` degrees of freedom for a linear system (Gaussian noise): lines
 above its 99 % quantile flag distortion, and far more than 1 % of such lines detect a
-nonlinearity.
+nonlinearity (`analysis.detect.bla_summary`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.fft
@@ -69,27 +68,6 @@ class BLA:
         """99 % quantile of ``var_total / var_noise`` for a linear system."""
         m, p = self.realizations, self.periods
         return float(scipy.stats.f.ppf(DETECT_QUANTILE, 2 * (m - 1), 2 * m * (p - 1)))
-
-    def detection(self) -> dict[str, Any]:
-        """Per response: share of lines whose total variance exceeds the noise beyond the
-        linear-system 99 % quantile, the median distortion-to-noise ratio (dB) and the band
-        where distortion dominates; ``nonlinear`` when the share is far above 1 %."""
-        ratio = self.var_total / np.maximum(self.var_noise, 1e-300)
-        flagged = ratio > self.threshold()
-        # binomial: the share of flagged lines of a linear system is 1 % +- sqrt(0.01/n_f)
-        limit = 1 - DETECT_QUANTILE + 4 * np.sqrt(DETECT_QUANTILE * (1 - DETECT_QUANTILE)
-                                                   / self.freqs.size)
-        out = []
-        for q in range(self.G.shape[1]):
-            lines = self.freqs[flagged[:, q]]
-            share = float(flagged[:, q].mean())
-            out.append({"share_flagged": share, "nonlinear": share > limit,
-                        "median_ratio_db": float(10 * np.log10(np.median(ratio[:, q]))),
-                        "band_hz": [float(lines.min()), float(lines.max())]
-                        if lines.size else None})
-        return {"threshold": self.threshold(), "share_limit": float(limit),
-                "realizations": self.realizations, "periods": self.periods, "outputs": out}
-
 
 def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float,
                               period: int, *, transient_periods: int = 1,

@@ -22,7 +22,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .bla import DETECT_QUANTILE, best_linear_approximation
+from .bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from .errors import InputError
 from .recording import Recording
 from .signals import excitation_band
@@ -146,9 +146,15 @@ def _bla_test(rec: Recording) -> dict[str, Any]:
                                   transient_periods=int(rec.meta.get("transient_periods", 1)),
                                   realizations=int(rec.meta.get("realizations", 1)),
                                   force_hold=rec.meta.get("force_hold"))
+    return bla_summary(b, rec.level)
+
+
+def bla_summary(b: BLA, level: float | None = None) -> dict[str, Any]:
+    """The BLA test's entry of `detect`: lines whose total variance exceeds the noise beyond
+    the linear-system quantile (`analysis.bla.BLA.threshold`), per response and overall."""
     ratio = b.var_total / np.maximum(b.var_noise, 1e-300)
     out = _summary(b.freqs, ratio > b.threshold(), 1.0, "bla")
-    out.update(levels=[rec.level], realizations=b.realizations, periods=b.periods,
+    out.update(levels=[level], realizations=b.realizations, periods=b.periods,
                median_change_db=[float(10 * np.log10(np.median(ratio[:, q])))
                                  for q in range(ratio.shape[1])])
     return out

@@ -414,15 +414,15 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
     shown = [f for f in frfs if f.bla is not None]
     if not shown:
         return None
+    from analysis.detect import bla_summary
     lines = []
     for frf in shown:
-        det = frf.bla.detection()
-        for q, o in enumerate(det["outputs"]):
-            what = (f"nonlinear distortion on {100 * o['share_flagged']:.0f} % of the lines "
-                    f"({o['band_hz'][0]:.1f}-{o['band_hz'][1]:.1f} Hz), median "
-                    f"{o['median_ratio_db']:+.1f} dB over the noise" if o["nonlinear"] else
-                    f"no distortion above the noise ({100 * o['share_flagged']:.1f} % of the "
-                    "lines flagged, as noise alone gives)")
+        t = bla_summary(frf.bla, frf.level)
+        for q, (share, db) in enumerate(zip(t["by_output"], t["median_change_db"])):
+            what = (f"nonlinear distortion on {100 * share:.0f} % of the lines, median "
+                    f"{db:+.1f} dB over the noise" if share > t["share_limit"] else
+                    f"no distortion above the noise ({100 * share:.1f} % of the lines "
+                    "flagged, as noise alone gives)")
             lines.append(f"{frf.label}, response DOF {q}: {what}.")
     sec = Section("Best linear approximation and nonlinear distortion (periodic random)",
                   "Robust method (Pintelon & Schoukens): the BLA averaged over the "
