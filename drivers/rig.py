@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.excitation import multisine, random_gaussian, sine_block
+from analysis.excitation import ExcitationError, multisine, random_gaussian, sine_block
 from analysis.model import Model
 from analysis.plant import Plant
 
@@ -115,13 +115,18 @@ class SimRig:
     # --- shaker side ---------------------------------------------------------------------
     def set_output(self, output: Output) -> None:
         check_output(output, self.fs)
+        period = None
+        if isinstance(output, MultisineOutput):
+            try:
+                period = multisine(output.period, self.fs, output.band, 1.0, output.seed)
+            except ExcitationError as exc:        # e.g. no line of the period in the band
+                raise DriverConfigError(str(exc)) from None
         with self.lock:
             self._output = output
             if isinstance(output, RandomOutput):
                 self._chunk, self._chunk_index, self._chunk_pos = None, -1, 0
-            if isinstance(output, MultisineOutput):
-                self._period = multisine(output.period, self.fs, output.band, 1.0, output.seed)
-                self._period_pos = 0
+            if period is not None:
+                self._period, self._period_pos = period, 0
 
     def set_level(self, level: float) -> None:
         with self.lock:

@@ -83,6 +83,8 @@ def test_multisine_over_serial_is_periodic_and_equals_sim(emulated):
     b = np.vstack([b.data for b in ser])[:, 0]
     np.testing.assert_allclose(b, a, rtol=2e-7, atol=1e-7 * np.abs(a).max())
     np.testing.assert_allclose(b[1024:1280], b[1280:1536], atol=1e-6 * np.abs(b).max())
+    with pytest.raises(DriverConfigError, match="no frequency line"):
+        make_rig().set_output(MultisineOutput((5.2, 5.8), 256, 1))     # lines every 8 Hz
 
 
 def test_faults_are_counted_never_silent(emulated):
