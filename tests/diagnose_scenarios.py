@@ -187,5 +187,15 @@ def two_effects(n: int = 1 << 15, seed: int = 51) -> Scenario:
 
 TWO_EFFECTS_STIFFNESS = 2.0e3
 
+
+def three_effects(n: int = 1 << 15, seed: int = 51) -> Scenario:
+    """`two_effects` plus quadratic damping (p = 30) between DOFs 1 and 2."""
+    two = two_effects(n, seed)
+    truth = two.truth.with_elements(two.truth.elements + [
+        Element("quadratic_damping", [0.0, -1.0, 1.0], {"p": 30.0})])
+    recs = random_runs(truth, 2, [1.5, 6.0, 15.0], n=n, seed=seed)
+    return Scenario("three missing effects", truth, two.start, recs, "discrepancy",
+                    "cubic_spring", [0, 1], {"p": 3.0e9}, True)
+
 SCENARIOS = {"hidden_cubic": hidden_cubic, "relative_damping": relative_damping,
              "linear_mass_error": linear_mass_error, "no_discrepancy": no_discrepancy}

@@ -18,7 +18,7 @@ from analysis.model import Element
 
 from diagnose_scenarios import (TWO_EFFECTS_STIFFNESS, chain, hidden_cubic, linear_mass_error,
                                 multisine_runs, no_discrepancy, random_runs, relative_damping,
-                                two_effects)
+                                three_effects, two_effects)
 
 
 def check_residuals(d) -> None:
@@ -126,10 +126,29 @@ def test_two_missing_effects_found_by_a_second_pass():
     assert found[("cubic_spring", (0, 1))]["p"] == pytest.approx(sc.params["p"], rel=0.05)
     assert found[("stiffness_error", (2,))]["delta_stiffness"] == pytest.approx(
         TWO_EFFECTS_STIFFNESS, rel=0.05)
-    assert [p["accepted"] for p in d.evidence["passes"]] == [True, True]
+    # a third pass may stand in for the first estimate's sequential error; the joint refit
+    # makes it irrelevant and it is pruned (measured: a -3 N/m stiffness at DOF 1)
+    ev = d.evidence
+    assert sum(p["accepted"] for p in ev["passes"]) - len(ev["pruned_after_joint_refit"]) == 2
     assert d.location["dofs"] == [0, 1, 2]
     assert d.fit["after"] <= 0.5 * d.fit["before"]
     check_residuals(d)
+
+
+def test_three_missing_effects():
+    """The two effects above plus quadratic damping between DOFs 1 and 2: all three found
+    by three passes and refitted jointly (measured: stiffness -0.4 %, cubic -0.2 %, damping
+    +2.0 %; held-back error 1.48 -> 0.16)."""
+    sc = three_effects()
+    d = diagnose(sc.start, sc.recordings)
+    found = {(m["kind"], tuple(m["dofs"])): m["params"] for m in d.missing_physics()}
+    assert set(found) == {("cubic_spring", (0, 1)), ("stiffness_error", (2,)),
+                          ("quadratic_damping", (1, 2))}
+    assert found[("cubic_spring", (0, 1))]["p"] == pytest.approx(3.0e9, rel=0.05)
+    assert found[("stiffness_error", (2,))]["delta_stiffness"] == pytest.approx(
+        TWO_EFFECTS_STIFFNESS, rel=0.05)
+    assert found[("quadratic_damping", (1, 2))]["p"] == pytest.approx(30.0, rel=0.1)
+    assert d.fit["after"] <= 0.2 * d.fit["before"]
 
 
 def test_replay_restarts_reproduce_the_exact_model():

@@ -40,8 +40,9 @@ least half of it."""
 
 MIN_EFFECT = 2 * FLOOR
 """Minimum relative change of the fitting levels' model FRFs the correction must make."""
-MAX_EFFECTS = 2
-"""Search passes: after a found effect the library is searched again on the corrected model."""
+MAX_EFFECTS = 3
+"""Search passes: after a found effect the library is searched again on the corrected model
+(a candidate already accepted is not offered again: the joint refit corrects its estimate)."""
 
 __all__ = ["diagnose", "Diagnosis", "Candidate", "library", "DiagnoseInputError"]
 
@@ -141,13 +142,18 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     passes = []
     current = model
     for _ in range(MAX_EFFECTS):
-        step = _search_pass(current, fit_preps, band, nps, floor, further=bool(passes))
+        step = _search_pass(current, fit_preps, band, nps, floor,
+                            [s.best.cand for s in passes if s.found])
         passes.append(step)
         if not step.found:
             break
         current = step.fixed
     first = passes[0]
-    chosen = joint_refit(model, first.search, [s.best for s in passes if s.found])
+
+    def change(without: Model, fits: list[Fit]) -> float:
+        return model_change([_curves(without, _apply(model, fits), p, band, nps, floor, False)
+                             for p in fit_preps])
+    chosen = _pruned(model, first.search, [s.best for s in passes if s.found], change)
     current = _apply(model, chosen)
     horizon = horizon_samples(model, recs[0].fs)
     curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps), horizon)
@@ -174,11 +180,27 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
          "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
          "model_change": first.effect, "replay_horizon_samples": horizon,
          "passes": [s.to_json() for s in passes],
+         "pruned_after_joint_refit": [s.best.cand.label for s in passes if s.found
+                                      and s.best.cand not in [f.cand for f in chosen]],
          "level_dependence": dep.to_json() if dep else None,
          "residual_share_by_dof": _share(first.search)},
         warnings)
     d.explanation = explain(d, [f.cand for f in chosen])
     return d
+
+
+def _pruned(model: Model, search: Search, fits: list[Fit],
+            change: Callable[[Model, list[Fit]], float]) -> list[Fit]:
+    """Joint refit, then drop a later effect that the joint estimate makes irrelevant (its
+    removal changes the model FRFs by less than `MIN_EFFECT`: it only stood in for the
+    sequential error of an earlier estimate) and refit the rest."""
+    chosen = joint_refit(model, search, fits)
+    for k in range(len(chosen) - 1, 0, -1):
+        others = chosen[:k] + chosen[k + 1:]
+        if change(_apply(model, others), chosen) < MIN_EFFECT:
+            return _pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
+                           change)
+    return chosen
 
 
 def _apply(model: Model, fits: list[Fit]) -> Model:
@@ -213,9 +235,11 @@ class SearchPass:
 
 
 def decide(model: Model, search: Search, pool: list[Fit],
-           change: Callable[[Model], float], *, further: bool = False) -> SearchPass:
-    """Accept the best candidate of ``pool`` if it passes all three thresholds (a stricter
-    misfit reduction for a ``further`` effect)."""
+           change: Callable[[Model], float], *, further: bool = False,
+           accepted: Sequence[Candidate] = ()) -> SearchPass:
+    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass if it passes
+    all three thresholds (a stricter misfit reduction for a ``further`` effect)."""
+    pool = [f for f in pool if f.cand not in accepted]
     best = pool[0] if pool else None
     reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
     min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
@@ -235,7 +259,7 @@ def linear_only(search: Search) -> bool:
 
 
 def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
-                 floor: float, further: bool) -> SearchPass:
+                 floor: float, accepted: list[Candidate]) -> SearchPass:
     """Screen the library, refine the best nonlinear ones by reverse path, decide."""
     search = RandomSearch(model, fit_preps, band, nps, floor)
     fits = search.screen()
@@ -253,7 +277,7 @@ def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
     def change(fixed: Model) -> float:
         return model_change([_curves(model, fixed, p, band, nps, floor, False)
                              for p in fit_preps])
-    return decide(model, search, pool, change, further=further)
+    return decide(model, search, pool, change, further=bool(accepted), accepted=accepted)
 
 
 def model_change(curves: list[LevelCurves]) -> float:

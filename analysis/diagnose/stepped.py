@@ -283,8 +283,10 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                                [recs[i] for i in fit_idx], floor)
         pool = _pool(current, search, warnings)
         start = current
+        accepted = [s.best.cand for s in passes if s.found]
         step = decide(current, search, pool, lambda fixed: model_change(
-            [curve(start, fixed, i) for i in fit_idx]), further=bool(passes))
+            [curve(start, fixed, i) for i in fit_idx]), further=bool(accepted),
+            accepted=accepted)
         passes.append(step)
         if not step.found:
             break
