@@ -180,13 +180,18 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
          "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
          "model_change": first.effect, "replay_horizon_samples": horizon,
          "passes": [s.to_json() for s in passes],
-         "pruned_after_joint_refit": [s.best.cand.label for s in passes if s.found
-                                      and s.best.cand not in [f.cand for f in chosen]],
+         "pruned_after_joint_refit": pruned_labels(passes, chosen),
          "level_dependence": dep.to_json() if dep else None,
          "residual_share_by_dof": _share(first.search)},
         warnings)
     d.explanation = explain(d, [f.cand for f in chosen])
     return d
+
+
+def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
+    """Labels of accepted candidates that `_pruned` dropped."""
+    kept = [f.cand for f in chosen]
+    return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
 
 
 def _pruned(model: Model, search: Search, fits: list[Fit],

@@ -30,7 +30,6 @@ from ..recording import Recording
 from ..sine_fit import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2
-from .joint import joint_refit
 from .locate import level_dependence, mismatch_band
 from .replay import periodic_replay
 from .report import Diagnosis, LevelCurves, explain, time_fit
@@ -248,7 +247,8 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
 def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                      holdout: float | str | None, floor: float) -> Diagnosis:
     """Stepped-sine counterpart of `analysis.diagnose.diagnose` (same selection rules)."""
-    from . import MAX_EFFECTS, _apply, _pick_holdout, decide, model_change
+    from . import (MAX_EFFECTS, _apply, _pick_holdout, _pruned, decide, model_change,
+                   pruned_labels)
 
     frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
     order = np.argsort([f.level for f in frfs])
@@ -292,8 +292,11 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
             break
         current = step.fixed
     first = passes[0]
-    chosen = joint_refit(model, first.search, [s.best for s in passes if s.found])
-    current = _apply(model, chosen) if len(chosen) > 1 else current
+    found = [s.best for s in passes if s.found]
+    chosen = _pruned(model, first.search, found, lambda without, fits: model_change(
+        [curve(without, _apply(model, fits), i) for i in fit_idx]))
+    if len(chosen) > 1 or len(chosen) < len(found):
+        current = _apply(model, chosen)
     curves = [curve(model, current, i) for i in range(len(frfs))]
     held = curves[hold]
     all_levels = first.search.levels + [_level(model, recs[hold], frfs[hold], {}, floor,
@@ -312,6 +315,7 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
         {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
          "chi2_reduction": first.reduction, "model_change": first.effect,
          "passes": [s.to_json() for s in passes],
+         "pruned_after_joint_refit": pruned_labels(passes, chosen),
          "level_dependence": dep.to_json() if dep else None,
          "odd_harmonic_ratio": _odd_ratio(first.search.frfs[-1])},
         warnings)
