@@ -8,6 +8,11 @@ Random levels (Welch)
     linear structure, so lines above its 99 % quantile are flagged.
 Periodic-random levels
     The robust BLA's total against its noise variance (`analysis.bla`).
+Stepped-sine levels
+    The fundamental FRF of the lowest and the highest level at their common frequencies; the
+    error of each step's estimate is read off the difference of the fits to the two halves of
+    its block (relative to the FRF, a median over the steps: one step's halves alone give a
+    two-degree-of-freedom variance).
 
 Either way about 1 % of the lines are flagged by chance; a share above 1 % plus four binomial
 standard deviations (widened by the window's bin correlation for Welch lines) detects a
@@ -27,7 +32,7 @@ from .errors import InputError
 from .recording import Recording
 from .signals import excitation_band
 from .spectral import h1, multiple_coherence, spectral_matrix
-from .sine_fit import hold_gain
+from .sine_fit import hold_gain, sine_fit
 
 
 def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> dict[str, Any]:
@@ -51,15 +56,15 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     recs = list(recordings)
     periodic = [r for r in recs if r.excitation == "random" and r.meta.get("period")]
     random = [r for r in recs if r.excitation == "random" and not r.meta.get("period")]
+    stepped = [r for r in recs if r.excitation == "stepped-sine"]
     notes = []
-    if len(recs) > len(periodic) + len(random):
-        notes.append("stepped-sine levels are not tested here: compare them with "
-                     "`nlid-lab report` or test a model with `nlid-lab diagnose`")
     tests = [_bla_test(r) for r in periodic]
-    if len(random) >= 2:
-        tests.append(level_dependence(random, nperseg=nperseg))
-    elif random:
-        notes.append("one random level: the level-dependence test needs two or more")
+    for name, group, test in (("random", random, lambda g: level_dependence(g, nperseg=nperseg)),
+                              ("stepped-sine", stepped, stepped_level_dependence)):
+        if len(group) >= 2:
+            tests.append(test(group))
+        elif group:
+            notes.append(f"one {name} level: the level-dependence test needs two or more")
     if not tests:
         raise InputError("no level to test: give random runs at two or more levels, or "
                          "periodic-random runs")
@@ -119,6 +124,40 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
                median_change_db=[float(10 * np.log10(np.median(z[:, q])))
                                  for q in range(z.shape[1])])
     return LevelChange(f[keep], z, threshold, out)
+
+
+def stepped_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
+    """Compare the fundamental FRFs of the lowest and the highest stepped-sine level at the
+    frequencies both hold (module docstring)."""
+    recs = sorted(recordings, key=lambda r: (r.level is None, r.level or 0.0))
+    lo, hi = recs[0], recs[-1]
+    common = np.intersect1d(np.round(lo.freqs, 9), np.round(hi.freqs, 9))
+    if common.size == 0:
+        raise InputError("the stepped-sine levels share no drive frequency")
+    (H0, v0), (H1, v1) = [_step_frf(r, common) for r in (lo, hi)]
+    z = (np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)).max(axis=2)     # (n_f, n_out)
+    threshold = float(-np.log(1 - DETECT_QUANTILE) + np.log(H0.shape[2]))
+    out = _summary(common, z > threshold, 1.0, "stepped-level-dependence")
+    out.update(levels=[lo.level, hi.level],
+               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
+                                 for q in range(z.shape[1])])
+    return out
+
+
+def _step_frf(rec: Recording, freqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fundamental FRF X1/F1 at ``freqs`` (first step at each), shape (n_f, n_out, n_in), and
+    its variance from the two halves of each block, pooled as a median relative variance."""
+    n = rec.response.shape[1]
+    parts = (slice(0, n), slice(0, n // 2), slice(n - n // 2, n))
+    H, rel = [], []
+    for f in freqs:
+        i = int(np.flatnonzero(np.isclose(rec.freqs, f))[0])
+        whole, a, b = [sine_fit(rec.response[i][p], rec.fs, f)[0][:, None]
+                       / sine_fit(rec.force[i][p], rec.fs, f)[0][None, :] for p in parts]
+        H.append(whole)
+        rel.append(np.abs(a - b) ** 2 / 4 / np.maximum(np.abs(whole) ** 2, 1e-300))
+    H = np.array(H)
+    return H, np.median(np.array(rel), axis=0) * np.abs(H) ** 2
 
 
 def _h1(rec: Recording, nps: int):

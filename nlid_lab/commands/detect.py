@@ -13,11 +13,15 @@ def format_tests(result: dict[str, Any]) -> str:
     """One line per test plus the verdict and the notes."""
     lines = []
     for t in result["tests"]:
-        what = ("BLA distortion (periodic random, "
-                f"{t['realizations']} x {t['periods']} periods, level {t['levels'][0]:g})"
-                if t["method"] == "bla" else
-                f"level dependence (random, {t['levels'][0]:g} vs {t['levels'][1]:g}, "
-                f"{t['resolution_hz']:.3g} Hz lines)")
+        if t["method"] == "bla":
+            what = (f"BLA distortion (periodic random, {t['realizations']} x {t['periods']} "
+                    f"periods, level {t['levels'][0]:g})")
+        elif t["method"] == "level-dependence":
+            what = (f"level dependence (random, {t['levels'][0]:g} vs {t['levels'][1]:g}, "
+                    f"{t['resolution_hz']:.3g} Hz lines)")
+        else:
+            what = (f"level dependence (stepped sine, {t['levels'][0]:g} vs "
+                    f"{t['levels'][1]:g}, fundamental)")
         band = (f", {t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz" if t["nonlinear"] else "")
         lines.append(f"{what}: {'NONLINEAR' if t['nonlinear'] else 'no evidence'} - "
                      f"{100 * t['share_flagged']:.1f} % of the lines beyond the noise "
