@@ -119,18 +119,24 @@ def test_view_command_snapshot(qtbot, tmp_path):
     assert main(["view", str(tmp_path / "nope.h5"), "--snapshot", str(png)]) == 2
 
 
-def test_live_view_from_real_sim_campaign(qtbot, tmp_path):
-    """`nlid_lab.campaign.run_campaign` on the simulated rig drives the live view."""
+def _live_campaign(qtbot, camp, out) -> LiveView:
+    """Run campaign ``camp`` (`nlid_lab.campaign.run_campaign`) in a thread into a live view."""
     from nlid_lab.campaign import run_campaign
-    from nlid_lab.campaign_config import load_campaign
-    camp = load_campaign("examples/campaign-sim-random.toml")
     view = LiveView(refresh_ms=10)
     qtbot.addWidget(view)
-    th = threading.Thread(target=run_campaign, args=(camp, tmp_path / "c.h5"),
+    th = threading.Thread(target=run_campaign, args=(camp, out),
                           kwargs={"observer": view.observer})
     th.start()
     qtbot.waitUntil(lambda: view.status == "complete", timeout=60000)
     th.join()
+    return view
+
+
+def test_live_view_from_real_sim_campaign(qtbot, tmp_path):
+    """`nlid_lab.campaign.run_campaign` on the simulated rig drives the live view."""
+    from nlid_lab.campaign_config import load_campaign
+    camp = load_campaign("examples/campaign-sim-random.toml")
+    view = _live_campaign(qtbot, camp, tmp_path / "c.h5")
     per_level = camp.plan.averages
     assert view.level == len(camp.levels) - 1 and view.blocks >= per_level
     assert view.frf is not None and view.frf.n_averages >= per_level
@@ -141,17 +147,10 @@ def test_live_view_from_real_sim_campaign(qtbot, tmp_path):
 def test_live_view_shows_the_bla_of_a_periodic_campaign(qtbot, tmp_path):
     """Periodic-random campaign on the simulated rig: the FRF shown is the robust BLA over
     the realizations so far, on the period's exact lines."""
-    from nlid_lab.campaign import run_campaign
     from nlid_lab.campaign_config import load_campaign
     camp = load_campaign("examples/campaign-sim-periodic.toml")
     camp.plan.averages, camp.plan.periods = 3, 2
-    view = LiveView(refresh_ms=10)
-    qtbot.addWidget(view)
-    th = threading.Thread(target=run_campaign, args=(camp, tmp_path / "p.h5"),
-                          kwargs={"observer": view.observer})
-    th.start()
-    qtbot.waitUntil(lambda: view.status == "complete", timeout=60000)
-    th.join()
+    view = _live_campaign(qtbot, camp, tmp_path / "p.h5")
     assert view.frf is not None and view.frf.bla is not None and view.frf.n_averages == 3
     df = np.diff(view.frf.freqs)
     assert np.allclose(df, camp.fs / camp.plan.block_size)          # exact lines, every one
