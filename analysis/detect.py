@@ -109,7 +109,8 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
         raise InputError("the levels differ in sample rate, forces or responses; test runs of "
                          "one set-up together")
     n = min(lo.force.shape[0], hi.force.shape[0])
-    nps = nperseg or int(min(2 ** int(np.log2(max(n // 16, 64))), 8192))
+    nps = nperseg if nperseg is not None else int(min(2 ** int(np.log2(max(n // 16, 64))),
+                                                       8192))
     est = [_h1(r, nps) for r in (lo, hi)]
     band = (max(e[3][0] for e in est), min(e[3][1] for e in est))
     if band[0] >= band[1]:

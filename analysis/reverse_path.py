@@ -286,7 +286,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     fsr = float(rec0.fs)
     fdofs = rec0.force_dofs
     n_min = min(r.force.shape[0] for r, _ in recs)
-    nps = nperseg or _default_nperseg(n_min)
+    nps = nperseg if nperseg is not None else _default_nperseg(n_min)
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
                                               overlap=overlap) for r, _ in recs])

@@ -120,7 +120,8 @@ def screen_candidates(data: Any, model: Model,
     known = [(i, el) for i, el in enumerate(model.elements) if el.known]
     unknown = [(k, SimpleNamespace(w=w), None, fn) for k, (fn, w) in enumerate(cands)]
     fsr = float(rec0.fs)
-    nps = nperseg or _default_nperseg(min(r.force.shape[0] for r, _ in recs))
+    nps = (nperseg if nperseg is not None
+           else _default_nperseg(min(r.force.shape[0] for r, _ in recs)))
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps) for r, _ in recs])
         band = excitation_band(fspec.freqs, fspec.auto())

@@ -153,6 +153,9 @@ def spectral_matrix(data: np.ndarray | Sequence[np.ndarray], fs: float, *, npers
     Spectra
     """
     chans = _channels(data)
+    if isinstance(nperseg, bool) or not isinstance(nperseg, (int, np.integer)) or nperseg < 8:
+        raise InputError(f"segment length (nperseg) must be an integer >= 8 samples, got "
+                         f"{nperseg!r}")
     if not 0 <= overlap < 1:
         raise InputError(f"overlap must be in [0, 1), got {overlap}")
     n, n_ch = chans[0].shape[0], len(chans)

@@ -64,6 +64,8 @@ def test_cli_detect(tmp_path, capsys):
     assert "NONLINEAR" in captured.err and "level dependence" in captured.err
     assert main(["detect", paths[0]]) == 2                 # one level: nothing to compare
     assert "no level to test" in capsys.readouterr().err
+    assert main(["detect", *paths, "--nperseg", "0"]) == 2
+    assert "nperseg" in capsys.readouterr().err
 
 
 def test_detect_needs_something_to_test():

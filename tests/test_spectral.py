@@ -76,3 +76,6 @@ def test_bad_channels():
         spectral_matrix([np.zeros(100), np.zeros(99)], 1.0, nperseg=32)
     with pytest.raises(InputError, match="shape"):
         spectral_matrix(np.zeros(100), 1.0, nperseg=32)
+    for bad in (0, -4, 3, 16.0, True):
+        with pytest.raises(InputError, match="nperseg"):
+            spectral_matrix(np.zeros((100, 2)), 1.0, nperseg=bad)

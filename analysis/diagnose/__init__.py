@@ -123,7 +123,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     recs.sort(key=record_level)
     per = [period or r.meta.get("period_samples") for r in recs]
     n_min = min(r.force.shape[0] for r in recs)
-    nps = nperseg or choose_nperseg(model, recs[0].fs, n_min)
+    nps = nperseg if nperseg is not None else choose_nperseg(model, recs[0].fs, n_min)
     if band is None:
         band = analysis_band(recs[0], per[0] or nps)
     band = (float(band[0]), float(band[1]))
