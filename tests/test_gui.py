@@ -154,3 +154,8 @@ def test_live_view_shows_the_bla_of_a_periodic_campaign(qtbot, tmp_path):
     assert view.frf is not None and view.frf.bla is not None and view.frf.n_averages == 3
     df = np.diff(view.frf.freqs)
     assert np.allclose(df, camp.fs / camp.plan.block_size)          # exact lines, every one
+    # offline, the same run shows the BLA with its total and noise standard deviation
+    run = load_run(tmp_path / "p.h5")
+    offline = OfflineView([run], [all_level_frfs(run)])
+    qtbot.addWidget(offline)
+    assert len(offline.mag.listDataItems()) == 3

@@ -1,10 +1,12 @@
 """Offline run browser: runs and levels of a campaign, FRFs overlaid across levels (paper figs
-2.1, 3.5, 4.5), multiple coherence (fig 3.9) and the estimates stored in each run."""
+2.1, 3.5, 4.5; periodic-random levels: the BLA with its total (dashed) and noise (dotted)
+standard deviation), multiple coherence (fig 3.9) and the estimates stored in each run."""
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
@@ -111,6 +113,11 @@ class OfflineView(QtWidgets.QWidget):
             mc = self.mag.plot(pen=plots.pen(colour), name=name, **extra)
             pc = self.phase.plot(pen=plots.pen(colour), **extra)
             plots.set_frf(mc, pc, frf.freqs[band], frf.H[band, q, 0])
+            if frf.bla is not None:           # periodic random: noise and total std of G
+                for var, dash in ((frf.bla.var_total, QtCore.Qt.PenStyle.DashLine),
+                                  (frf.bla.var_noise, QtCore.Qt.PenStyle.DotLine)):
+                    curve = self.mag.plot(pen=pg.mkPen(colour, width=1, style=dash))
+                    plots.set_frf(curve, None, frf.bla.freqs, np.sqrt(var[:, q]))
             if frf.multiple_coherence is not None:
                 self.coh.plot(frf.freqs[band], frf.multiple_coherence[band, q],
                               pen=plots.pen(colour))
