@@ -14,7 +14,7 @@ Stepped-sine levels
     its block (relative to the FRF, a median over the steps: one step's halves alone give a
     two-degree-of-freedom variance).
 
-Either way about 1 % of the lines are flagged by chance; a share above 1 % plus four binomial
+Each way about 1 % of the lines are flagged by chance; a share above 1 % plus four binomial
 standard deviations (widened by the window's bin correlation for Welch lines) detects a
 nonlinearity. The flagged band says where in frequency (which elements and where on the
 structure: `analysis.screening`, `analysis.diagnose`).
@@ -41,8 +41,7 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     Parameters
     ----------
     recordings : sequence of Recording
-        Levels of one structure (random and/or periodic-random; stepped-sine levels are
-        skipped with a note).
+        Levels of one structure: random, periodic-random and/or stepped-sine.
     nperseg : int, optional
         Welch segment length for random levels (default: a power of two <= n/16, <= 8192).
 
@@ -66,8 +65,8 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
         elif group:
             notes.append(f"one {name} level: the level-dependence test needs two or more")
     if not tests:
-        raise InputError("no level to test: give random runs at two or more levels, or "
-                         "periodic-random runs")
+        raise InputError("no level to test: give random or stepped-sine runs at two or more "
+                         "levels, or periodic-random runs")
     return {"verdict": "nonlinear" if any(t["nonlinear"] for t in tests) else "no evidence",
             "tests": tests, "notes": notes}
 
