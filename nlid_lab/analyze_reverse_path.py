@@ -53,11 +53,10 @@ def modal_summary(result: ReversePathResult, n_modes: int,
     """
     if linear is not None:
         freqs, frf, spec = linear
-        n = frf.shape[1]
-        coh = multiple_coherence(spec.auto()[:, :n], spec.S[:, :n, n:], spec.S[:, n:, n:])
-        inputs = spec.auto()[:, n:].sum(axis=1)
+        n, auto = frf.shape[1], spec.auto()
+        coh = multiple_coherence(auto[:, :n], spec.S[:, :n, n:], spec.S[:, n:, n:])
         smoothing = welch_smoothing(spec.window, spec.nperseg, spec.fs,
-                                    input_spectrum=(freqs, inputs))
+                                    input_spectrum=(freqs, auto[:, n:].sum(axis=1)))
         fit = modal_fit(freqs, frf, n_modes, weights=coh.min(axis=1), smoothing=smoothing)
         method = ("global rational fraction polynomial on the residual-force H1, through "
                   f"the {spec.window} window's Welch kernel")
@@ -138,9 +137,12 @@ def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = No
     hold = holds.pop() or "none"
     result = reverse_path(recs, model, band=band, nperseg=nperseg, force_hold=hold,
                           refine=refine)
-    try:
+    try:   # an estimate a model file cannot hold (e.g. negative damping): H_linear instead
         linear = residual_force_frf(recs, result.estimated_model(model), result,
                                     force_hold=hold)
+    except InputError:
+        linear = None
+    try:
         modal = modal_summary(result, model.n_dof, linear)
     except (EstimationError, InputError) as exc:
         result.warnings.append(f"modal parameters not estimated: {exc}")
