@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import Element, Model
+from .model import Model
 from .reverse_path import ReversePathResult, _channels, _force_span, _Processing, _records
 from .spectral import Spectra, h1, spectral_matrix
 
@@ -51,8 +51,7 @@ def residual_force_frf(data: Any, estimated: Model, result: ReversePathResult, *
     fdofs = result.force_dofs
     if any(_force_span(el.w, fdofs) is None for el in estimated.elements):
         return None
-    known = [(i, Element(el.kind, el.w, dict(el.params)))
-             for i, el in enumerate(estimated.elements)]
+    known = list(enumerate(estimated.elements))
     lo, hi = result.band
     parts = []
     for rec, kind in _records(data, fs, force_dofs, response_kind):
