@@ -23,7 +23,7 @@ from typing import Callable
 import numpy as np
 
 from .model import Element, Model
-from .reverse_path import Coefficient, ReversePathResult, _force_span
+from .reverse_path import Z95, Coefficient, ReversePathResult, _force_span
 
 
 def sequential(estimate: Callable[[Model], ReversePathResult], model: Model
@@ -61,7 +61,8 @@ def sequential(estimate: Callable[[Model], ReversePathResult], model: Model
             moved = _alone(estimate, fitted, c, {o.element: (o.param, o.value + o.std)})
             var += (moved.value - base.value) ** 2
         std = float(np.sqrt(var))
-        q = (base.ci95[1] - base.ci95[0]) / (2 * base.std)    # the stage's own quantile
+        # the stage's own quantile (Student t of its batch means, or normal)
+        q = (base.ci95[1] - base.ci95[0]) / (2 * base.std) if base.std > 0 else Z95
         refined.append(replace(base, std=std, ci95=(base.value - q * std,
                                                      base.value + q * std)))
     joint.coefficients = refined
