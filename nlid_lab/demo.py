@@ -122,6 +122,18 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     return png, peaks
 
 
+def step_detect(run_path: Path) -> dict:
+    """Is it nonlinear? The model-free test of ``nlid-lab detect`` on the stored levels."""
+    from analysis.detect import detect
+
+    result = detect(store.open_run(run_path).recordings())
+    (t,) = result["tests"]
+    print(f"demo: detection (model-free, `nlid-lab detect`): the FRF changes with level beyond "
+          f"its noise on {100 * t['share_flagged']:.0f} % of the lines (a linear structure: "
+          f"~1 %) -> {result['verdict']}")
+    return result
+
+
 def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, dict]:
     """Reverse path on all levels pooled, as ``nlid-lab analyze reverse-path`` would do it.
 
@@ -167,12 +179,13 @@ def run_demo(cfg: DemoConfig) -> dict:
         print(f"demo:   {p['level_rms']:g} N rms: resonance at {p['peak_hz']:.2f} Hz, "
               f"|H1| peak {p['peak_m_per_n']:.3g} m/N")
     print(f"demo: FRF overlay per level -> {png}")
+    detection = step_detect(run_path)
     print("demo: reverse path on all levels pooled (paper section 3.3.1)")
     est_path, est = step_estimate(cfg, run_path, model)
     print(f"demo: estimate -> {est_path} (also stored in the run as 'analyze-reverse-path')")
     html = step_report(cfg, run_path)
     print(f"demo: report -> {html}")
     return {"model": str(cfg.model_file), "run": run_path, "frf_png": png, "levels": peaks,
-            "estimate_json": est_path, "estimate": {k: est[k] for k in
-                                                    ("elements", "multiple_coherence", "modal")},
+            "detection": detection, "estimate_json": est_path,
+            "estimate": {k: est[k] for k in ("elements", "multiple_coherence", "modal")},
             "report_html": html}

@@ -79,6 +79,8 @@ def test_demo_estimate_table_json_and_stored_result(demo):
     assert "cubic_spring" in printed and "50.3" in printed
     summary = json.loads((out / "summary.json").read_text())
     assert summary["estimate"]["elements"] == est["elements"]
+    assert summary["detection"]["verdict"] == "nonlinear"           # model-free, before fitting
+    assert "detection (model-free" in printed
 
 
 def test_demo_writes_the_report(demo):
