@@ -95,6 +95,19 @@ class Campaign:
     def simulated(self) -> bool:
         return scheme(self.shaker_url) in SIMULATED
 
+    def blocks_per_level(self) -> tuple[int, int]:
+        """DAQ blocks of ``plan.block_size`` one level takes: at least (level control right
+        at once, every step settled at the first check) and at most (every control and
+        settling allowance used); drive ramps and transport latency come on top."""
+        p = self.plan
+        if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
+            return 4 * len(p.freqs), (p.max_settle_blocks + 1) * len(p.freqs)
+        control = p.settle_blocks + 1
+        if p.periodic:                   # a block is one period here
+            record = p.averages * (p.transient_periods + p.periods)
+            return control + record, p.max_control_iterations * control + record
+        return control + p.averages - 1, p.max_control_iterations * control + p.averages
+
     @property
     def force_dof(self) -> int:
         return next(c.dof for c in self.channels if c.quantity == "force")

@@ -240,11 +240,12 @@ def test_loss_in_every_block_aborts(tmp_path):
     assert run.status == "aborted" and run.losses["samples"] > 0
 
 
-def test_examples_validate_and_cli_check():
+def test_examples_validate_and_cli_check(capsys):
     for path in sorted(EXAMPLES.glob("campaign-*.toml")):
         c = load_campaign(path)
         assert c.plant is not None and c.plant.model.exists()
         assert main(["campaign", "check", str(path)]) == 0
+    assert "measurement time" in capsys.readouterr().out
 
 
 def test_cli_bad_campaign_exits_2(tmp_path, capsys):
@@ -303,3 +304,16 @@ def test_periodic_band_without_a_line_is_refused():
     data["random"].update(periodic=True, block_size=64, band=[5.0, 10.0])   # lines every 16 Hz
     with pytest.raises(CampaignError, match="holds no line"):
         parse_campaign(data, EXAMPLES)
+
+
+@pytest.mark.parametrize("changes", [{}, {"random": {"periodic": True, "averages": 3,
+                                                     "block_size": 2048, "periods": 2}}])
+def test_planned_blocks_bound_what_the_daq_delivered(changes, tmp_path):
+    """`campaign check`'s measurement time: the blocks a level takes at least (control right
+    at once) and at most (every allowance used) bound the samples the DAQ delivered (plus
+    the frames in flight when a level stops)."""
+    c = campaign(**changes)
+    lo, hi = (len(c.levels) * b * c.plan.block_size for b in c.blocks_per_level())
+    result = run_campaign(c, tmp_path / "run.h5")
+    in_flight = 4 * c.frame_size * len(c.levels)
+    assert lo <= result.daq_stats["samples"] <= hi + in_flight

@@ -110,10 +110,17 @@ def _check(args: argparse.Namespace) -> int:
 
     c = load_campaign(args.campaign)
     n = c.plan.averages if c.kind == "random" else len(c.plan.freqs)
-    print(f"{args.campaign}: valid {c.kind} campaign, {len(c.levels)} level(s) x {n} "
-          f"{'blocks' if c.kind == 'random' else 'steps'}, shaker {c.shaker_url}, "
-          f"DAQ {c.daq_url}")
+    unit = "steps" if c.kind != "random" else ("realizations" if c.plan.periodic else "blocks")
+    kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
+    lo, hi = (len(c.levels) * b * c.plan.block_size / c.fs for b in c.blocks_per_level())
+    print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
+          f"shaker {c.shaker_url}, DAQ {c.daq_url}; measurement time {_duration(lo)} to "
+          f"{_duration(hi)} (level control and settling), plus drive ramps")
     return 0
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
