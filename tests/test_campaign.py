@@ -26,7 +26,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 BASE = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
 URLS = {"sim": ("sim://", "sim://"), "serial": ("serial-emu://", "serial-emu://?pace=16"),
         "can": ("serial-emu://", "can-emu://virtual/{name}?pace=16")}
-CANDIDATE = Model.loads("""
+CUBIC = """
 [linear]
 mass = [[2.0]]
 damping = [[10.0]]
@@ -34,7 +34,8 @@ stiffness = [[2.0e5]]
 [[element]]
 kind = "cubic_spring"
 w = [1.0]
-[[element]]
+"""
+CANDIDATE = Model.loads(CUBIC + """[[element]]
 kind = "quadratic_damping"
 w = [1.0]
 """)
@@ -125,17 +126,6 @@ def test_stepped_campaign_backends_agree(backend, tmp_path):
         # same plant, same force amplitude (within the 2 % control tolerance) -> same response
         np.testing.assert_allclose(fund, ref, rtol=0.03)
     assert np.all(np.abs(h[:, 3, 1]).sum(-1) > 0)  # harmonics recorded
-
-
-CUBIC = """
-[linear]
-mass = [[2.0]]
-damping = [[10.0]]
-stiffness = [[2.0e5]]
-[[element]]
-kind = "cubic_spring"
-w = [1.0]
-"""
 
 
 def test_stepped_runs_fit_the_same_hbm_estimates(tmp_path):

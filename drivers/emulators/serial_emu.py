@@ -31,6 +31,20 @@ def _split(line: str) -> tuple[str, str]:
     return short_form(header), arg.strip()
 
 
+def _band(arg: str) -> tuple[float, float]:
+    lo, hi = (float(x) for x in arg.split(","))
+    return lo, hi
+
+
+#: Waveform settings of the shaker: header -> (attribute, parser, waveform it belongs to).
+_WAVE_SETTINGS = {"SOUR:FREQ": ("_freq", float, "SIN"),
+                  "SOUR:RAND:BAND": ("_band", _band, "RAND"),
+                  "SOUR:RAND:SEED": ("_seed", int, "RAND"),
+                  "SOUR:MSIN:BAND": ("_ms_band", _band, "MSIN"),
+                  "SOUR:MSIN:SEED": ("_ms_seed", int, "MSIN"),
+                  "SOUR:MSIN:PER": ("_ms_period", int, "MSIN")}
+
+
 class SerialShakerEmulator(PtyServer):
     """SCPI-style shaker controller acting on ``rig``.
 
@@ -113,31 +127,10 @@ class SerialShakerEmulator(PtyServer):
             self._func = funcs[arg.upper()[:3]]
             self._apply()
             return "OK"
-        if head == "SOUR:FREQ":
-            self._freq = float(arg)
-            if self._func == "SIN":
-                self._apply()
-            return "OK"
-        if head == "SOUR:RAND:BAND":
-            lo, hi = (float(x) for x in arg.split(","))
-            self._band = (lo, hi)
-            if self._func == "RAND":
-                self._apply()
-            return "OK"
-        if head == "SOUR:RAND:SEED":
-            self._seed = int(arg)
-            if self._func == "RAND":
-                self._apply()
-            return "OK"
-        if head in ("SOUR:MSIN:BAND", "SOUR:MSIN:SEED", "SOUR:MSIN:PER"):
-            if head == "SOUR:MSIN:BAND":
-                lo, hi = (float(x) for x in arg.split(","))
-                self._ms_band = (lo, hi)
-            elif head == "SOUR:MSIN:SEED":
-                self._ms_seed = int(arg)
-            else:
-                self._ms_period = int(arg)
-            if self._func == "MSIN":
+        if head in _WAVE_SETTINGS:     # a waveform setting: applied if that waveform is on
+            name, parse, func = _WAVE_SETTINGS[head]
+            setattr(self, name, parse(arg))
+            if self._func == func:
                 self._apply()
             return "OK"
         if head == "SOUR:RAMP":
