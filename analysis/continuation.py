@@ -15,6 +15,7 @@ start of the curve, which must lie on a stable branch (e.g. far below resonance)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -141,3 +142,32 @@ def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
             return z, True, it
     return z, False, max_iter
 
+
+
+def response_curves(system: HBMSystem, f_start: float, f_end: float,
+                    amplitudes: Sequence[float], **options) -> list[Branch]:
+    """Forced-response curves at several force amplitudes through their folds.
+
+    Parameters
+    ----------
+    system : HBMSystem
+        Prepared balance with one force input (all element parameters known).
+    f_start, f_end : float
+        Sweep range, Hz; start where the response is on a stable branch (off resonance).
+    amplitudes : sequence of float
+        Force amplitudes, N, one curve each.
+    **options
+        Passed to `continue_frf` (step sizes, point budget, tolerance).
+
+    Returns
+    -------
+    list of Branch
+        One branch per amplitude, in the given order.
+    """
+    if system.force_dofs.size != 1:
+        raise HBMError("response curves take one force input; give a single force DOF")
+    values = np.asarray(amplitudes, dtype=float)
+    if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)) \
+            or np.any(values <= 0):
+        raise HBMError("force amplitudes must be positive numbers (N)")
+    return [continue_frf(system, f_start, f_end, a, **options) for a in values]

@@ -245,3 +245,40 @@ def diagnosis_fit(metric: str, before: float, after: float, verdict: str) -> Fig
     ax.set_title(f"Diagnosis: {verdict}")
     ax.grid(True, axis="y", alpha=0.3)
     return fig
+
+
+def response_curves(branches: Sequence, amplitudes: Sequence[float], dof: int,
+                    name: str, band: tuple[float, float]) -> Figure:
+    """Forced-response curves through their folds: stable solid, unstable dashed, folds
+    marked; one ordered colour per force amplitude."""
+    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    order = np.argsort(amplitudes)
+    colours = dict(zip(order, level_colours(len(amplitudes))))
+    for i, (branch, amp) in enumerate(zip(branches, amplitudes)):
+        a = branch.amplitude(dof)
+        colour = colours[i]
+        for j, stable in enumerate((True, False)):
+            shown = np.where(_runs_with_ends(branch.stable == stable), a, np.nan)
+            ax.semilogy(branch.freqs, shown, "-" if stable else "--", color=colour, lw=1.4,
+                        label=f"{amp:g} N" if stable else None)
+        if branch.folds.size:
+            ax.plot(branch.freqs[branch.folds], a[branch.folds], "o", mfc="none",
+                    color=colour, ms=6)
+    ax.plot([], [], "k--", label="unstable")
+    ax.plot([], [], "ko", mfc="none", label="fold (jump)")
+    ax.set_xlim(min(band), max(band))
+    ax.set_xlabel("Frequency [Hz]")
+    ax.set_ylabel(f"Amplitude at DOF {dof}, fundamental [m]")
+    ax.set_title(f"{name}: predicted sine response through the folds")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(title="force amplitude", fontsize="small")
+    return fig
+
+
+def _runs_with_ends(mask: np.ndarray) -> np.ndarray:
+    """``mask`` widened by one point each side so that dashed and solid parts meet."""
+    out = mask.copy()
+    out[1:] |= mask[:-1]
+    out[:-1] |= mask[1:]
+    return out
