@@ -217,7 +217,3 @@ class SimRig:
             self._chunk_pos += take
             filled += take
         return out
-
-    @classmethod
-    def from_file(cls, model_path: str, fs: float, **kwargs) -> "SimRig":
-        return cls(Model.load(model_path), fs, **kwargs)
