@@ -16,7 +16,8 @@ from analysis.recording import Recording
 from analysis.sine_fit import SteppedSineFRF, stepped_sine_frf
 
 from .cli import write_json
-from .store import check_result_target, load_recordings, save_result
+from .recordings_io import load_recordings
+from .store import check_result_target, save_result
 
 
 def _stepped(paths: list[str]) -> list[Recording]:
