@@ -15,6 +15,7 @@ import os
 import re
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,13 @@ def level_key(excitation: str) -> str:
 def read_npz(path: str | os.PathLike) -> Recording:
     """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
     path = Path(path)
-    data = _load_npz(path, "recording")
+    return recording_from_keys(_load_npz(path, "recording"), path)
+
+
+def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
+    """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's); ``path`` names
+    the source in messages and ``meta["source"]``."""
+    path = Path(path)
     missing = {"fs", "force", "response", "force_dofs"} - set(data)
     if missing:
         raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; an NPZ "
