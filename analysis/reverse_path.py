@@ -208,7 +208,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     data : Recording, list of Recording, or (force, response) arrays
         Random-excitation records at one or several levels (pooled). ``response`` holds
         every DOF of the model. Periodic-random (multisine) records, marked by
-        ``meta["period"]`` or ``period=``, go to the period-averaging estimator
+        a ``layout`` or ``period=``, go to the period-averaging estimator
         (`analysis.reverse_path_noise.periodic_reverse_path`).
     model : Model
         Candidate: elements with omitted parameters are estimated; complete elements are
@@ -231,7 +231,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         How the applied force behaves between its samples. "linear" (the simulated plant's
         first-order-hold drive) means the structure felt the baseband force
         ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
-        ``meta["force_hold"]``, else "none" (a force transducer behind an anti-alias filter).
+        ``force_hold`` ("none": a force transducer behind an anti-alias filter).
     noise : {"auto", "iv", "none"}
         "iv": instrumental variables and debiased bases (`analysis.reverse_path_noise`),
         "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
@@ -240,7 +240,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     period, transient_periods, realizations : int, optional
         Periodic-random records: samples per period, leading periods of each realization
         dropped as transient (default 1) and realizations (blocks with their own random
-        phases) per record (default 1); default: the recording's ``meta`` entries of the
+        phases) per record (default 1); default: the recording's ``layout`` entries of the
         same names. Each realization holds ``transient_periods + P`` whole periods.
     refine : {"joint", "sequential"}
         "sequential": after the joint estimate, re-estimate each coefficient with the
@@ -301,7 +301,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     built = []
     for (rec, kind), floor in zip(recs, floors):
         proc = _Processing(fsr, kind, (lo, hi), antialias,
-                           force_hold or rec.meta.get("force_hold", "none"),
+                           force_hold or rec.force_hold,
                            info["lowpass_hz"])
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,

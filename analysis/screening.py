@@ -129,7 +129,7 @@ def screen_candidates(data: Any, model: Model,
     parts = []
     for rec, kind in recs:
         proc = _Processing(fsr, kind, band, "auto",
-                           force_hold or rec.meta.get("force_hold", "none"), None)
+                           force_hold or rec.force_hold, None)
         ch, _ = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown, known, [],
                           None)
         parts.append(spectral_matrix(ch, fsr, nperseg=nps, band=band))

@@ -16,25 +16,32 @@ from analysis.recording import Recording
 from analysis.sine_fit import SteppedSineFRF, stepped_sine_frf
 
 from .cli import write_json
-from .store import check_result_target, load_recordings, save_result
+from .recordings_io import load_recordings
+from .store import check_result_target, save_result
 
 
-def _stepped(paths: list[str]) -> list[Recording]:
+def _stepped(paths: list[str], force_hold: str | None = None) -> list[Recording]:
+    """Stepped-sine recordings of ``paths``; ``force_hold`` overrides what they declare."""
     recs = [rec for path in paths for rec in load_recordings(path)]
     bad = [rec.excitation for rec in recs if rec.excitation != "stepped-sine"]
     if bad:
         raise InputError(f"analyze hbm needs stepped-sine runs, got {bad[0]} data; use "
                          "analyze reverse-path for random excitation")
+    if force_hold is not None:
+        for rec in recs:
+            rec.force_hold = force_hold
     return recs
 
 
-def linear_from_run(path: str, model: Model, harmonics: np.ndarray) -> MeasuredReceptance:
+def linear_from_run(path: str, model: Model, harmonics: np.ndarray,
+                    force_hold: str | None = None) -> MeasuredReceptance:
     """Underlying receptance from the highest-level stepped-sine run in ``path`` (paper 4.2:
     at high level a stick-slip joint slips throughout and the FRF is the linear one)."""
     if model.n_dof != 1:
         raise InputError("--linear-from needs the full FRF matrix for more than one DOF; "
                          "take the underlying linear system from the model instead")
-    frfs = [stepped_sine_frf(rec, harmonics[harmonics > 0]) for rec in _stepped([path])]
+    frfs = [stepped_sine_frf(rec, harmonics[harmonics > 0])
+            for rec in _stepped([path], force_hold)]
     top = max(frfs, key=lambda lv: lv.level)
     order = np.argsort(top.freqs)
     return MeasuredReceptance(top.freqs[order], top.frf[order, 0])
@@ -54,9 +61,11 @@ def run(args: argparse.Namespace) -> int:
         check_result_target(args.store)      # before the work: a bad target exits 2 at once
     model = Model.load(args.model)
     harmonics = parse_harmonics(args.harmonics)
-    levels = [stepped_sine_frf(rec, harmonics[harmonics > 0]) for rec in _stepped(args.runs)]
-    receptance = linear_from_run(args.linear_from, model, harmonics) if args.linear_from \
-        else None
+    hold = getattr(args, "force_hold", None)
+    recs = _stepped(args.runs, hold)
+    levels = [stepped_sine_frf(rec, harmonics[harmonics > 0]) for rec in recs]
+    receptance = linear_from_run(args.linear_from, model, harmonics, hold) \
+        if args.linear_from else None
     result = fit_hbm(model, levels, harmonics, receptance=receptance, method=args.optimizer,
                      n_starts=args.starts)
     print(f"harmonic balance fit ({result.method}, harmonics {harmonics.tolist()}): "
@@ -73,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
            "cost": result.cost, "method": result.method,
            "harmonics": harmonics.tolist(),
            "levels": [lv.level for lv in levels],
+           "force_hold": [rec.force_hold for rec in recs],   # per level
            "linear_from": args.linear_from or "model",
            "starts": result.starts, "n_evaluations": result.n_evaluations}
     write_json(out, args.json)

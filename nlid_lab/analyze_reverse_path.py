@@ -24,18 +24,9 @@ from analysis.screening import screen_candidates
 from analysis.spectral import Spectra, multiple_coherence
 
 from .cli import write_json
-from .store import check_result_target, load_recordings, save_result
+from .recordings_io import load_recordings
+from .store import check_result_target, save_result
 
-FORCE_HOLDS = ("none", "linear")
-
-
-def recorded_force_hold(rec: Recording) -> str | None:
-    """Force hold a recording declares: ``meta["force_hold"]``, else its run settings'."""
-    hold = rec.meta.get("force_hold") or (rec.meta.get("settings") or {}).get("force_hold")
-    if hold is not None and hold not in FORCE_HOLDS:
-        raise InputError(f"recording declares force_hold '{hold}'; expected none or linear "
-                         "(override with --force-hold)")
-    return hold
 
 
 def modal_summary(result: ReversePathResult, n_modes: int,
@@ -128,13 +119,13 @@ def estimate(recs: list[Recording], model: Model, *, force_hold: str | None = No
              refine: str = "joint") -> tuple[ReversePathResult, dict[str, Any]]:
     """Reverse path with modal parameters; returns the result and its JSON dictionary.
 
-    ``force_hold`` None takes each recording's declared hold (`recorded_force_hold`).
+    ``force_hold`` None takes each recording's declared ``force_hold``.
     """
-    holds = {recorded_force_hold(r) for r in recs} if force_hold is None else {force_hold}
+    holds = {r.force_hold for r in recs} if force_hold is None else {force_hold}
     if len(holds) > 1:
         raise InputError("the runs declare different force holds; analyse them separately "
                          "or give --force-hold")
-    hold = holds.pop() or "none"
+    hold = holds.pop()
     result = reverse_path(recs, model, band=band, nperseg=nperseg, force_hold=hold,
                           refine=refine)
     try:   # an estimate a model file cannot hold (e.g. negative damping): H_linear instead

@@ -19,7 +19,7 @@ from analysis.errors import InputError
 from analysis.model import Model
 
 from . import store
-from .analyze_reverse_path import estimate, format_table, recorded_force_hold
+from .analyze_reverse_path import estimate, format_table
 from .cli import write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
@@ -159,10 +159,6 @@ def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     from .report import load_run, write_report
 
     run = load_run(run_path)
-    for rec in run.recordings:          # the report's reverse path honours the drive's hold
-        hold = recorded_force_hold(rec)
-        if hold:
-            rec.meta["force_hold"] = hold
     return Path(write_report(run, cfg.out / "report")["html"])
 
 

@@ -171,7 +171,7 @@ def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
 
 def _analyse_levels(path: str, model: Model, method: str,
                     options: dict[str, Any]) -> list[dict[str, Any]]:
-    from nlid_lab.store import load_recordings  # the worker opens the file itself
+    from nlid_lab.recordings_io import load_recordings  # the worker opens the file itself
     try:
         recordings = load_recordings(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable run is reported, not raised

@@ -21,7 +21,7 @@ from analysis.sine_fit import hold_gain, sine_fit
 from analysis.errors import InputError
 from analysis.recording import Recording
 
-from . import figures, store
+from . import figures, recordings_io, store
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
@@ -90,7 +90,7 @@ def load_run(path: str | Path) -> RunData:
     if not path.exists():
         raise FileNotFoundError(2, "No such file or directory", str(path))
     if path.suffix.lower() not in (".h5", ".hdf5"):
-        return RunData(path, store.load_recordings(path))
+        return RunData(path, recordings_io.load_recordings(path))
     run = store.open_run(path)
     recs = run.recordings()
     if not recs:
@@ -119,11 +119,12 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
-    if rec.meta.get("period") and rec.n_in == 1 and rec.meta.get("realizations", 1) >= 2:
-        b = best_linear_approximation(rec.force, rec.response, rec.fs, int(rec.meta["period"]),
-                                      transient_periods=int(rec.meta.get("transient_periods", 1)),
-                                      realizations=int(rec.meta["realizations"]),
-                                      force_hold=rec.meta.get("force_hold"))
+    lay = rec.layout
+    if lay is not None and rec.n_in == 1 and lay.realizations >= 2:
+        b = best_linear_approximation(rec.force, rec.response, rec.fs, lay.period,
+                                      transient_periods=lay.transient_periods,
+                                      realizations=lay.realizations,
+                                      force_hold=rec.force_hold)
         return frf_from_bla(b, **common)
     nseg = nperseg or default_nperseg(rec.force.shape[0], rec.fs)
     spec = spectral.spectral_matrix(np.concatenate([rec.force, rec.response], axis=1),
@@ -166,7 +167,7 @@ def sine_frf(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
     for i, f in enumerate(rec.freqs):
         X = sine_fit(rec.response[i], rec.fs, f)[0]     # (n_dof,)
         F = sine_fit(rec.force[i], rec.fs, f)[0]        # (n_in,)
-        H[i] = X[:, None] / (F[None, :] * hold_gain(f, rec.fs, rec.meta.get("force_hold")))
+        H[i] = X[:, None] / (F[None, :] * hold_gain(f, rec.fs, rec.force_hold))
     return rec.freqs.copy(), H
 
 
@@ -386,7 +387,7 @@ def level_change_section(run: RunData) -> Section | None:
     (`analysis.detect.level_change`)."""
     from analysis.detect import level_change
     random = [r for r in run.recordings
-              if r.excitation == "random" and not r.meta.get("period")]
+              if r.excitation == "random" and r.layout is None]
     if len(random) < 2:
         return None
     try:

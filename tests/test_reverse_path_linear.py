@@ -21,7 +21,7 @@ def _records(model, fs, n, levels, seed, force_dofs=(0,)):
                              for j in range(len(force_dofs))])
         out = Plant(model, fs, list(force_dofs), oversample=2).run(f)
         recs.append(Recording(fs, "random", list(force_dofs), f, out.displacement,
-                              "displacement", meta={"force_hold": "linear"}))
+                              "displacement", force_hold="linear"))
     return recs
 
 

@@ -59,6 +59,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "the hysteresis loop to PNG's stem + '-loop.png')")
     hb.add_argument("--starts", type=int, default=4, metavar="N",
                     help="multi-start count of the least-squares fit (default 4)")
+    hb.add_argument("--force-hold", choices=("none", "linear"),
+                    help="how the applied force behaves between samples; scales each step's "
+                    "force amplitude by sinc^2(f/fs) for 'linear' (default: what the run "
+                    "declares; docs/hbm.md)")
     hb.add_argument("--reference", metavar="MODEL",
                     help="reference model whose element loop is drawn next to the estimate")
     _store_option(hb)

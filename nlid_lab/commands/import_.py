@@ -43,8 +43,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="RUN.h5", help="run file to write")
     p.add_argument("--force-cols", metavar="A,B", help="CSV: names of the force columns "
                    "(default: columns whose name starts with 'f')")
-    p.add_argument("--response-kind", choices=RESPONSE_KINDS, default="displacement",
-                   help="CSV: what the response columns measure (default displacement)")
+    p.add_argument("--response-kind", choices=RESPONSE_KINDS,
+                   help="CSV: what the response columns measure (default: the file's "
+                   "response_kind key, else displacement)")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     p.set_defaults(func=run)
