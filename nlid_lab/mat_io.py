@@ -91,7 +91,7 @@ class ChannelMap:
             if not sep or not value:
                 raise MatFileError(f"channel map item {item!r}: write KEY=VALUE, e.g. "
                                    "force=Force")
-            data.setdefault(key.strip(), []).append(value.strip())
+            data.setdefault(key.strip(), []).append(_literal(value.strip()))
         return cls.from_dict({k: v if k in ("force", "response") else v[-1]
                               for k, v in data.items()}, "--map")
 
@@ -122,6 +122,14 @@ class ChannelMap:
         except (TypeError, ValueError):
             fs = str(fs)
         return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra)
+
+
+def _literal(text: str) -> Any:
+    """A map value as TOML reads it (``0``, ``2.5``, ``[0, 1]``), else the text itself."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
 
 
 def is_mat73(path: Path) -> bool:

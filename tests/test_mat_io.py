@@ -27,7 +27,7 @@ def test_v5_struct_with_units_and_column_selection(tmp_path, channels):
     cmap = ChannelMap.from_items(["force=Force:kN", "response=Acceleration[0:2]:g",
                                   "response=data.Acceleration[2]:g", "fs=Fs", "level=5"])
     rec = apply_map(tree, cmap, str(path))
-    assert rec["fs"] == 2048.0 and rec["response_kind"] == "acceleration" and rec["level"] == "5"
+    assert rec["fs"] == 2048.0 and rec["response_kind"] == "acceleration" and rec["level"] == 5
     np.testing.assert_allclose(rec["force"][:, 0], 1e3 * channels["Force"])
     np.testing.assert_allclose(rec["response"], G0 * channels["Acceleration"])
 

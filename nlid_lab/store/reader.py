@@ -6,7 +6,7 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -199,24 +199,48 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
         _append_log(f, "result", {"name": name, "value": result})
 
 
-def save_recording(path: str | os.PathLike, rec: Recording, **meta: Any) -> None:
-    """Write one `Recording` as a complete single-level run file (overwriting ``path``).
+def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording],
+                   **meta: Any) -> None:
+    """Write recordings as the levels of one complete run file (overwriting ``path``).
 
-    Its force hold, periodic layout (one block per realization) and extra keys are stored
-    with it. ``meta`` goes to `RunWriter` (``source``, ``model_toml``, ``settings``,
-    ``channels``).
+    Levels in separate files (one recording each) become one run: they must agree on what a
+    run file holds once (sample rate, excitation, force DOFs, channels, response kind, force
+    hold, periodic layout, extra keys). ``meta`` goes to `RunWriter` (``source``,
+    ``model_toml``, ``settings``, ``channels``).
     """
-    excitation = meta.pop("excitation_settings", None) or {"kind": rec.excitation}
-    with RunWriter(path, fs=rec.fs, excitation=excitation, force_dofs=rec.force_dofs,
-                   n_dof=rec.n_dof, response_kind=rec.response_kind, mode="overwrite",
-                   force_hold=rec.force_hold, layout=rec.layout, extra=rec.extra,
+    recs = [rec] if isinstance(rec, Recording) else list(rec)
+    first = recs[0]
+    for i, other in enumerate(recs[1:], 1):
+        _check_same_run(first, other, i)
+    excitation = meta.pop("excitation_settings", None) or {"kind": first.excitation}
+    with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
+                   n_dof=first.n_dof, response_kind=first.response_kind, mode="overwrite",
+                   force_hold=first.force_hold, layout=first.layout, extra=first.extra,
                    **meta) as run:
-        lv = run.level(0, np.nan if rec.level is None else rec.level)
-        if rec.excitation == "random":
-            n = rec.layout.realization_samples if rec.layout else len(rec.force)
-            for i in range(0, len(rec.force), n):
-                lv.append_block(rec.force[i:i + n], rec.response[i:i + n])
-        else:
-            for freq, force, response in zip(rec.freqs, rec.force, rec.response):
-                lv.append_step(freq, force, response, amplitude=rec.level)
-        lv.complete()
+        for index, r in enumerate(recs):
+            lv = run.level(index, np.nan if r.level is None else r.level)
+            if r.excitation == "random":
+                n = r.layout.realization_samples if r.layout else len(r.force)
+                for i in range(0, len(r.force), n):
+                    lv.append_block(r.force[i:i + n], r.response[i:i + n])
+            else:
+                for freq, force, response in zip(r.freqs, r.force, r.response):
+                    lv.append_step(freq, force, response, amplitude=r.level)
+            lv.complete()
+
+
+def _check_same_run(a: Recording, b: Recording, index: int) -> None:
+    """Raise `StoreError` naming the first run-wide property in which ``b`` differs."""
+    same = {
+        "fs": a.fs == b.fs, "excitation": a.excitation == b.excitation,
+        "force_dofs": np.array_equal(a.force_dofs, b.force_dofs),
+        "response channels": a.n_dof == b.n_dof, "response_kind": a.response_kind
+        == b.response_kind, "force_hold": a.force_hold == b.force_hold,
+        "periodic layout": a.layout == b.layout,
+        "extra keys": a.extra.keys() == b.extra.keys() and all(
+            np.array_equal(np.asarray(a.extra[k]), np.asarray(b.extra[k])) for k in a.extra),
+    }
+    for what, ok in same.items():
+        if not ok:
+            raise StoreError(f"recording {index + 1} differs from the first in its {what}; "
+                             "levels of one run share it (import them as separate runs)")
