@@ -13,12 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
 from analysis.errors import InputError
-from analysis.frf import FRF_UNITS, LevelFRF, level_frf
+from analysis.frf import LevelFRF, level_frf
 from analysis.recording import Recording
-from analysis.sine_fit import sine_fit
 
 from . import figures, store
 
