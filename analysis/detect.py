@@ -29,6 +29,7 @@ import numpy as np
 
 from .bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from .errors import InputError
+from .frf import default_nperseg
 from .recording import Recording
 from .signals import excitation_band
 from .spectral import h1, multiple_coherence, spectral_matrix
@@ -108,8 +109,7 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
         raise InputError("the levels differ in sample rate, forces or responses; test runs of "
                          "one set-up together")
     n = min(lo.force.shape[0], hi.force.shape[0])
-    nps = nperseg if nperseg is not None else int(min(2 ** int(np.log2(max(n // 16, 64))),
-                                                       8192))
+    nps = nperseg if nperseg is not None else default_nperseg(n)
     est = [_h1(r, nps) for r in (lo, hi)]
     band = (max(e[3][0] for e in est), min(e[3][1] for e in est))
     if band[0] >= band[1]:

@@ -32,6 +32,7 @@ from scipy.stats import t as student_t
 from . import basis as bas
 from .elements import restoring_force
 from .errors import InputError
+from .frf import default_nperseg
 from .model import Element, Model
 from .recording import Recording
 from .signals import excitation_band, signal_bandwidth, to_kinematics
@@ -160,10 +161,6 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
     return [(r, r.response_kind) for r in recs]
 
 
-def _default_nperseg(n: int) -> int:
-    return int(min(2 ** int(np.log2(max(n // 16, 64))), 8192))
-
-
 def _elements(model: Model) -> tuple[list[tuple[int, Element, str, bas.Basis]],
                                      list[tuple[int, Element]]]:
     unknown, known = [], []
@@ -286,7 +283,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     fsr = float(rec0.fs)
     fdofs = rec0.force_dofs
     n_min = min(r.force.shape[0] for r, _ in recs)
-    nps = nperseg if nperseg is not None else _default_nperseg(n_min)
+    nps = nperseg if nperseg is not None else default_nperseg(n_min)
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
                                               overlap=overlap) for r, _ in recs])

@@ -21,7 +21,7 @@ from analysis.recording import PeriodicLayout, Recording
 from analysis.sine_fit import stepped_sine_frf
 from nlid_lab import recordings_io as rio
 from nlid_lab import store
-from nlid_lab.analyze_hbm import _stepped
+from nlid_lab.methods.hbm import _stepped
 from nlid_lab.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -263,12 +263,12 @@ def test_analyze_hbm_honours_the_imported_force_hold(tmp_path):
              force=force, response=resp, freqs=freqs, force_hold="linear")
     main(["import", str(tmp_path / "s.npz"), "--out", str(tmp_path / "s.h5")])
     direct = stepped_sine_frf(rio.read_npz(tmp_path / "s.npz"), (1,))
-    (imported,) = _stepped([str(tmp_path / "s.h5")])       # what analyze hbm fits
+    (imported,) = _stepped(rio.load_recordings(tmp_path / "s.h5"))   # what analyze hbm fits
     stored = stepped_sine_frf(imported, (1,))
     np.testing.assert_allclose(stored.force, direct.force, rtol=1e-12)
     np.testing.assert_allclose(stored.force, np.sinc(freqs / fs) ** 2, rtol=1e-9)
     assert stored.force[-1] < 0.88                          # 40 Hz at 200 Hz: -12.5 %
-    (overridden,) = _stepped([str(tmp_path / "s.h5")], force_hold="none")   # --force-hold
+    (overridden,) = _stepped(rio.load_recordings(tmp_path / "s.h5"), "none")   # --force-hold
     np.testing.assert_allclose(stepped_sine_frf(overridden, (1,)).force, 1.0, rtol=1e-9)
 
 

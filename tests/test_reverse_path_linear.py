@@ -9,7 +9,7 @@ from analysis.plant import Plant
 from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
 from analysis.reverse_path_linear import residual_force_frf
-from nlid_lab.analyze_reverse_path import modal_summary
+from analysis.modal import modal_summary
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"
 
