@@ -196,20 +196,22 @@ def steady_periods(signal: np.ndarray, period: int, *, transient_periods: int = 
 
 
 def periodic_kinematics(periods: np.ndarray, fs: float, kind: str, *,
-                        lowpass: float | None = None,
+                        lowpass: float | None = None, highpass: float = 0.0,
                         weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Displacement and velocity of exactly periodic records (one period along axis -2).
 
     Each period is transformed once and multiplied by ``(i 2 pi f)^k`` at its exact DFT
     lines: no extension, no end effect, no leakage. Integration sets the mean (DC line) to
-    zero, odd orders drop the Nyquist line; ``lowpass`` zeroes the lines above it.
+    zero, odd orders drop the Nyquist line; ``lowpass`` zeroes the lines above it and
+    ``highpass`` those below it (integrated sensor noise grows as ``f^-k`` towards DC: below
+    the excited band it would swamp the displacement).
 
     Parameters
     ----------
     periods : ndarray, shape (..., period, n_ch)
     fs : float
     kind : {"displacement", "velocity", "acceleration"}
-    lowpass : float, optional
+    lowpass, highpass : float, optional
         Hz.
     weights : ndarray, shape (period // 2 + 1,) or (period // 2 + 1, n_ch), optional
         Further per-line gains (a smoothing filter, for example).
@@ -235,6 +237,7 @@ def periodic_kinematics(periods: np.ndarray, fs: float, kind: str, *,
             gain[-1] = 0.0                  # the Nyquist line of an odd derivative is not real
         if lowpass is not None:
             gain[f > lowpass] = 0.0
+        gain[f < highpass] = 0.0
         out.append(scipy.fft.irfft(spec * gain[:, None], n, axis=-2))
     return out[0], out[1]
 
