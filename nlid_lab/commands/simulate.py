@@ -27,9 +27,10 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     """Run a drive (see `recordings_io.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
-    a real shaker; each step's response is recorded in full.
+    a real shaker; each step's response is recorded in full. The response is anti-aliased
+    (`analysis.plant.remove_hold_images`) like a DAQ's.
     """
-    from analysis.plant import Plant
+    from analysis.plant import Plant, remove_hold_images
 
     model.require_complete("simulation")
     dofs = drive["force_dofs"]
@@ -39,14 +40,14 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     plant = Plant(model, drive["fs"], dofs, oversample=oversample, noise_std=noise_std,
                   response_kind=response_kind, seed=seed)
     force = drive["force"]
-    if drive["excitation"] == "random":
-        step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
-        pieces = [plant.run(force[i:i + step]).response
-                  for i in progress(range(0, len(force), step), desc="simulate", unit="s")]
-        response = np.concatenate(pieces)
-    else:
-        response = np.stack([plant.run(f).response
-                             for f in progress(force, desc="simulate", unit="step")])
+    whole = force.reshape(-1, force.shape[-1])      # stepped sine: the steps back to back
+    step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
+    response = np.concatenate([plant.run(whole[i:i + step]).response
+                               for i in progress(range(0, len(whole), step), desc="simulate",
+                                                 unit="s")])
+    # the sensors' anti-alias filter (analysis.plant, Sensor sampling), over the whole record
+    response = remove_hold_images(response, whole, drive["fs"], response_kind,
+                                  plant.image_gains).reshape(force.shape[:-1] + (-1,))
     return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
