@@ -36,12 +36,15 @@ they make the drive sample itself appear instead of its baseband part (``12 %`` 
 force term at ``f = 0.2 fs``), in velocity and displacement they are smaller (~1 % and ~0.4 %
 there). A real DAQ's anti-alias filter removes them. `remove_hold_images` does the same for a
 whole record (and `drivers.rig.SimRig` while streaming, with a lookahead of
-``HOLD_IMAGE_LOOKAHEAD`` samples): it subtracts the folded images of the linear structure's high-frequency expansion
-``M^-1 B - M^-1 C M^-1 B / (i w) + ...`` (three terms, `Plant.image_gains`,
-`analysis.signals.hold_image_gain`), after which every response kind follows the
-first-order-hold convention ``Y(f) = H_kind(f) sinc^2(f/fs) F(f)`` of the estimators
-(``force_hold = "linear"``); what remains is of relative order ``(f_n / fs)^3`` of the removed
-term (``f_n`` the highest natural frequency, nonlinear tangents included). `simulate` returns records treated this way.
+``HOLD_IMAGE_LOOKAHEAD`` samples): it subtracts the folded images of the linear structure's
+high-frequency expansion ``M^-1 B - M^-1 C M^-1 B / (i w) + ...`` (three terms,
+`Plant.image_gains`, `analysis.signals.hold_image_gain`), after which every response kind
+follows the first-order-hold convention ``Y(f) = H_kind(f) sinc^2(f/fs) F(f)`` of the
+estimators (``force_hold = "linear"``): to 2e-6 on a linear SDOF at ``0.2 fs``, what remains
+being of relative order ``(f_n / fs)^3`` of the removed term (``f_n`` the highest natural
+frequency). `simulate` returns records treated this way. Not removed: the harmonics an
+element generates above ``fs/2`` (genuine response content a real anti-alias filter would
+also cut), which still fold into instantaneous samples, most in acceleration.
 
 Substeps (``oversample=None``, the default)
 -------------------------------------------
@@ -54,9 +57,13 @@ hold grows with them, so the run is checked by step doubling: a chunk of at most
 ``CHUNK`` samples whose running tangent frequency (the same rule with each element's largest
 slope over the chunk) exceeds the largest already checked is integrated again from its start
 with twice the substeps; if the two differ by more than ``accuracy`` (relative, displacement
-and velocity), the finer run is kept and the substeps stay doubled from then on (checked
-again in turn). `PlantOutput.oversample` and `Plant.describe_stats` report the substeps used
-and how often they were raised. An explicit ``oversample`` fixes the substeps (no checks).
+and velocity), the substeps are raised for good (by the ``ORDER``-th root of the excess, at
+most doubled; the hold history is resampled), the chunk is run again and checked in turn.
+The check is local: where the dynamics amplify small differences strongly (measured: x300
+within 0.1 s on the 3-DOF chain with a 4e16 cubic at 40 N rms on two DOFs, against
+solve_ivp too), the global error can exceed ``accuracy`` by that factor.
+`PlantOutput.oversample` and `Plant.describe_stats` report the substeps used and how often
+they were raised. An explicit ``oversample`` fixes the substeps (no checks).
 """
 
 from __future__ import annotations
@@ -79,7 +86,7 @@ HOLD_DEGREE = 5
 AUTO_H_OMEGA = 0.25
 ACCURACY = 3e-7        # default step-doubling bound per chunk (relative)
 CHUNK = 1024           # samples per step-doubling check
-CHECK_MARGIN = 1.05    # re-check when the running tangent frequency grows by this factor
+CHECK_MARGIN = 1.2     # re-check when the running tangent frequency grows by this factor
 MAX_OVERSAMPLE = 4096
 ORDER = 5              # measured convergence order of the scheme (global)
 RAISE_SAFETY = 1.2     # raise the substeps this much beyond the order estimate

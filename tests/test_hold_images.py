@@ -108,8 +108,8 @@ def sdof_runs():
 def test_reverse_path_covers_truth_for_every_kind_and_hold(sdof_runs, kind, hold):
     """Each response kind x force hold: the 95 % intervals cover the true parameters (sensor
     noise 1 % of the rms, 0.2 % for acceleration, whose integration lifts the noise at low
-    frequencies: the cubic's interval is then a few % wide in each case). "none" records carry the baseband force, as an anti-aliased
-    force transducer would. (Integrating velocity or acceleration cannot recover the
+    frequencies: the cubic's interval is then a few % wide in each case). "none" records
+    carry the baseband force, as an anti-aliased force transducer would. (Integrating velocity or acceleration cannot recover the
     displacement below the high-pass at half the band edge, which holds the cubic's
     intermodulation products: 1.4e-3 of the displacement here, a 0.1-0.2 % bias of the
     noise-free cubic estimate, `test_acceleration_bias_is_the_integration_limit`.)"""

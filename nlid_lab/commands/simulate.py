@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -52,7 +53,9 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
                      meta={"model": model.name, "noise_std": noise_std, "seed": seed,
-                           "force_hold": "linear"})  # the plant's drive definition
+                           "force_hold": "linear",   # the plant's drive definition
+                           # substeps per sample at the end, times step doubling raised them
+                           "oversample": plant.oversample, "oversample_raised": plant.raised})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,13 +78,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         store.save_recording(out, rec, source="sim", model_toml=model_path.read_text(),
                              settings={"drive": str(args.drive), "noise_std": args.noise,
-                                       "seed": args.seed, "force_hold": "linear"})
+                                       "seed": args.seed, "force_hold": "linear",
+                                       "oversample": rec.meta["oversample"]})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,
               "response_kind": rec.response_kind,
+              "oversample": rec.meta["oversample"],
+              "oversample_raised": rec.meta["oversample_raised"],
               "response_rms": np.sqrt(np.mean(rec.response.reshape(-1, rec.n_dof) ** 2,
                                               axis=0))}
+    if rec.meta["oversample_raised"]:
+        print(f"note: the drive stiffened the model's elements; the plant raised its substeps "
+              f"to {rec.meta['oversample']} per sample to hold its accuracy", file=sys.stderr)
     if args.json != "-":
         print(f"simulated {model.name} ({rec.excitation}, {result['n_samples']} samples"
               f"{'' if rec.excitation == 'random' else ' per step'}) -> {out}")
