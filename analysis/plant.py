@@ -343,7 +343,8 @@ class Plant:
         """Drive the plant with ``force`` (n, n_in) from its current state.
 
         Returns the noise-free displacement, velocity and acceleration at the ``n`` sample
-        instants, the noisy `response` and the element forces.
+        instants (instantaneous values: `remove_hold_images` makes a record of them what an
+        anti-aliased sensor sees), the noisy `response` and the element forces.
         """
         force = np.asarray(force, dtype=float)
         n_in = self.force_dofs.size
