@@ -78,14 +78,11 @@ def auto_oversample(model: Model, fs: float) -> int:
     stiff = model.stiffness.copy()
     visc = np.zeros_like(stiff)
     for el in model.elements:
-        p = el.params
-        ww = np.outer(el.w, el.w)
-        if el.kind in ("stick_slip", "hysteresis"):
-            stiff += p["kd"] * ww
-        elif el.kind == "gap":
-            stiff += max(p["k"], 0.0) * ww
-        elif el.kind == "coulomb_friction":
-            visc += abs(p["fc"]) / p.get("v_reg", 1e-3) * ww
+        spec, ww = KINDS[el.kind], np.outer(el.w, el.w)
+        if spec.stiffness is not None:
+            stiff += spec.stiffness(el.params) * ww
+        if spec.damping is not None:
+            visc += spec.damping(el.params) * ww
     omega = math.sqrt(max(eigh(stiff, model.mass, eigvals_only=True).max(), 0.0))
     rate = max(eigh(visc, model.mass, eigvals_only=True).max(), 0.0)
     return max(1, math.ceil(max(omega, rate) / (AUTO_H_OMEGA * fs)))
