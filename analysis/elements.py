@@ -3,8 +3,10 @@
 Every kind acts on ``u = w.x`` and ``u' = w.v`` of its position vector ``w`` and adds
 ``w * g`` to the left-hand side of ``M x'' + C x' + K x + sum w g = B f``.
 
-The force laws are written once, as numba kernels, and used by the simulated plant's
-integrator, by the harmonic-balance AFT evaluation and by the tests.
+The force laws and their tangents (`element_tangent`, the pieces of the AFT Jacobian) are
+written once, as numba kernels with one branch per `Kind.code`, and used by the simulated
+plant's integrator, by the harmonic-balance AFT evaluation and by the tests. Everything else
+about a kind is its descriptor in `analysis.kinds`; `register_kind` adds a kind at run time.
 
 Kinds with memory carry a state vector of `N_STATE` floats. `element_force` reads the state
 before the step (``s_in``) and writes the state after it (``s_out``) so that an integrator can
