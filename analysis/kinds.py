@@ -73,15 +73,23 @@ class Param:
     bounds: tuple[float, float] | None = None
 
 
+class Grid(NamedTuple):
+    """Values tried for a parameter besides the coefficient: ``fractions`` times the rms of
+    the deformation (``variable`` ``"x"``) or of its rate (``"v"``)."""
+
+    param: str
+    variable: str
+    fractions: tuple[float, ...]
+
+
 @dataclass(frozen=True)
 class Search:
     """How the diagnosis seeds a kind (`analysis.diagnose`).
 
     Attributes
     ----------
-    grid : (param, variable, fractions), optional
-        Memoryless kinds with a parameter besides the coefficient: it is tried at
-        ``fractions`` times the rms of the deformation (``"x"``) or its rate (``"v"``).
+    grid : Grid, optional
+        Memoryless kinds with a parameter besides the coefficient: the values tried.
     starts : callable, optional
         Memory kinds: ``starts(k_w, u_amp)`` -> physical start points (in `Kind.params`
         order) from the linear stiffness at the location and the median deformation
@@ -91,7 +99,7 @@ class Search:
         leaves its linear range in the data (then it is a stiffness error, not this kind).
     """
 
-    grid: tuple[str, str, tuple[float, ...]] | None = None
+    grid: Grid | None = None
     starts: Callable[[float, float], list[list[float]]] | None = None
     inactive: Callable[[dict[str, float], float], bool] | None = None
 
@@ -174,11 +182,11 @@ class Kind:
 _V_REG = 1e-3      # default friction regularisation velocity, m/s
 
 
-def _stiffness(r: Refs) -> float:
+def _stiffness_scale(r: Refs) -> float:
     return r.k
 
 
-def _force(r: Refs) -> float:
+def _force_scale(r: Refs) -> float:
     return 0.1 * r.f
 
 
@@ -204,8 +212,8 @@ def _stick_slip_restart(state: np.ndarray, p: dict[str, float], g: float, v: flo
     state[1] = np.sign(v) if slipping else 0.0
 
 
-_KD = Param("kd", "stiffness", "N/m", _stiffness, positive=True)
-_FD = Param("fd", "slip force", "N", _force, positive=True)
+_KD = Param("kd", "stiffness", "N/m", _stiffness_scale, positive=True)
+_FD = Param("fd", "slip force", "N", _force_scale, positive=True)
 
 KINDS: dict[str, Kind] = {
     "cubic_spring": Kind(
@@ -221,12 +229,12 @@ KINDS: dict[str, Kind] = {
         3, (Param("p", "coefficient", "N·s³/m³", lambda r: r.c * (1 / r.v ** 2)),),
         dissipative=True, coef="p", basis="v^3"),
     "coulomb_friction": Kind(
-        4, (Param("fc", "friction force", "N", _force),
+        4, (Param("fc", "friction force", "N", _force_scale),
             Param("v_reg", "regularisation velocity", "m/s", lambda r: 0.01 * r.v,
                   positive=True, default=_V_REG)),
         dissipative=True, coef="fc", basis="sign(v)", basis_arg="v_reg",
         damping=lambda p: abs(p["fc"]) / p.get("v_reg", _V_REG),
-        search=Search(grid=("v_reg", "v", (0.01,)))),
+        search=Search(grid=Grid("v_reg", "v", (0.01,)))),
     "stick_slip": Kind(
         5, (_KD, _FD), memory=True, stiffness=lambda p: p["kd"],
         search=Search(starts=_slider_starts(), inactive=_slips_below(1.0)),
@@ -237,11 +245,11 @@ KINDS: dict[str, Kind] = {
         memory=True, stiffness=lambda p: p["kd"],
         search=Search(starts=_slider_starts(2.0), inactive=_slips_below(0.5))),
     "gap": Kind(
-        7, (Param("k", "contact stiffness", "N/m", _stiffness),
+        7, (Param("k", "contact stiffness", "N/m", _stiffness_scale),
             Param("g", "width", "m", lambda r: 0.5 * r.u, positive=True)),
         coef="k", basis="gap", basis_arg="g", basis_label="gap({g:g})",
         stiffness=lambda p: max(p["k"], 0.0),
-        search=Search(grid=("g", "x", (0.25, 0.5, 1.0, 1.5)))),
+        search=Search(grid=Grid("g", "x", (0.25, 0.5, 1.0, 1.5)))),
 }
 """Every element kind (the built-in ones are the branches of the numba law)."""
 

@@ -60,7 +60,7 @@ def test_every_descriptor_is_complete():
         if spec.basis_arg is not None:
             assert spec.basis_arg in spec.all_params
         if spec.search.grid is not None:
-            assert spec.search.grid[0] == spec.basis_arg and spec.search.grid[1] in "xv"
+            assert spec.search.grid.param == spec.basis_arg and spec.search.grid.variable in "xv"
     assert set(search_order()) == set(KINDS)
     assert {c.kind for c in library(2)} >= set(KINDS)
 

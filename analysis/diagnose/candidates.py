@@ -2,9 +2,10 @@
 
 A *location* is a position vector ``w``: ``e_i`` (element from DOF i to ground) or
 ``e_j - e_i`` (element between DOFs i < j). A *kind* is either an element kind of
-`analysis.kinds.KINDS` (every one, in `analysis.kinds.search_order`) or a linear error (``mass_error``, ``stiffness_error``,
-``damping_error``). The library is the full cross product (mass errors only at single DOFs);
-nothing in it depends on the data or on the scenario being diagnosed.
+`analysis.kinds.KINDS` (every one, in `analysis.kinds.search_order`) or a linear error
+(``mass_error``, ``stiffness_error``, ``damping_error``). The library is the full cross
+product (mass errors only at single DOFs); nothing in it depends on the data or on the
+scenario being diagnosed.
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ def unit_params(kind: str, extra: float | None) -> dict[str, float]:
     spec = KINDS[kind]
     params = {spec.coef: 1.0}
     if spec.search.grid is not None:
-        params[spec.search.grid[0]] = float(extra)
+        params[spec.search.grid.param] = float(extra)
     return params
 
 
@@ -68,7 +68,7 @@ def coef_name(kind: str) -> str:
 def grid_value(kind: str, params: dict[str, float]) -> float | None:
     """The value of ``kind``'s grid parameter in ``params`` (None for kinds without one)."""
     grid = KINDS[kind].search.grid
-    return None if grid is None else params.get(grid[0])
+    return None if grid is None else params.get(grid.param)
 
 
 def candidate_extras(model: Model, low_x: np.ndarray, low_v: np.ndarray
@@ -87,8 +87,8 @@ def candidate_extras(model: Model, low_x: np.ndarray, low_v: np.ndarray
         if grid is None:
             extra[(c.kind, c.dofs)] = [None]
         else:
-            s = float(np.std((low_x if grid[1] == "x" else low_v) @ c.w))
-            extra[(c.kind, c.dofs)] = [f * s for f in grid[2]]
+            s = float(np.std((low_x if grid.variable == "x" else low_v) @ c.w))
+            extra[(c.kind, c.dofs)] = [f * s for f in grid.fractions]
     return extra
 
 

@@ -9,9 +9,9 @@ construction), each candidate's restoring force is evaluated on it and its funda
 
 With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
 the memoryless kinds and the linear errors; the memory kinds are fitted by nonlinear least
-squares on the same residual (starts from their `analysis.kinds.Search`). The chosen element is then refitted
-by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33) and the held-back
-level is compared with a harmonic-balance simulation of the corrected model.
+squares on the same residual (starts from their `analysis.kinds.Search`). The chosen element
+is then refitted by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33)
+and the held-back level is compared with a harmonic-balance simulation of the corrected model.
 """
 
 from __future__ import annotations
