@@ -216,10 +216,18 @@ def test_registration_rules(quintic):
         unregister_kind("gap")
 
 
-def test_registered_kind_law_and_aft_jacobian(quintic):
+def test_registered_kind_law_and_basis(quintic):
     u = np.linspace(-2e-3, 2e-3, 9)
     g, _ = restoring_force("quintic_spring", {"p": P5}, u, np.zeros_like(u))
     np.testing.assert_allclose(g, P5 * u ** 5, rtol=1e-15)
+    name, basis = element_basis(Element("quintic_spring", np.ones(1)))
+    assert name == "p" and basis is LIBRARY["x^5"]
+
+
+# The harmonic-balance kernels compiled afresh for a registered kind take about two minutes
+# (the disk cache serves the built-in ones), hence slow.
+@pytest.mark.slow
+def test_registered_kind_aft_jacobian(quintic):
     harm = np.array([0, 1, 3, 5])
     tables = aft_tables(harm, 64)
     p = pack_params("quintic_spring", {"p": P5})
@@ -281,11 +289,10 @@ def test_registered_kind_is_diagnosed(quintic):
     assert d.fit["after"] <= 0.5 * d.fit["before"]
 
 
-def test_registered_kind_in_reverse_path_basis_and_hbm_fit(quintic):
-    """Basis x^5 for reverse path; the harmonic-balance fit recovers the coefficient from
-    noise-free harmonic-balance FRFs of the true model (only the solver tolerance remains)."""
-    name, basis = element_basis(Element("quintic_spring", np.ones(1)))
-    assert name == "p" and basis is LIBRARY["x^5"]
+@pytest.mark.slow
+def test_registered_kind_hbm_fit(quintic):
+    """The harmonic-balance fit recovers the coefficient from noise-free harmonic-balance
+    FRFs of the true model (only the solver tolerance remains)."""
     base = chain([1.0], [], [2.0e4])
     truth = base.with_elements([Element("quintic_spring", [1.0], {"p": P5})])
     freqs = np.linspace(15.0, 35.0, 15)
