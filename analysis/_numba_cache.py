@@ -5,12 +5,25 @@ inlines or calls compiled code from another file (the element laws of `elements.
 loop of `aft.py`) would keep running the stale compiled copy after that file is edited.
 `guard` drops a module's cache files whenever one of its dependencies changed since they were
 written. Numba offers no dependency tracking of its own, hence this small hand-written check.
+
+`recompile_law_kernels` serves `analysis.elements.register_kind`: the kernels of
+`LAW_KERNELS` bind the element law when they compile, so a kind added at run time needs them
+compiled afresh in this process, and off the disk cache.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib
 from pathlib import Path
+
+from numba.core.caching import NullCache
+from numba.core.registry import CPUDispatcher
+
+LAW_KERNELS = ("elements", "aft", "hbm", "_plant_kernels")
+"""Modules of this package whose numba functions contain the element law."""
+
+_disk_caches: dict[int, object] = {}
 
 
 def guard(module_file: str, *dependencies: str) -> None:
@@ -34,3 +47,19 @@ def guard(module_file: str, *dependencies: str) -> None:
         stamp.write_text(digest)
     except OSError:
         pass    # read-only install: numba then caches elsewhere or not at all
+
+
+def recompile_law_kernels(disk_cache: bool) -> None:
+    """Drop the compiled code of every numba function in `LAW_KERNELS`, so that each call
+    compiles it again against the element law as it is now; with ``disk_cache`` False they
+    neither read nor write the on-disk cache (True restores it)."""
+    for name in LAW_KERNELS:
+        module = importlib.import_module(f"{__package__}.{name}")
+        for obj in vars(module).values():
+            if not isinstance(obj, CPUDispatcher) or obj.py_func.__module__ != module.__name__:
+                continue
+            original = _disk_caches.setdefault(id(obj), obj._cache)
+            # numba has no public call for this: `recompile` would compile at once, in an
+            # order that links callers to stale callees.
+            obj._cache = original if disk_cache else NullCache()
+            obj._reset_overloads()

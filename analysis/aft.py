@@ -27,7 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .elements import N_STATE, element_force
+from .elements import N_STATE, element_force, element_tangent
 from ._numba_cache import guard
 
 guard(__file__, "elements")
@@ -62,52 +62,6 @@ def aft_tables(harmonics: np.ndarray, n_time: int) -> tuple[np.ndarray, np.ndarr
 
 
 @numba.njit(cache=True, inline="always")
-def _virgin_slope(kd, fd, n, x):
-    """Derivative of the eq 34 virgin curve ``F0``: ``kd (1 + r^n)^(-1 - 1/n)``."""
-    r = abs(kd * x / fd)
-    if r <= 1.0:
-        return kd * (1.0 + r ** n) ** (-1.0 - 1.0 / n)
-    return kd * r ** (-n - 1.0) * (1.0 + r ** (-n)) ** (-1.0 - 1.0 / n)
-
-
-@numba.njit(cache=True)
-def _tangent(code, p0, p1, p2, u, v, s0, s2, s3, z_new, g):
-    """Coefficients of the forward derivative of one step of the law (scalars only):
-    ``dg = cu du + cv dv + c0 ds0 + c1 ds1``, ``ds0' = a0 du + b0 ds0``,
-    ``ds1' = a1 dg + b1 ds1`` (``s0``, ``s1``: the continuous memory state)."""
-    if code == 5:                                   # stick-slip
-        if z_new != s0:                             # slipped: the slider follows u
-            return 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
-        return p0, 0.0, -p0, 0.0, 0.0, 1.0, 0.0, 1.0
-    if code == 6:                                   # eq 34 hysteresis, Masing branches
-        cu, c0, c1 = 0.0, 0.0, 0.0
-        if s3 == 0.0:
-            cu = _virgin_slope(p0, p1, p2, u)
-        elif abs(g) < p1:                           # not clipped at the asymptote
-            cu = _virgin_slope(p0, p1, p2, 0.5 * (u - s0))
-            c0, c1 = -cu, 1.0
-        d = np.sign(v)
-        if d != 0.0 and s2 != 0.0 and d != s2:      # reversal stored: (u, g)
-            return cu, 0.0, c0, c1, 1.0, 0.0, 1.0, 0.0
-        return cu, 0.0, c0, c1, 0.0, 1.0, 0.0, 1.0
-    gu, gv = 0.0, 0.0
-    if code == 0:
-        gu = 3.0 * p0 * u * u
-    elif code == 1:
-        gu = 2.0 * p0 * abs(u)
-    elif code == 2:
-        gv = 2.0 * p0 * abs(v)
-    elif code == 3:
-        gv = 3.0 * p0 * v * v
-    elif code == 4:
-        t = np.tanh(v / p1)
-        gv = p0 * (1.0 - t * t) / p1
-    elif code == 7:
-        gu = p0 if abs(u) > p1 else 0.0
-    return gu, gv, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0
-
-
-@numba.njit(cache=True, inline="always")
 def _run_kind(code, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g, DG):
     """Apply the law along ``events`` (sample ``n >= 0`` or turning point ``-1 - k``),
     updating the state ``s`` and its derivative ``ds`` (rows 0, 1) in place; samples store
@@ -131,8 +85,8 @@ def _run_kind(code, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s,
         if n >= 0:
             g[n] = gg
         if jac:
-            cu, cv, c0, c1, a0, b0, a1, b1 = _tangent(code, p[0], p[1], p[2], uu, vv, s0, s2,
-                                                       s3, s_out[0], gg)
+            cu, cv, c0, c1, a0, b0, a1, b1 = element_tangent(code, p[0], p[1], p[2], uu, vv, s0,
+                                                              s2, s3, s_out[0], gg)
             for d in range(m):
                 if n >= 0:
                     du = phi[n, d]

@@ -2,7 +2,8 @@
 
 A basis function is a zero-memory function of either the deformation ``u`` or its rate
 ``u'``. A model element kind that is linear in one parameter maps onto one basis function
-(`element_basis`); its restoring force is ``param * basis(u, u')``.
+(`element_basis`, from the kind's descriptor in `analysis.kinds`); its restoring force is
+``param * basis(u, u')``.
 
 A product of a band-limited signal spans a wider band (``u^3`` of a signal up to ``B`` Hz
 spans ``3B``); sampled at ``fs`` it folds back into the analysis band when
@@ -18,13 +19,13 @@ for polynomials (exact for Gaussian noise) and its large-amplitude limit ``s2 si
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
-from .elements import KINDS
 from .errors import EstimationError, InputError
+from .kinds import lookup
 from .model import Element
 
 
@@ -93,17 +94,10 @@ LIBRARY: dict[str, Basis] = {b.name: b for b in (
 )}
 """The candidate library screened by default (paper eq 20 plus x^5, v^3, v^5)."""
 
-# kind -> (estimated parameter, library basis name or a builder taking the element params)
-_KIND_BASIS: dict[str, tuple[str, Callable[[dict[str, float]], Basis]]] = {
-    "cubic_spring": ("p", lambda p: LIBRARY["x^3"]),
-    "quadratic_spring": ("p", lambda p: LIBRARY["x|x|"]),
-    "quadratic_damping": ("p", lambda p: LIBRARY["v|v|"]),
-    "cubic_damping": ("p", lambda p: LIBRARY["v^3"]),
-    "coulomb_friction": ("fc", lambda p: Basis(
-        "sign(v)", "v", 9, LIBRARY["sign(v)"].func,
-        p.get("v_reg", dict(KINDS["coulomb_friction"].optional)["v_reg"]))),
-    "gap": ("k", lambda p: Basis(f"gap({p['g']:g})", "x", 9, _gap, p["g"])),
-}
+FAMILIES: dict[str, Basis] = {b.name: b for b in (
+    Basis("gap", "x", 9, _gap),
+)}
+"""Basis functions of element kinds that need a parameter (not screened by default)."""
 
 
 def element_basis(el: Element, index: int = 0) -> tuple[str, Basis]:
@@ -112,17 +106,26 @@ def element_basis(el: Element, index: int = 0) -> tuple[str, Basis]:
     Raises
     ------
     EstimationError
-        For kinds reverse path cannot estimate (memory elements, or a gap of unknown width).
+        For kinds reverse path cannot estimate (memory elements).
+    InputError
+        For an unknown kind, or a basis parameter the model does not give (gap width).
     """
-    if el.kind not in _KIND_BASIS:
+    spec = lookup(el.kind)
+    if spec.coef is None:
         raise EstimationError(
             f"element {index} ({el.kind}) has memory and is not linear in its parameters; "
             "reverse path cannot estimate it: use `nlid-lab analyze hbm` with stepped-sine data")
-    name, build = _KIND_BASIS[el.kind]
-    if el.kind == "gap" and "g" not in el.params:
-        raise InputError(f"element {index} (gap) has no width g; reverse path estimates k for "
-                         "a known g: give g in the model, or use `analyze hbm`")
-    return name, build(el.params)
+    base = LIBRARY[spec.basis] if spec.basis in LIBRARY else FAMILIES[spec.basis]
+    if spec.basis_arg is None:
+        return spec.coef, base
+    arg = spec.value(el.params, spec.basis_arg)
+    if arg is None:
+        meaning = spec.param(spec.basis_arg).meaning
+        raise InputError(f"element {index} ({el.kind}) has no {meaning} {spec.basis_arg}; "
+                         f"reverse path estimates {spec.coef} for a known {spec.basis_arg}: "
+                         f"give {spec.basis_arg} in the model, or use `analyze hbm`")
+    label = base.name if spec.basis_label is None else spec.basis_label.format(**el.params)
+    return spec.coef, replace(base, name=label, arg=arg)
 
 
 def deformation(w: np.ndarray, signal: np.ndarray) -> np.ndarray:

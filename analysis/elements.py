@@ -3,8 +3,10 @@
 Every kind acts on ``u = w.x`` and ``u' = w.v`` of its position vector ``w`` and adds
 ``w * g`` to the left-hand side of ``M x'' + C x' + K x + sum w g = B f``.
 
-The force laws are written once, as numba kernels, and used by the simulated plant's
-integrator, by the harmonic-balance AFT evaluation and by the tests.
+The force laws and their tangents (`element_tangent`, the pieces of the AFT Jacobian) are
+written once, as numba kernels with one branch per `Kind.code`, and used by the simulated
+plant's integrator, by the harmonic-balance AFT evaluation and by the tests. Everything else
+about a kind is its descriptor in `analysis.kinds`; `register_kind` adds a kind at run time.
 
 Kinds with memory carry a state vector of `N_STATE` floats. `element_force` reads the state
 before the step (``s_in``) and writes the state after it (``s_out``) so that an integrator can
@@ -26,50 +28,105 @@ hysteresis (paper eq 34 with Masing branches)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import replace
 
 import numba
 import numpy as np
 
+from . import _numba_cache
+from .kinds import KINDS, Kind, lookup
+
 N_PARAM = 4
 N_STATE = 4
-
-
-@dataclass(frozen=True)
-class Kind:
-    """Description of one element kind."""
-
-    code: int
-    params: tuple[str, ...]
-    memory: bool = False
-    optional: tuple[tuple[str, float], ...] = ()
-    positive: tuple[str, ...] = ()
-
-    @property
-    def all_params(self) -> tuple[str, ...]:
-        return self.params + tuple(name for name, _ in self.optional)
-
-
-KINDS: dict[str, Kind] = {
-    "cubic_spring": Kind(0, ("p",)),
-    "quadratic_spring": Kind(1, ("p",)),
-    "quadratic_damping": Kind(2, ("p",)),
-    "cubic_damping": Kind(3, ("p",)),
-    "coulomb_friction": Kind(4, ("fc",), optional=(("v_reg", 1e-3),), positive=("v_reg",)),
-    "stick_slip": Kind(5, ("kd", "fd"), memory=True, positive=("kd", "fd")),
-    "hysteresis": Kind(6, ("kd", "fd", "n"), memory=True, positive=("kd", "fd", "n")),
-    "gap": Kind(7, ("k", "g"), positive=("g",)),
-}
+N_BUILTIN = 8
+"""Codes below this are branches of `element_force`; registered kinds get the next ones."""
 
 
 def pack_params(kind: str, params: dict[str, float]) -> np.ndarray:
     """Return the kernel parameter vector of one element (optional ones defaulted)."""
-    spec = KINDS[kind]
+    spec = lookup(kind)
     values = [float(params[name]) for name in spec.params]
     values += [float(params.get(name, default)) for name, default in spec.optional]
     out = np.zeros(N_PARAM)
     out[: len(values)] = values
     return out
+
+
+# Run-time kinds. The built-in laws are branches of `element_force` / `element_tangent`,
+# which the plant and AFT kernels inline and specialise per kind (a call per sample would cost
+# more than the law) and numba caches on disk. A kind registered at run time carries its own
+# jitted law and tangent; the laws' last branch calls `_extension_force` / `_extension_tangent`,
+# a chain over the registered kinds rebuilt by `register_kind`. Numba binds such globals when
+# it compiles, so registering drops the compiled kernels of this process and compiles them
+# afresh without the disk cache (which keeps holding the built-in kernels untouched).
+@numba.njit(cache=True)
+def _no_extension_force(code, p0, p1, p2, u, v):
+    return np.nan                       # no kind has this code: poison the result
+
+
+@numba.njit(cache=True)
+def _no_extension_tangent(code, p0, p1, p2, u, v):
+    return np.nan, np.nan
+
+
+_extension_force = _no_extension_force
+_extension_tangent = _no_extension_tangent
+
+
+def _chain(prev, code: int, law):
+    @numba.njit
+    def dispatch(c, p0, p1, p2, u, v):
+        if c == code:
+            return law(p0, p1, p2, u, v)
+        return prev(c, p0, p1, p2, u, v)
+    return dispatch
+
+
+def register_kind(name: str, spec: Kind) -> Kind:
+    """Add an element kind at run time, without editing the package.
+
+    Parameters
+    ----------
+    name : str
+        New kind name.
+    spec : Kind
+        Its descriptor, memoryless, with at most 3 parameters and with ``law`` and
+        ``tangent`` numba functions of ``(p0, p1, p2, u, u')`` (parameters in
+        `Kind.all_params` order) returning ``g`` and ``(dg/du, dg/du')``; its ``code`` is
+        assigned here.
+
+    Returns
+    -------
+    Kind
+        The registered descriptor (with its code).
+    """
+    if name in KINDS:
+        raise ValueError(f"element kind '{name}' exists already")
+    if spec.law is None or spec.tangent is None or spec.memory or len(spec.all_params) > 3:
+        raise ValueError("a registered kind needs a jitted law and tangent, no memory and at "
+                         "most 3 parameters (memory kinds are branches of element_force)")
+    code = max([N_BUILTIN - 1] + [k.code for k in KINDS.values()]) + 1
+    KINDS[name] = replace(spec, code=code)
+    _rebuild_extensions()
+    return KINDS[name]
+
+
+def unregister_kind(name: str) -> None:
+    """Remove a kind added by `register_kind` (the cached kernels are used again)."""
+    if lookup(name).code < N_BUILTIN:
+        raise ValueError(f"'{name}' is a built-in element kind")
+    del KINDS[name]
+    _rebuild_extensions()
+
+
+def _rebuild_extensions() -> None:
+    global _extension_force, _extension_tangent
+    force, tangent = _no_extension_force, _no_extension_tangent
+    extra = [k for k in KINDS.values() if k.code >= N_BUILTIN]
+    for k in extra:
+        force, tangent = _chain(force, k.code, k.law), _chain(tangent, k.code, k.tangent)
+    _extension_force, _extension_tangent = force, tangent
+    _numba_cache.recompile_law_kernels(disk_cache=not extra)
 
 
 @numba.njit(cache=True)
@@ -148,7 +205,59 @@ def element_force(code: int, p: np.ndarray, u: float, v: float,
         if u < -g:
             return k * (u + g)
         return 0.0
-    return np.nan
+    return _extension_force(code, p[0], p[1], p[2], u, v)
+
+
+@numba.njit(cache=True, inline="always")
+def _virgin_slope(kd, fd, n, x):
+    """Derivative of the eq 34 virgin curve ``F0``: ``kd (1 + r^n)^(-1 - 1/n)``."""
+    r = abs(kd * x / fd)
+    if r <= 1.0:
+        return kd * (1.0 + r ** n) ** (-1.0 - 1.0 / n)
+    return kd * r ** (-n - 1.0) * (1.0 + r ** (-n)) ** (-1.0 - 1.0 / n)
+
+
+@numba.njit(cache=True)
+def element_tangent(code, p0, p1, p2, u, v, s0, s2, s3, z_new, g):
+    """Coefficients of the forward derivative of one step of the law (scalars only):
+    ``dg = cu du + cv dv + c0 ds0 + c1 ds1``, ``ds0' = a0 du + b0 ds0``,
+    ``ds1' = a1 dg + b1 ds1`` (``s0``, ``s1``: the continuous memory state; ``s2``, ``s3``
+    the state before the step, ``z_new`` slot 0 after it, ``g`` the force).
+
+    Memoryless kinds: ``cu = dg/du``, ``cv = dg/du'`` and the state passes through.
+    """
+    if code == 5:                                   # stick-slip
+        if z_new != s0:                             # slipped: the slider follows u
+            return 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
+        return p0, 0.0, -p0, 0.0, 0.0, 1.0, 0.0, 1.0
+    if code == 6:                                   # eq 34 hysteresis, Masing branches
+        cu, c0, c1 = 0.0, 0.0, 0.0
+        if s3 == 0.0:
+            cu = _virgin_slope(p0, p1, p2, u)
+        elif abs(g) < p1:                           # not clipped at the asymptote
+            cu = _virgin_slope(p0, p1, p2, 0.5 * (u - s0))
+            c0, c1 = -cu, 1.0
+        d = np.sign(v)
+        if d != 0.0 and s2 != 0.0 and d != s2:      # reversal stored: (u, g)
+            return cu, 0.0, c0, c1, 1.0, 0.0, 1.0, 0.0
+        return cu, 0.0, c0, c1, 0.0, 1.0, 0.0, 1.0
+    gu, gv = 0.0, 0.0
+    if code == 0:
+        gu = 3.0 * p0 * u * u
+    elif code == 1:
+        gu = 2.0 * p0 * abs(u)
+    elif code == 2:
+        gv = 2.0 * p0 * abs(v)
+    elif code == 3:
+        gv = 3.0 * p0 * v * v
+    elif code == 4:
+        t = np.tanh(v / p1)
+        gv = p0 * (1.0 - t * t) / p1
+    elif code == 7:
+        gu = p0 if abs(u) > p1 else 0.0
+    else:
+        gu, gv = _extension_tangent(code, p0, p1, p2, u, v)
+    return gu, gv, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0
 
 
 @numba.njit(cache=True)
@@ -187,4 +296,4 @@ def restoring_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.nd
     u = np.ascontiguousarray(u, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     s0 = np.zeros(N_STATE) if state is None else np.asarray(state, dtype=float).copy()
-    return _force_series(KINDS[kind].code, pack_params(kind, params), u, v, s0)
+    return _force_series(lookup(kind).code, pack_params(kind, params), u, v, s0)

@@ -22,18 +22,14 @@ from scipy.interpolate import make_interp_spline
 from scipy.optimize import least_squares, minimize
 from scipy.stats import qmc
 
-from .elements import KINDS
 from .errors import EstimationError, InputError
 from .hbm import HBMSystem, Receptance
+from .kinds import Refs, lookup
 from .model import Model
 from .sine_fit import SteppedSineFRF
 
-# Parameter names and the physical scale they are measured in (used for default starts).
-_SCALES = {"kd": "stiffness", "k": "stiffness", "fd": "force", "fc": "force",
-           "n": "exponent", "g": "displacement"}
 _WIDTH = 1.5            # default multi-start spread: decades either side of the nominal start
 _BOUND = 4.0            # default bounds: decades either side of the nominal start
-_N_BOUNDS = (0.5, 1000.0)
 _WARM = 0.05            # relative parameter change below which sweeps start from the last one
 
 
@@ -143,10 +139,10 @@ class HBMFit:
         if not self.unknowns:
             raise InputError("the candidate model has no unknown parameter; omit the ones to "
                              "estimate from its [[element]] tables")
-        self.slots = [(e, KINDS[model.elements[e].kind].all_params.index(name))
+        self.specs = [lookup(model.elements[e].kind).param(name) for e, name in self.unknowns]
+        self.slots = [(e, lookup(model.elements[e].kind).all_params.index(name))
                       for e, name in self.unknowns]
-        self.log = np.array([name in KINDS[model.elements[e].kind].positive
-                             for e, name in self.unknowns])
+        self.log = np.array([spec.positive for spec in self.specs])
         self.scale = self._nominal()
         self.n_evaluations = 0
         self.unconverged = 0
@@ -159,27 +155,10 @@ class HBMFit:
         k_ref = float(np.max(np.abs(np.diag(self.model.stiffness))))
         f_ref = max(float(lv.force.max()) for lv in self.levels)
         u_ref = max(float(np.abs(lv.X[:, :, self.force_dof]).max()) for lv in self.levels)
-        out = []
-        for e, name in self.unknowns:
-            kind = self.model.elements[e].kind
-            what = _SCALES.get(name)
-            if what == "stiffness":
-                out.append(k_ref)
-            elif what == "force":
-                out.append(0.1 * f_ref)
-            elif what == "exponent":
-                out.append(2.0)
-            elif what == "displacement":
-                out.append(0.5 * u_ref)
-            elif kind == "cubic_spring":
-                out.append(k_ref / u_ref ** 2)
-            elif kind == "quadratic_spring":
-                out.append(k_ref / u_ref)
-            else:  # damping-like: viscous damping of the linear part at the displacement scale
-                c_ref = max(float(np.max(np.abs(np.diag(self.model.damping)))), 1e-12)
-                v_ref = u_ref * 2 * np.pi * float(np.median(self.levels[0].freqs))
-                out.append(c_ref * (1 / v_ref if kind == "quadratic_damping" else 1 / v_ref ** 2))
-        return np.array(out)
+        c_ref = max(float(np.max(np.abs(np.diag(self.model.damping)))), 1e-12)
+        v_ref = u_ref * 2 * np.pi * float(np.median(self.levels[0].freqs))
+        refs = Refs(k_ref, f_ref, u_ref, c_ref, v_ref)
+        return np.array([spec.scale(refs) for spec in self.specs])
 
     def to_params(self, z: np.ndarray) -> np.ndarray:
         """Optimiser variables -> physical parameter values."""
@@ -193,9 +172,9 @@ class HBMFit:
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         lo = np.where(self.log, -_BOUND * np.log(10), -10.0)
         hi = np.where(self.log, _BOUND * np.log(10), 10.0)
-        for i, (_, name) in enumerate(self.unknowns):
-            if name == "n":
-                lo[i], hi[i] = np.log(np.array(_N_BOUNDS) / self.scale[i])
+        for i, spec in enumerate(self.specs):
+            if spec.bounds is not None:
+                lo[i], hi[i] = np.log(np.array(spec.bounds) / self.scale[i])
         return lo, hi
 
     def _packed(self, p: np.ndarray) -> np.ndarray:

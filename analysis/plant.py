@@ -111,31 +111,19 @@ class PlantOutput:
 
 def _element_stiffness(el: Any, u: np.ndarray | None = None,
                        v: np.ndarray | None = None) -> tuple[float, float]:
-    """Largest stiffness and viscous slope of element ``el`` (N/m, N s/m).
+    """Largest stiffness and viscous slope of element ``el`` (N/m, N s/m), from its kind's
+    descriptor (`analysis.kinds`).
 
     Without ``u, v`` the slopes known before a run (piecewise-linear kinds); with the
     element's deformation ``u`` and rate ``v`` over a stretch of run, the largest tangent of
     the amplitude-dependent kinds as well.
     """
-    p, umax, vmax = el.params, 0.0, 0.0
-    if u is not None:
-        umax, vmax = float(np.max(np.abs(u), initial=0.0)), float(np.max(np.abs(v),
-                                                                            initial=0.0))
-    if el.kind in ("stick_slip", "hysteresis"):
-        return p["kd"], 0.0
-    if el.kind == "gap":
-        return max(p["k"], 0.0), 0.0
-    if el.kind == "coulomb_friction":
-        return 0.0, abs(p["fc"]) / p.get("v_reg", 1e-3)
-    if el.kind == "cubic_spring":
-        return max(3.0 * p["p"] * umax ** 2, 0.0), 0.0
-    if el.kind == "quadratic_spring":
-        return 2.0 * abs(p["p"]) * umax, 0.0
-    if el.kind == "cubic_damping":
-        return 0.0, 3.0 * abs(p["p"]) * vmax ** 2
-    if el.kind == "quadratic_damping":
-        return 0.0, 2.0 * abs(p["p"]) * vmax
-    return 0.0, 0.0
+    umax = 0.0 if u is None else float(np.max(np.abs(u), initial=0.0))
+    vmax = 0.0 if v is None else float(np.max(np.abs(v), initial=0.0))
+    spec = KINDS[el.kind]
+    k = spec.stiffness(el.params, umax) if spec.stiffness is not None else 0.0
+    c = spec.damping(el.params, vmax) if spec.damping is not None else 0.0
+    return k, c
 
 
 def _tangent_omega(model: Model, x: np.ndarray | None = None,

@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 from analysis.errors import InputError
 from analysis.frf import LevelFRF, level_frf
+from analysis.kinds import coefficient_units
 from analysis.recording import Recording
 
 from . import figures, recordings_io, store
@@ -115,9 +116,7 @@ def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
 
 
 #: Units of the coefficient of each element kind's basis function.
-PARAM_UNITS = {"cubic_spring": "N/m³", "quadratic_spring": "N/m²",
-               "quadratic_damping": "N·s²/m²", "cubic_damping": "N·s³/m³",
-               "coulomb_friction": "N", "gap": "N/m"}
+PARAM_UNITS = coefficient_units()
 
 
 def candidate_model(run: RunData, candidate=None):

@@ -1,10 +1,11 @@
 """The one candidate library searched by every diagnosis: locations x kinds.
 
 A *location* is a position vector ``w``: ``e_i`` (element from DOF i to ground) or
-``e_j - e_i`` (element between DOFs i < j). A *kind* is either a nonlinear element kind of
-`analysis.elements.KINDS` or a linear error (``mass_error``, ``stiffness_error``,
-``damping_error``). The library is the full cross product (mass errors only at single DOFs);
-nothing in it depends on the data or on the scenario being diagnosed.
+``e_j - e_i`` (element between DOFs i < j). A *kind* is either an element kind of
+`analysis.kinds.KINDS` (every one, in `analysis.kinds.search_order`) or a linear error
+(``mass_error``, ``stiffness_error``, ``damping_error``). The library is the full cross
+product (mass errors only at single DOFs); nothing in it depends on the data or on the
+scenario being diagnosed.
 """
 
 from __future__ import annotations
@@ -14,20 +15,13 @@ from itertools import combinations
 
 import numpy as np
 
-from ..elements import KINDS
+from ..kinds import KINDS, search_order
 
 LINEAR_KINDS = ("stiffness_error", "damping_error", "mass_error")
 """Linear model errors: a constant added to K, C (at ``w w^T``) or M (at ``e_i e_i^T``)."""
 
 LINEAR_PARAM = {"stiffness_error": "delta_stiffness", "damping_error": "delta_damping",
                 "mass_error": "delta_mass"}
-
-NONLINEAR_KINDS = ("cubic_spring", "quadratic_spring", "gap", "quadratic_damping",
-                   "cubic_damping", "coulomb_friction", "stick_slip", "hysteresis")
-"""Nonlinear kinds searched (section 2 of the contracts)."""
-
-GAP_FRACTIONS = (0.25, 0.5, 1.0, 1.5)
-"""Gap widths tried for ``gap``, as multiples of the rms deformation at the location."""
 
 
 @dataclass(frozen=True)
@@ -81,7 +75,7 @@ def library(n_dof: int) -> list[Candidate]:
     """The complete candidate library of an ``n_dof`` model."""
     out = []
     for loc in locations(n_dof):
-        for kind in NONLINEAR_KINDS + LINEAR_KINDS:
+        for kind in search_order() + LINEAR_KINDS:
             if kind == "mass_error" and len(loc) != 1:
                 continue
             out.append(Candidate(kind, loc, n_dof))

@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..kinds import KINDS
 from ..model import Model
 from .candidates import LINEAR_PARAM
 from .compare import chi2, model_frf
 from .linear_update import Z95
-from .select import DISSIPATIVE, Fit, Search, coef_name
+from .select import Fit, Search, coef_name, grid_value
 
 
 def _name(fit: Fit) -> str:
@@ -31,8 +32,7 @@ def _name(fit: Fit) -> str:
 
 def _key(fit: Fit) -> tuple:
     c = fit.cand
-    extra = fit.params.get("v_reg") if c.kind == "coulomb_friction" else fit.params.get("g")
-    return (c.kind, c.dofs, extra)
+    return (c.kind, c.dofs, grid_value(c.kind, fit.params))
 
 
 def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
@@ -47,7 +47,7 @@ def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
 def _valid(search: Search, fit: Fit, value: float) -> bool:
     if fit.cand.linear:
         return search.linear_ok(fit.cand, value)
-    return value >= 0 or fit.cand.kind not in DISSIPATIVE
+    return value >= 0 or not KINDS[fit.cand.kind].dissipative
 
 
 def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:

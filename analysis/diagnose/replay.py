@@ -27,7 +27,8 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.signal import resample_poly
 
-from ..elements import KINDS, restoring_force
+from ..elements import restoring_force
+from ..kinds import KINDS
 from ..model import Model
 from ..plant import HOLD_DEGREE, Plant
 from .prepare import Prepared
@@ -113,9 +114,9 @@ class _Restarter:
             gh[i] = g
             if i in self.memory:
                 es[i] = s
-                if el.kind == "stick_slip":   # plant's slip direction slot (0 = sticking)
-                    slipping = abs(g[-1]) >= el.params["fd"] * (1 - 1e-9)
-                    es[i, 1] = np.sign(vh[-1] @ el.w) if slipping else 0.0
+                restart = KINDS[el.kind].plant_restart
+                if restart is not None:   # the plant's own state slots (slip direction)
+                    restart(es[i], el.params, g[-1], vh[-1] @ el.w)
         self.plant.set_state(dict(self.template, x=p.x[k], v=p.v[k], element_state=es,
                                   force_history=gh, deformation_history=uh,
                                   force_prev=force_prev))

@@ -6,12 +6,13 @@ Every candidate of the library is fitted to the level FRFs of the fitting record
   ``H_meas - H0 = -p H_L w T_g`` (screening), then the shortlisted ones are re-estimated
   from the data alone by the reverse path (`analysis.reverse_path`), which also gives the
   coefficient's frequency dependence and the multiple-coherence gain;
-* gap: the same for each width of a small grid (`GAP_FRACTIONS`), the best width kept;
+* kinds with a second parameter (gap width, friction regularisation): the same for each
+  value of a small grid (the kind's `analysis.kinds.Search.grid`), the best one kept;
 * linear errors: `linear_update.fit_linear_error`.
 
 Selection: Bayesian information criterion on the variance-weighted misfit ``chi2``:
-``dBIC = chi2_0 - chi2_c - k ln N`` (``N`` effective values). Memory kinds (stick-slip,
-hysteresis) are not linear in their parameters and are searched on stepped-sine data.
+``dBIC = chi2_0 - chi2_c - k ln N`` (``N`` effective values). Memory kinds are not linear
+in their parameters and are searched on stepped-sine data.
 """
 
 from __future__ import annotations
@@ -21,17 +22,16 @@ from typing import Any, Hashable
 
 import numpy as np
 
-from ..elements import KINDS
 from ..errors import EstimationError, InputError
+from ..kinds import KINDS
 from ..model import Element, Model
 from ..recording import Recording
 from ..reverse_path import reverse_path
-from .candidates import GAP_FRACTIONS, LINEAR_PARAM, Candidate, library
+from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import LevelFRF, chi2, level_frf, model_frf, unit_force
 from .linear_update import Z95, fit_linear_error, updated_frf
 from .prepare import Prepared
 
-DISSIPATIVE = {"quadratic_damping": "p", "cubic_damping": "p", "coulomb_friction": "fc"}
 SHORTLIST = 4
 
 
@@ -54,35 +54,41 @@ class Fit:
 
 def unit_params(kind: str, extra: float | None) -> dict[str, float]:
     """Parameters of the unit-coefficient basis of a linear-in-parameter kind."""
-    if kind == "coulomb_friction":
-        return {"fc": 1.0, "v_reg": float(extra)}
-    if kind == "gap":
-        return {"k": 1.0, "g": float(extra)}
-    return {"p": 1.0}
+    spec = KINDS[kind]
+    params = {spec.coef: 1.0}
+    if spec.search.grid is not None:
+        params[spec.search.grid.param] = float(extra)
+    return params
 
 
 def coef_name(kind: str) -> str:
-    return {"coulomb_friction": "fc", "gap": "k"}.get(kind, "p")
+    return KINDS[kind].coef
+
+
+def grid_value(kind: str, params: dict[str, float]) -> float | None:
+    """The value of ``kind``'s grid parameter in ``params`` (None for kinds without one)."""
+    grid = KINDS[kind].search.grid
+    return None if grid is None else params.get(grid.param)
 
 
 def candidate_extras(model: Model, low_x: np.ndarray, low_v: np.ndarray
                      ) -> dict[tuple, list[float | None]]:
     """Grid of the non-coefficient parameter of each memoryless nonlinear candidate.
 
-    ``coulomb_friction`` gets ``v_reg`` = 1 % of the rms rate, ``gap`` the widths
-    `GAP_FRACTIONS` of the rms deformation, both at the lowest fitting level.
+    A kind's `analysis.kinds.Search.grid` gives the fractions of the rms deformation or rate
+    at the lowest fitting level (``coulomb_friction``: ``v_reg`` = 1 % of the rms rate;
+    ``gap``: widths of 0.25 to 1.5 rms deformations).
     """
     extra: dict[tuple, list[float | None]] = {}
     for c in library(model.n_dof):
         if c.linear or c.memory:
             continue
-        if c.kind == "coulomb_friction":
-            extra[(c.kind, c.dofs)] = [0.01 * float(np.std(low_v @ c.w))]
-        elif c.kind == "gap":
-            s = float(np.std(low_x @ c.w))
-            extra[(c.kind, c.dofs)] = [f * s for f in GAP_FRACTIONS]
-        else:
+        grid = KINDS[c.kind].search.grid
+        if grid is None:
             extra[(c.kind, c.dofs)] = [None]
+        else:
+            s = float(np.std((low_x if grid.variable == "x" else low_v) @ c.w))
+            extra[(c.kind, c.dofs)] = [f * s for f in grid.fractions]
     return extra
 
 
@@ -117,7 +123,7 @@ class Search:
             num += np.sum((np.conj(d) * (lf.H - h0) / lf.var).real)
             den += np.sum(np.abs(d) ** 2 / lf.var)
         p = -num / den if den > 0 else 0.0
-        if c.kind in DISSIPATIVE:
+        if KINDS[c.kind].dissipative:
             p = max(p, 0.0)   # negative dissipation is not physical
         bf = np.mean([lf.bin_factor for lf in self.levels])
         se = float(np.sqrt(bf / (2 * den))) if den > 0 else float("inf")
@@ -147,9 +153,8 @@ class Search:
             params = unit_params(c.kind, e)
             name = coef_name(c.kind)
             params[name] = p
-            k = c.n_params if c.kind != "coulomb_friction" else 1
             fits.append(Fit(c, params, {name: [p - Z95 * se, p + Z95 * se]}, x2,
-                            self.bic_gain(x2, k), {"estimator": "frf-screen"}))
+                            self.bic_gain(x2, c.n_params), {"estimator": "frf-screen"}))
         return sorted(fits, key=lambda f: -f.delta_bic)
 
     def linear_ok(self, c: Candidate, delta: float) -> bool:
@@ -203,7 +208,7 @@ class RandomSearch(Search):
             return fit
         coef = rp.coefficients[-1]
         p = float(coef.value)
-        if c.kind in DISSIPATIVE and p <= 0:
+        if KINDS[c.kind].dissipative and p <= 0:
             fit.evidence["reverse_path"] = "negative dissipative coefficient"
             return fit
         wts = 1.0 / np.maximum(coef.variance, 1e-300)
@@ -218,14 +223,13 @@ class RandomSearch(Search):
         }
         params = dict(fit.params)
         params[name] = p
-        extra = params.get("v_reg") if c.kind == "coulomb_friction" else params.get("g")
+        extra = grid_value(c.kind, params)
         x2 = 0.0
         for lf, hl in zip(self.levels, self.H_lins):
             terms = self.terms + [(c.w, p, (c.kind, c.dofs, extra))]
             x2 += chi2(lf, model_frf(hl, lf, terms))
-        k = c.n_params if c.kind != "coulomb_friction" else 1
         return Fit(c, params, {name: [float(coef.ci95[0]), float(coef.ci95[1])]}, x2,
-                   self.bic_gain(x2, k), evidence)
+                   self.bic_gain(x2, c.n_params), evidence)
 
 
 def corrected_model(model: Model, fit: Fit) -> Model:

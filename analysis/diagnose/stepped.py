@@ -8,10 +8,10 @@ construction), each candidate's restoring force is evaluated on it and its funda
     H_model = H_L (B F_1 - w G_1) / F_1
 
 With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
-the memoryless kinds and the linear errors; the memory kinds (stick-slip, hysteresis) are
-fitted by nonlinear least squares on the same residual. The chosen element is then refitted
-by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33) and the held-back
-level is compared with a harmonic-balance simulation of the corrected model.
+the memoryless kinds and the linear errors; the memory kinds are fitted by nonlinear least
+squares on the same residual (starts from their `analysis.kinds.Search`). The chosen element
+is then refitted by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33)
+and the held-back level is compared with a harmonic-balance simulation of the corrected model.
 """
 
 from __future__ import annotations
@@ -21,10 +21,11 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..elements import KINDS, restoring_force
+from ..elements import restoring_force
 from ..errors import EstimationError, InputError
 from ..hbm import HBMSystem
 from ..hbm_fit import fit_hbm
+from ..kinds import KINDS
 from ..model import Element, Model
 from ..recording import Recording
 from ..sine_fit import SteppedSineFRF, stepped_sine_frf
@@ -151,8 +152,8 @@ class SteppedSearch(Search):
                 out += [r.real.ravel(), r.imag.ravel()]
             return np.concatenate(out)
 
-        starts = [np.log([kd, kd * frac * u_amp] + ([2.0] if c.kind == "hysteresis" else []))
-                  for kd in (0.3 * k_w, 3 * k_w) for frac in (0.1, 0.5)]
+        search = KINDS[c.kind].search
+        starts = [np.log(p) for p in search.starts(k_w, u_amp)]
         # Local searches from the two most promising starts only (each costs ~40 sweeps).
         costs = [float(np.sum(resid(z) ** 2)) for z in starts]
         for i in np.argsort(costs)[:2]:
@@ -167,7 +168,7 @@ class SteppedSearch(Search):
         if best is None:
             return None
         params = {n: float(v) for n, v in zip(names, np.exp(best.x))}
-        if params["kd"] * u_max < (1.0 if c.kind == "stick_slip" else 0.5) * params["fd"]:
+        if search.inactive(params, u_max):
             # The element never reaches its slip force in the data: it acts as a linear
             # spring, which the library holds as a stiffness error (one parameter fewer).
             return None
