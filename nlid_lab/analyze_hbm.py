@@ -15,7 +15,7 @@ from analysis.model import Model
 from analysis.recording import Recording
 from analysis.sine_fit import SteppedSineFRF, stepped_sine_frf
 
-from .cli import write_json
+from .outputs import write_json
 from .store import check_result_target, load_recordings, save_result
 
 

@@ -23,7 +23,7 @@ from analysis.reverse_path_linear import residual_force_frf
 from analysis.screening import screen_candidates
 from analysis.spectral import Spectra, multiple_coherence
 
-from .cli import write_json
+from .outputs import write_json
 from .store import check_result_target, load_recordings, save_result
 
 FORCE_HOLDS = ("none", "linear")

@@ -8,14 +8,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import pkgutil
 import sys
-from pathlib import Path
-from typing import Any, Sequence
-
-import numpy as np
+from typing import Sequence
 
 from analysis.errors import InputError
 
@@ -69,27 +65,6 @@ def _one_line(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.filename is not None:
         return f"{exc.strerror or exc}: {exc.filename}"
     return " ".join(str(exc).split())
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
-def write_json(result: dict[str, Any], dest: str | None) -> None:
-    """Write a command's machine-readable result to ``dest`` (``-`` for stdout)."""
-    if not dest:
-        return
-    text = json.dumps(result, indent=2, default=_jsonable, allow_nan=False)
-    if dest == "-":
-        print(text)
-    else:
-        Path(dest).write_text(text + "\n")
 
 
 if __name__ == "__main__":

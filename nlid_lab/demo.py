@@ -20,7 +20,7 @@ from analysis.model import Model
 
 from . import store
 from .analyze_reverse_path import estimate, format_table, recorded_force_hold
-from .cli import write_json
+from .outputs import write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
     / "sdof-cubic-quaddamp.toml"

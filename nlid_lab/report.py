@@ -22,6 +22,7 @@ from analysis.errors import InputError
 from analysis.recording import Recording
 
 from . import figures, store
+from .outputs import level_text
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
@@ -400,8 +401,8 @@ def level_change_section(run: RunData) -> Section | None:
                f"{100 * t['share_flagged']:.1f} % of the lines change beyond the noise, as "
                "noise alone gives: no evidence of nonlinearity")
     sec = Section("Level dependence of the FRF (random levels)",
-                  f"H1 at {t['levels'][0]:g} against {t['levels'][1]:g} N rms, line by line, "
-                  "relative to the variance of their difference; a linear structure exceeds "
+                  f"H1 at {level_text(t['levels'][0])} against {level_text(t['levels'][1])} "
+                  "N rms, line by line, relative to the variance of their difference; a linear structure exceeds "
                   f"the dashed line on 1 % of the lines (chance up to "
                   f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
     sec.figures = [("level_change", figures.level_change(change))]

@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
+from pathlib import Path
+
+from ..outputs import add_force_option, refuse_overwrite
 
 
 def _delegate(module: str):
     def run(args: argparse.Namespace) -> int:
+        figure = getattr(args, "figure", None)
+        loop_png = Path(figure).with_name(Path(figure).stem + "-loop.png") if figure else None
+        refuse_overwrite(args.force, args.json, figure, loop_png)
         return importlib.import_module(f"nlid_lab.{module}").run(args)
     return run
 
@@ -15,7 +21,9 @@ def _delegate(module: str):
 def _store_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--store", metavar="RUN.h5",
                    help="also save the result into this HDF5 run (as 'analyze-<method>'), where "
-                   "`nlid-lab report` and `view` show it")
+                   "`nlid-lab report` and `view` show it (earlier results stay in the run's "
+                   "log, the latest is shown)")
+    add_force_option(p)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -9,13 +9,14 @@ from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS
 
 from .. import recordings_io, store
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def run(args: argparse.Namespace) -> int:
     src, out = Path(args.recording), Path(args.out)
     if out.suffix.lower() not in (".h5", ".hdf5"):
         raise InputError(f"--out {out}: a run file must end in .h5")
+    refuse_overwrite(args.force, out, args.json)
     suffix = src.suffix.lower()
     if suffix == ".npz":
         rec = recordings_io.read_npz(src)
@@ -47,4 +48,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="CSV: what the response columns measure (default displacement)")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

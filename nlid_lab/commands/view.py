@@ -7,10 +7,12 @@ import os
 
 from analysis.errors import InputError
 
+from ..outputs import add_force_option, refuse_overwrite
 from ..progress import progress
 
 
 def run(args: argparse.Namespace) -> int:
+    refuse_overwrite(args.force, args.snapshot)
     try:
         from ..gui import snapshot
         from ..gui.offline import OfflineView
@@ -46,4 +48,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--snapshot", metavar="FILE.png", help="render offscreen to a PNG and exit")
     p.add_argument("--size", type=int, nargs=2, default=(1400, 900), metavar=("W", "H"),
                    help="window / snapshot size in pixels (default 1400 900)")
+    add_force_option(p)
     p.set_defaults(func=run)
