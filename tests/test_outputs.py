@@ -113,3 +113,46 @@ def test_helper_skips_missing_and_stdout_targets(tmp_path):
     with pytest.raises(OverwriteError):
         refuse_overwrite(False, directories=(tmp_path,))
     refuse_overwrite(True, tmp_path / "x", directories=(tmp_path,))
+
+
+def _csv_levels(d: Path, levels=(1.0, 30.0)) -> list[Path]:
+    """Two random CSV recordings of the cubic SDOF at different force levels."""
+    from analysis.model import Model
+    from analysis.plant import simulate
+    from analysis.recording import Recording
+    from nlid_lab import recordings_io
+
+    rng = np.random.default_rng(3)
+    paths = []
+    for lvl in levels:
+        f = lvl * rng.normal(size=(8192, 1))
+        x = simulate(Model.load(SDOF), f, 1024.0, [0])
+        path = d / f"l{lvl:g}.csv"
+        recordings_io.write_csv(path, Recording(fs=1024.0, excitation="random",
+                                                force_dofs=np.array([0]), force=f, response=x))
+        paths.append(path)
+    return paths
+
+
+def test_detect_and_report_on_csv_imports_without_level(tmp_path, capsys):
+    runs = []
+    for csv in _csv_levels(tmp_path):
+        assert main(["import", str(csv), "--out", str(csv.with_suffix(".h5"))]) == 0
+        runs.append(str(csv.with_suffix(".h5")))
+    with_level = []
+    for csv, lvl in zip(_csv_levels(tmp_path), ("1", "30")):
+        out = str(csv.with_name(csv.stem + "-lv.h5"))
+        assert main(["import", str(csv), "--out", out, "--level", lvl]) == 0
+        with_level.append(out)
+    capsys.readouterr()
+    # given in descending force order: ordered by measured force they compare the same pair
+    assert main(["detect", *runs[::-1], "--json", str(tmp_path / "d.json")]) == 0
+    text = capsys.readouterr().out
+    assert "unknown vs unknown" in text and "no nominal level" in text
+    assert main(["detect", *with_level, "--json", str(tmp_path / "e.json")]) == 0
+    unknown, known = (json.loads((tmp_path / n).read_text())["tests"][0]
+                      for n in ("d.json", "e.json"))
+    assert unknown["levels"] == [None, None] and known["levels"] == [1.0, 30.0]
+    assert unknown["share_flagged"] == known["share_flagged"]
+    assert unknown["median_change_db"] == known["median_change_db"]
+    assert main(["report", runs[0], "--out", str(tmp_path / "rep")]) == 0

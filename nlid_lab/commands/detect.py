@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from ..outputs import add_force_option, level_text, refuse_overwrite, write_json
+from .repair import check_runs, repair_option
 
 
 def format_tests(result: dict[str, Any]) -> str:
@@ -35,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from analysis.detect import detect
     from ..store import load_recordings
     refuse_overwrite(args.force, args.json)
+    check_runs(args.runs, args.repair)
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=sys.stderr if args.json == "-" else sys.stdout)
@@ -48,4 +50,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nperseg", type=int, help="Welch segment length for random levels")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
+    repair_option(p)
     p.set_defaults(func=run)

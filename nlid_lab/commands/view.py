@@ -9,6 +9,7 @@ from analysis.errors import InputError
 
 from ..outputs import add_force_option, refuse_overwrite
 from ..progress import progress
+from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
@@ -24,6 +25,7 @@ def run(args: argparse.Namespace) -> int:
             "WAYLAND_DISPLAY") or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("no display to open the viewer on; use --snapshot FILE.png to "
                          "render offscreen")
+    check_runs(args.runs, args.repair)
     runs = [load_run(path) for path in args.runs]
     with progress(total=sum(len(r.recordings) for r in runs), desc="view: FRFs",
                   unit="level") as bar:
@@ -49,4 +51,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", type=int, nargs=2, default=(1400, 900), metavar=("W", "H"),
                    help="window / snapshot size in pixels (default 1400 900)")
     add_force_option(p)
+    repair_option(p)
     p.set_defaults(func=run)
