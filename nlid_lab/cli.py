@@ -18,6 +18,10 @@ from analysis.errors import InputError
 from . import __version__, commands
 
 
+#: Commands that run no numba kernel (no "compiling" notice for them).
+NO_KERNELS = frozenset({"import", "repair", "warmup"})
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
@@ -43,6 +47,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     debug = os.environ.get("NLID_DEBUG") == "1"
     try:
+        if args.command not in NO_KERNELS:
+            _say_if_compiling()
         result = args.func(args)
     except _bad_input_types() as exc:
         if debug:
@@ -59,6 +65,13 @@ def main(argv: Sequence[str] | None = None) -> int:
               "(set NLID_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
     return int(result or 0)
+
+
+def _say_if_compiling() -> None:
+    from .warmup import kernels_cached
+    if not kernels_cached():
+        print("nlid-lab: compiling numeric kernels (first run only, up to a minute; "
+              "`nlid-lab warmup` does it ahead)...", file=sys.stderr, flush=True)
 
 
 def _one_line(exc: BaseException) -> str:

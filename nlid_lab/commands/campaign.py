@@ -27,6 +27,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
         from PySide6 import QtCore
 
         from ..gui import snapshot
+        from ..gui.display import check_display
         from ..gui.live import LiveView
     except ImportError as exc:
         raise InputError(f"--live needs the gui extra ({exc.name} is missing): "
@@ -36,6 +37,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
             or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("--live: no display to open the live view on; run without --live "
                          "(progress is printed) or set DISPLAY")
+    check_display()
     app = snapshot.application()
     view = LiveView()
     view.setWindowTitle(f"nlid-lab live: {campaign.name} -> {out}")

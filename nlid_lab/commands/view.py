@@ -16,6 +16,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_overwrite(args.force, args.snapshot)
     try:
         from ..gui import snapshot
+        from ..gui.display import check_display
         from ..gui.offline import OfflineView
     except ImportError as exc:
         raise InputError(f"the viewer needs the gui extra ({exc.name} is missing): "
@@ -25,6 +26,9 @@ def run(args: argparse.Namespace) -> int:
             "WAYLAND_DISPLAY") or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("no display to open the viewer on; use --snapshot FILE.png to "
                          "render offscreen")
+    if args.snapshot and not os.environ.get("QT_QPA_PLATFORM"):
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"     # a snapshot needs no display
+    check_display()
     check_runs(args.runs, args.repair)
     runs = [load_run(path) for path in args.runs]
     with progress(total=sum(len(r.recordings) for r in runs), desc="view: FRFs",
