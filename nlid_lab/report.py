@@ -28,6 +28,15 @@ from .outputs import level_text
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
 
 
+def convert_frf(H: np.ndarray, freqs: np.ndarray, kind: str, to: str) -> np.ndarray:
+    """FRF ``H`` (first axis along ``freqs``) of response ``kind`` as response ``to``: times
+    ``(i 2 pi f)`` per derivative (receptance -> mobility -> accelerance) or divided by it."""
+    order = {"displacement": 0, "velocity": 1, "acceleration": 2}
+    iw = (2j * np.pi * np.asarray(freqs, dtype=float)).reshape((-1,) + (1,) * (H.ndim - 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return H * iw ** (order[to] - order[kind])
+
+
 class ReportError(InputError):
     """A run cannot be reported or exported as asked."""
 
@@ -279,7 +288,7 @@ def reverse_path_section(run: RunData, candidate=None) -> Section | None:
         sec.figures.append((f"reverse_path_linear_coefficients_in{p}",
                             figures.linear_and_coefficients(
                                 res.freqs, res.H_linear[:, :, p],
-                                FRF_UNITS[recs[0].response_kind], coefs, units,
+                                FRF_UNITS["displacement"], coefs, units,
                                 None if H_model is None else H_model[:, :, p], exact)))
     sec.figures.append(("reverse_path_coherence", figures.coherence_linear_vs_nonlinear(
         res.freqs, res.coherence_linear, res.coherence_nonlinear)))
