@@ -35,6 +35,7 @@ def kernels_cached() -> bool:
 def warm_up() -> float:
     """Run tiny problems through every numba kernel; returns the seconds it took."""
     from analysis.continuation import continue_frf
+    from analysis.elements import KINDS, restoring_force
     from analysis.hbm import HBMSystem
     from analysis.model import Model
     from analysis.plant import simulate
@@ -43,6 +44,8 @@ def warm_up() -> float:
     t0 = time.perf_counter()
     rng = np.random.default_rng(0)
     force = rng.normal(size=(256, 1))
+    kind = next(iter(KINDS))
+    restoring_force(kind, dict.fromkeys(KINDS[kind].params, 1.0), force[:, 0], force[:, 0])
     for path in sorted(MODELS.glob("*.toml")):
         model = Model.load(path)
         x = simulate(model, force, 1024.0, [0])
