@@ -71,7 +71,8 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     unknown = sum(r.level is None for r in random + stepped)
     if unknown:
         notes.append(f"{unknown} level(s) carry no nominal level (e.g. a CSV imported without "
-                     "--level): levels ordered by their measured force (rms, or amplitude for sines)")
+                     "--level): levels ordered by their measured force (rms, or amplitude "
+                     "for sines)")
     return {"verdict": "nonlinear" if any(t["nonlinear"] for t in tests) else "no evidence",
             "tests": tests, "notes": notes}
 

@@ -411,8 +411,8 @@ def level_change_section(run: RunData) -> Section | None:
                "noise alone gives: no evidence of nonlinearity")
     sec = Section("Level dependence of the FRF (random levels)",
                   f"H1 at {level_text(t['levels'][0])} against {level_text(t['levels'][1])} "
-                  "N rms, line by line, relative to the variance of their difference; a linear structure exceeds "
-                  f"the dashed line on 1 % of the lines (chance up to "
+                  "N rms, line by line, relative to the variance of their difference; a linear "
+                  "structure exceeds the dashed line on 1 % of the lines (chance up to "
                   f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
     sec.figures = [("level_change", figures.level_change(change))]
     return sec

@@ -16,7 +16,8 @@ from analysis.plant import simulate  # noqa: E402
 from analysis.recording import Recording  # noqa: E402
 from nlid_lab import store  # noqa: E402
 from nlid_lab.gui.offline import OfflineView  # noqa: E402
-from nlid_lab.report import all_level_frfs, convert_frf, load_run, reverse_path_section  # noqa: E402,E501
+from nlid_lab.report import (all_level_frfs, convert_frf, load_run,  # noqa: E402
+                             reverse_path_section)
 
 SDOF = Path(__file__).resolve().parents[1] / "examples" / "models" / "sdof-cubic-quaddamp.toml"
 FS = 512.0

@@ -24,7 +24,8 @@ from .writer import LevelWriter, RunWriter
 
 __all__ = [
     "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now",
-    "Level", "Run", "check_result_target", "load_recordings", "open_run", "repair_run", "save_recording", "save_result",
+    "Level", "Run", "check_result_target", "load_recordings", "open_run", "repair_run",
+    "save_recording", "save_result",
     "TableError", "read_table", "write_table",
     "LevelWriter", "RunWriter",
 ]
