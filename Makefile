@@ -10,10 +10,11 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[all,dev]'
+	$(VENV)/bin/nlid-lab warmup
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/nlid-lab demo --out demo-out
+	$(VENV)/bin/nlid-lab demo --out demo-out --force
 
 test: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q -m "not slow"

@@ -28,6 +28,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .bla import BLA, DETECT_QUANTILE, best_linear_approximation
+from .diagnose.prepare import record_level
 from .errors import InputError
 from .frf import default_nperseg
 from .recording import Recording
@@ -68,6 +69,11 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     if not tests:
         raise InputError("no level to test: give random or stepped-sine runs at two or more "
                          "levels, or periodic-random runs")
+    unknown = sum(r.level is None for r in random + stepped)
+    if unknown:
+        notes.append(f"{unknown} level(s) carry no nominal level (e.g. a CSV imported without "
+                     "--level): levels ordered by their measured force (rms, or amplitude "
+                     "for sines)")
     return {"verdict": "nonlinear" if any(t["nonlinear"] for t in tests) else "no evidence",
             "tests": tests, "notes": notes}
 
@@ -103,7 +109,7 @@ def level_dependence(recordings: Sequence[Recording], *, nperseg: int | None = N
 def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
                  ) -> LevelChange:
     """`level_dependence` with its per-line statistic."""
-    recs = sorted(recordings, key=lambda r: (r.level is None, r.level or 0.0))
+    recs = sorted(recordings, key=record_level)
     lo, hi = recs[0], recs[-1]
     if lo.fs != hi.fs or list(lo.force_dofs) != list(hi.force_dofs) or lo.n_dof != hi.n_dof:
         raise InputError("the levels differ in sample rate, forces or responses; test runs of "
@@ -129,7 +135,7 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
 def stepped_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
     """Compare the fundamental FRFs of the lowest and the highest stepped-sine level at the
     frequencies both hold (module docstring)."""
-    recs = sorted(recordings, key=lambda r: (r.level is None, r.level or 0.0))
+    recs = sorted(recordings, key=record_level)
     lo, hi = recs[0], recs[-1]
     common = np.intersect1d(np.round(lo.freqs, 9), np.round(hi.freqs, 9))
     if common.size == 0:

@@ -15,7 +15,7 @@ import numpy as np
 from . import spectral
 from .bla import BLA, best_linear_approximation
 from .recording import Recording
-from .signals import excitation_band
+from .signals import KIND_ORDER, excitation_band
 from .sine_fit import hold_gain, sine_fit
 
 #: FRF units by response kind (receptance, mobility, accelerance).
@@ -177,3 +177,10 @@ def sine_frf(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
         H[i] = X[:, None] / (F[None, :] * hold_gain(f, rec.fs, rec.force_hold))
     return rec.freqs.copy(), H
 
+
+def convert_frf(H: np.ndarray, freqs: np.ndarray, kind: str, to: str) -> np.ndarray:
+    """FRF ``H`` (first axis along ``freqs``) of response ``kind`` as response ``to``: times
+    ``(i 2 pi f)`` per derivative (receptance -> mobility -> accelerance) or divided by it."""
+    iw = (2j * np.pi * np.asarray(freqs, dtype=float)).reshape((-1,) + (1,) * (H.ndim - 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return H * iw ** (KIND_ORDER[to] - KIND_ORDER[kind])

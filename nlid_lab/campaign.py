@@ -351,7 +351,7 @@ def _layout(c: Campaign) -> PeriodicLayout | None:
 
 
 def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
-                 observer: CampaignObserver | None = None, on_bench=None,
+                 overwrite: bool = False, observer: CampaignObserver | None = None, on_bench=None,
                  stop: threading.Event | None = None) -> CampaignResult:
     """Run campaign ``c`` into the run file ``out``.
 
@@ -360,7 +360,8 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
     `KeyboardInterrupt` raised. Raises `CampaignAborted` on a safety limit and
     `drivers.errors.CommsError` on communication failure; the run file is marked aborted
-    and keeps its data either way.
+    and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
+    it) or ``overwrite`` (replace it).
     """
     out = Path(out)
     observer = observer or NullObserver()
@@ -378,7 +379,8 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
                        channels=_store_channels(c), settings=settings, force_hold=hold,
                        layout=_layout(c),
                        model_toml=bench.model_toml, source=bench.source,
-                       mode="resume" if resume else "create") as writer:
+                       mode="resume" if resume else "overwrite" if overwrite else "create"
+                       ) as writer:
             runner = _Runner(c, bench, writer, observer, stop)
             try:
                 runner.run()

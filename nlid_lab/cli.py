@@ -8,18 +8,18 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import pkgutil
 import sys
-from pathlib import Path
-from typing import Any, Sequence
-
-import numpy as np
+from typing import Sequence
 
 from analysis.errors import InputError
 
 from . import __version__, commands
+
+
+#: Commands that run no numba kernel (no "compiling" notice for them).
+NO_KERNELS = frozenset({"import", "repair", "warmup"})
 
 
 class _Parser(argparse.ArgumentParser):
@@ -47,6 +47,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     debug = os.environ.get("NLID_DEBUG") == "1"
     try:
+        if args.command not in NO_KERNELS:
+            _say_if_compiling()
         result = args.func(args)
     except _bad_input_types() as exc:
         if debug:
@@ -65,31 +67,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     return int(result or 0)
 
 
+def _say_if_compiling() -> None:
+    from .warmup import kernels_cached
+    if not kernels_cached():
+        print("nlid-lab: compiling numeric kernels (first run only, up to a minute; "
+              "`nlid-lab warmup` does it ahead)...", file=sys.stderr, flush=True)
+
+
 def _one_line(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.filename is not None:
         return f"{exc.strerror or exc}: {exc.filename}"
     return " ".join(str(exc).split())
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
-def write_json(result: dict[str, Any], dest: str | None) -> None:
-    """Write a command's machine-readable result to ``dest`` (``-`` for stdout)."""
-    if not dest:
-        return
-    text = json.dumps(result, indent=2, default=_jsonable, allow_nan=False)
-    if dest == "-":
-        print(text)
-    else:
-        Path(dest).write_text(text + "\n")
 
 
 if __name__ == "__main__":

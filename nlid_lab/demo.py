@@ -20,7 +20,7 @@ from analysis.model import Model
 
 from . import store
 from .methods.reverse_path import ReversePathOptions, estimate, format_table
-from .cli import write_json
+from .outputs import write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
     / "sdof-cubic-quaddamp.toml"

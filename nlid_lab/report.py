@@ -19,6 +19,9 @@ from analysis.kinds import coefficient_units
 from analysis.recording import Recording
 
 from . import figures, recordings_io, store
+from .outputs import level_text
+
+
 
 
 class ReportError(InputError):
@@ -169,9 +172,9 @@ def level_change_section(run: RunData) -> Section | None:
                f"{100 * t['share_flagged']:.1f} % of the lines change beyond the noise, as "
                "noise alone gives: no evidence of nonlinearity")
     sec = Section("Level dependence of the FRF (random levels)",
-                  f"H1 at {t['levels'][0]:g} against {t['levels'][1]:g} N rms, line by line, "
-                  "relative to the variance of their difference; a linear structure exceeds "
-                  f"the dashed line on 1 % of the lines (chance up to "
+                  f"H1 at {level_text(t['levels'][0])} against {level_text(t['levels'][1])} "
+                  "N rms, line by line, relative to the variance of their difference; a linear "
+                  "structure exceeds the dashed line on 1 % of the lines (chance up to "
                   f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
     sec.figures = [("level_change", figures.level_change(change))]
     return sec

@@ -57,6 +57,17 @@ def run(tmp_path_factory):
     return tmp, out, candidate
 
 
+def test_detect_period_averages_the_imported_multisine(run, capsys):
+    tmp, out, _ = run
+    js = tmp / "detect.json"
+    assert main(["detect", str(out), "--json", str(js)]) == 0
+    result = json.loads(js.read_text())
+    bla = [t for t in result["tests"] if t["method"] == "bla"]
+    assert len(bla) == 2 and all(t["realizations"] == REALIZATIONS for t in bla)
+    assert all(t["periods"] == PERIODS for t in bla)
+    assert bla[1]["nonlinear"] and result["verdict"] == "nonlinear"
+
+
 def test_reverse_path_period_averages_and_covers_the_truth(run):
     tmp, out, candidate = run
     js = tmp / "rp.json"

@@ -14,15 +14,17 @@ def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
     from .. import methods
-    from ..cli import write_json
+    from ..outputs import refuse_overwrite, write_json
     from ..recordings_io import load_recordings
     from ..store import check_result_target, save_result
 
     method = methods.get(args.method)
+    options = method.make_options(vars(args))
+    files = method.output_files(options) if method.output_files else []
+    refuse_overwrite(args.force, args.json, *files)
     if args.store:
         check_result_target(args.store)      # before the work: a bad target exits 2 at once
     model = Model.load(args.model)
-    options = method.make_options(vars(args))
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     estimate = method.estimate(recs, model, options)
     out = estimate.to_json()
@@ -38,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     from .. import methods
+    from ..outputs import add_force_option
 
     p = sub.add_parser("analyze", help="estimate nonlinear parameters from stored runs")
     kinds = p.add_subparsers(dest="method", metavar="METHOD")
@@ -52,5 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         methods.add_options(mp, method)
         mp.add_argument("--store", metavar="RUN.h5",
                         help="also save the result into this HDF5 run (as "
-                        f"'{method.result_name}'), where `nlid-lab report` and `view` show it")
+                        f"'{method.result_name}'), where `nlid-lab report` and `view` show it "
+                        "(earlier results stay in the run's log, the latest is shown)")
+        add_force_option(mp)
         mp.set_defaults(func=run)

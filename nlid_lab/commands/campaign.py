@@ -14,7 +14,8 @@ from analysis.errors import InputError
 POLL_MS = 100
 
 
-def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool = False):
+def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = False,
+             close_when_done: bool = False):
     """Run ``campaign`` in a worker thread while the live view shows it (GUI thread).
 
     The window stays open after the campaign until the user closes it, unless
@@ -26,6 +27,7 @@ def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool 
         from PySide6 import QtCore
 
         from ..gui import snapshot
+        from ..gui.display import check_display
         from ..gui.live import LiveView
     except ImportError as exc:
         raise InputError(f"--live needs the gui extra ({exc.name} is missing): "
@@ -35,6 +37,7 @@ def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool 
             or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("--live: no display to open the live view on; run without --live "
                          "(progress is printed) or set DISPLAY")
+    check_display()
     app = snapshot.application()
     view = LiveView()
     view.setWindowTitle(f"nlid-lab live: {campaign.name} -> {out}")
@@ -43,7 +46,8 @@ def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool 
     def work() -> None:
         try:
             outcome["result"] = run_campaign(campaign, out, resume=resume,
-                                             observer=view.observer, stop=stop)
+                                             overwrite=overwrite, observer=view.observer,
+                                             stop=stop)
         except BaseException as exc:  # noqa: BLE001 - handed to the GUI thread below
             outcome["error"] = exc
 
@@ -86,14 +90,16 @@ def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool 
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
     from ..campaign_config import load_campaign
-    from ..cli import write_json
+    from ..outputs import refuse_overwrite, write_json
 
+    refuse_overwrite(args.force, None if args.resume else args.out, args.json)
     campaign = load_campaign(args.campaign)
+    overwrite = args.force and not args.resume
     if args.live or args.live_close:
-        result = run_live(campaign, args.out, resume=args.resume,
+        result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
                           close_when_done=args.live_close)
     else:
-        result = run_campaign(campaign, args.out, resume=args.resume)
+        result = run_campaign(campaign, args.out, resume=args.resume, overwrite=overwrite)
     write_json(result.as_dict(), args.json)
     lost = (f", lost {result.lost_samples} samples in {result.lost_frames} frames (counted in "
             "the run)" if result.lost_samples or result.lost_frames else "")
@@ -139,6 +145,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--live-close", action="store_true",
                      help="with --live (implies it): close the window when the campaign ends")
     run.add_argument("--json", metavar="FILE", help="write the summary as JSON ('-': stdout)")
+    run.add_argument("--force", action="store_true",
+                     help="replace an existing run file / JSON file (default: refuse)")
     run.set_defaults(func=_run)
     check = actions.add_parser("check", help="validate a campaign file without running it")
     check.add_argument("campaign", metavar="CAMPAIGN.toml")

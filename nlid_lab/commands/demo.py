@@ -9,7 +9,7 @@ from pathlib import Path
 
 from analysis.errors import InputError
 
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def run(args: argparse.Namespace) -> int:
@@ -17,6 +17,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.duration <= 0 or (args.levels and min(args.levels) <= 0):
         raise InputError("--duration and --levels must be positive")
+    refuse_overwrite(args.force, args.json, directories=(args.out,))
     cfg = DemoConfig(Path(args.out), duration=args.duration, seed=args.seed)
     if args.levels:
         cfg.levels = tuple(args.levels)
@@ -40,4 +41,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=128.0, help="seconds per level")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--json", metavar="FILE", help="write the summary as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

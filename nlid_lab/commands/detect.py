@@ -6,22 +6,23 @@ import argparse
 import sys
 from typing import Any
 
-from ..cli import write_json
+from ..outputs import add_force_option, level_text, refuse_overwrite, write_json
+from .repair import check_runs, repair_option
 
 
 def format_tests(result: dict[str, Any]) -> str:
     """One line per test plus the verdict and the notes."""
     lines = []
     for t in result["tests"]:
+        lo, hi = (level_text(v) for v in (t["levels"] + [None])[:2])
         if t["method"] == "bla":
             what = (f"BLA distortion (periodic random, {t['realizations']} x {t['periods']} "
-                    f"periods, level {t['levels'][0]:g})")
+                    f"periods, level {lo})")
         elif t["method"] == "level-dependence":
-            what = (f"level dependence (random, {t['levels'][0]:g} vs {t['levels'][1]:g}, "
+            what = (f"level dependence (random, {lo} vs {hi}, "
                     f"{t['resolution_hz']:.3g} Hz lines)")
         else:
-            what = (f"level dependence (stepped sine, {t['levels'][0]:g} vs "
-                    f"{t['levels'][1]:g}, fundamental)")
+            what = f"level dependence (stepped sine, {lo} vs {hi}, fundamental)"
         band = (f", {t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz" if t["nonlinear"] else "")
         lines.append(f"{what}: {'NONLINEAR' if t['nonlinear'] else 'no evidence'} - "
                      f"{100 * t['share_flagged']:.1f} % of the lines beyond the noise "
@@ -34,6 +35,8 @@ def format_tests(result: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     from analysis.detect import detect
     from ..recordings_io import load_recordings
+    refuse_overwrite(args.force, args.json)
+    check_runs(args.runs, args.repair)
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=sys.stderr if args.json == "-" else sys.stdout)
@@ -46,4 +49,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs or NPZ recordings")
     p.add_argument("--nperseg", type=int, help="Welch segment length for random levels")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    add_force_option(p)
+    repair_option(p)
     p.set_defaults(func=run)

@@ -50,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "report.md here")
     p.add_argument("--store", metavar="RUN.h5",
                    help="also save the result into this HDF5 run (shown by 'nlid-lab report')")
+    p.add_argument("--force", action="store_true",
+                   help="replace existing --json / --model-out files and write into a "
+                   "non-empty --report directory (default: refuse)")
     p.set_defaults(func=run)
 
 
@@ -57,10 +60,11 @@ def run(args: argparse.Namespace) -> int:
     from analysis.diagnose import DiagnoseInputError, diagnose
     from analysis.model import Model
 
-    from nlid_lab.cli import write_json
+    from nlid_lab.outputs import refuse_overwrite, write_json
     from nlid_lab.recordings_io import load_recordings
     from nlid_lab.store import open_run, save_result
 
+    refuse_overwrite(args.force, args.json, args.model_out, directories=(args.report,))
     if args.store:
         if Path(args.store).suffix.lower() not in (".h5", ".hdf5"):
             raise DiagnoseInputError(f"--store {args.store}: the result can only be stored in "

@@ -8,7 +8,7 @@ from pathlib import Path
 from analysis.errors import InputError
 
 from .. import recordings_io
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def run(args: argparse.Namespace) -> int:
@@ -18,8 +18,7 @@ def run(args: argparse.Namespace) -> int:
     suffix = out.suffix.lower()
     if suffix not in (".npz", ".csv"):
         raise InputError(f"--out {out}: export to a .npz or .csv recording")
-    if out.exists() and not args.force:
-        raise InputError(f"{out} already exists; give --force to overwrite it")
+    refuse_overwrite(args.force, out, args.json)
     rec = open_run(args.run).recording(args.level)
     (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)
     if args.json != "-":
@@ -36,6 +35,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="REC", help="recording .npz or .csv "
                    "(docs/recording-formats.md; CSV for random data)")
     p.add_argument("--level", type=int, help="level index (default: the only level with data)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

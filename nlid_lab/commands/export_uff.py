@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
 
 
 def run(args: argparse.Namespace) -> int:
     from .. import uff
+    refuse_overwrite(args.force, args.out, args.json)
     from ..report import all_level_frfs, load_run
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
@@ -32,4 +33,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("run", metavar="RUN", help="run file (.h5) or recording (.npz, .csv)")
     p.add_argument("--out", required=True, metavar="FILE.uff", help="UFF file to write")
     p.add_argument("--json", metavar="FILE", help="write a summary as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

@@ -10,7 +10,7 @@ from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS
 
 from .. import recordings_io, store
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def _read(src: Path, args: argparse.Namespace):
@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     sources, out = [Path(p) for p in args.recording], Path(args.out)
     if out.suffix.lower() not in (".h5", ".hdf5"):
         raise InputError(f"--out {out}: a run file must end in .h5")
+    refuse_overwrite(args.force, out, args.json)
     if args.level is not None and len(sources) > 1:
         raise InputError("--level names the level of one recording; with several files each "
                          "level comes from its file (a level key, else the force)")
@@ -78,4 +79,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "fs=Fs force_dofs=0, or one MAP.toml")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

@@ -13,7 +13,7 @@ import numpy as np
 
 from analysis.errors import InputError
 
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 
 if TYPE_CHECKING:
     from analysis.continuation import Branch
@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--band {lo:g} {hi:g}: give two different positive frequencies (Hz)")
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(f"--plot {args.plot}: the figure is written as PNG; name it *.png")
+    refuse_overwrite(args.force, args.plot, args.json)
     model = Model.load(args.model)
     model.require_complete("a prediction")
     dofs = args.dof if args.dof is not None else list(range(model.n_dof))
@@ -95,4 +96,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--harmonics", default="1,3,5,7", help="harmonic orders (default 1,3,5,7)")
     p.add_argument("--plot", metavar="FILE.png", help="draw the curves (unstable dashed)")
     p.add_argument("--json", metavar="FILE", help="write the curves as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

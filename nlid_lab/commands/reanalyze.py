@@ -14,10 +14,11 @@ from pathlib import Path
 def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
     from nlid_lab import methods
-    from nlid_lab.cli import write_json
+    from nlid_lab.outputs import refuse_overwrite, write_json
     from nlid_lab.reanalyze import (ReanalysisError, check_request, dask_client,
                                     expand_runs, reanalyze, write_results)
 
+    refuse_overwrite(args.force, args.out, args.json)
     model = Model.load(args.model)  # bad input: exit 2 before any cluster starts
     check_request(model, args.method, args.run_timeout)
     options = methods.batch_values(args)
@@ -66,4 +67,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="time limit per run: a worker stuck longer on one run is restarted "
                    "and the run reported as failed")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--force", action="store_true",
+                   help="replace existing --out / --json files (default: refuse)")
     p.set_defaults(func=run)

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import argparse
 
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
+from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
     from ..report import all_level_frfs, load_run, write_report
+    refuse_overwrite(args.force, args.json, directories=(args.out,))
+    check_runs([args.run], args.repair)
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="report: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)
@@ -31,4 +34,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="candidate model for the reverse-path section (default: the model "
                         "stored with a simulated run, its parameters estimated)")
     p.add_argument("--json", metavar="FILE", help="write what was written as JSON ('-' stdout)")
+    add_force_option(p)
+    repair_option(p)
     p.set_defaults(func=run)

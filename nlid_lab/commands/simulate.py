@@ -13,7 +13,7 @@ from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS, Recording
 
 from .. import recordings_io
-from ..cli import write_json
+from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
 
 if TYPE_CHECKING:
@@ -68,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix.lower() not in OUT_SUFFIXES:
         raise InputError(f"--out {out}: use a .npz or .h5 file name")
+    refuse_overwrite(args.force, out, args.json)
     if args.noise < 0:
         raise InputError("--noise must be >= 0 (standard deviation in response units)")
     model_path = Path(args.model)
@@ -112,4 +113,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--response-kind", choices=RESPONSE_KINDS, default="displacement")
     p.add_argument("--oversample", type=int, help="plant integration steps per sample")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    add_force_option(p)
     p.set_defaults(func=run)

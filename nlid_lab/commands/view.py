@@ -7,12 +7,16 @@ import os
 
 from analysis.errors import InputError
 
+from ..outputs import add_force_option, refuse_overwrite
 from ..progress import progress
+from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
+    refuse_overwrite(args.force, args.snapshot)
     try:
         from ..gui import snapshot
+        from ..gui.display import check_display
         from ..gui.offline import OfflineView
     except ImportError as exc:
         raise InputError(f"the viewer needs the gui extra ({exc.name} is missing): "
@@ -22,6 +26,10 @@ def run(args: argparse.Namespace) -> int:
             "WAYLAND_DISPLAY") or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("no display to open the viewer on; use --snapshot FILE.png to "
                          "render offscreen")
+    if args.snapshot and not os.environ.get("QT_QPA_PLATFORM"):
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"     # a snapshot needs no display
+    check_display()
+    check_runs(args.runs, args.repair)
     runs = [load_run(path) for path in args.runs]
     with progress(total=sum(len(r.recordings) for r in runs), desc="view: FRFs",
                   unit="level") as bar:
@@ -46,4 +54,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--snapshot", metavar="FILE.png", help="render offscreen to a PNG and exit")
     p.add_argument("--size", type=int, nargs=2, default=(1400, 900), metavar=("W", "H"),
                    help="window / snapshot size in pixels (default 1400 900)")
+    add_force_option(p)
+    repair_option(p)
     p.set_defaults(func=run)

@@ -10,17 +10,25 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from ..report import LevelFRF, RunData, estimate_rows
+from analysis.frf import FRF_UNITS, LevelFRF, convert_frf
+
+from ..report import RunData, estimate_rows
 from . import plots
 
 
 class OfflineView(QtWidgets.QWidget):
-    """Browse ``runs`` (with their per-level FRFs ``frfs[i]`` for ``runs[i]``)."""
+    """Browse ``runs`` (with their per-level FRFs ``frfs[i]`` for ``runs[i]``).
+
+    FRFs are drawn as the first run's response kind (``kind``; its unit on the axis): levels
+    of runs that measured another kind are converted (times or divided by ``i 2 pi f``) and
+    marked "converted" in the legend.
+    """
 
     def __init__(self, runs: list[RunData], frfs: list[list[LevelFRF]],
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.runs, self.frfs = runs, frfs
+        self.kind = frfs[0][0].response_kind
         self.setWindowTitle("nlid-lab view: " + ", ".join(r.name for r in runs))
         self.tree = QtWidgets.QTreeWidget()
         self.tree.setHeaderLabels(["run / level", "excitation", "averages"])
@@ -73,8 +81,7 @@ class OfflineView(QtWidgets.QWidget):
         self.table.resizeColumnsToContents()
 
     def _build_plots(self) -> None:
-        units = self.frfs[0][0].units
-        self.mag, self.phase = plots.frf_plots(self.graphs.ci, units,
+        self.mag, self.phase = plots.frf_plots(self.graphs.ci, FRF_UNITS[self.kind],
                                                title="FRF per level (first force input)")
         self.coh = plots.coherence_plot(self.graphs.ci, row=2,
                                         title="Multiple coherence per level (linear analysis)")
@@ -109,15 +116,21 @@ class OfflineView(QtWidgets.QWidget):
             sym = dict(symbol="o", symbolSize=5, symbolBrush=colour, symbolPen=colour)
             extra = sym if stepped else {}
             name = f"{self.runs[r].name}: {frf.label}" if multi_run else frf.label
+            if frf.response_kind != self.kind:
+                name += f" ({frf.response_kind} converted)"
             band = frf.freqs > 0
             mc = self.mag.plot(pen=plots.pen(colour), name=name, **extra)
             pc = self.phase.plot(pen=plots.pen(colour), **extra)
-            plots.set_frf(mc, pc, frf.freqs[band], frf.H[band, q, 0])
+            plots.set_frf(mc, pc, frf.freqs[band],
+                          convert_frf(frf.H[band, q, 0], frf.freqs[band], frf.response_kind,
+                                      self.kind))
             if frf.bla is not None:           # periodic random: noise and total std of G
                 for var, dash in ((frf.bla.var_total, QtCore.Qt.PenStyle.DashLine),
                                   (frf.bla.var_noise, QtCore.Qt.PenStyle.DotLine)):
                     curve = self.mag.plot(pen=pg.mkPen(colour, width=1, style=dash))
-                    plots.set_frf(curve, None, frf.bla.freqs, np.sqrt(var[:, q]))
+                    std = convert_frf(np.sqrt(var[:, q]), frf.bla.freqs, frf.response_kind,
+                                      self.kind)
+                    plots.set_frf(curve, None, frf.bla.freqs, std)
             if frf.multiple_coherence is not None:
                 self.coh.plot(frf.freqs[band], frf.multiple_coherence[band, q],
                               pen=plots.pen(colour))

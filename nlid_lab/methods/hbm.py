@@ -300,5 +300,14 @@ def _hbm_frf(model, frf: LevelFRF, rec: Recording) -> tuple[np.ndarray, np.ndarr
     return rec.freqs, H
 
 
+def output_files(options: HbmOptions) -> list[str]:
+    """``--figure`` and the loop figure beside it."""
+    if not options.figure:
+        return []
+    dest = Path(options.figure)
+    return [str(dest), str(dest.with_name(dest.stem + "-loop.png"))]
+
+
 register(Method(NAME, "stepped sine: multi-harmonic balance fit", HbmOptions, "stepped-sine",
-                estimate, sections=report_sections, legacy_keys=("elements", "cost")))
+                estimate, sections=report_sections, legacy_keys=("elements", "cost"),
+                output_files=output_files))

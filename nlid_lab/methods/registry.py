@@ -87,6 +87,9 @@ class Method:
         (or None) and the candidate model asked for (or None).
     legacy_keys : tuple of str
         A stored result without ``"estimator"`` holding all these keys is this method's.
+    output_files : callable, optional
+        ``output_files(options) -> list of paths``: the files its estimate writes (figures),
+        checked against overwriting before any work.
     """
 
     name: str
@@ -97,6 +100,7 @@ class Method:
     estimate_level: Callable[[Recording, Model, Any], dict[str, Any]] | None = None
     sections: Callable[..., list[Any]] | None = None
     legacy_keys: tuple[str, ...] = ()
+    output_files: Callable[[Any], list[str]] | None = None
 
     @property
     def result_name(self) -> str:

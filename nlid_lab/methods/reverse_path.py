@@ -201,7 +201,7 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
         sec.figures.append((f"reverse_path_linear_coefficients_in{p}",
                             figures.linear_and_coefficients(
                                 res.freqs, res.H_linear[:, :, p],
-                                FRF_UNITS[recs[0].response_kind], coefs, units,
+                                FRF_UNITS["displacement"], coefs, units,
                                 None if H_model is None else H_model[:, :, p], exact)))
     sec.figures.append(("reverse_path_coherence", figures.coherence_linear_vs_nonlinear(
         res.freqs, res.coherence_linear, res.coherence_nonlinear)))

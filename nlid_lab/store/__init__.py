@@ -5,21 +5,27 @@ is only ever modified in HDF5 SWMR mode, and each block is written data first, f
 indexed in ``/segments`` and flushed again. SWMR orders metadata writes so that the file on
 disk is always readable, hence a writer killed at any moment (SIGKILL included) leaves a file
 holding every block whose index row was flushed. Such a file still carries the "open by a
-SWMR writer" superblock flag: `open_run` reads it in SWMR mode, and ``mode="resume"`` rebuilds
-it into a clean file (temporary file + atomic rename) before appending again.
+SWMR writer" superblock flag: `open_run` reads it in SWMR mode (``Run.left_open``), and
+``mode="resume"`` or `repair_run` (``nlid-lab repair``) rebuilds it into a clean file (temporary
+file + atomic rename) that any HDF5 tool opens. Appending opens a file directly in SWMR-write
+mode, and a writer holds a shared advisory lock on its file so that a repair never touches a
+file a live process writes. A writer killed while the header is being built (before its first
+block) leaves no run file, only ``RUN.h5.tmp``: nothing was recorded yet.
 
 Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recording helpers),
 `tables` (result tables of reanalysis), `_common` (schema constants and HDF5 helpers).
 """
 
 from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
-from .reader import Level, Run, check_result_target, open_run, save_recording, save_result
+from .reader import (Level, Run, check_result_target, open_run, repair_run, save_recording,
+                     save_result)
 from .tables import TableError, read_table, write_table
 from .writer import LevelWriter, RunWriter
 
 __all__ = [
     "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now",
-    "Level", "Run", "check_result_target", "open_run", "save_recording", "save_result",
+    "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
+    "save_result",
     "TableError", "read_table", "write_table",
     "LevelWriter", "RunWriter",
 ]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import fcntl
 import io
 import json
+import os
 import time
 import zlib
 from datetime import datetime, timezone
@@ -88,6 +90,71 @@ def _open(path: Path, mode: str) -> h5py.File:
             raise
         raise StoreError(f"cannot open {path} as an HDF5 run file ({' '.join(str(exc).split())})"
                          "; is it a run written by nlid-lab?") from None
+
+
+def _open_swmr_write(path: Path) -> h5py.File:
+    """Open an existing run file for appending directly in SWMR-write mode.
+
+    Opening ``r+`` and then switching ``swmr_mode`` on leaves a moment in which the superblock
+    says "open for write" without SWMR; a writer killed then leaves a file that even SWMR
+    readers refuse. The low-level open with ``ACC_SWMR_WRITE`` has no such moment.
+    """
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_libver_bounds(h5py.h5f.LIBVER_LATEST, h5py.h5f.LIBVER_LATEST)
+    fapl.set_file_locking(True, True)   # best-effort, as `_open`
+    try:
+        fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDWR | h5py.h5f.ACC_SWMR_WRITE,
+                            fapl=fapl)
+    except OSError as exc:
+        raise StoreError(f"cannot open {path} for writing ({' '.join(str(exc).split())})"
+                         ) from None
+    return h5py.File(fid)
+
+
+class WriterLock:
+    """Shared advisory lock a writer holds on its run file while it has it open.
+
+    HDF5 drops its own file lock once SWMR writing starts (so that readers can open the
+    file); this lock tells `in_use` that a live process still writes the file (a crashed
+    writer's lock is released by the kernel). Readers never take it; file systems without
+    locks make it a no-op.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._fd: int | None = os.open(path, os.O_RDONLY)
+        try:
+            fcntl.flock(self._fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            self.release()
+
+    def release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
+def in_use(path: Path) -> bool:
+    """True if a live process holds a `WriterLock` (or an HDF5 lock) on ``path``."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return False
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False    # no locks on this file system: nothing to tell
+    finally:
+        os.close(fd)
+
+
+def writer_left_open(path: Path) -> bool:
+    """True if ``path`` still carries the "open for write" superblock flag: its writer is
+    running, or was killed (ordinary HDF5 tools cannot open the file until it is repaired)."""
+    try:
+        h5py.File(path, "r", locking="best-effort").close()
+        return False
+    except OSError as exc:
+        return "open for" in str(exc) or "consistency" in str(exc)
 
 
 def _crc(force: np.ndarray, response: np.ndarray) -> int:

@@ -13,7 +13,8 @@ import numpy as np
 from analysis.recording import PeriodicLayout, Recording
 
 from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
-                      _read_extra, _read_status, _valid_segments)
+                      _open_swmr_write, _read_extra, _read_status, _valid_segments,
+                      writer_left_open)
 from .writer import RunWriter, _repair
 
 # --- read side -------------------------------------------------------------------------------
@@ -55,6 +56,9 @@ class Run:
     results: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    left_open: bool = False
+    """The file still carries its writer's "open for write" flag: the writer is running or
+    was killed. Plain HDF5 tools cannot open it until `repair_run` rebuilds it."""
 
     @property
     def force_hold(self) -> str:
@@ -62,6 +66,19 @@ class Run:
         ``settings``."""
         return self.meta.get("force_hold") or (self.meta.get("settings") or {}).get(
             "force_hold") or "none"
+
+    @property
+    def incomplete(self) -> str:
+        """Why the run is incomplete, in a few words; ``""`` for a complete run."""
+        done = sum(lv.complete for lv in self.levels)
+        levels = f"{done} of {len(self.levels)} level(s) complete, {len(self.segments)} blocks"
+        if self.status == "running":
+            how = ("its writer is still running or was killed" if self.left_open else
+                   "its writer stopped without closing it")
+            return f"incomplete ({how}; {levels})"
+        if self.status != "complete":
+            return f"incomplete ({self.status}: {self.reason or 'no reason given'}; {levels})"
+        return ""
 
     def level_index(self, level: int | None) -> int:
         """Resolve ``level`` (None: the only level with data) to a stored level index."""
@@ -179,7 +196,18 @@ def open_run(path: str | os.PathLike) -> Run:
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
     return Run(path, meta, channels, status, reason, updated,
                {"frames": int(lost[0]), "samples": int(lost[1])}, levels, segments, log,
-               results, extra=extra)
+               results, extra=extra, left_open=writer_left_open(path))
+
+
+def repair_run(path: str | os.PathLike) -> bool:
+    """Clear the "open for write" flag a killed writer left on ``path``, so that any HDF5
+    tool opens it; returns False if there was nothing to repair.
+
+    Every block is checked (index row flushed, checksum correct) and only those are kept, in a
+    fresh file that atomically replaces the original. A file still open in a live writer is
+    refused (`StoreError`).
+    """
+    return _repair(Path(path))
 
 
 def check_result_target(path: str | os.PathLike) -> None:
@@ -194,8 +222,7 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
     """Add an analysis result to an existing run file (crash-safely, in SWMR mode)."""
     path = Path(path)
     _repair(path)
-    with _open(path, "r+") as f:
-        f.swmr_mode = True
+    with _open_swmr_write(path) as f:
         _append_log(f, "result", {"name": name, "value": result})
 
 

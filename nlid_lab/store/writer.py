@@ -14,9 +14,10 @@ import numpy as np
 from analysis.recording import EXCITATIONS, FORCE_HOLDS, RESPONSE_KINDS, PeriodicLayout
 
 from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
-                      StoreError, _append_log, _append_row, _channel_table, _crc,
-                      _default_channels, _json_default, _open, _valid_segments, _write_extra,
-                      _write_text, utc_now)
+                      StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
+                      _default_channels, _json_default, _open, _open_swmr_write,
+                      _valid_segments, _write_extra, _write_text, in_use, utc_now,
+                      writer_left_open)
 
 
 class LevelWriter:
@@ -157,8 +158,8 @@ class RunWriter:
                 raise StoreError(f"{self.path} already exists; resume it or choose a new name")
             _create(self.path, attrs, table,
                     (lambda f: _write_extra(f, extra)) if extra else None)
-            self._file = _open(self.path, "r+")
-            self._file.swmr_mode = True
+            self._file = _open_swmr_write(self.path)
+        self._lock = WriterLock(self.path)
         self.set_status("running")
 
     def _check_args(self, response_kind: str, force_hold: str, mode: str) -> None:
@@ -177,14 +178,13 @@ class RunWriter:
 
     def _resume(self, attrs: dict) -> h5py.File:
         rebuilt = _repair(self.path)
-        f = _open(self.path, "r+")
+        f = _open_swmr_write(self.path)
         for key in ("fs", "excitation", "n_dof", "force_dofs"):
             have = f.attrs[key]
             if not np.array_equal(have, attrs[key]):
                 f.close()
                 raise StoreError(f"cannot resume {self.path}: its {key} is {have!r}, not "
                                  f"{attrs[key]!r}; use the same settings or a new file")
-        f.swmr_mode = True
         self._file = f
         self.log("resume", {"rebuilt_after_crash": rebuilt})
         return f
@@ -232,6 +232,7 @@ class RunWriter:
     def close(self) -> None:
         if self._file.id.valid:
             self._file.close()
+        self._lock.release()
 
     def __enter__(self) -> "RunWriter":
         return self
@@ -275,19 +276,25 @@ def _create(path: Path, attrs: dict, channels: np.ndarray,
 
 
 def _repair(path: Path) -> bool:
-    """Make a crashed run file writable again; returns True if it had to be rebuilt.
+    """Make a crashed run file writable (and readable by any HDF5 tool) again; returns True
+    if it had to be rebuilt.
 
     The file is read in SWMR mode, its valid content (every indexed, checksum-correct segment
-    and complete log entry) copied into a fresh file, which then replaces the original.
+    and complete log entry) copied into a fresh file, which then replaces the original. A file
+    a live process still writes is refused.
     """
-    try:
-        h5py.File(path, "r+", libver="latest", locking="best-effort").close()
+    if not path.exists():
+        raise StoreError(f"run file {path} not found; check the path")
+    if not writer_left_open(path):
         return False
-    except OSError as exc:
-        if "already open for write" not in str(exc):
-            raise StoreError(f"cannot resume {path}: {' '.join(str(exc).split())}") from None
+    if in_use(path):
+        raise StoreError(f"{path} is open in another process (a campaign still writing it?); "
+                         "let it finish or stop it first")
     with _open(path, "r") as old:
         seg_ok = _valid_segments(old)
+        force, response = old["data/force"], old["data/response"]
+        seg_ok = seg_ok[[_crc(force[s:s + n], response[s:s + n]) == c
+                         for s, n, c in zip(seg_ok["start"], seg_ok["length"], seg_ok["crc"])]]
         end = int((seg_ok["start"] + seg_ok["length"]).max()) if len(seg_ok) else 0
         log = old["log"][:]
         text_n = old["text"].shape[0]

@@ -1,0 +1,16 @@
+"""``nlid-lab warmup``: compile the numeric kernels once (``make`` runs it after installing)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..warmup import main
+    return main()
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("warmup", help="compile the numeric kernels now, so that the first "
+                       "analysis does not wait for them")
+    p.set_defaults(func=run)
