@@ -58,7 +58,7 @@ KINDS: dict[str, Kind] = {
     "coulomb_friction": Kind(4, ("fc",), optional=(("v_reg", 1e-3),), positive=("v_reg",)),
     "stick_slip": Kind(5, ("kd", "fd"), memory=True, positive=("kd", "fd")),
     "hysteresis": Kind(6, ("kd", "fd", "n"), memory=True, positive=("kd", "fd", "n")),
-    "gap": Kind(7, ("k", "g"), positive=("g",)),
+    "gap": Kind(7, ("k", "g"), positive=("k", "g")),
 }
 
 
