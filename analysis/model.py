@@ -27,7 +27,7 @@ MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
 MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
 MAX_PARAM = 1e30          # largest |element parameter|
 MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2 pi)
-PARAM_RANGES = {("hysteresis", "n"): (0.1, 100.0)}  # (lo, hi) beyond the rules above
+PARAM_RANGES = {("hysteresis", "n"): (0.01, MAX_PARAM)}  # (1 + r^n)^(1/n) stays finite
 
 
 @dataclass
