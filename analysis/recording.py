@@ -11,6 +11,8 @@ from .errors import RecordingError
 
 EXCITATIONS = ("random", "stepped-sine")
 RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
+MAX_FS = 1e9          # Hz: no acquisition samples faster
+MAX_SAMPLE = 1e15     # largest |force| or |response| sample: squares and sums stay finite
 
 
 @dataclass
@@ -65,8 +67,12 @@ class Recording:
 
     def validate(self) -> None:
         """Raise `RecordingError` naming the first inconsistency found."""
-        if not np.isfinite(self.fs) or self.fs <= 0:
-            raise RecordingError(f"sample rate fs must be a positive number, got {self.fs}")
+        if not 0 < self.fs <= MAX_FS:  # False for NaN
+            raise RecordingError(f"sample rate fs must be a number in (0, {MAX_FS:g}] Hz, got "
+                                 f"{self.fs}")
+        if self.level is not None and not (np.isfinite(self.level) and self.level > 0):
+            raise RecordingError(f"level (force_rms or force_amplitude) must be a positive "
+                                 f"number of newtons, got {self.level}")
         if self.excitation not in EXCITATIONS:
             raise RecordingError(f"excitation '{self.excitation}' is not one of "
                                  f"{', '.join(EXCITATIONS)}")
@@ -98,5 +104,5 @@ class Recording:
             if self.freqs is None or self.freqs.shape != (self.force.shape[0],):
                 raise RecordingError("stepped-sine data needs freqs with one drive frequency "
                                      "per step")
-            if np.any(self.freqs <= 0) or np.any(self.freqs >= self.fs / 2):
+            if not np.all((self.freqs > 0) & (self.freqs < self.fs / 2)):
                 raise RecordingError("stepped-sine freqs must lie between 0 and fs/2")

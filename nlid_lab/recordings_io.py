@@ -17,8 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError, RecordingError
-from analysis.recording import Recording
+from analysis.recording import MAX_FS, MAX_SAMPLE, Recording
+from analysis.textfile import read_text
 
+MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
 _COLUMN = re.compile(r"^\s*([A-Za-z_][\w.\-]*)\s*@\s*(?:dof)?(\d+)\s*$")
 
 
@@ -30,11 +32,33 @@ def _scalar(data, key: str, cast, path: Path):
     arr = np.asarray(data[key])
     if arr.size != 1:
         raise RecordingFileError(f"{path}: '{key}' must be a scalar, got shape {arr.shape}")
+    if cast is float:
+        _real(arr, key, path)
+    elif arr.dtype.kind not in "US":
+        raise RecordingFileError(f"{path}: '{key}' must be a string, got {arr.dtype} {arr!r}")
     try:
         return cast(arr.reshape(()).item())
     except (TypeError, ValueError):
         raise RecordingFileError(f"{path}: '{key}' = {arr!r} is not a valid {cast.__name__}") \
             from None
+
+
+def _real(arr: np.ndarray, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    """``arr`` if it holds real numbers (integers if ``integer``): no complex, text or bool."""
+    kinds = "iu" if integer else "iuf"
+    if arr.dtype.kind not in kinds:
+        if integer and arr.dtype.kind == "f" and np.all(np.isfinite(arr)) \
+                and np.all(arr == np.round(arr)):
+            return arr.astype(int)
+        what = "integers" if integer else "real numbers"
+        raise RecordingFileError(f"{path}: '{key}' must hold {what}, got dtype {arr.dtype}; "
+                                 "save plain numeric arrays")
+    return arr
+
+
+def _array(data, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    arr = _real(np.asarray(data[key]), key, path, integer)
+    return np.atleast_1d(arr).astype(int) if integer else arr.astype(float)
 
 
 def _load_npz(path: Path, what: str) -> dict[str, np.ndarray]:
@@ -64,12 +88,11 @@ def read_npz(path: str | os.PathLike) -> Recording:
     try:
         return Recording(
             fs=_scalar(data, "fs", float, path), excitation=excitation,
-            force_dofs=np.asarray(data["force_dofs"]).astype(int),
-            force=np.asarray(data["force"], dtype=float),
-            response=np.asarray(data["response"], dtype=float),
+            force_dofs=_array(data, "force_dofs", path, integer=True),
+            force=_array(data, "force", path), response=_array(data, "response", path),
             response_kind=(_scalar(data, "response_kind", str, path)
                            if "response_kind" in data else "displacement"),
-            freqs=np.asarray(data["freqs"], dtype=float) if "freqs" in data else None,
+            freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=_level(data, path), meta=_meta(data, path))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -135,12 +158,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
              response_kind: str = "displacement", level: float | None = None) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise RecordingFileError(f"recording {path} not found; check the path") from None
-    except (UnicodeDecodeError, IsADirectoryError) as exc:
-        raise RecordingFileError(f"cannot read {path} as text CSV ({exc})") from None
+    text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 3:
         raise RecordingFileError(f"{path}: needs a header row and at least two data rows")
@@ -207,9 +225,9 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  "needs fs, force and force_dofs")
     try:
         drive = {"fs": _scalar(data, "fs", float, path),
-                 "force": np.asarray(data["force"], dtype=float),
-                 "force_dofs": np.atleast_1d(np.asarray(data["force_dofs"])).astype(int),
-                 "freqs": np.asarray(data["freqs"], float) if "freqs" in data else None,
+                 "force": _array(data, "force", path),
+                 "force_dofs": _array(data, "force_dofs", path, integer=True),
+                 "freqs": _array(data, "freqs", path) if "freqs" in data else None,
                  "level": _level(data, path)}
     except (TypeError, ValueError) as exc:
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -228,6 +246,17 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  f"({force.shape[0]})")
     if not np.all(np.isfinite(force)):
         raise RecordingFileError(f"{path}: force holds NaN/infinite samples; repair the drive")
-    if not np.isfinite(drive["fs"]) or drive["fs"] <= 0:
-        raise RecordingFileError(f"{path}: fs must be a positive number")
+    if force.size == 0 or force.shape[-2] < 2:
+        raise RecordingFileError(f"{path}: force of shape {force.shape} needs at least 2 "
+                                 "samples")
+    if np.abs(force).max() > MAX_SAMPLE:
+        raise RecordingFileError(f"{path}: force holds samples beyond +-{MAX_SAMPLE:g} N; "
+                                 "check the units and scaling")
+    if not 0 < drive["fs"] <= MAX_FS:
+        raise RecordingFileError(f"{path}: fs must be a number in (0, {MAX_FS:g}] Hz")
+    if stepped and not np.all((drive["freqs"] > 0) & (drive["freqs"] < drive["fs"] / 2)):
+        raise RecordingFileError(f"{path}: freqs must lie between 0 and fs/2")
+    if drive["level"] is not None and not (np.isfinite(drive["level"]) and drive["level"] > 0):
+        raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
+                                 "positive number")
     return drive
