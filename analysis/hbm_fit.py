@@ -159,6 +159,9 @@ class HBMFit:
         k_ref = float(np.max(np.abs(np.diag(self.model.stiffness))))
         f_ref = max(float(lv.force.max()) for lv in self.levels)
         u_ref = max(float(np.abs(lv.X[:, :, self.force_dof]).max()) for lv in self.levels)
+        if not (f_ref > 0 and u_ref > 0):
+            raise InputError("the measured force or the response at the force DOF is zero "
+                             "at every step: nothing to fit; check the channels")
         out = []
         for e, name in self.unknowns:
             kind = self.model.elements[e].kind

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError, RecordingError
-from analysis.recording import MAX_FS, MAX_SAMPLE, Recording
+from analysis.recording import MAX_FS, MAX_SAMPLE, MIN_FS, Recording
 from analysis.textfile import read_text
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -252,11 +252,11 @@ def read_drive(path: str | os.PathLike) -> dict:
     if np.abs(force).max() > MAX_SAMPLE:
         raise RecordingFileError(f"{path}: force holds samples beyond +-{MAX_SAMPLE:g} N; "
                                  "check the units and scaling")
-    if not 0 < drive["fs"] <= MAX_FS:
-        raise RecordingFileError(f"{path}: fs must be a number in (0, {MAX_FS:g}] Hz")
+    if not MIN_FS <= drive["fs"] <= MAX_FS:
+        raise RecordingFileError(f"{path}: fs must be a number in {MIN_FS:g}..{MAX_FS:g} Hz")
     if stepped and not np.all((drive["freqs"] > 0) & (drive["freqs"] < drive["fs"] / 2)):
         raise RecordingFileError(f"{path}: freqs must lie between 0 and fs/2")
-    if drive["level"] is not None and not (np.isfinite(drive["level"]) and drive["level"] > 0):
+    if drive["level"] is not None and not 0 < drive["level"] <= MAX_SAMPLE:
         raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
-                                 "positive number")
+                                 f"number in (0, {MAX_SAMPLE:g}] N")
     return drive
