@@ -44,15 +44,16 @@ def time_limit(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
-def run_cli(argv: list[str], seconds: float = 60.0) -> tuple[int, str]:
-    """Exit code and stderr of ``nlid-lab argv`` run in this process within ``seconds``."""
+def run_cli(argv: list[str], seconds: float = 60.0) -> tuple[int, str, str]:
+    """Exit code, stderr and stdout of ``nlid-lab argv`` run in this process within
+    ``seconds``."""
     err, out = io.StringIO(), io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out), time_limit(seconds):
         try:
             code = main(argv)
         except SystemExit as exc:  # argparse
             code = exc.code if isinstance(exc.code, int) else 1
-    return code, err.getvalue()
+    return code, err.getvalue(), out.getvalue()
 
 
 def check_outcome(code: int, err: str, invalid: bool, what: str) -> None:

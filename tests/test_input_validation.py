@@ -84,7 +84,7 @@ def test_mutated_models_through_simulate(case, drive, tmp_path):
     model.write_text(toml_text(doc))
     out = tmp_path / "out.npz"
     out.unlink(missing_ok=True)
-    code, err = run_cli(["simulate", str(model), "--drive", str(drive), "--out", str(out)],
+    code, err, _ = run_cli(["simulate", str(model), "--drive", str(drive), "--out", str(out)],
                         seconds=60)
     check_outcome(code, err, invalid, what)
 
@@ -119,6 +119,8 @@ def recordings(tmp_path_factory):
     stepped = {"fs": FS, "force_dofs": np.array([0]), "force": steps, "response": xs,
                "freqs": freqs, "force_amplitude": 20.0}
     (d / "cand.toml").write_text(SDOF)
+    np.savez(d / "random.npz", **random)
+    np.savez(d / "stepped.npz", **stepped)
     return d, {"random": random, "stepped": stepped}
 
 
@@ -161,12 +163,12 @@ def test_mutated_npz_recordings_through_the_commands(data, recordings, tmp_path)
     method = "reverse-path" if kind == "random" else "hbm"
     for argv in (["import", str(path), "--out", str(run)], ["detect", str(path)],
                  ["analyze", method, str(path), "--model", str(folder / "cand.toml")]):
-        code, err = run_cli(argv, seconds=60)
+        code, err, _ = run_cli(argv, seconds=60)
         check_outcome(code, err, invalid, f"{argv[0]} {what}")
     if run.exists():
         uff = tmp_path / "frf.uff"
         uff.unlink(missing_ok=True)
-        code, err = run_cli(["export-uff", str(run), "--out", str(uff)], seconds=60)
+        code, err, _ = run_cli(["export-uff", str(run), "--out", str(uff)], seconds=60)
         check_outcome(code, err, False, f"export-uff {what}")
     model = Model.loads(SDOF)
     for row in analyse_run(str(path), model, method, {}):
@@ -175,6 +177,53 @@ def test_mutated_npz_recordings_through_the_commands(data, recordings, tmp_path)
             assert not invalid or row["level_index"] == -1 or "level" in row["error"]
         else:
             assert not invalid, f"reanalyze {what}: accepted"
+
+
+CANDIDATE = {"name": "candidate",
+             "linear": {"mass": [[2.0]], "damping": [[10.0]], "stiffness": [[2.0e5]]},
+             "element": [{"kind": "cubic_spring", "w": [1.0]},
+                         {"kind": "quadratic_damping", "w": [1.0], "p": 1.0}]}
+
+
+def candidate_number_invalid(path: tuple, value: float) -> bool:
+    if path[0] == "linear":
+        return abs(value) > MAX_ENTRY or value < 0 or (path[1] == "mass" and value < 1e-6)
+    return abs(value) > MAX_PARAM or (path[2] == "w" and value == 0)
+
+
+@FUZZ
+@given(case=mutations(CANDIDATE, candidate_number_invalid))
+def test_mutated_candidates_through_analyze(case, recordings, tmp_path):
+    folder, _ = recordings
+    doc, what, invalid = case
+    model = tmp_path / "cand.toml"
+    model.write_text(toml_text(doc))
+    rec = folder / "random.npz"
+    code, err, _ = run_cli(["analyze", "reverse-path", str(rec), "--model", str(model)],
+                           seconds=60)
+    check_outcome(code, err, invalid, f"analyze {what}")
+
+
+@pytest.mark.slow
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(case=mutations(CANDIDATE, candidate_number_invalid))
+def test_mutated_models_through_hbm_and_diagnose(case, recordings, tmp_path):
+    folder, _ = recordings
+    doc, what, invalid = case
+    model = tmp_path / "m.toml"
+    model.write_text(toml_text(doc))
+    stepped = folder / "stepped.npz"
+    code, err, _ = run_cli(["analyze", "hbm", str(stepped), "--model", str(model)],
+                           seconds=120)
+    check_outcome(code, err, invalid, f"analyze hbm {what}")
+    complete = copy.deepcopy(doc)
+    for el in complete.get("element", []) if isinstance(complete.get("element"), list) else []:
+        if isinstance(el, dict) and el.get("kind") == "cubic_spring" and "p" not in el:
+            el["p"] = 6e10
+    model.write_text(toml_text(complete))
+    code, err, _ = run_cli(["diagnose", str(model), str(stepped)], seconds=120)
+    check_outcome(code, err, invalid, f"diagnose {what}")
 
 
 CSV_CELLS = ["abc", "1+2j", "nan", "inf", "1e300", "", "true", "0x10"]
@@ -195,5 +244,93 @@ def test_mutated_csv_recordings_are_refused_in_one_line(row, col, cell, recordin
     path.write_text("\n".join(lines) + "\n")
     run = tmp_path / "run.h5"
     run.unlink(missing_ok=True)
-    code, err = run_cli(["import", str(path), "--out", str(run)], seconds=60)
+    code, err, _ = run_cli(["import", str(path), "--out", str(run)], seconds=60)
     check_outcome(code, err, True, f"csv row {row} col {col} = {cell!r}")
+
+
+# --- campaign files ---------------------------------------------------------------------------
+CAMPAIGN = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
+CAMPAIGN["plant"]["model"] = str(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml")
+NOT_NEGATIVE = {"fs", "levels", "averages", "block_size", "sensitivity", "shaker_gain",
+                "noise_std", "gain_guess", "seed", "band", "x0"}
+INTEGERS = {"averages", "block_size", "seed", "dof"}
+
+
+def campaign_number_invalid(path: tuple, value: float) -> bool:
+    """Numbers that break a rule of docs/campaign-format.md for certain."""
+    key = next(k for k in reversed(path) if isinstance(k, str))
+    return ((key in NOT_NEGATIVE and value < 0) or (key in INTEGERS and value == 3.5)
+            or (key == "fs" and value > 1e6) or (key == "averages" and value > 100000)
+            or (key == "levels" and value == 0))
+
+
+def _write_campaign(tmp_path, doc: dict) -> Path:
+    path = tmp_path / "c.toml"
+    path.write_text(toml_text(doc))
+    return path
+
+
+@FUZZ
+@given(case=mutations(CAMPAIGN, campaign_number_invalid))
+def test_mutated_campaigns_check_or_name_the_problem(case, tmp_path):
+    doc, what, invalid = case
+    path = _write_campaign(tmp_path, doc)
+    code, err, _ = run_cli(["campaign", "check", str(path)], seconds=30)
+    check_outcome(code, err, invalid, what)
+
+
+def test_campaign_typo_names_the_nearest_key():
+    doc = copy.deepcopy(CAMPAIGN)
+    doc["random"]["avrages"] = doc["random"].pop("averages")
+    with pytest.raises(CampaignError, match=r"\[random\]: unknown key 'avrages'; did you mean "
+                                            "'averages'"):
+        parse_campaign(doc)
+
+
+def test_plant_model_that_is_a_device_is_refused(tmp_path):
+    doc = copy.deepcopy(CAMPAIGN)
+    doc["plant"]["model"] = "/dev/zero"
+    code, err, _ = run_cli(["campaign", "check", str(_write_campaign(tmp_path, doc))], seconds=10)
+    check_outcome(code, err, True, "plant.model = /dev/zero")
+    assert "not a regular file" in err
+
+
+@pytest.mark.parametrize("section,changes", [
+    ("random", {"levels": [1.0] * 2000}), ("random", {"averages": 100000}),
+    ("random", {"block_size": 2**22, "averages": 1000}),
+])
+def test_huge_campaign_plans_need_yes(tmp_path, section, changes):
+    doc = copy.deepcopy(CAMPAIGN)
+    doc[section].update(changes)
+    path, out = _write_campaign(tmp_path, doc), tmp_path / "run.h5"
+    code, _, out_text = run_cli(["campaign", "check", str(path)], seconds=10)
+    assert code == 0 and "campaign run needs --yes" in out_text
+    code, err, _ = run_cli(["campaign", "run", str(path), "--out", str(out)], seconds=10)
+    check_outcome(code, err, True, str(changes))
+    assert "pass --yes" in err and "measurement time" in err and not out.exists()
+
+
+def test_stepped_plan_with_millihertz_steps_needs_yes(tmp_path):
+    doc = copy.deepcopy(CAMPAIGN)
+    del doc["random"]
+    doc["kind"] = "stepped-sine"
+    doc["stepped"] = {"levels": [1.0], "start": 10.0, "stop": 60.0, "step": 0.001,
+                      "block_size": 512}
+    code, err, _ = run_cli(["campaign", "run", str(_write_campaign(tmp_path, doc)), "--out",
+                         str(tmp_path / "run.h5")], seconds=10)
+    check_outcome(code, err, True, "1 mHz steps")
+    assert "more than 60.0 min" in err
+
+
+def test_plan_is_printed_and_yes_runs_a_plan_over_the_bound(tmp_path, monkeypatch):
+    from nlid_lab import campaign_config
+    doc = copy.deepcopy(CAMPAIGN)
+    doc["random"].update(levels=[5.0], averages=2, block_size=1024)
+    path, out = _write_campaign(tmp_path, doc), tmp_path / "run.h5"
+    monkeypatch.setattr(campaign_config, "MAX_PLAN_S", 1.0)
+    code, err, _ = run_cli(["campaign", "run", str(path), "--out", str(out)], seconds=10)
+    assert code == 2 and not out.exists()
+    code, err, _ = run_cli(["campaign", "run", str(path), "--out", str(out), "--yes"],
+                        seconds=120)
+    assert code == 0 and out.exists(), err
+    assert err.splitlines()[0].startswith("campaign 'sim random': measurement time")
