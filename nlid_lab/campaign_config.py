@@ -125,9 +125,15 @@ class Campaign:
         return (f"measurement time {duration(lo)} to {duration(hi)} (level control and "
                 f"settling) plus drive ramps, at least {nbytes / 1e6:.3g} MB of data")
 
-    def plan_excess(self) -> str | None:
-        """Why the plan is beyond what `campaign run` starts unconfirmed, or None."""
+    def plan_excess(self, model=None) -> str | None:
+        """Why the plan is beyond what `campaign run` starts unconfirmed, or None; with the
+        simulated plant's ``model``, also the plant's work (`nlid_lab.sim_budget`)."""
         lo, _, nbytes = self.plan_size()
+        if model is not None and self.plant is not None:
+            from .sim_budget import excess
+            too_much = excess(model, self.fs, round(lo * self.fs), self.plant.oversample)
+            if too_much:
+                return f"the plan: {too_much}"
         if lo > MAX_PLAN_S:
             return f"the plan takes at least {duration(lo)}, more than {duration(MAX_PLAN_S)}"
         if nbytes > MAX_PLAN_BYTES:

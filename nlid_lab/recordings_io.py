@@ -47,8 +47,8 @@ def _real(arr: np.ndarray, key: str, path: Path, integer: bool = False) -> np.nd
     """``arr`` if it holds real numbers (integers if ``integer``): no complex, text or bool."""
     kinds = "iu" if integer else "iuf"
     if arr.dtype.kind not in kinds:
-        if integer and arr.dtype.kind == "f" and np.all(np.isfinite(arr)) \
-                and np.all(arr == np.round(arr)):
+        if integer and arr.dtype.kind == "f" and np.all(np.abs(arr) < 2**31) \
+                and np.all(arr == np.round(arr)):  # False for NaN
             return arr.astype(int)
         what = "integers" if integer else "real numbers"
         raise RecordingFileError(f"{path}: '{key}' must hold {what}, got dtype {arr.dtype}; "

@@ -12,6 +12,7 @@ import io
 import json
 import math
 import signal
+import warnings
 from typing import Any
 
 from hypothesis import strategies as st
@@ -48,12 +49,17 @@ def run_cli(argv: list[str], seconds: float = 60.0) -> tuple[int, str, str]:
     """Exit code, stderr and stdout of ``nlid-lab argv`` run in this process within
     ``seconds``."""
     err, out = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out), time_limit(seconds):
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out), time_limit(seconds), \
+            warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         try:
             code = main(argv)
         except SystemExit as exc:  # argparse
             code = exc.code if isinstance(exc.code, int) else 1
-    return code, err.getvalue(), out.getvalue()
+    # the terminal would show each warning (two lines) before the command's own output
+    shown = "".join(warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
+                    for w in caught)
+    return code, shown + err.getvalue(), out.getvalue()
 
 
 def check_outcome(code: int, err: str, invalid: bool, what: str) -> None:

@@ -334,3 +334,26 @@ def test_plan_is_printed_and_yes_runs_a_plan_over_the_bound(tmp_path, monkeypatc
                         seconds=120)
     assert code == 0 and out.exists(), err
     assert err.splitlines()[0].startswith("campaign 'sim random': measurement time")
+
+
+STIFF = ("[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstiffness = [[1e15]]\n"
+         "[[element]]\nkind = 'cubic_spring'\nw = [1.0]\np = 1e9\n")
+
+
+def test_simulations_bound_their_work(tmp_path):
+    """A valid but stiff nonlinear model (5 MHz mode) asks ~1e5 substeps per sample: a long
+    drive is refused before the plant starts, by simulate and by a simulated campaign."""
+    model = tmp_path / "stiff.toml"
+    model.write_text(STIFF)
+    drive = tmp_path / "drive.npz"
+    np.savez(drive, fs=FS, force=np.ones((65536, 1)), force_dofs=[0])
+    code, err, _ = run_cli(["simulate", str(model), "--drive", str(drive), "--out",
+                            str(tmp_path / "o.npz")], seconds=10)
+    check_outcome(code, err, True, "stiff simulate")
+    assert "plant substeps" in err
+    doc = copy.deepcopy(CAMPAIGN)
+    doc["plant"]["model"] = str(model)
+    path, out = _write_campaign(tmp_path, doc), tmp_path / "run.h5"
+    code, err, _ = run_cli(["campaign", "run", str(path), "--out", str(out)], seconds=10)
+    check_outcome(code, err, True, "stiff campaign")
+    assert "plant substeps" in err and "pass --yes" in err and not out.exists()

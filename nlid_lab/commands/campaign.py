@@ -85,11 +85,11 @@ def run_live(campaign, out: str, *, resume: bool = False, close_when_done: bool 
 
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
-    from ..campaign_config import load_campaign
+    from ..campaign_config import load_campaign, load_plant_model
     from ..cli import write_json
 
     campaign = load_campaign(args.campaign)
-    excess = campaign.plan_excess()
+    excess = campaign.plan_excess(load_plant_model(campaign) if campaign.plant else None)
     if excess and not args.yes:
         raise InputError(f"{args.campaign}: {excess} ({campaign.plan_summary()}); shorten the "
                          "plan (fewer levels, averages or steps, smaller blocks) or pass --yes "
@@ -115,12 +115,10 @@ def _check(args: argparse.Namespace) -> int:
     from ..campaign_config import load_campaign, load_plant_model
 
     c = load_campaign(args.campaign)
-    if c.plant is not None:
-        load_plant_model(c)
+    excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
     n = c.plan.averages if c.kind == "random" else len(c.plan.freqs)
     unit = "steps" if c.kind != "random" else ("realizations" if c.plan.periodic else "blocks")
     kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
-    excess = c.plan_excess()
     print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
           f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"
           f"{f'; {excess}: campaign run needs --yes' if excess else ''}")

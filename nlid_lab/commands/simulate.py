@@ -11,7 +11,7 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS, Recording
 
-from .. import recordings_io
+from .. import recordings_io, sim_budget
 from ..cli import write_json
 from ..progress import progress
 
@@ -19,7 +19,6 @@ if TYPE_CHECKING:
     from analysis.model import Model
 
 OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
-MAX_WORK = 1e9  # plant substeps x (DOFs + elements) one simulate may take (minutes at most)
 
 
 def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacement",
@@ -30,19 +29,17 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     Stepped-sine steps are run one after the other with the plant state carried over, as on
     a real shaker; each step's response is recorded in full.
     """
-    from analysis.plant import Plant, auto_oversample
+    from analysis.plant import Plant
 
     model.require_complete("simulation")
     dofs = drive["force_dofs"]
     if dofs.min() < 0 or dofs.max() >= model.n_dof:
         raise InputError(f"drive force_dofs {dofs.tolist()} outside the model's DOFs "
                          f"0..{model.n_dof - 1} (0-based)")
-    substeps = (oversample or auto_oversample(model, drive["fs"])) * drive["force"][..., 0].size
-    if substeps * (model.n_dof + len(model.elements)) > MAX_WORK:
-        raise InputError(f"simulating this drive takes {substeps:.3g} plant substeps of a "
-                         f"{model.n_dof}-DOF model with {len(model.elements)} elements, more "
-                         f"than the bound {MAX_WORK:g} substeps x (DOFs + elements); shorten "
-                         "the drive, raise its fs, or check the model's stiffness and units")
+    too_much = sim_budget.excess(model, drive["fs"], drive["force"][..., 0].size, oversample)
+    if too_much:
+        raise InputError(f"{too_much}; shorten the drive, raise its fs, or check the model's "
+                         "stiffness and units")
     plant = Plant(model, drive["fs"], dofs, oversample=oversample, noise_std=noise_std,
                   response_kind=response_kind, seed=seed)
     force = drive["force"]
