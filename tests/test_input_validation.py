@@ -23,9 +23,9 @@ from fuzz_inputs import check_outcome, mutations, run_cli, toml_text
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 FS = 1024.0
 # NLID_FUZZ_EXAMPLES=400 for a long sweep; the fast suite keeps a modest count
-FUZZ = settings(max_examples=int(os.environ.get("NLID_FUZZ_EXAMPLES", 25)), deadline=None, derandomize=True,
-                suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                       HealthCheck.too_slow])
+FUZZ = settings(max_examples=int(os.environ.get("NLID_FUZZ_EXAMPLES", 25)), deadline=None,
+                derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                                         HealthCheck.too_slow])
 
 # --- model files -----------------------------------------------------------------------------
 MODEL = {
@@ -205,8 +205,7 @@ def test_mutated_candidates_through_analyze(case, recordings, tmp_path):
 
 
 @pytest.mark.slow
-@settings(max_examples=40, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(FUZZ, max_examples=40)
 @given(case=mutations(CANDIDATE, candidate_number_invalid))
 def test_mutated_models_through_hbm_and_diagnose(case, recordings, tmp_path):
     folder, _ = recordings
