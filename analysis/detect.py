@@ -29,6 +29,7 @@ import numpy as np
 
 from .bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from .errors import InputError
+from .frf import default_nperseg
 from .recording import Recording
 from .signals import excitation_band
 from .spectral import h1, multiple_coherence, spectral_matrix
@@ -53,8 +54,8 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
         ``by_output``) and ``notes``.
     """
     recs = list(recordings)
-    periodic = [r for r in recs if r.excitation == "random" and r.meta.get("period")]
-    random = [r for r in recs if r.excitation == "random" and not r.meta.get("period")]
+    periodic = [r for r in recs if r.excitation == "random" and r.layout is not None]
+    random = [r for r in recs if r.excitation == "random" and r.layout is None]
     stepped = [r for r in recs if r.excitation == "stepped-sine"]
     notes = []
     tests = [_bla_test(r) for r in periodic]
@@ -108,8 +109,7 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
         raise InputError("the levels differ in sample rate, forces or responses; test runs of "
                          "one set-up together")
     n = min(lo.force.shape[0], hi.force.shape[0])
-    nps = nperseg if nperseg is not None else int(min(2 ** int(np.log2(max(n // 16, 64))),
-                                                       8192))
+    nps = nperseg if nperseg is not None else default_nperseg(n)
     est = [_h1(r, nps) for r in (lo, hi)]
     band = (max(e[3][0] for e in est), min(e[3][1] for e in est))
     if band[0] >= band[1]:
@@ -168,7 +168,7 @@ def _h1(rec: Recording, nps: int):
     auto = spec.auto()
     S = spec.S
     S_ff, S_xf = S[:, :n_in, :n_in], S[:, n_in:, :n_in]
-    gain = hold_gain(spec.freqs, rec.fs, rec.meta.get("force_hold"))[:, None, None]
+    gain = hold_gain(spec.freqs, rec.fs, rec.force_hold)[:, None, None]
     H = h1(S_xf, S_ff) / gain
     coh = multiple_coherence(auto[:, n_in:], S_xf, S_ff)
     sigma2 = np.maximum(1 - coh, 0.0) * auto[:, n_in:] / max(spec.n_eff - n_in, 1.0)
@@ -181,10 +181,10 @@ def _h1(rec: Recording, nps: int):
 def _bla_test(rec: Recording) -> dict[str, Any]:
     if rec.n_in != 1:
         raise InputError("the BLA test takes one force channel")
-    b = best_linear_approximation(rec.force, rec.response, rec.fs, int(rec.meta["period"]),
-                                  transient_periods=int(rec.meta.get("transient_periods", 1)),
-                                  realizations=int(rec.meta.get("realizations", 1)),
-                                  force_hold=rec.meta.get("force_hold"))
+    b = best_linear_approximation(rec.force, rec.response, rec.fs, rec.layout.period,
+                                  transient_periods=rec.layout.transient_periods,
+                                  realizations=rec.layout.realizations,
+                                  force_hold=rec.force_hold)
     return bla_summary(b, rec.level)
 
 

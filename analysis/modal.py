@@ -23,12 +23,17 @@ measured, non-flat one).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.optimize
 import scipy.signal
 
 from .errors import EstimationError, InputError
+from .spectral import Spectra, multiple_coherence
+
+if TYPE_CHECKING:
+    from .reverse_path import ReversePathResult
 
 
 @dataclass
@@ -232,3 +237,61 @@ def _refine_smoothed(f: np.ndarray, h: np.ndarray, wts: np.ndarray, poles: np.nd
     sol = scipy.optimize.least_squares(lambda x: project(x)[0], x0, bounds=(lower, upper),
                                        x_scale=x0)
     return to_poles(sol.x), project(sol.x)[1]
+
+
+def modal_summary(result: "ReversePathResult", n_modes: int,
+                  linear: tuple[np.ndarray, np.ndarray, Spectra] | None = None
+                  ) -> dict[str, Any]:
+    """Modes of a reverse path's underlying linear FRF columns (rational-fraction fit).
+
+    All columns share the poles; each mode shape is the residue vector of the first forced
+    column, scaled to a unit largest component.
+
+    Parameters
+    ----------
+    result : analysis.reverse_path.ReversePathResult
+    n_modes : int
+        The model's DOF count, for which the fit of a lumped system's receptance is exact;
+        modes outside the analysed band are extrapolated and flagged ``in_band: false``.
+    linear : (freqs, frf, spectra), optional
+        The residual-force H1 (`analysis.reverse_path_linear.residual_force_frf`): the fit
+        then goes through the Welch window's smoothing kernel, which removes the leakage bias
+        of the damping. Without it the reverse path's ``H_linear`` is fitted directly.
+
+    Returns
+    -------
+    dict
+        ``method`` (the route taken), ``force_dof`` and ``modes``: a list of ``freq_hz``,
+        ``damping_ratio``, ``shape`` and ``in_band``.
+
+    Raises
+    ------
+    EstimationError, InputError
+        From `modal_fit` when the modes cannot be found.
+    """
+    if linear is not None:
+        freqs, frf, spec = linear
+        n, auto = frf.shape[1], spec.auto()
+        coh = multiple_coherence(auto[:, :n], spec.S[:, :n, n:], spec.S[:, n:, n:])
+        smoothing = welch_smoothing(spec.window, spec.nperseg, spec.fs,
+                                    input_spectrum=(freqs, auto[:, n:].sum(axis=1)))
+        fit = modal_fit(freqs, frf, n_modes, weights=coh.min(axis=1), smoothing=smoothing)
+        method = ("global rational fraction polynomial on the residual-force H1, through "
+                  f"the {spec.window} window's Welch kernel")
+    else:
+        frf = result.H_linear
+        fit = modal_fit(result.freqs, frf, n_modes,
+                        weights=result.coherence_nonlinear.min(axis=1))
+        method = "global rational fraction polynomial on the reverse-path H_linear"
+    n_in = frf.shape[2]
+    lo, hi = result.band
+    modes = []
+    for f, zeta, r in zip(fit.freqs_hz, fit.damping, fit.residues):
+        col = r[::n_in]                                   # outputs of the first force column
+        k = int(np.argmax(np.abs(col)))
+        shape = col / col[k]
+        shape[k] = 1.0                                    # exactly, not to round-off
+        modes.append({"freq_hz": float(f), "damping_ratio": float(zeta),
+                      "shape": [float(v) for v in shape.real],
+                      "in_band": bool(lo <= f <= hi)})
+    return {"method": method, "force_dof": int(result.force_dofs[0]), "modes": modes}

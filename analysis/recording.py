@@ -14,6 +14,76 @@ RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
 MIN_FS, MAX_FS = 1e-3, 1e9  # Hz: sample rates of any acquisition
 MAX_SAMPLE = 1e15     # largest |force| or |response| sample: squares and sums stay finite
 MIN_PEAK = 1e-100     # smallest peak of a channel that is not all zero
+FORCE_HOLDS = ("none", "linear")
+DEFAULT_TRANSIENT_PERIODS = 1
+
+
+@dataclass(frozen=True)
+class PeriodicLayout:
+    """Periodic layout of a random (multisine) record (contracts section 5).
+
+    Each of ``realizations`` consecutive realizations holds ``transient_periods`` periods
+    of start-up transient then ``periods`` steady periods of ``period`` samples.
+
+    Attributes
+    ----------
+    period : int
+        Samples per period.
+    transient_periods : int
+    periods : int
+    realizations : int
+    """
+
+    period: int
+    transient_periods: int
+    periods: int
+    realizations: int
+
+    @property
+    def realization_samples(self) -> int:
+        """Samples of one realization: ``(transient_periods + periods) * period``."""
+        return (self.transient_periods + self.periods) * self.period
+
+    @classmethod
+    def complete(cls, n: int, period: int, transient_periods: int | None = None,
+                 periods: int | None = None, realizations: int | None = None
+                 ) -> "PeriodicLayout":
+        """The layout of an ``n``-sample record from the keys given; missing ones follow.
+
+        ``transient_periods`` defaults to `DEFAULT_TRANSIENT_PERIODS`, ``realizations`` to
+        1 (or to what ``periods`` implies) and ``periods`` to what fills the record.
+
+        Raises
+        ------
+        RecordingError
+            A key is not a positive whole number (``transient_periods`` may be 0), or the
+            record does not hold whole realizations of the layout.
+        """
+        given = {"period": period, "transient_periods": transient_periods,
+                 "periods": periods, "realizations": realizations}
+        for key, value in given.items():
+            lo = 0 if key == "transient_periods" else 1
+            if value is not None and not (float(value).is_integer() and value >= lo):
+                raise RecordingError(f"{key} = {value} must be a whole number >= {lo}")
+        period = int(period)
+        t = DEFAULT_TRANSIENT_PERIODS if transient_periods is None else int(transient_periods)
+        if n % period:
+            raise RecordingError(f"{n} samples are not a whole number of periods of {period}")
+        total = n // period
+        if periods is None:
+            m = 1 if realizations is None else int(realizations)
+            if total % m or total // m <= t:
+                raise RecordingError(f"{total} periods of {period} samples do not split into "
+                                     f"{m} realization(s) of {t} transient period(s) and at "
+                                     "least one steady period; give periods")
+            periods = total // m - t
+        m = total // (t + int(periods)) if realizations is None else int(realizations)
+        layout = cls(period, t, int(periods), m)
+        if layout.realizations * layout.realization_samples != n:
+            raise RecordingError(
+                f"{n} samples are not {m} realization(s) of ({t} + {periods}) periods of "
+                f"{period} samples; fix period, transient_periods, periods or realizations")
+        return layout
 
 
 @dataclass
@@ -36,8 +106,18 @@ class Recording:
         Stepped-sine drive frequency of each step, Hz.
     level : float, optional
         Nominal level (force rms for random, force amplitude for stepped-sine).
+    force_hold : {"none", "linear"}
+        How the recorded force samples acted: as recorded ("none", a transducer behind an
+        anti-alias filter) or linearly interpolated between samples ("linear", the
+        simulated plant's drive).
+    layout : PeriodicLayout, optional
+        Periodic (multisine) layout of a random record; None for plain random data.
+    extra : dict of str to ndarray
+        Keys of the source file that no field holds (e.g. ``sweep_start_hz``), kept
+        verbatim so that they are written back on export.
     meta : dict
-        Free-form metadata (settings, provenance).
+        Free-form provenance (run file, block sequence numbers, settings); not part of the
+        recording contract. A sensor map, when added, becomes a typed field like the above.
     """
 
     fs: float
@@ -48,6 +128,9 @@ class Recording:
     response_kind: str = "displacement"
     freqs: np.ndarray | None = None
     level: float | None = None
+    force_hold: str = "none"
+    layout: PeriodicLayout | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -77,6 +160,9 @@ class Recording:
         if self.excitation not in EXCITATIONS:
             raise RecordingError(f"excitation '{self.excitation}' is not one of "
                                  f"{', '.join(EXCITATIONS)}")
+        if self.force_hold not in FORCE_HOLDS:
+            raise RecordingError(f"force_hold '{self.force_hold}' is not one of "
+                                 f"{', '.join(FORCE_HOLDS)}")
         if self.response_kind not in RESPONSE_KINDS:
             raise RecordingError(f"response_kind '{self.response_kind}' is not one of "
                                  f"{', '.join(RESPONSE_KINDS)}")
@@ -118,3 +204,13 @@ class Recording:
                                      "per step")
             if not np.all((self.freqs > 0) & (self.freqs < self.fs / 2)):
                 raise RecordingError("stepped-sine freqs must lie between 0 and fs/2")
+        if self.layout is not None:
+            if self.excitation != "random":
+                raise RecordingError("a periodic layout (period, ...) belongs to random "
+                                     f"(multisine) data, not {self.excitation}")
+            lay = self.layout
+            if lay.realizations * lay.realization_samples != self.force.shape[0]:
+                raise RecordingError(
+                    f"{self.force.shape[0]} samples are not {lay.realizations} realization(s) "
+                    f"of ({lay.transient_periods} + {lay.periods}) periods of {lay.period} "
+                    "samples")

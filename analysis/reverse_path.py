@@ -32,6 +32,7 @@ from scipy.stats import t as student_t
 from . import basis as bas
 from .elements import restoring_force
 from .errors import InputError
+from .frf import default_nperseg
 from .model import Element, Model
 from .recording import Recording
 from .signals import excitation_band, signal_bandwidth, to_kinematics
@@ -160,10 +161,6 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
     return [(r, r.response_kind) for r in recs]
 
 
-def _default_nperseg(n: int) -> int:
-    return int(min(2 ** int(np.log2(max(n // 16, 64))), 8192))
-
-
 def _elements(model: Model) -> tuple[list[tuple[int, Element, str, bas.Basis]],
                                      list[tuple[int, Element]]]:
     unknown, known = [], []
@@ -208,7 +205,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     data : Recording, list of Recording, or (force, response) arrays
         Random-excitation records at one or several levels (pooled). ``response`` holds
         every DOF of the model. Periodic-random (multisine) records, marked by
-        ``meta["period"]`` or ``period=``, go to the period-averaging estimator
+        a ``layout`` or ``period=``, go to the period-averaging estimator
         (`analysis.reverse_path_noise.periodic_reverse_path`).
     model : Model
         Candidate: elements with omitted parameters are estimated; complete elements are
@@ -231,7 +228,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
         How the applied force behaves between its samples. "linear" (the simulated plant's
         first-order-hold drive) means the structure felt the baseband force
         ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
-        ``meta["force_hold"]``, else "none" (a force transducer behind an anti-alias filter).
+        ``force_hold`` ("none": a force transducer behind an anti-alias filter).
     noise : {"auto", "iv", "none"}
         "iv": instrumental variables and debiased bases (`analysis.reverse_path_noise`),
         "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
@@ -240,7 +237,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     period, transient_periods, realizations : int, optional
         Periodic-random records: samples per period, leading periods of each realization
         dropped as transient (default 1) and realizations (blocks with their own random
-        phases) per record (default 1); default: the recording's ``meta`` entries of the
+        phases) per record (default 1); default: the recording's ``layout`` entries of the
         same names. Each realization holds ``transient_periods + P`` whole periods.
     refine : {"joint", "sequential"}
         "sequential": after the joint estimate, re-estimate each coefficient with the
@@ -286,7 +283,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     fsr = float(rec0.fs)
     fdofs = rec0.force_dofs
     n_min = min(r.force.shape[0] for r, _ in recs)
-    nps = nperseg if nperseg is not None else _default_nperseg(n_min)
+    nps = nperseg if nperseg is not None else default_nperseg(n_min)
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
                                               overlap=overlap) for r, _ in recs])
@@ -301,7 +298,7 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     built = []
     for (rec, kind), floor in zip(recs, floors):
         proc = _Processing(fsr, kind, (lo, hi), antialias,
-                           force_hold or rec.meta.get("force_hold", "none"),
+                           force_hold or rec.force_hold,
                            info["lowpass_hz"])
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,

@@ -56,7 +56,7 @@ def residual_force_frf(data: Any, estimated: Model, result: ReversePathResult, *
     parts = []
     for rec, kind in _records(data, fs, force_dofs, response_kind):
         proc = _Processing(float(rec.fs), kind, (lo, hi), "off",
-                           force_hold or rec.meta.get("force_hold", "none"), None)
+                           force_hold or rec.force_hold, None)
         channels, _ = _channels(rec.response, rec.force, rec.force_dofs, proc, [], known, [],
                                 None)
         parts.append(spectral_matrix(channels, float(rec.fs), nperseg=spec.nperseg,

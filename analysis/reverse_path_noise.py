@@ -42,7 +42,7 @@ from .elements import restoring_force
 from .errors import InputError, ModelError
 from .model import Model
 from .plant import Plant, PlantError
-from .recording import Recording
+from .recording import DEFAULT_TRANSIENT_PERIODS, Recording
 from .reverse_path import (Z95, ReversePathResult, _alias_upsampling, _channels,
                            _coefficients, _estimate, _force_span, _Processing)
 from .signals import (KIND_ORDER, excitation_band, period_spectra, periodic_kinematics,
@@ -250,12 +250,14 @@ class Layout:
 
 def periodic_layout(rec: Recording, period: int | None, transient: int | None,
                     realizations: int | None) -> Layout | None:
-    """The record's layout from the arguments, else its ``meta``; None for random data."""
-    p = period if period is not None else rec.meta.get("period")
+    """The record's layout from the arguments, else its ``layout``; None for random data."""
+    own = rec.layout
+    p = period if period is not None else (own.period if own else None)
     if p is None:
         return None
-    t = transient if transient is not None else rec.meta.get("transient_periods", 1)
-    m = realizations if realizations is not None else rec.meta.get("realizations", 1)
+    t = transient if transient is not None else (own.transient_periods if own
+                                                 else DEFAULT_TRANSIENT_PERIODS)
+    m = realizations if realizations is not None else (own.realizations if own else 1)
     return Layout(int(p), int(t), int(m))
 
 
@@ -280,7 +282,7 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
         number of inputs, or ``noise="iv"`` with a single steady period.
     """
     if any(lay is None for lay in layouts):
-        raise InputError("some records are periodic (meta period) and some are not; "
+        raise InputError("some records are periodic (a period layout) and some are not; "
                          "analyse them separately")
     n = layouts[0].period
     rec0 = recs[0][0]
@@ -314,7 +316,7 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
     halves, fulls, info = [], [], []
     for rec, kind, fp, yp in blocks:
         proc = _Processing(fs, kind, (lo, hi), antialias,
-                           force_hold or rec.meta.get("force_hold", "none"), None)
+                           force_hold or rec.force_hold, None)
         h, full, stats = _periodic_inputs(proc, fp, yp, idx, unknown, known, fdofs,
                                           split, warnings)
         halves.append(h)

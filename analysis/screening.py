@@ -26,9 +26,10 @@ import numpy as np
 
 from . import basis as bas
 from .errors import InputError
+from .frf import default_nperseg
 from .model import Model
 from .recording import Recording
-from .reverse_path import (_Processing, _average, _channels, _default_nperseg,
+from .reverse_path import (_Processing, _average, _channels,
                            _element_estimates, _records)
 from .signals import excitation_band
 from .spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
@@ -121,7 +122,7 @@ def screen_candidates(data: Any, model: Model,
     unknown = [(k, SimpleNamespace(w=w), None, fn) for k, (fn, w) in enumerate(cands)]
     fsr = float(rec0.fs)
     nps = (nperseg if nperseg is not None
-           else _default_nperseg(min(r.force.shape[0] for r, _ in recs)))
+           else default_nperseg(min(r.force.shape[0] for r, _ in recs)))
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps) for r, _ in recs])
         band = excitation_band(fspec.freqs, fspec.auto())
@@ -129,7 +130,7 @@ def screen_candidates(data: Any, model: Model,
     parts = []
     for rec, kind in recs:
         proc = _Processing(fsr, kind, band, "auto",
-                           force_hold or rec.meta.get("force_hold", "none"), None)
+                           force_hold or rec.force_hold, None)
         ch, _ = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown, known, [],
                           None)
         parts.append(spectral_matrix(ch, fsr, nperseg=nps, band=band))

@@ -108,7 +108,7 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
 
     Velocity and acceleration responses are converted to displacement harmonics
     (division by ``j h ω`` or ``-(h ω)^2``); the force amplitude is the one that acted
-    (`hold_gain` of the recording's ``meta["force_hold"]``).
+    (`hold_gain` of the recording's ``force_hold``).
     """
     if recording.excitation != "stepped-sine":
         raise RecordingError("harmonic balance needs stepped-sine recordings, got "
@@ -120,7 +120,7 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
     if h.min() < 1:
         raise RecordingError("sine-fit harmonics must be orders >= 1")
     n_steps = recording.freqs.size
-    gain = hold_gain(recording.freqs, recording.fs, recording.meta.get("force_hold"))
+    gain = hold_gain(recording.freqs, recording.fs, recording.force_hold)
     X = np.empty((n_steps, h.size, recording.n_dof), dtype=complex)
     force = np.empty(n_steps)
     for s, f in enumerate(recording.freqs):

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from analysis.recording import PeriodicLayout
 from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutput
 from drivers.errors import CommsError
 
@@ -341,6 +342,14 @@ def _excitation(c: Campaign) -> dict[str, Any]:
     return {"kind": c.kind, **plan}
 
 
+def _layout(c: Campaign) -> PeriodicLayout | None:
+    """Periodic-random runs: a block is one realization of the multisine."""
+    p = c.plan
+    if not (isinstance(p, RandomSpec) and p.periodic):
+        return None
+    return PeriodicLayout(p.block_size, p.transient_periods, p.periods, p.averages)
+
+
 def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
                  observer: CampaignObserver | None = None, on_bench=None,
                  stop: threading.Event | None = None) -> CampaignResult:
@@ -362,12 +371,12 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
         bench.daq.configure(c.fs, c.channels, frame_size=c.frame_size)
         settings = {"campaign": c.raw, "shaker_url": c.shaker_url, "daq_url": c.daq_url,
                     "source_file": str(c.source) if c.source else None}
-        if bench.rig is not None:
-            # the simulated rig holds the drive linearly between samples (analysis.plant)
-            settings["force_hold"] = "linear"
+        # the simulated rig holds the drive linearly between samples (analysis.plant)
+        hold = "linear" if bench.rig is not None else "none"
         with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
                        n_dof=c.n_dof, response_kind=c.response_kind,
-                       channels=_store_channels(c), settings=settings,
+                       channels=_store_channels(c), settings=settings, force_hold=hold,
+                       layout=_layout(c),
                        model_toml=bench.model_toml, source=bench.source,
                        mode="resume" if resume else "create") as writer:
             runner = _Runner(c, bench, writer, observer, stop)

@@ -108,7 +108,7 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
     kind = scheme(c.daq_url)
     if kind == "sim":
         return open_daq("sim://", rig=rig)
-    faults = c.fault_plan()
+    faults = c.fault_spec()
     if kind == "serial-emu":
         from drivers.emulators.serial_emu import SerialDaqEmulator
         emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=_pace(c, c.daq_url),

@@ -18,7 +18,7 @@ from analysis.recording import RESPONSE_KINDS
 from analysis.textfile import read_text, unknown_keys
 from drivers.base import Channel
 from drivers.errors import DriverConfigError
-from drivers.emulators.faults import FaultPlan
+from drivers.faults import FaultSpec
 
 KINDS = ("random", "stepped-sine")
 DIRECTIONS = ("up", "down", "up-down")
@@ -153,8 +153,8 @@ class Campaign:
     def levels(self) -> list[float]:
         return self.plan.levels
 
-    def fault_plan(self) -> FaultPlan:
-        return FaultPlan.from_dict(self.faults, "emulator.faults")
+    def fault_spec(self) -> FaultSpec:
+        return FaultSpec.from_dict(self.faults, "emulator.faults")
 
 
 def scheme(url: str) -> str:
@@ -418,7 +418,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     if not isinstance(faults, dict):
         raise CampaignError("[emulator] faults must be a table")
     try:
-        FaultPlan.from_dict(faults, "emulator.faults")
+        FaultSpec.from_dict(faults, "emulator.faults")
     except DriverConfigError as exc:
         raise CampaignError(str(exc)) from None
     watchdog = None

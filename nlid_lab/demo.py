@@ -19,7 +19,7 @@ from analysis.errors import InputError
 from analysis.model import Model
 
 from . import store
-from .analyze_reverse_path import estimate, format_table, recorded_force_hold
+from .methods.reverse_path import ReversePathOptions, estimate, format_table
 from .cli import write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
@@ -95,7 +95,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .report import level_frf
+    from analysis.frf import level_frf
 
     run = store.open_run(run_path)
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -146,8 +146,9 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
                                      for el in model.elements])
     recs = store.open_run(run_path).recordings()
     nperseg = min(cfg.estimate_nperseg, min(r.force.shape[0] for r in recs) // 4)
-    result, out = estimate(recs, candidate, nperseg=nperseg)
-    print(format_table(result, out["modal"], reference=model))
+    est = estimate(recs, candidate, ReversePathOptions(nperseg=nperseg))
+    out = est.to_json()
+    print(format_table(est.result, est.modal, reference=model))
     path = cfg.out / "reverse-path.json"
     write_json(out, str(path))
     store.save_result(run_path, "analyze-reverse-path", out)
@@ -159,10 +160,6 @@ def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     from .report import load_run, write_report
 
     run = load_run(run_path)
-    for rec in run.recordings:          # the report's reverse path honours the drive's hold
-        hold = recorded_force_hold(rec)
-        if hold:
-            rec.meta["force_hold"] = hold
     return Path(write_report(run, cfg.out / "report")["html"])
 
 

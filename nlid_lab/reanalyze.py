@@ -26,7 +26,9 @@ from analysis.errors import InputError
 from analysis.model import Model
 from analysis.recording import Recording
 
-METHODS = ("reverse-path", "hbm", "auto")
+from . import methods
+
+AUTO = "auto"  # each level's method from its excitation (`nlid_lab.methods.for_excitation`)
 RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
 HEAD = ("path", "level_index", "level", "excitation", "method", "status")
 TAIL = ("coherence_min", "cost", "warnings", "error")
@@ -142,8 +144,9 @@ def check_request(model: Model, method: str, run_timeout_s: float | None = None)
     time limit that is not positive."""
     if run_timeout_s is not None and not run_timeout_s > 0:
         raise ReanalysisError(f"the run time limit must be > 0 s, got {run_timeout_s:g}")
-    if method not in METHODS:
-        raise ReanalysisError(f"unknown method '{method}'; use one of {', '.join(METHODS)}")
+    names = [m.name for m in methods.methods()] + [AUTO]
+    if method not in names:
+        raise ReanalysisError(f"unknown method '{method}'; use one of {', '.join(names)}")
     if model.complete:
         raise ReanalysisError(f"the candidate model '{model.name}' has no unknown parameter; "
                               "omit the parameters to estimate from its elements")
@@ -171,14 +174,18 @@ def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
 
 def _analyse_levels(path: str, model: Model, method: str,
                     options: dict[str, Any]) -> list[dict[str, Any]]:
-    from nlid_lab.store import load_recordings  # the worker opens the file itself
+    from nlid_lab.recordings_io import load_recordings  # the worker opens the file itself
     try:
         recordings = load_recordings(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable run is reported, not raised
         return [_failed_row(path, -1, None, None, method, exc)]
     rows = []
     for index, rec in enumerate(recordings):
-        chosen = _method_for(rec, method)
+        try:
+            chosen = _method_for(rec, method)
+        except InputError as exc:
+            rows.append(_failed_row(path, index, rec.level, rec.excitation, method, exc))
+            continue
         try:
             result = estimate(rec, model, chosen, options)
         except Exception as exc:  # noqa: BLE001 - one bad level must not stop the others
@@ -190,25 +197,17 @@ def _analyse_levels(path: str, model: Model, method: str,
 
 def estimate(rec: Recording, model: Model, method: str,
              options: dict[str, Any]) -> dict[str, Any]:
-    """The estimator's JSON (contracts section 4) for one level."""
-    if method == "reverse-path":
-        from analysis.reverse_path import reverse_path
-        kwargs = {k: options[k] for k in ("band", "nperseg", "refine")
-                  if options.get(k) is not None}
-        return reverse_path(rec, model, **kwargs).to_json()
-    from analysis.hbm import parse_harmonics
-    from analysis.hbm_fit import fit_hbm
-    from analysis.sine_fit import stepped_sine_frf
-    from nlid_lab.analyze_hbm import element_json
-    harmonics = parse_harmonics(options.get("harmonics") or "1,3,5,7")
-    fit = fit_hbm(model, [stepped_sine_frf(rec, harmonics[harmonics > 0])], harmonics)
-    return {"elements": element_json(model, fit), "warnings": fit.warnings, "cost": fit.cost}
+    """The estimator's JSON (contracts section 4) for one level.
+
+    ``options`` maps option names to values (None: the method's default); names of other
+    methods' options are ignored.
+    """
+    chosen = methods.get(method)
+    return chosen.level_json(rec, model, chosen.make_options(options))
 
 
 def _method_for(rec: Recording, method: str) -> str:
-    if method != "auto":
-        return method
-    return "reverse-path" if rec.excitation == "random" else "hbm"
+    return methods.for_excitation(rec.excitation).name if method == AUTO else method
 
 
 def _ok_row(path: str, index: int, rec: Recording, method: str,
@@ -316,10 +315,12 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
         Candidate model; elements without parameters are estimated.
     client : distributed.Client
         From `dask_client` or any connected client.
-    method : {"reverse-path", "hbm", "auto"}
-        ``auto`` uses reverse path for random levels and HBM for stepped-sine levels.
+    method : str
+        A registered method (`nlid_lab.methods`: "reverse-path", "hbm") or "auto": each
+        level's method from its excitation (reverse path for random, HBM for stepped sine).
     options : dict, optional
-        Estimator settings: ``band``, ``nperseg`` (reverse path), ``harmonics`` (hbm).
+        Batch options of the methods by name (`nlid_lab.methods.batch_values`): ``band``,
+        ``nperseg``, ``refine`` (reverse path), ``harmonics`` (hbm).
     progress : bool
         Show a tqdm bar on stderr while results come in.
     run_timeout_s : float, optional

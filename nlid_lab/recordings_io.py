@@ -1,8 +1,10 @@
 """NPZ and CSV recordings <-> `analysis.Recording` (docs/recording-formats.md).
 
-NPZ follows contracts section 3. CSV holds random recordings: a header row naming a time
-column (``t`` or ``time``, seconds) and one column per channel written ``NAME@DOF``; names
-starting with ``f`` are forces, the others responses (override with ``force_cols``).
+NPZ follows contracts sections 3 and 5. CSV holds random recordings: ``# key = value``
+comment lines with the recording keys, then a header row naming a time column (``t`` or
+``time``, seconds) and one column per channel written ``NAME@DOF``; names starting with ``f``
+are forces, the others responses (override with ``force_cols``). Keys no `Recording` field
+holds are kept in ``Recording.extra`` and written back, so every key survives a round trip.
 """
 
 from __future__ import annotations
@@ -13,11 +15,13 @@ import os
 import re
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from analysis.errors import InputError, RecordingError
-from analysis.recording import MAX_FS, MAX_SAMPLE, MIN_FS, Recording
+from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
+                                Recording)
 from analysis.textfile import read_text
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -75,10 +79,28 @@ def _load_npz(path: Path, what: str) -> dict[str, np.ndarray]:
         raise RecordingFileError(f"{path} is not a readable NPZ file ({exc})") from None
 
 
+# Keys with a `Recording` field (contracts sections 3 and 5); every other key of a file is
+# kept verbatim in `Recording.extra` and written back on export.
+CORE_KEYS = ("fs", "excitation", "force_dofs", "force", "response", "response_kind", "freqs")
+LEVEL_KEYS = ("force_rms", "force_amplitude", "level")
+LAYOUT_KEYS = ("period", "transient_periods", "periods", "realizations")
+
+
+def level_key(excitation: str) -> str:
+    """The key a recording's nominal level is written under."""
+    return "force_rms" if excitation == "random" else "force_amplitude"
+
+
 def read_npz(path: str | os.PathLike) -> Recording:
-    """Read an NPZ recording (keys of contracts section 3)."""
+    """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
     path = Path(path)
-    data = _load_npz(path, "recording")
+    return recording_from_keys(_load_npz(path, "recording"), path)
+
+
+def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
+    """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's); ``path`` names
+    the source in messages and ``meta["source"]``."""
+    path = Path(path)
     missing = {"fs", "force", "response", "force_dofs"} - set(data)
     if missing:
         raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; an NPZ "
@@ -86,49 +108,80 @@ def read_npz(path: str | os.PathLike) -> Recording:
     excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
                   else ("stepped-sine" if "freqs" in data else "random"))
     try:
+        force = _array(data, "force", path)
+        level, level_from = _level(data, path, excitation)
         return Recording(
             fs=_scalar(data, "fs", float, path), excitation=excitation,
             force_dofs=_array(data, "force_dofs", path, integer=True),
-            force=_array(data, "force", path), response=_array(data, "response", path),
+            force=force, response=_array(data, "response", path),
             response_kind=(_scalar(data, "response_kind", str, path)
                            if "response_kind" in data else "displacement"),
             freqs=_array(data, "freqs", path) if "freqs" in data else None,
-            level=_level(data, path), meta=_meta(data, path))
+            level=level, force_hold=_force_hold(data, path),
+            layout=_layout(data, path, force.shape[0] if force.ndim else 0),
+            extra=_extra(data, excitation, level_from), meta={"source": str(path)})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
 
-def _meta(data: dict, path: Path) -> dict:
-    meta = {"source": str(path)}
-    if "force_hold" in data:
-        hold = _scalar(data, "force_hold", str, path)
-        if hold not in ("none", "linear"):
-            raise RecordingFileError(f"{path}: force_hold '{hold}' must be none or linear")
-        meta["force_hold"] = hold
-    return meta
+def _force_hold(data: dict, path: Path) -> str:
+    if "force_hold" not in data:
+        return "none"
+    hold = _scalar(data, "force_hold", str, path)
+    if hold not in FORCE_HOLDS:
+        raise RecordingFileError(f"{path}: force_hold '{hold}' must be none or linear")
+    return hold
 
 
-def _level(data: dict, path: Path) -> float | None:
-    for key in ("force_rms", "force_amplitude", "level"):
+def _layout(data: dict, path: Path, n: int) -> PeriodicLayout | None:
+    """The periodic layout the file's keys describe (missing keys completed), else None."""
+    given = {k: _scalar(data, k, float, path) for k in LAYOUT_KEYS if k in data}
+    if not given:
+        return None
+    if "period" not in given:
+        raise RecordingFileError(f"{path}: {sorted(given)} given without period (samples per "
+                                 "period); add period or remove the layout keys")
+    return PeriodicLayout.complete(n, **given)
+
+
+def _level(data: dict, path: Path, excitation: str) -> tuple[float | None, str | None]:
+    """Nominal level and the key it came from (the excitation's own key first)."""
+    own = level_key(excitation)
+    for key in (own,) + tuple(k for k in LEVEL_KEYS if k != own):
         if key in data:
-            return _scalar(data, key, float, path)
-    return None
+            return _scalar(data, key, float, path), key
+    return None, None
+
+
+def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
+    """Keys no field holds. A level read from another key than the excitation's own (say
+    ``level``) stays here too, so that the file's own key is written back."""
+    known = set(CORE_KEYS) | set(LAYOUT_KEYS) | {"force_hold"}
+    if level_from == level_key(excitation):
+        known.add(level_from)
+    return {k: np.asarray(v) for k, v in data.items() if k not in known}
+
+
+def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
+    """Every key of ``rec`` as written to NPZ (contracts sections 3 and 5, then ``extra``)."""
+    out = {k: np.asarray(v) for k, v in rec.extra.items()}
+    out.update({"fs": np.float64(rec.fs), "excitation": np.str_(rec.excitation),
+                "force_dofs": rec.force_dofs, "force": rec.force, "response": rec.response,
+                "response_kind": np.str_(rec.response_kind),
+                "force_hold": np.str_(rec.force_hold)})
+    if rec.freqs is not None:
+        out["freqs"] = rec.freqs
+    if rec.layout is not None:
+        out.update({k: np.int64(getattr(rec.layout, k)) for k in LAYOUT_KEYS})
+    if rec.level is not None:
+        out[level_key(rec.excitation)] = np.float64(rec.level)
+    return out
 
 
 def write_npz(path: str | os.PathLike, rec: Recording) -> None:
-    """Write ``rec`` as an NPZ recording (contracts section 3)."""
-    out = {"fs": np.float64(rec.fs), "excitation": np.str_(rec.excitation),
-           "force_dofs": rec.force_dofs, "force": rec.force, "response": rec.response,
-           "response_kind": np.str_(rec.response_kind)}
-    if rec.freqs is not None:
-        out["freqs"] = rec.freqs
-    if rec.meta.get("force_hold"):
-        out["force_hold"] = np.str_(rec.meta["force_hold"])
-    if rec.level is not None:
-        key = "force_rms" if rec.excitation == "random" else "force_amplitude"
-        out[key] = np.float64(rec.level)
+    """Write ``rec`` as an NPZ recording (every key of `recording_keys`)."""
     with open(path, "wb") as fh:  # np.savez would append ".npz" to other names
-        np.savez(fh, **out)
+        np.savez(fh, **recording_keys(rec))
 
 
 def parse_header(names: list[str], force_cols: list[str] | None = None
@@ -155,10 +208,16 @@ def parse_header(names: list[str], force_cols: list[str] | None = None
 
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
-             response_kind: str = "displacement", level: float | None = None) -> Recording:
-    """Read a random recording from CSV (see the module docstring for the header)."""
+             response_kind: str | None = None, level: float | None = None) -> Recording:
+    """Read a random recording from CSV (see the module docstring for the header).
+
+    ``# key = value`` comment lines before the header carry recording keys (``fs``,
+    ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``).
+    ``response_kind`` None takes the file's key, else displacement.
+    """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
+    keys = _csv_keys(text, path)
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 3:
         raise RecordingFileError(f"{path}: needs a header row and at least two data rows")
@@ -171,13 +230,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     if data.shape[1] != len(names):
         raise RecordingFileError(f"{path}: {data.shape[1]} data columns but {len(names)} "
                                  "header names")
-    t = data[:, time_col]
-    span = t[-1] - t[0]
-    fs = (len(t) - 1) / span if np.isfinite(span) and span > 0 else np.nan
-    grid = t[0] + np.arange(len(t)) / fs
-    if not np.isfinite(fs) or np.max(np.abs(t - grid)) > 0.01 / fs:
-        raise RecordingFileError(f"{path}: the time column must increase in equal steps "
-                                 "(uniform sampling, jitter below 1 % of a sample)")
+    fs = _csv_fs(data[:, time_col], keys, path)
     is_force = [(n in force_cols) if force_cols is not None else n.lower().startswith("f")
                 for _, n, _ in chans]
     forces = [c for c, f in zip(chans, is_force) if f]
@@ -189,33 +242,106 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     if dofs != list(range(len(dofs))):
         raise RecordingFileError(f"{path}: response columns must cover DOFs 0..n-1 once each, "
                                  f"got DOFs {dofs}")
+    file_kind = _scalar(keys, "response_kind", str, path) if "response_kind" in keys else None
+    if response_kind is not None and file_kind not in (None, response_kind):
+        raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
+                                 f"{response_kind} was asked for; drop one of them")
+    keys["excitation"] = np.str_("random")
     try:
+        file_level, level_from = _level(keys, path, "random")
         return Recording(
             fs=fs, excitation="random", force_dofs=[c[2] for c in forces],
             force=data[:, [c[0] for c in forces]], response=data[:, [c[0] for c in responses]],
-            response_kind=response_kind, level=level,
+            response_kind=response_kind or file_kind or "displacement",
+            level=file_level if level is None else level, force_hold=_force_hold(keys, path),
+            layout=_layout(keys, path, data.shape[0]),
+            extra=_extra(keys, "random", level_from),
             meta={"source": str(path), "channels": [c[1] for c in forces + responses]})
-    except RecordingError as exc:
+    except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
 
+_CSV_KEY = re.compile(r"^\s*#\s*([A-Za-z_]\w*)\s*=\s*(.*?)\s*$")
+
+
+def _csv_keys(text: str, path: Path) -> dict[str, np.ndarray]:
+    """Recording keys of ``# key = value`` comment lines: numbers, or strings in quotes."""
+    keys: dict[str, np.ndarray] = {}
+    for line in text.splitlines():
+        m = _CSV_KEY.match(line)
+        if not m:
+            continue
+        key, raw = m.groups()
+        if key in ("excitation", "force_dofs", "force", "response", "freqs"):
+            raise RecordingFileError(f"{path}: '{key}' comes from the CSV header and data, not "
+                                     "from a '# key = value' line; remove that line")
+        if len(raw) >= 2 and raw[0] == raw[-1] == '"':
+            keys[key] = np.str_(raw[1:-1])
+            continue
+        for cast in (int, float):
+            try:
+                keys[key] = np.asarray(cast(raw))
+                break
+            except ValueError:
+                pass
+        else:
+            keys[key] = np.str_(raw)
+    return keys
+
+
+def _csv_fs(t: np.ndarray, keys: dict, path: Path) -> float:
+    """Sample rate of a uniform time column (the ``fs`` key when given, checked)."""
+    span = t[-1] - t[0]
+    fs = (len(t) - 1) / span if np.isfinite(span) and span > 0 else np.nan
+    if "fs" in keys:
+        given = _scalar(keys, "fs", float, path)
+        if not abs(given - fs) <= 1e-6 * abs(given):
+            raise RecordingFileError(f"{path}: fs = {given:g} but the time column steps at "
+                                     f"{fs:g} Hz; fix one of them")
+        fs = given
+    grid = t[0] + np.arange(len(t)) / fs
+    if not np.isfinite(fs) or np.max(np.abs(t - grid)) > 0.01 / fs:
+        raise RecordingFileError(f"{path}: the time column must increase in equal steps "
+                                 "(uniform sampling, jitter below 1 % of a sample)")
+    return fs
+
+
+def _csv_value(key: str, value: np.ndarray) -> str:
+    arr = np.asarray(value)
+    if arr.ndim == 0 and arr.dtype.kind == "U":
+        return f'"{arr.item()}"'
+    if arr.ndim == 0 and arr.dtype.kind in "iu":
+        return str(int(arr))
+    if arr.ndim == 0 and arr.dtype.kind == "f":
+        return repr(float(arr))
+    raise RecordingFileError(f"key '{key}' ({arr.dtype}, shape {arr.shape}) cannot be written "
+                             "to CSV (numbers and strings only); export as NPZ")
+
+
 def write_csv(path: str | os.PathLike, rec: Recording) -> None:
-    """Write a random ``rec`` as CSV with header ``t,f0@DOF,...,x0@0,...``."""
+    """Write a random ``rec`` as CSV: ``# key = value`` lines for its keys, then header
+    ``t,f0@DOF,...,x0@0,...`` and the samples."""
     if rec.excitation != "random":
         raise RecordingFileError("CSV holds random recordings only; write stepped sine as NPZ")
+    keys = {k: v for k, v in recording_keys(rec).items()
+            if k not in ("excitation", "force_dofs", "force", "response")}
+    lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
     prefix = rec.response_kind[0]
     names = (["t"] + [f"f{i}@{d}" for i, d in enumerate(rec.force_dofs)]
              + [f"{prefix}{j}@{j}" for j in range(rec.n_dof)])
     t = np.arange(rec.force.shape[0]) / rec.fs
     np.savetxt(path, np.column_stack([t, rec.force, rec.response]), delimiter=",",
-               header=",".join(names), comments="", fmt="%.17g")
+               header="\n".join(lines + [",".join(names)]), comments="", fmt="%.17g")
 
 
 def read_drive(path: str | os.PathLike) -> dict:
     """Read a drive NPZ (keys fs, force, force_dofs; freqs for stepped sine).
 
     Returns a dict with ``fs``, ``force`` (random (n, n_in); stepped (n_steps, n, n_in)),
-    ``force_dofs``, ``excitation``, ``freqs`` (or None) and ``level`` (or None).
+    ``force_dofs``, ``excitation``, ``freqs`` (or None), ``level`` (or None), ``layout``
+    (a `PeriodicLayout` from the drive's ``period``... keys, or None) and ``extra`` (the
+    drive's other keys, for the simulated recording). A recording used as a drive gives
+    its force: its ``response``, ``response_kind`` and ``force_hold`` are not carried.
     """
     path = Path(path)
     data = _load_npz(path, "drive")
@@ -227,12 +353,13 @@ def read_drive(path: str | os.PathLike) -> dict:
         drive = {"fs": _scalar(data, "fs", float, path),
                  "force": _array(data, "force", path),
                  "force_dofs": _array(data, "force_dofs", path, integer=True),
-                 "freqs": _array(data, "freqs", path) if "freqs" in data else None,
-                 "level": _level(data, path)}
+                 "freqs": _array(data, "freqs", path) if "freqs" in data else None}
+        stepped = drive["freqs"] is not None
+        drive["excitation"] = "stepped-sine" if stepped else "random"
+        drive["level"], level_from = _level(data, path, drive["excitation"])
+        drive["extra"] = _extra(data, drive["excitation"], level_from)
     except (TypeError, ValueError) as exc:
         raise RecordingFileError(f"{path}: {exc}") from None
-    stepped = drive["freqs"] is not None
-    drive["excitation"] = "stepped-sine" if stepped else "random"
     force, n_in = drive["force"], drive["force_dofs"].size
     if force.ndim == 1 and n_in == 1 and not stepped:
         force = drive["force"] = force[:, None]
@@ -259,4 +386,23 @@ def read_drive(path: str | os.PathLike) -> dict:
     if drive["level"] is not None and not 0 < drive["level"] <= MAX_SAMPLE:
         raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
                                  f"number in (0, {MAX_SAMPLE:g}] N")
+    try:
+        drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
+    except ValueError as exc:
+        raise RecordingFileError(f"{path}: {exc}") from None
     return drive
+
+
+def load_recordings(path: str | os.PathLike) -> list[Recording]:
+    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``."""
+    from .store import StoreError, open_run
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".h5", ".hdf5"):
+        return open_run(path).recordings()
+    if suffix == ".npz":
+        return [read_npz(path)]
+    if suffix == ".csv":
+        return [read_csv(path)]
+    raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")

@@ -14,7 +14,7 @@ import numpy as np
 from analysis.excitation import multisine, periodic, random_gaussian, sine_block
 from analysis.model import Element, Model
 from analysis.plant import Plant, add_relative_noise
-from analysis.recording import Recording
+from analysis.recording import PeriodicLayout, Recording
 
 
 @dataclass
@@ -122,7 +122,7 @@ def multisine_runs(truth: Model, force_dof: int, levels, *, fs: float = 256.0,
         resp = add_relative_noise(resp, noise, seed + 10 + j)
         resp = resp + dc * np.std(resp, axis=0) * (1 + np.arange(resp.shape[1]))
         out.append(Recording(fs, "random", [force_dof], f + dc * rms, resp, response_kind,
-                             level=rms, meta={"period_samples": n_period}))
+                             level=rms, layout=PeriodicLayout(n_period, 1, n_periods - 1, 1)))
     return out
 
 

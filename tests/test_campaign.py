@@ -20,7 +20,8 @@ from drivers.errors import CommsError
 from nlid_lab.campaign import CampaignAborted, harmonics, run_campaign
 from nlid_lab.campaign_config import CampaignError, load_campaign, parse_campaign
 from nlid_lab.cli import main
-from nlid_lab.store import load_recordings, open_run
+from nlid_lab.recordings_io import load_recordings
+from nlid_lab.store import open_run
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 BASE = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
@@ -64,7 +65,7 @@ def test_periodic_random_campaign_feeds_the_periodic_reverse_path(tmp_path):
     result = run_campaign(c, tmp_path / "run.h5")
     assert result.status == "complete" and result.segments == {0: 6}
     rec = open_run(tmp_path / "run.h5").recording(0)
-    assert (rec.meta["period"], rec.meta["transient_periods"], rec.meta["realizations"]) == \
+    assert (rec.layout.period, rec.layout.transient_periods, rec.layout.realizations) == \
         (4096, 2, 6)
     assert rec.force.shape[0] == 6 * 6 * 4096
     assert np.std(rec.force[-4096:]) == pytest.approx(15.0, rel=0.05)    # level control

@@ -155,7 +155,7 @@ def test_periodic_sigkill_then_resume(tmp_path):
         before, _ = _kill_and_resume(campaign, d / "run.h5", rng.uniform(0.0, duration), 6, 1)
         cut.append(before)
         rec = open_run(d / "run.h5").recording(0)
-        assert (rec.meta["realizations"], rec.meta["period"]) == (6, 4096)
+        assert (rec.layout.realizations, rec.layout.period) == (6, 4096)
     print(f"realizations on file when killed: {cut} of 6")
     assert any(0 < n < 6 for n in cut), cut  # some kills hit mid-run
 

@@ -64,7 +64,7 @@ def test_simulate_stepped_round_trip(drives):
                  str(d / "s.h5"), "--response-kind", "acceleration"]) == 0
     assert main(["simulate", str(THREE), "--drive", str(d / "stepped.npz"), "--out",
                  str(d / "s.npz"), "--response-kind", "acceleration"]) == 0
-    (rec,) = store.load_recordings(d / "s.h5")
+    (rec,) = recordings_io.load_recordings(d / "s.h5")
     npz = recordings_io.read_npz(d / "s.npz")
     assert rec.excitation == "stepped-sine" and rec.response.shape == (3, 600, 3)
     assert rec.response_kind == "acceleration" and rec.level == 20.0
@@ -95,7 +95,7 @@ def test_import_npz_and_csv(tmp_path):
     assert main(["import", str(tmp_path / "r.csv"), "--out", str(tmp_path / "c.h5"),
                  "--force-cols", "shaker", "--response-kind", "velocity", "--level",
                  "1.0"]) == 0
-    (back,) = store.load_recordings(tmp_path / "c.h5")
+    (back,) = recordings_io.load_recordings(tmp_path / "c.h5")
     np.testing.assert_array_equal(back.force, rec_kw["force"])
     np.testing.assert_array_equal(back.response, rec_kw["response"])
     assert back.level == 1.0 and back.fs == pytest.approx(FS, rel=1e-12)

@@ -14,7 +14,8 @@ from analysis.recording import Recording
 from nlid_lab.campaign import run_campaign
 from nlid_lab.campaign_config import load_campaign
 from nlid_lab.cli import main
-from nlid_lab.store import load_recordings, save_recording
+from nlid_lab.recordings_io import load_recordings
+from nlid_lab.store import save_recording
 
 FS = 1024.0
 SDOF = Model.load("examples/models/sdof-cubic-quaddamp.toml")
@@ -26,7 +27,7 @@ def _levels(model, levels=(2.0, 20.0), noise=0.02, fs=FS, band=(5, 200), oversam
         f = random_gaussian(2**16, fs, band, level, seed=10 + k)[:, None]
         x = Plant(model, fs, [0], oversample=oversample).run(f).displacement
         recs.append(Recording(fs, "random", [0], f, add_relative_noise(x, noise, k + 1),
-                              level=level, meta={"force_hold": "linear"}))
+                              level=level, force_hold="linear"))
     return recs
 
 

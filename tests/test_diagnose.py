@@ -178,7 +178,7 @@ def test_unconfirmed_finding_is_flagged(tmp_path):
     from analysis.model import Model
     from nlid_lab.campaign import run_campaign
     from nlid_lab.campaign_config import load_campaign
-    from nlid_lab.store import load_recordings
+    from nlid_lab.recordings_io import load_recordings
 
     examples = Path(__file__).resolve().parents[1] / "examples"
     run = tmp_path / "run.h5"

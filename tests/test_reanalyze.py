@@ -21,7 +21,8 @@ from analysis.plant import Plant, simulate
 from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
 from nlid_lab import cli, reanalyze as rea
-from nlid_lab.store import RunWriter, load_recordings, save_recording
+from nlid_lab.recordings_io import load_recordings
+from nlid_lab.store import RunWriter, save_recording
 from nlid_lab.store import TableError, read_table, write_table
 
 pytest.importorskip("distributed")

@@ -171,7 +171,7 @@ def test_periodic_random_report_shows_the_bla_and_its_distortion(tmp_path):
                 lv.append_block(f[rows], x[rows])
             lv.complete()
     data = load_run(path)
-    assert data.recordings[0].meta["realizations"] == m
+    assert data.recordings[0].layout.realizations == m
     out = write_report(data, tmp_path / "report")
     assert "bla_distortion_out0.png" in out["figures"]
     html = (tmp_path / "report" / "index.html").read_text()

@@ -7,7 +7,7 @@ from analysis.errors import EstimationError, InputError
 from analysis.excitation import multisine, periodic, random_gaussian
 from analysis.model import Element, Model
 from analysis.plant import Plant, add_relative_noise
-from analysis.recording import Recording
+from analysis.recording import PeriodicLayout, Recording
 from analysis.reverse_path import reverse_path
 from analysis.reverse_path_noise import noise_floor
 
@@ -120,7 +120,7 @@ def _rec(run, kind):
     model, force, out = run
     resp = {"displacement": out.displacement, "velocity": out.velocity,
             "acceleration": out.acceleration}[kind]
-    return Recording(4096.0, "random", [0, 2], force, resp, kind, meta={"force_hold": "linear"})
+    return Recording(4096.0, "random", [0, 2], force, resp, kind, force_hold="linear")
 
 
 def test_several_force_inputs(mdof_two_forces):
@@ -233,14 +233,15 @@ def _periodic_run(path, fs, rms, band, oversample, *, realizations, periods, tra
     force = np.concatenate([periodic(multisine(n, fs, band, rms, seed=100 * seed + k),
                                      transient + periods) for k in range(realizations)])
     x = Plant(model, fs, [0], oversample=oversample).run(force[:, None]).displacement
-    meta = {"period": n, "realizations": realizations, "transient_periods": transient,
-            "force_hold": "linear"}
-    return model, Recording(fs, "random", [0], force[:, None], x, meta=meta)
+    layout = PeriodicLayout(n, transient, periods, realizations)
+    return model, Recording(fs, "random", [0], force[:, None], x, force_hold="linear",
+                            layout=layout)
 
 
 def _noisy(rec, fraction, seed):
     return Recording(rec.fs, "random", rec.force_dofs, rec.force,
-                     add_relative_noise(rec.response, fraction, seed), meta=dict(rec.meta))
+                     add_relative_noise(rec.response, fraction, seed),
+                     force_hold=rec.force_hold, layout=rec.layout)
 
 
 # SDOF at 15 N rms: at 20 N some phase realizations give no periodic steady state (the

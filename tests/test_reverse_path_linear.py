@@ -9,7 +9,7 @@ from analysis.plant import Plant
 from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
 from analysis.reverse_path_linear import residual_force_frf
-from nlid_lab.analyze_reverse_path import modal_summary
+from analysis.modal import modal_summary
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"
 
@@ -21,7 +21,7 @@ def _records(model, fs, n, levels, seed, force_dofs=(0,)):
                              for j in range(len(force_dofs))])
         out = Plant(model, fs, list(force_dofs), oversample=2).run(f)
         recs.append(Recording(fs, "random", list(force_dofs), f, out.displacement,
-                              "displacement", meta={"force_hold": "linear"}))
+                              "displacement", force_hold="linear"))
     return recs
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from analysis.recording import Recording
-from nlid_lab import store
+from nlid_lab import recordings_io, store
 
 BLOCK = 512
 
@@ -111,7 +111,7 @@ def test_save_recording_and_load_recordings(tmp_path):
                     force=rng.normal(size=(4, 100, 1)), response=rng.normal(size=(4, 100, 3)),
                     response_kind="acceleration", freqs=[10, 11, 12, 13], level=2.5)
     store.save_recording(tmp_path / "x.h5", rec, source="import")
-    (back,) = store.load_recordings(tmp_path / "x.h5")
+    (back,) = recordings_io.load_recordings(tmp_path / "x.h5")
     for key in ("force", "response", "freqs", "force_dofs"):
         np.testing.assert_array_equal(getattr(back, key), getattr(rec, key))
     assert (back.response_kind, back.level, back.fs) == ("acceleration", 2.5, 500.0)

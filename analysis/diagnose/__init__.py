@@ -101,7 +101,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     nperseg : int, optional
         Welch segment length (default: resolves the narrowest model resonance).
     period : int, optional
-        Samples per period of a periodic drive (else ``meta["period_samples"]``).
+        Samples per period of a periodic drive (else the recording's ``layout.period``).
     floor : float
         Model-precision floor, relative FRF deviation treated as insignificant.
 
@@ -121,7 +121,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         raise DiagnoseInputError("the runs differ in sample rate or force DOFs; diagnose "
                                  "runs of one test set-up together")
     recs.sort(key=record_level)
-    per = [period or r.meta.get("period_samples") for r in recs]
+    per = [period or (r.layout.period if r.layout else None) for r in recs]
     n_min = min(r.force.shape[0] for r in recs)
     nps = nperseg if nperseg is not None else choose_nperseg(model, recs[0].fs, n_min)
     if band is None:

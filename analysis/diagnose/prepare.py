@@ -83,13 +83,20 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
     label : str
     period : int, optional
         Samples per period of a periodic drive; the first ``transient_periods`` periods are
-        dropped and a whole number of periods kept.
+        dropped and a whole number of periods kept. When it is the period of the
+        recording's ``layout``, the layout's transient periods of every realization are
+        dropped instead.
     transient_periods : int
     """
     if rec.excitation != "random":
         raise DiagnoseInputError(f"{label}: expected a random recording, got {rec.excitation}")
     force = remove_dc(rec.force)
     resp = remove_dc(rec.response)
+    lay = rec.layout
+    if period is not None and lay is not None and lay.period == period:
+        steady = (np.arange(lay.realizations)[:, None] * lay.realization_samples
+                  + lay.transient_periods * period + np.arange(lay.periods * period)).ravel()
+        force, resp, transient_periods = force[steady], resp[steady], 0
     if period is not None:
         n_per = force.shape[0] // period - transient_periods
         if n_per < 2:

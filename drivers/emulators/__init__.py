@@ -2,7 +2,8 @@
 
 `SerialShakerEmulator` and `SerialDaqEmulator` serve the serial protocols on real
 pseudo-terminals; `CanDaqEmulator` serves the CAN protocol on any python-can bus. All run in
-threads, share one rig (one loop through the structure) and inject faults from a `FaultPlan`.
+threads, share one rig (one loop through the structure) and inject the faults of a
+`drivers.faults.FaultSpec` (run as a `FaultPlan`).
 """
 
 from .faults import FaultPlan

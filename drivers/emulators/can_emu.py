@@ -14,6 +14,7 @@ from .. import can_protocol as proto
 from ..base import Channel
 from ..errors import DriverConfigError
 from ..rig import SimRig
+from ..faults import FaultSpec
 from .faults import FaultPlan
 
 ROWS_PER_TICK = 16
@@ -28,7 +29,7 @@ class CanDaqEmulator(threading.Thread):
 
     def __init__(self, rig: SimRig, channels: list[Channel], interface: str = "virtual",
                  channel: str = "nlid-daq", *, pace: float = 1.0,
-                 faults: FaultPlan | None = None, **bus_kwargs) -> None:
+                 faults: FaultSpec | None = None, **bus_kwargs) -> None:
         super().__init__(name="can-daq-emulator", daemon=True)
         if not pace > 0:
             raise DriverConfigError("the CAN emulator needs pace > 0 (1.0 = real time)")
@@ -36,7 +37,7 @@ class CanDaqEmulator(threading.Thread):
             raise DriverConfigError(f"the CAN DAQ carries at most {2 * proto.MAX_GROUPS} "
                                     "channels")
         self.rig, self.wiring, self.pace = rig, list(channels), pace
-        self.faults = faults or FaultPlan()
+        self.faults = FaultPlan.of(faults)
         self.bus = can.Bus(interface=interface, channel=channel, **bus_kwargs)
         db = proto.database()
         self._control = db.get_message_by_frame_id(proto.CONTROL_ID)

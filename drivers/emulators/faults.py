@@ -1,65 +1,29 @@
-"""Fault injection plan shared by the emulators (deterministic: counts frames, seeded bytes)."""
+"""Fault injection shared by the emulators (deterministic: counts frames, seeded bytes)."""
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..errors import DriverConfigError
+from ..faults import FaultSpec
 
 
 @dataclass
-class FaultPlan:
-    """Which faults to inject into a data stream, by frame number (0 = never).
-
-    Attributes
-    ----------
-    garbage_every : int
-        Before every k-th frame, write ``garbage_bytes`` random bytes (serial only).
-    garbage_bytes : int
-    drop_every : int
-        Do not send every k-th frame (its samples are lost).
-    duplicate_every : int
-        Send every k-th frame twice.
-    corrupt_every : int
-        Flip one payload byte of every k-th frame (serial: CRC fails; frame lost).
-    stall_at : int
-        Stop sending at this frame for ``stall_seconds`` (``inf``: for good).
-    stall_seconds : float
-    disconnect_at : int
-        Close the port / bus at this frame.
-    seed : int
-        Seed of the garbage bytes.
-    """
-
-    garbage_every: int = 0
-    garbage_bytes: int = 37
-    drop_every: int = 0
-    duplicate_every: int = 0
-    corrupt_every: int = 0
-    stall_at: int = 0
-    stall_seconds: float = float("inf")
-    disconnect_at: int = 0
-    seed: int = 0
+class FaultPlan(FaultSpec):
+    """A `FaultSpec` being run: garbage-byte generator and the time of the first fault."""
 
     def __post_init__(self) -> None:
         self.rng = np.random.default_rng(self.seed)
         self.fault_at: float | None = None   # monotonic time of the first stall/disconnect
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], where: str = "faults") -> "FaultPlan":
-        names = {f.name for f in fields(cls)}
-        unknown = set(data) - names
-        if unknown:
-            raise DriverConfigError(f"{where}: unknown fault key(s) {sorted(unknown)}; use "
-                                    f"{', '.join(sorted(names))}")
-        for key, value in data.items():
-            if not isinstance(value, (int, float)) or value < 0:
-                raise DriverConfigError(f"{where}.{key} must be a number >= 0, got {value!r}")
-        return cls(**data)
+    def of(cls, spec: FaultSpec | None) -> "FaultPlan":
+        """The plan running ``spec``: a plan as it is, a spec as a fresh plan, none: no faults."""
+        if isinstance(spec, FaultPlan):
+            return spec
+        return cls(**asdict(spec)) if spec is not None else cls()
 
     @staticmethod
     def _hit(every: int, k: int) -> bool:

@@ -15,6 +15,7 @@ from ..base import Channel, MultisineOutput, RandomOutput, SineOutput
 from ..errors import DriverConfigError
 from ..frame import MAX_SAMPLES, encode_frame
 from ..rig import SimRig
+from ..faults import FaultSpec
 from .faults import FaultPlan
 from .pty_server import OUT_CAP, PtyServer, short_form
 
@@ -183,18 +184,18 @@ class SerialDaqEmulator(PtyServer):
         What each input measures (quantity, DOF) and its sensitivity (V/unit).
     pace : float
         1.0 streams in real time, 2.0 twice as fast; 0 as fast as the reader takes it.
-    faults : FaultPlan, optional
+    faults : FaultSpec, optional
     """
 
     IDN = "NLID-LAB,DAQ-EMU,0,1.0"
 
     def __init__(self, rig: SimRig, channels: list[Channel], *, pace: float = 1.0,
-                 faults: FaultPlan | None = None) -> None:
+                 faults: FaultSpec | None = None) -> None:
         super().__init__("daq-emulator")
         self.rig = rig
         self.wiring = list(channels)
         self.pace = pace
-        self.faults = faults or FaultPlan()
+        self.faults = FaultPlan.of(faults)
         self.frame_size = 64
         self.streaming = False
         self._k = 0

@@ -33,7 +33,7 @@ def format_tests(result: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from analysis.detect import detect
-    from ..store import load_recordings
+    from ..recordings_io import load_recordings
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=sys.stderr if args.json == "-" else sys.stdout)

@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
     from nlid_lab.cli import write_json
-    from nlid_lab.store import load_recordings, open_run, save_result
+    from nlid_lab.recordings_io import load_recordings
+    from nlid_lab.store import open_run, save_result
 
     if args.store:
         if Path(args.store).suffix.lower() not in (".h5", ".hdf5"):

@@ -27,7 +27,8 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     """Run a drive (see `recordings_io.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
-    a real shaker; each step's response is recorded in full.
+    a real shaker; each step's response is recorded in full. The drive's periodic layout
+    and other keys are carried to the recording.
     """
     from analysis.plant import Plant
 
@@ -54,8 +55,9 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
-                     meta={"model": model.name, "noise_std": noise_std, "seed": seed,
-                           "force_hold": "linear"})  # the plant's drive definition
+                     force_hold="linear",  # the plant's drive definition
+                     layout=drive["layout"], extra=drive["extra"],
+                     meta={"model": model.name, "noise_std": noise_std, "seed": seed})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -78,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         store.save_recording(out, rec, source="sim", model_toml=model_path.read_text(),
                              settings={"drive": str(args.drive), "noise_std": args.noise,
-                                       "seed": args.seed, "force_hold": "linear"})
+                                       "seed": args.seed})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,

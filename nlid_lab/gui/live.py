@@ -17,9 +17,9 @@ from PySide6 import QtCore, QtWidgets
 
 from analysis import spectral
 from analysis.bla import best_linear_approximation
+from analysis.frf import FRF_UNITS, LevelFRF, frf_from_bla, frf_from_spectra
 from analysis.sine_fit import sine_fit
 
-from ..report import FRF_UNITS, LevelFRF, frf_from_bla, frf_from_spectra
 from . import plots
 
 #: Seconds of time history kept per channel (ring buffer).
@@ -68,33 +68,26 @@ class RingBuffer:
 
 
 class FrfAccumulator:
-    """Running Welch average over blocks: each block's segments are added to the sum, so the
-    FRF and coherence after block k equal a Welch estimate over all k blocks (no overlap
-    across block boundaries)."""
+    """Running Welch average over blocks: each block's spectral matrix is pooled with the
+    earlier ones (`analysis.spectral.Spectra.pool`), so the FRF and coherence after block k
+    equal a Welch estimate over all k blocks (no overlap across block boundaries)."""
 
     def __init__(self, fs: float, n_in: int, nperseg: int) -> None:
         self.fs, self.n_in, self.nperseg = fs, n_in, nperseg
-        self.S_sum: np.ndarray | None = None
-        self.n_avg = 0
-        self.template: spectral.Spectra | None = None
+        self.spectra: spectral.Spectra | None = None
 
     def add(self, force: np.ndarray, response: np.ndarray) -> None:
         data = np.concatenate([force, response], axis=1)
         if data.shape[0] < self.nperseg:
             return
         spec = spectral.spectral_matrix(data, self.fs, nperseg=self.nperseg)
-        weighted = spec.S * spec.n_avg
-        self.S_sum = weighted if self.S_sum is None else self.S_sum + weighted
-        self.n_avg += spec.n_avg
-        self.template = spec
+        self.spectra = spec if self.spectra is None else spectral.Spectra.pool(
+            [self.spectra, spec])
 
     def estimate(self, **labels: Any) -> LevelFRF | None:
-        if self.S_sum is None:
+        if self.spectra is None:
             return None
-        t = self.template
-        mean = spectral.Spectra(t.freqs, self.S_sum / self.n_avg, self.n_avg, t.n_eff,
-                                t.bin_factor, t.fs, t.nperseg, t.window)
-        return frf_from_spectra(mean, self.n_in, **labels)
+        return frf_from_spectra(self.spectra, self.n_in, **labels)
 
 
 class BlaAccumulator:

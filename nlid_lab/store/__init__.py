@@ -13,14 +13,13 @@ Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recor
 """
 
 from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
-from .reader import (Level, Run, check_result_target, load_recordings, open_run,
-                     save_recording, save_result)
+from .reader import Level, Run, check_result_target, open_run, save_recording, save_result
 from .tables import TableError, read_table, write_table
 from .writer import LevelWriter, RunWriter
 
 __all__ = [
     "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now",
-    "Level", "Run", "check_result_target", "load_recordings", "open_run", "save_recording", "save_result",
+    "Level", "Run", "check_result_target", "open_run", "save_recording", "save_result",
     "TableError", "read_table", "write_table",
     "LevelWriter", "RunWriter",
 ]

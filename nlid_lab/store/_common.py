@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import io
 import json
 import time
 import zlib
 from datetime import datetime, timezone
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +17,16 @@ import numpy as np
 from analysis.errors import InputError
 
 SCHEMA_VERSION = 1
+
+
+def _software() -> str:
+    try:
+        return f"nlid-lab {metadata.version('nlid-lab')}"
+    except metadata.PackageNotFoundError:   # run from a source tree that is not installed
+        return "nlid-lab (not installed)"
+
+
+SOFTWARE = _software()
 
 
 FORMAT = "nlid-lab run"
@@ -136,6 +148,40 @@ def _json_default(obj: Any) -> Any:
     if isinstance(obj, Path):
         return str(obj)
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _write_extra(f: h5py.File, extra: dict[str, np.ndarray]) -> None:
+    """Recording keys no field holds, one dataset each under ``/extra`` (strings as UTF-8,
+    other dtypes h5py cannot hold as their ``.npy`` bytes; attribute ``npy_dtype`` names the
+    original dtype)."""
+    group = f.create_group("extra")
+    for key, value in extra.items():
+        arr = np.asarray(value)
+        if arr.dtype.kind == "U":
+            data = np.char.encode(arr, "utf-8").astype(object)
+            ds = group.create_dataset(key, data=data, dtype=h5py.string_dtype())
+        elif arr.dtype.kind in "biufcS":
+            ds = group.create_dataset(key, data=arr)
+        else:
+            buf = io.BytesIO()
+            np.save(buf, arr, allow_pickle=False)
+            ds = group.create_dataset(key, data=np.frombuffer(buf.getvalue(), np.uint8))
+            ds.attrs["npy_bytes"] = True
+        ds.attrs["npy_dtype"] = arr.dtype.str
+
+
+def _read_extra(f: h5py.File) -> dict[str, np.ndarray]:
+    """The ``/extra`` datasets back as the arrays `_write_extra` was given."""
+    out = {}
+    for key, ds in (f["extra"].items() if "extra" in f else ()):
+        dtype = np.dtype(ds.attrs["npy_dtype"])
+        if ds.attrs.get("npy_bytes"):
+            out[key] = np.load(io.BytesIO(ds[()].tobytes()), allow_pickle=False)
+        elif dtype.kind == "U":
+            out[key] = np.asarray(ds.asstr()[()], dtype=dtype)
+        else:
+            out[key] = np.asarray(ds[()], dtype=dtype)
+    return out
 
 
 def _valid_segments(f: h5py.File) -> np.ndarray:

@@ -6,14 +6,14 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from analysis.recording import Recording
+from analysis.recording import PeriodicLayout, Recording
 
 from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
-                      _read_status, _valid_segments)
+                      _read_extra, _read_status, _valid_segments)
 from .writer import RunWriter, _repair
 
 # --- read side -------------------------------------------------------------------------------
@@ -54,6 +54,14 @@ class Run:
     log: list[dict[str, Any]]
     results: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def force_hold(self) -> str:
+        """The run's force hold; runs written before it was an attribute kept it in
+        ``settings``."""
+        return self.meta.get("force_hold") or (self.meta.get("settings") or {}).get(
+            "force_hold") or "none"
 
     def level_index(self, level: int | None) -> int:
         """Resolve ``level`` (None: the only level with data) to a stored level index."""
@@ -93,47 +101,50 @@ class Run:
                 "status": self.status, "seq": seg["seq"], "t": seg["t"],
                 "channels": self.channels, "excitation_settings":
                 self.meta.get("excitation_settings", {}), "settings": self.meta.get("settings")}
-        hold = (self.meta.get("settings") or {}).get("force_hold")
-        if hold:
-            meta["force_hold"] = hold
         common = dict(fs=self.meta["fs"], excitation=self.meta["excitation"],
                       force_dofs=self.meta["force_dofs"],
                       response_kind=self.meta["response_kind"],
-                      level=None if np.isnan(nominal) else nominal)
+                      level=None if np.isnan(nominal) else nominal,
+                      force_hold=self.force_hold, extra=dict(self.extra), meta=meta)
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
-            layout = _periodic_layout(meta["excitation_settings"], parts)
-            if layout is None:
+            layout = self._layout(parts)
+            if layout is False:
                 self.warnings.append(f"level {index}: periodic-random blocks of unequal "
                                      "length; the level is analysed as plain random data")
-            meta.update(layout or {})
             return Recording(force=np.concatenate([p[0] for p in parts]),
-                             response=np.concatenate([p[1] for p in parts]), meta=meta,
-                             **common)
+                             response=np.concatenate([p[1] for p in parts]),
+                             layout=layout or None, **common)
         n = min(len(p[0]) for p in parts)
         meta.update(step_amplitude=seg["amplitude"], step_extra=extra,
                     step_lengths=seg["length"])
         return Recording(force=np.stack([p[0][-n:] for p in parts]),
                          response=np.stack([p[1][-n:] for p in parts]), freqs=seg["freq"],
-                         meta=meta, **common)
+                         **common)
+
+    def _layout(self, parts: list) -> PeriodicLayout | None | bool:
+        """Periodic layout of a level, one block per realization (the reverse path splits
+        the record into periods); None for plain random runs, False when a block does not
+        hold one whole realization. Runs written before the layout attributes kept it in
+        ``excitation_settings``."""
+        if "period" in self.meta:
+            m = self.meta
+            keys = (m["period"], m["transient_periods"], m["periods"])
+        elif self.meta.get("excitation_settings", {}).get("periodic"):
+            s = self.meta["excitation_settings"]
+            keys = (s["block_size"], s["transient_periods"], s["periods"])
+        else:
+            return None
+        period, transient, periods = (int(k) for k in keys)
+        layout = PeriodicLayout(period, transient, periods, len(parts))
+        if any(len(p[0]) != layout.realization_samples for p in parts):
+            return False
+        return layout
 
     def recordings(self) -> list[Recording]:
         """One `Recording` per level holding data, in level order."""
         return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
-
-
-def _periodic_layout(settings: dict, parts: list) -> dict[str, int] | None:
-    """Periodic-random runs: one block per realization, so the reverse path splits the
-    level's record into periods (`analysis.reverse_path_noise.periodic_layout`); empty for
-    other runs, None when a block does not hold one whole realization."""
-    if not settings.get("periodic"):
-        return {}
-    period, transient = int(settings["block_size"]), int(settings["transient_periods"])
-    n = (transient + int(settings["periods"])) * period
-    if any(len(p[0]) != n for p in parts):
-        return None
-    return {"period": period, "transient_periods": transient, "realizations": len(parts)}
 
 
 def open_run(path: str | os.PathLike) -> Run:
@@ -160,6 +171,7 @@ def open_run(path: str | os.PathLike) -> Run:
         log = [{"t": float(row["t"]), "kind": row["kind"].decode(),
                 **_json_at(text, row["start"], row["length"])}
                for row in f["log"][:] if row["start"] + row["length"] <= text.size]
+        extra = _read_extra(f)
         levels = [Level(int(lv["index"]), float(lv["nominal"]), bool(lv["complete"]),
                         int(np.count_nonzero(segments["level"] == lv["index"])),
                         int(segments["length"][segments["level"] == lv["index"]].sum()))
@@ -167,7 +179,7 @@ def open_run(path: str | os.PathLike) -> Run:
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
     return Run(path, meta, channels, status, reason, updated,
                {"frames": int(lost[0]), "samples": int(lost[1])}, levels, segments, log,
-               results)
+               results, extra=extra)
 
 
 def check_result_target(path: str | os.PathLike) -> None:
@@ -187,34 +199,48 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
         _append_log(f, "result", {"name": name, "value": result})
 
 
-def save_recording(path: str | os.PathLike, rec: Recording, **meta: Any) -> None:
-    """Write one `Recording` as a complete single-level run file (overwriting ``path``).
+def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording],
+                   **meta: Any) -> None:
+    """Write recordings as the levels of one complete run file (overwriting ``path``).
 
-    ``meta`` goes to `RunWriter` (``source``, ``model_toml``, ``settings``, ``channels``).
+    Levels in separate files (one recording each) become one run: they must agree on what a
+    run file holds once (sample rate, excitation, force DOFs, channels, response kind, force
+    hold, periodic layout, extra keys). ``meta`` goes to `RunWriter` (``source``,
+    ``model_toml``, ``settings``, ``channels``).
     """
-    excitation = meta.pop("excitation_settings", None) or {"kind": rec.excitation}
-    with RunWriter(path, fs=rec.fs, excitation=excitation, force_dofs=rec.force_dofs,
-                   n_dof=rec.n_dof, response_kind=rec.response_kind, mode="overwrite",
+    recs = [rec] if isinstance(rec, Recording) else list(rec)
+    first = recs[0]
+    for i, other in enumerate(recs[1:], 1):
+        _check_same_run(first, other, i)
+    excitation = meta.pop("excitation_settings", None) or {"kind": first.excitation}
+    with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
+                   n_dof=first.n_dof, response_kind=first.response_kind, mode="overwrite",
+                   force_hold=first.force_hold, layout=first.layout, extra=first.extra,
                    **meta) as run:
-        lv = run.level(0, np.nan if rec.level is None else rec.level)
-        if rec.excitation == "random":
-            lv.append_block(rec.force, rec.response)
-        else:
-            for freq, force, response in zip(rec.freqs, rec.force, rec.response):
-                lv.append_step(freq, force, response, amplitude=rec.level)
-        lv.complete()
+        for index, r in enumerate(recs):
+            lv = run.level(index, np.nan if r.level is None else r.level)
+            if r.excitation == "random":
+                n = r.layout.realization_samples if r.layout else len(r.force)
+                for i in range(0, len(r.force), n):
+                    lv.append_block(r.force[i:i + n], r.response[i:i + n])
+            else:
+                for freq, force, response in zip(r.freqs, r.force, r.response):
+                    lv.append_step(freq, force, response, amplitude=r.level)
+            lv.complete()
 
 
-def load_recordings(path: str | os.PathLike) -> list[Recording]:
-    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``."""
-    from .. import recordings_io
-
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix in (".h5", ".hdf5"):
-        return open_run(path).recordings()
-    if suffix == ".npz":
-        return [recordings_io.read_npz(path)]
-    if suffix == ".csv":
-        return [recordings_io.read_csv(path)]
-    raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")
+def _check_same_run(a: Recording, b: Recording, index: int) -> None:
+    """Raise `StoreError` naming the first run-wide property in which ``b`` differs."""
+    same = {
+        "fs": a.fs == b.fs, "excitation": a.excitation == b.excitation,
+        "force_dofs": np.array_equal(a.force_dofs, b.force_dofs),
+        "response channels": a.n_dof == b.n_dof, "response_kind": a.response_kind
+        == b.response_kind, "force_hold": a.force_hold == b.force_hold,
+        "periodic layout": a.layout == b.layout,
+        "extra keys": a.extra.keys() == b.extra.keys() and all(
+            np.array_equal(np.asarray(a.extra[k]), np.asarray(b.extra[k])) for k in a.extra),
+    }
+    for what, ok in same.items():
+        if not ok:
+            raise StoreError(f"recording {index + 1} differs from the first in its {what}; "
+                             "levels of one run share it (import them as separate runs)")

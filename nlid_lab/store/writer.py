@@ -11,12 +11,12 @@ from typing import Callable
 import h5py
 import numpy as np
 
-from analysis.recording import EXCITATIONS, RESPONSE_KINDS
+from analysis.recording import EXCITATIONS, FORCE_HOLDS, RESPONSE_KINDS, PeriodicLayout
 
-from .. import __version__
-from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, STATUSES, _TABLES, StoreError,
-                      _append_log, _append_row, _channel_table, _crc, _default_channels,
-                      _json_default, _open, _valid_segments, _write_text, utc_now)
+from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
+                      StoreError, _append_log, _append_row, _channel_table, _crc,
+                      _default_channels, _json_default, _open, _valid_segments, _write_extra,
+                      _write_text, utc_now)
 
 
 class LevelWriter:
@@ -110,6 +110,13 @@ class RunWriter:
         Text of the model file when the run is simulated.
     source : str
         Where the data come from (``"sim"``, ``"serial"``, ``"can"``, ``"import"``...).
+    force_hold : {"none", "linear"}
+        How the recorded force samples acted (`analysis.recording.Recording.force_hold`).
+    layout : PeriodicLayout, optional
+        Periodic (multisine) layout of random data; write one block per realization (its
+        ``realizations`` is not stored: a level has as many as it has blocks).
+    extra : dict of str to array, optional
+        Recording keys no field holds (`Recording.extra`), stored under ``/extra``.
     mode : {"create", "overwrite", "resume"}
         ``create`` refuses an existing file; ``resume`` continues one (a crashed file is
         rebuilt first) after checking it matches fs, excitation, force_dofs and n_dof.
@@ -119,23 +126,28 @@ class RunWriter:
                  force_dofs, n_dof: int, response_kind: str = "displacement",
                  channels: list[dict] | None = None, settings: dict | None = None,
                  model_toml: str | None = None, source: str = "sim",
-                 mode: str = "create") -> None:
+                 force_hold: str = "none", layout: PeriodicLayout | None = None,
+                 extra: dict[str, np.ndarray] | None = None, mode: str = "create") -> None:
         self.path = Path(path)
         exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
         self.excitation = exc_settings.get("kind")
         self.fs = float(fs)
         self.force_dofs = np.atleast_1d(np.asarray(force_dofs, dtype=int))
         self.n_dof = int(n_dof)
-        self._check_args(response_kind, mode)
+        self._check_args(response_kind, force_hold, mode)
         attrs = {
             "format": FORMAT, "schema_version": SCHEMA_VERSION,
-            "software": f"nlid-lab {__version__}", "created_utc": utc_now(),
+            "software": SOFTWARE, "created_utc": utc_now(),
             "source": source, "fs": self.fs, "excitation": self.excitation,
             "excitation_settings": json.dumps(exc_settings, default=_json_default),
             "settings": json.dumps(settings or {}, default=_json_default),
             "force_dofs": self.force_dofs, "n_dof": self.n_dof,
             "response_kind": response_kind, "model_toml": model_toml or "",
+            "force_hold": force_hold,
         }
+        if layout is not None:
+            attrs.update(period=layout.period, transient_periods=layout.transient_periods,
+                         periods=layout.periods)
         chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind)
         table = _channel_table(chans, self.force_dofs, self.n_dof)
         if mode == "resume" and self.path.exists():
@@ -143,14 +155,16 @@ class RunWriter:
         else:
             if mode == "create" and self.path.exists():
                 raise StoreError(f"{self.path} already exists; resume it or choose a new name")
-            _create(self.path, attrs, table)
+            _create(self.path, attrs, table,
+                    (lambda f: _write_extra(f, extra)) if extra else None)
             self._file = _open(self.path, "r+")
             self._file.swmr_mode = True
         self.set_status("running")
 
-    def _check_args(self, response_kind: str, mode: str) -> None:
+    def _check_args(self, response_kind: str, force_hold: str, mode: str) -> None:
         for what, value, allowed in (("excitation kind", self.excitation, EXCITATIONS),
                                      ("response_kind", response_kind, RESPONSE_KINDS),
+                                     ("force_hold", force_hold, FORCE_HOLDS),
                                      ("mode", mode, ("create", "overwrite", "resume"))):
             if value not in allowed:
                 raise StoreError(f"{what} {value!r} is not one of {', '.join(allowed)}")
@@ -286,6 +300,8 @@ def _repair(path: Path) -> bool:
             for name, rows in (("levels", old["levels"][:]), ("segments", seg_ok), ("log", log)):
                 f[name].resize((len(rows),))
                 f[name][:] = rows
+            if "extra" in old:
+                old.copy("extra", f)
             f["text"].resize((text_n,))
             f["text"][:] = old["text"][:text_n]
             for name in ("force", "response"):

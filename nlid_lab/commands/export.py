@@ -1,0 +1,41 @@
+"""``nlid-lab export RUN.h5 --out REC.npz|REC.csv``: one level of a run as a recording file."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from analysis.errors import InputError
+
+from .. import recordings_io
+from ..cli import write_json
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..store import open_run
+
+    out = Path(args.out)
+    suffix = out.suffix.lower()
+    if suffix not in (".npz", ".csv"):
+        raise InputError(f"--out {out}: export to a .npz or .csv recording")
+    if out.exists() and not args.force:
+        raise InputError(f"{out} already exists; give --force to overwrite it")
+    rec = open_run(args.run).recording(args.level)
+    (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)
+    if args.json != "-":
+        print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
+              f"-> {out}")
+    write_json({"out": str(out), "run": str(args.run), "level": rec.meta["level_index"],
+                "keys": sorted(recordings_io.recording_keys(rec))}, args.json)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export", help="write one level of a run as an NPZ or CSV recording")
+    p.add_argument("run", metavar="RUN.h5", help="run file")
+    p.add_argument("--out", required=True, metavar="REC", help="recording .npz or .csv "
+                   "(docs/recording-formats.md; CSV for random data)")
+    p.add_argument("--level", type=int, help="level index (default: the only level with data)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
+    p.set_defaults(func=run)

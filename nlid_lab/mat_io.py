@@ -1,0 +1,265 @@
+"""MATLAB recordings (``.mat``) as acquisition systems export them, through a channel map.
+
+A commercial export is a struct (or plain variables) of channel arrays and a sample rate,
+e.g. ``data.Force`` (n x 1), ``data.Voltage``, ``data.Acceleration`` (n x 3), ``data.Fs``. The
+file is read into a flat tree of dotted names (`read_mat_tree`: v5/v6/v7 by `scipy.io`, v7.3 —
+HDF5 — by the store); a `ChannelMap` says which leaves are the force, the responses and the
+sample rate, with their units::
+
+    fs=Fs  force=Force  response=Acceleration[0:3]:g
+
+(``NAME[cols]`` selects columns — ``[0:3]``, ``[0,2]`` — of a 2-D array, channel-major arrays
+are transposed automatically; ``:UNIT`` scales to SI and names the response kind.) The same
+keys can come from a small TOML file (docs/recording-formats.md).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analysis.errors import InputError
+
+from .units import lookup
+
+MAT73_SIGNATURE = b"MATLAB 7.3 MAT-file"
+MAX_MAP_BYTES = 1 << 16
+_SELECT = re.compile(r"^(?P<key>[A-Za-z_][\w.]*)(?:\[(?P<cols>[^\]]*)\])?(?::(?P<unit>.+))?$")
+
+
+class MatFileError(InputError):
+    """A MAT file or its channel map does not give what an import needs."""
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Columns of one named array, with the unit they are in."""
+
+    key: str
+    cols: tuple[int, ...] | slice | None = None
+    unit: str | None = None
+
+    @classmethod
+    def parse(cls, text: str, role: str) -> "Selection":
+        m = _SELECT.match(text.strip())
+        if not m:
+            raise MatFileError(f"channel map {role}={text!r}: write NAME, NAME[0:3], NAME[0,2] "
+                               "or NAME[0]:UNIT")
+        cols = m["cols"]
+        if cols is None:
+            sel = None
+        elif ":" in cols:
+            parts = cols.split(":")
+            try:
+                sel = slice(*(int(p) if p.strip() else None for p in parts))
+            except (TypeError, ValueError):
+                raise MatFileError(f"channel map {role}={text!r}: bad column range "
+                                   f"[{cols}]") from None
+        else:
+            try:
+                sel = tuple(int(c) for c in cols.split(","))
+            except ValueError:
+                raise MatFileError(f"channel map {role}={text!r}: columns must be integers "
+                                   f"(0-based), got [{cols}]") from None
+        return cls(m["key"], sel, m["unit"])
+
+
+@dataclass
+class ChannelMap:
+    """Where the force, responses and sample rate of a recording are in a MAT tree."""
+
+    force: list[Selection]
+    response: list[Selection]
+    fs: str | float = "Fs"
+    response_kind: str | None = None
+    #: other recording keys (force_dofs, level, period, ...): literal values, or names of
+    #: variables in the file
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_items(cls, items: list[str]) -> "ChannelMap":
+        """From ``KEY=VALUE`` words (``--map force=Force response=Acc[0:3]:g fs=Fs``)."""
+        data: dict[str, Any] = {}
+        for item in items:
+            key, sep, value = item.partition("=")
+            if not sep or not value:
+                raise MatFileError(f"channel map item {item!r}: write KEY=VALUE, e.g. "
+                                   "force=Force")
+            data.setdefault(key.strip(), []).append(_literal(value.strip()))
+        return cls.from_dict({k: v if k in ("force", "response") else v[-1]
+                              for k, v in data.items()}, "--map")
+
+    @classmethod
+    def from_toml(cls, path: str | os.PathLike) -> "ChannelMap":
+        path = Path(path)
+        if not path.is_file() or path.stat().st_size > MAX_MAP_BYTES:
+            raise MatFileError(f"channel map {path}: not a (small) regular file")
+        try:
+            data = tomllib.loads(path.read_text())
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise MatFileError(f"channel map {path}: not valid TOML ({exc})") from None
+        return cls.from_dict(data, str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str) -> "ChannelMap":
+        known = {"force", "response", "fs", "response_kind"}
+        for role in ("force", "response"):
+            if role not in data:
+                raise MatFileError(f"{source}: the channel map needs '{role}' (e.g. "
+                                   f"{role}=Force)")
+        extra = {k: v for k, v in data.items() if k not in known}
+        sels = {role: [Selection.parse(str(v), role) for v in np.atleast_1d(data[role])]
+                for role in ("force", "response")}
+        fs = data.get("fs", "Fs")
+        try:
+            fs = float(fs)
+        except (TypeError, ValueError):
+            fs = str(fs)
+        return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra)
+
+
+def _literal(text: str) -> Any:
+    """A map value as TOML reads it (``0``, ``2.5``, ``[0, 1]``), else the text itself."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def is_mat73(path: Path) -> bool:
+    with open(path, "rb") as fh:
+        return fh.read(128).startswith(MAT73_SIGNATURE)
+
+
+def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
+    """Every leaf of a MAT file by dotted name (struct fields joined with ``.``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise MatFileError(f"MAT file {path} not found; check the path")
+    if is_mat73(path):
+        from .store.mat73 import read_mat73
+        return read_mat73(path)
+    import scipy.io
+    from scipy.io.matlab import MatReadError
+
+    try:
+        raw = scipy.io.loadmat(path, simplify_cells=True)
+    except (MatReadError, ValueError, OSError, TypeError) as exc:
+        raise MatFileError(f"{path} is not a readable MAT file ({exc}); save it with MATLAB's "
+                           "save or scipy.io.savemat") from None
+    out: dict[str, Any] = {}
+    _flatten("", {k: v for k, v in raw.items() if not k.startswith("__")}, out)
+    return out
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _flatten(f"{prefix}.{k}" if prefix else k, v, out)
+    else:
+        out[prefix] = value
+
+
+def _leaf(tree: dict[str, Any], key: str, source: str) -> Any:
+    """A leaf by full dotted name, or by its last part(s) when that is unique."""
+    if key in tree:
+        return tree[key]
+    hits = [k for k in tree if k.endswith("." + key)]
+    if len(hits) == 1:
+        return tree[hits[0]]
+    names = ", ".join(sorted(tree)) or "none"
+    if hits:
+        raise MatFileError(f"{source}: '{key}' is ambiguous ({', '.join(hits)}); give the full "
+                           "dotted name")
+    raise MatFileError(f"{source}: no variable '{key}' (the file holds {names})")
+
+
+def _columns(tree: dict[str, Any], sel: Selection, n: int | None, source: str) -> np.ndarray:
+    value = _leaf(tree, sel.key, source)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise MatFileError(f"{source}: '{sel.key}' is not numeric") from None
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise MatFileError(f"{source}: '{sel.key}' has shape {arr.shape}; a channel array is "
+                           "1-D or 2-D")
+    if n is not None and arr.shape[0] != n and arr.shape[1] == n:
+        arr = arr.T                                          # channel-major export
+    elif n is None and arr.shape[0] < arr.shape[1]:
+        arr = arr.T                                          # channel-major (fewer rows)
+    try:
+        arr = arr[:, sel.cols] if isinstance(sel.cols, slice) else \
+            arr[:, list(sel.cols)] if sel.cols is not None else arr
+    except IndexError:
+        raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[1]} column(s); the map asks "
+                           f"for {sel.cols}") from None
+    if arr.shape[1] == 0:
+        raise MatFileError(f"{source}: '{sel.key}{sel.cols}' selects no column")
+    return arr
+
+
+def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, Any]:
+    """Force, response, fs and response kind (SI) from a MAT tree.
+
+    Returns
+    -------
+    dict
+        ``fs``, ``force`` (n, n_in) in N, ``response`` (n, n_out) in SI, ``response_kind``,
+        and the map's other keys (values read from the file where they name a variable).
+    """
+    force = [_columns(tree, s, None, source) for s in cmap.force]
+    n = force[0].shape[0]
+    force = [_columns(tree, s, n, source) for s in cmap.force]
+    response = [_columns(tree, s, n, source) for s in cmap.response]
+    for sel, arr in zip(cmap.force + cmap.response, force + response):
+        if arr.shape[0] != n:
+            raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[0]} samples, the force "
+                               f"{n}; channels of one recording have one length")
+    kinds = set()
+    for sel, arr in zip(cmap.force, force):
+        if sel.unit:
+            factor, quantity = lookup(sel.unit, f"{source}: force {sel.key}")
+            if quantity != "force":
+                raise MatFileError(f"{source}: force {sel.key} is in {sel.unit}, a "
+                                   f"{quantity} unit")
+            arr *= factor
+    for sel, arr in zip(cmap.response, response):
+        if sel.unit:
+            factor, quantity = lookup(sel.unit, f"{source}: response {sel.key}")
+            if quantity == "force":
+                raise MatFileError(f"{source}: response {sel.key} is in {sel.unit}, a force "
+                                   "unit; map it as force=")
+            arr *= factor
+            kinds.add(quantity)
+    if cmap.response_kind:
+        kinds.add(cmap.response_kind)
+    if len(kinds) > 1:
+        raise MatFileError(f"{source}: responses of different kinds ({', '.join(sorted(kinds))})"
+                           "; import them as separate runs")
+    if isinstance(cmap.fs, float):
+        fs = cmap.fs
+    else:
+        try:
+            fs = float(np.asarray(_leaf(tree, cmap.fs, source), dtype=float).reshape(()))
+        except (TypeError, ValueError):
+            raise MatFileError(f"{source}: the sample rate '{cmap.fs}' is not one number") \
+                from None
+    extra = {}
+    for key, value in cmap.extra.items():
+        if isinstance(value, str) and value not in ("none", "linear") and _known(tree, value):
+            value = _leaf(tree, value, source)
+        extra[key] = value
+    return {"fs": fs, "force": np.hstack(force), "response": np.hstack(response),
+            "response_kind": kinds.pop() if kinds else "displacement", **extra}
+
+
+def _known(tree: dict[str, Any], key: str) -> bool:
+    return key in tree or sum(k.endswith("." + key) for k in tree) == 1

@@ -1,0 +1,16 @@
+"""Estimators known to `analyze`, `reanalyze`, `report` and `view`: the method registry.
+
+`registry` defines `Method` and the look-ups; each further module defines one method and
+registers it on import. A new estimator is one new module here, imported below.
+"""
+
+from __future__ import annotations
+
+from .registry import (ESTIMATOR_KEY, Estimate, Method, add_batch_options, add_options,
+                       batch_values, find_stored, for_excitation, get, methods, option,
+                       register, stored_estimates, unregister)
+from . import reverse_path, hbm  # noqa: E402,F401 - register the built-in methods, in order
+
+__all__ = ["ESTIMATOR_KEY", "Estimate", "Method", "add_batch_options", "add_options",
+           "batch_values", "find_stored", "for_excitation", "get", "methods", "option",
+           "register", "stored_estimates", "unregister"]

@@ -1,0 +1,217 @@
+"""The estimator registry: what `analyze`, `reanalyze`, `report` and `view` know of a method.
+
+A `Method` bundles an estimator's name, its options (a dataclass whose `option` fields carry
+their command-line flags), its estimate function on recordings, how one level is estimated in a
+batch reanalysis, and its report sections. `register` adds one; nothing else in the
+application names an estimator. Stored and JSON results carry ``"estimator": <name>``;
+results stored before that key existed are recognised by their keys (`Method.legacy_keys`).
+
+Every command line builds all parsers, so a method module imports only this registry at the
+top; numerics, figures and the store are imported inside its functions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
+
+from analysis.errors import InputError
+
+if TYPE_CHECKING:
+    from analysis.model import Model
+    from analysis.recording import Recording
+
+#: Key naming the estimator in a method's JSON and stored result.
+ESTIMATOR_KEY = "estimator"
+
+
+class Estimate(Protocol):
+    """What a method's estimate function returns."""
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON / stored result (contracts section 4), with ``"estimator"``."""
+
+    def table(self) -> str:
+        """A readable summary for the terminal."""
+
+    def write_files(self) -> list[str]:
+        """Further output files the options asked for (figures); their paths."""
+
+
+def option(*flags: str, default: Any = None, batch: bool = False, **argparse_kwargs: Any
+           ) -> Any:
+    """A field of a method's options dataclass together with its command-line flag.
+
+    Parameters
+    ----------
+    *flags : str
+        Option strings, e.g. ``"--band"``; the field name is the argparse ``dest``.
+    default : object
+        Default of the field and of `analyze`'s option.
+    batch : bool
+        Also offered by `reanalyze` (one level at a time, no files written).
+    **argparse_kwargs
+        Passed to `argparse.ArgumentParser.add_argument` (``help``, ``type``, ``choices``,
+        ``nargs``, ``metavar``, ``action``).
+    """
+    return field(default=default, metadata={"flags": flags, "batch": batch,
+                                            "argparse": argparse_kwargs})
+
+
+@dataclass(frozen=True)
+class Method:
+    """One estimator.
+
+    Attributes
+    ----------
+    name : str
+        ``analyze`` sub-command, ``reanalyze --method`` value and the ``"estimator"`` of its
+        results; stored into runs as ``analyze-<name>``.
+    help : str
+        One line for ``analyze --help``.
+    options : type
+        Dataclass of the method's settings; its `option` fields are the command-line flags.
+    excitation : str
+        Excitation of the levels it estimates from (``reanalyze --method auto`` picks the first
+        registered method matching a level).
+    estimate : callable
+        ``estimate(recordings, model, options) -> Estimate``: all given levels together.
+    estimate_level : callable, optional
+        ``estimate_level(recording, model, options) -> dict``: the JSON of one level for
+        `reanalyze`; default ``estimate([recording], model, options).to_json()``.
+    sections : callable, optional
+        ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
+        run (`nlid_lab.report.RunData`), its level FRFs, the method's latest stored result
+        (or None) and the candidate model asked for (or None).
+    legacy_keys : tuple of str
+        A stored result without ``"estimator"`` holding all these keys is this method's.
+    """
+
+    name: str
+    help: str
+    options: type
+    excitation: str
+    estimate: Callable[[Sequence[Recording], Model, Any], Estimate]
+    estimate_level: Callable[[Recording, Model, Any], dict[str, Any]] | None = None
+    sections: Callable[..., list[Any]] | None = None
+    legacy_keys: tuple[str, ...] = ()
+
+    @property
+    def result_name(self) -> str:
+        """Name of the result `analyze --store` saves into a run."""
+        return f"analyze-{self.name}"
+
+    def option_fields(self, batch_only: bool = False) -> list[dataclasses.Field]:
+        return [f for f in dataclasses.fields(self.options)
+                if "flags" in f.metadata and (f.metadata["batch"] or not batch_only)]
+
+    def make_options(self, values: Mapping[str, Any]) -> Any:
+        """The options dataclass from ``values`` (field name -> value; None or missing keys
+        take the default). Lists become tuples (argparse ``nargs``)."""
+        names = {f.name for f in dataclasses.fields(self.options)}
+        given = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()
+                 if k in names and v is not None}
+        return self.options(**given)
+
+    def level_json(self, rec: Recording, model: Model, options: Any) -> dict[str, Any]:
+        """One level's result JSON (reanalysis)."""
+        if self.estimate_level is not None:
+            return self.estimate_level(rec, model, options)
+        return self.estimate([rec], model, options).to_json()
+
+    def owns(self, result: Any) -> bool:
+        """Whether a stored result is this method's (by ``"estimator"``, else its keys)."""
+        if not isinstance(result, dict):
+            return False
+        if ESTIMATOR_KEY in result:
+            return result[ESTIMATOR_KEY] == self.name
+        return bool(self.legacy_keys) and all(k in result for k in self.legacy_keys)
+
+
+_METHODS: dict[str, Method] = {}
+
+
+def register(method: Method) -> Method:
+    """Add ``method`` (replacing one of the same name); returns it."""
+    _METHODS[method.name] = method
+    return method
+
+
+def unregister(name: str) -> None:
+    """Remove a method (tests registering a toy method clean up with this)."""
+    _METHODS.pop(name, None)
+
+
+def methods() -> list[Method]:
+    """Registered methods, in registration order."""
+    return list(_METHODS.values())
+
+
+def get(name: str) -> Method:
+    """The method called ``name``; `InputError` naming the known ones otherwise."""
+    try:
+        return _METHODS[name]
+    except KeyError:
+        raise InputError(f"unknown method '{name}'; use one of {', '.join(_METHODS)}") \
+            from None
+
+
+def for_excitation(excitation: str | None) -> Method:
+    """The first registered method estimating from ``excitation`` levels."""
+    for method in _METHODS.values():
+        if method.excitation == excitation:
+            return method
+    raise InputError(f"no estimator takes {excitation} levels; choose --method explicitly")
+
+
+def find_stored(results: Mapping[str, Any], method: Method) -> tuple[str, dict] | None:
+    """The last stored result of ``method`` as (stored name, result), or None."""
+    found = None
+    for name, res in results.items():
+        if method.owns(res):
+            found = (name, res)
+    return found
+
+
+def stored_estimates(results: Mapping[str, Any]) -> list[tuple[str, dict]]:
+    """Stored results of any registered method, in stored order."""
+    return [(name, res) for name, res in results.items()
+            if any(m.owns(res) for m in _METHODS.values())]
+
+
+# --- command-line options ------------------------------------------------------------------
+def add_options(parser: argparse.ArgumentParser, method: Method) -> None:
+    """Add every option of ``method`` to its ``analyze`` sub-command parser."""
+    for f in method.option_fields():
+        kwargs = dict(f.metadata["argparse"])
+        if f.default is not None and kwargs.get("action") != "store_true":
+            kwargs["default"] = f.default
+        parser.add_argument(*f.metadata["flags"], dest=f.name, **kwargs)
+
+
+def add_batch_options(parser: argparse.ArgumentParser) -> None:
+    """Add the batch options of every method to the ``reanalyze`` parser, once each.
+
+    Defaults are left to the method (None here), so the stored options name what was given.
+    """
+    seen: set[str] = set()
+    for method in _METHODS.values():
+        for f in method.option_fields(batch_only=True):
+            if f.name in seen:      # an option two methods share: the first one's help
+                continue
+            seen.add(f.name)
+            kwargs = dict(f.metadata["argparse"])
+            kwargs["help"] = f"{method.name}: {kwargs.get('help', '')}"
+            parser.add_argument(*f.metadata["flags"], dest=f.name, **kwargs)
+
+
+def batch_values(args: argparse.Namespace) -> dict[str, Any]:
+    """The batch options given to ``reanalyze`` (field name -> value or None)."""
+    out: dict[str, Any] = {}
+    for method in _METHODS.values():
+        for f in method.option_fields(batch_only=True):
+            value = getattr(args, f.name, None)
+            out[f.name] = tuple(value) if isinstance(value, list) else value
+    return out

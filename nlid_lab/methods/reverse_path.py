@@ -1,0 +1,213 @@
+"""Reverse path / NIFO (random excitation): ``analyze reverse-path`` and its registry entry.
+
+Besides the contracts section 4 keys, the JSON holds ``"estimator": "reverse-path"``,
+``"force_hold"`` (how the applied force was taken to behave between samples) and ``"modal"``:
+natural frequencies, damping ratios and mode shapes of the estimated underlying linear FRF
+columns (`analysis.modal.modal_summary`; through the Welch kernel on the residual-force H1
+where that applies, docs/reverse-path.md). ``--screen`` adds ``"screening"``.
+"""
+
+from __future__ import annotations
+
+import html
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Sequence
+
+from analysis.errors import EstimationError, InputError
+
+from .registry import ESTIMATOR_KEY, Method, option, register
+
+if TYPE_CHECKING:
+    from analysis.model import Model
+    from analysis.recording import Recording
+    from analysis.reverse_path import ReversePathResult
+    from analysis.screening import ScreeningResult
+
+    from ..report import RunData, Section
+
+NAME = "reverse-path"
+
+FORCE_HOLDS = ("none", "linear")
+
+
+@dataclass
+class ReversePathOptions:
+    """Settings of the reverse path (``analyze reverse-path`` flags; band, nperseg and refine
+    also for ``reanalyze``)."""
+
+    band: tuple[float, float] | None = option(
+        "--band", batch=True, type=float, nargs=2, metavar=("LO", "HI"),
+        help="analysis band in Hz (default: chosen from coherence and excitation)")
+    nperseg: int | None = option("--nperseg", batch=True, type=int,
+                                 help="Welch segment length in samples")
+    force_hold: str | None = option(
+        "--force-hold", choices=FORCE_HOLDS,
+        help="how the applied force behaves between samples: 'linear' for a first-order-hold "
+        "drive such as the simulated plant's, 'none' for a force transducer behind an "
+        "anti-alias filter (default: what the run declares, else none)")
+    screen: bool = option("--screen", default=False, action="store_true",
+                          help="also rank the candidate basis library by conditioned coherence")
+    refine: str = option(
+        "--refine", default="joint", batch=True, choices=("joint", "sequential"),
+        help="'sequential': re-estimate each coefficient with the elements on forced DOFs "
+        "fixed at their joint estimates (narrower intervals when two bases share a "
+        "deformation, e.g. v|v| next to x^3; docs/reverse-path.md)")
+
+
+def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
+                 reference: Model | None = None) -> str:
+    """Readable summary: coefficients (with the true value when ``reference`` has it), 95 %
+    intervals, multiple coherence and modes."""
+    ref_col = reference is not None
+    how = "sequential (each with the others fixed)" if result.refine else "joint"
+    lines = [f"reverse path: band {result.band[0]:.1f}-{result.band[1]:.1f} Hz, "
+             f"{result.spectra.n_avg} averages at {result.spectra.fs / result.spectra.nperseg:.3g}"
+             f" Hz resolution",
+             f"multiple coherence min {result.coherence_nonlinear.min():.4f} nonlinear, "
+             f"{result.coherence_linear.min():.4f} linear only",
+             f"coefficients: {how} estimate",
+             f"{'element':>7}  {'kind':<18} {'param':<5} "
+             + (f"{'true':>12} " if ref_col else "")
+             + f"{'estimate':>12}  {'95 % interval':>27}" + ("  error" if ref_col else "")]
+    for c in result.coefficients:
+        truth = reference.elements[c.element].params.get(c.param) if ref_col else None
+        row = f"{c.element:>7}  {c.kind:<18} {c.param:<5} "
+        if ref_col:
+            row += f"{truth:12.5g} " if truth is not None else f"{'-':>12} "
+        row += f"{c.value:12.5g}  [{c.ci95[0]:12.5g}, {c.ci95[1]:12.5g}]"
+        if truth:
+            row += f"  {100 * (c.value / truth - 1):+.3f} %"
+        lines.append(row)
+    if modal:
+        lines.append(f"underlying linear system (force at DOF {modal['force_dof']}):")
+        lines.append(f"{'mode':>7}  {'freq [Hz]':>10} {'damping':>9}  shape")
+        for k, m in enumerate(modal["modes"]):
+            shape = " ".join(f"{v:+.3f}" for v in m["shape"])
+            lines.append(f"{k:>7}  {m['freq_hz']:10.3f} {100 * m['damping_ratio']:8.3f}%  "
+                         f"[{shape}]" + ("" if m["in_band"] else "  (outside the band)"))
+    lines += [f"warning: {w}" for w in result.warnings]
+    return "\n".join(lines)
+
+
+@dataclass
+class ReversePathEstimate:
+    """A reverse-path estimate with its modal summary (the `Estimate` of this method)."""
+
+    result: ReversePathResult
+    modal: dict[str, Any] | None
+    force_hold: str
+    n_records: int
+    screening: ScreeningResult | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """Contracts section 4 JSON plus ``estimator``, ``force_hold``, ``modal`` (and
+        ``screening``)."""
+        out = {ESTIMATOR_KEY: NAME, **self.result.to_json(), "force_hold": self.force_hold,
+               "modal": self.modal}
+        if self.screening is not None:
+            out["screening"] = self.screening.to_json()
+        return out
+
+    def table(self) -> str:
+        lines = [f"{self.n_records} record(s), force hold '{self.force_hold}'",
+                 format_table(self.result, self.modal)]
+        if self.screening is not None:
+            lines += ["candidate screening (paper eq 20 library; * = selected):",
+                      self.screening.table()]
+        return "\n".join(lines)
+
+    def write_files(self) -> list[str]:
+        return []
+
+
+def estimate(recs: Sequence[Recording], model: Model,
+             options: ReversePathOptions | None = None) -> ReversePathEstimate:
+    """Reverse path on all ``recs`` pooled, with modal parameters (and screening).
+
+    ``options.force_hold`` None takes each recording's declared ``force_hold``.
+    """
+    from analysis.modal import modal_summary
+    from analysis.reverse_path import reverse_path
+    from analysis.reverse_path_linear import residual_force_frf
+    from analysis.screening import screen_candidates
+
+    options = options or ReversePathOptions()
+    holds = {r.force_hold for r in recs} if options.force_hold is None \
+        else {options.force_hold}
+    if len(holds) > 1:
+        raise InputError("the runs declare different force holds; analyse them separately "
+                         "or give --force-hold")
+    hold = holds.pop()
+    result = reverse_path(recs, model, band=options.band, nperseg=options.nperseg,
+                          force_hold=hold, refine=options.refine)
+    try:   # an estimate a model file cannot hold (e.g. negative damping): H_linear instead
+        linear = residual_force_frf(recs, result.estimated_model(model), result,
+                                    force_hold=hold)
+    except InputError:
+        linear = None
+    try:
+        modal = modal_summary(result, model.n_dof, linear)
+    except (EstimationError, InputError) as exc:
+        result.warnings.append(f"modal parameters not estimated: {exc}")
+        modal = None
+    screening = screen_candidates(recs, model, band=result.band, nperseg=options.nperseg,
+                                  force_hold=hold) if options.screen else None
+    return ReversePathEstimate(result, modal, hold, len(recs), screening)
+
+
+def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
+                   ) -> dict[str, Any]:
+    """One level for reanalysis: the coefficients only (no modal summary, no screening)."""
+    from analysis.reverse_path import reverse_path
+    result = reverse_path(rec, model, band=options.band, nperseg=options.nperseg,
+                          force_hold=options.force_hold, refine=options.refine)
+    return {ESTIMATOR_KEY: NAME, **result.to_json()}
+
+
+# --- report --------------------------------------------------------------------------------
+def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
+                    candidate: Model | None = None) -> list[Section]:
+    """Underlying linear FRF, coefficients vs frequency and multiple coherence linear vs
+    nonlinear (figs 3.6, 3.8, 3.9), computed from the random levels (pooled) when a
+    candidate model is known (``candidate``, or the reference model of a simulated run)."""
+    from analysis.frf import FRF_UNITS
+    from analysis.reverse_path import reverse_path
+
+    from .. import figures
+    from ..report import PARAM_UNITS, Section, candidate_model, reference_model
+
+    model = candidate_model(run, candidate)
+    recs = [r for r in run.recordings if r.excitation == "random"]
+    if model is None or not recs or not any(not el.known for el in model.elements):
+        return []
+    res = reverse_path(recs, model)
+    ref = reference_model(run)
+    H_model = None if ref is None else ref.linear_frf(res.freqs, list(res.force_dofs))
+    coefs, units, exact = {}, {}, {}
+    for c in res.coefficients:
+        name = f"{c.param} of {c.kind} (element {c.element})"
+        coefs[name] = c.values
+        units[name] = PARAM_UNITS.get(c.kind, "-")
+        if ref is not None and c.param in ref.elements[c.element].params:
+            exact[name] = float(ref.elements[c.element].params[c.param])
+    sec = Section("Reverse path: underlying linear system and nonlinear coefficients",
+                  f"Random levels pooled ({len(recs)}), candidate model '{html.escape(model.name)}'"
+                  ". Each nonlinear coefficient is estimated at every frequency: a flat real "
+                  "part at the parameter value and a small imaginary part mean the candidate "
+                  "term explains the data (paper figs 3.6, 3.8). The multiple coherence of "
+                  "the nonlinear analysis should be close to 1 where the linear one dips "
+                  "(fig 3.9).")
+    for p in range(res.H_linear.shape[2]):
+        sec.figures.append((f"reverse_path_linear_coefficients_in{p}",
+                            figures.linear_and_coefficients(
+                                res.freqs, res.H_linear[:, :, p],
+                                FRF_UNITS[recs[0].response_kind], coefs, units,
+                                None if H_model is None else H_model[:, :, p], exact)))
+    sec.figures.append(("reverse_path_coherence", figures.coherence_linear_vs_nonlinear(
+        res.freqs, res.coherence_linear, res.coherence_nonlinear)))
+    return [sec]
+
+
+register(Method(NAME, "random excitation: reverse path / NIFO", ReversePathOptions, "random",
+                estimate, estimate_level, report_sections,
+                legacy_keys=("elements", "multiple_coherence")))

@@ -1,0 +1,43 @@
+"""Engineering units of measured channels: scale to SI and the quantity they imply.
+
+Acquisition exports label channels ``Force (N)``, ``Acc1 [m/s^2]``, ``a_tip [g]``: the unit
+names what was measured (force, or which response kind) and how to scale it to SI.
+"""
+
+from __future__ import annotations
+
+import re
+
+from analysis.errors import InputError
+
+G0 = 9.80665
+
+#: unit -> (factor to SI, quantity)
+UNITS: dict[str, tuple[float, str]] = {
+    "N": (1.0, "force"), "kN": (1e3, "force"), "mN": (1e-3, "force"),
+    "lbf": (4.4482216152605, "force"),
+    "m": (1.0, "displacement"), "mm": (1e-3, "displacement"), "um": (1e-6, "displacement"),
+    "µm": (1e-6, "displacement"), "in": (0.0254, "displacement"),
+    "m/s": (1.0, "velocity"), "mm/s": (1e-3, "velocity"), "in/s": (0.0254, "velocity"),
+    "m/s^2": (1.0, "acceleration"), "m/s2": (1.0, "acceleration"),
+    "m/s²": (1.0, "acceleration"), "mm/s^2": (1e-3, "acceleration"),
+    "g": (G0, "acceleration"), "mg": (1e-3 * G0, "acceleration"),
+}
+_FOLD = {name.lower(): name for name in UNITS}
+_LABEL = re.compile(r"^\s*(?P<name>.*?)\s*[\(\[]\s*(?P<unit>[^\)\]]+?)\s*[\)\]]\s*$")
+
+
+def lookup(unit: str, where: str) -> tuple[float, str]:
+    """Factor to SI and quantity of ``unit`` (case-insensitive except ``mN``/``m``/``g``...)."""
+    key = unit.strip()
+    if key not in UNITS:
+        key = _FOLD.get(key.lower(), key)
+    if key not in UNITS:
+        raise InputError(f"{where}: unknown unit '{unit}'; use one of {', '.join(UNITS)}")
+    return UNITS[key]
+
+
+def split_label(label: str) -> tuple[str, str | None]:
+    """``"Acc1 [m/s^2]"`` -> ``("Acc1", "m/s^2")``; a label without a unit -> ``(label, None)``."""
+    m = _LABEL.match(label)
+    return (m["name"], m["unit"]) if m else (label.strip(), None)
