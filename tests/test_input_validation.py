@@ -356,3 +356,25 @@ def test_simulations_bound_their_work(tmp_path):
     code, err, _ = run_cli(["campaign", "run", str(path), "--out", str(out)], seconds=10)
     check_outcome(code, err, True, "stiff campaign")
     assert "plant substeps" in err and "pass --yes" in err and not out.exists()
+
+
+def test_numeric_warnings_never_precede_a_one_line_error(monkeypatch):
+    """RuntimeWarnings of a command that ends in bad input are dropped (the error names the
+    cause); after a success each distinct one is shown on one line."""
+    from analysis.errors import InputError
+    from nlid_lab.commands import detect
+
+    def noisy(args, fail: bool):
+        for _ in range(3):
+            np.log(np.zeros(1))
+        if fail:
+            raise InputError("the input is bad; fix it")
+        return 0
+
+    monkeypatch.setattr(detect, "run", lambda args: noisy(args, True))
+    code, err, _ = run_cli(["detect", "x.npz"], seconds=10)
+    assert code == 2 and err == "nlid-lab: error: the input is bad; fix it\n"
+    monkeypatch.setattr(detect, "run", lambda args: noisy(args, False))
+    code, err, _ = run_cli(["detect", "x.npz"], seconds=10)
+    assert code == 0
+    assert err == "warning: RuntimeWarning: divide by zero encountered in log\n"
