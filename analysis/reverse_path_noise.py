@@ -441,7 +441,9 @@ def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.
         noise_std = np.sqrt(yp.var(axis=1, ddof=1).mean(axis=(0, 1)))
         rel = (noise_std / np.maximum(yp.std(axis=(0, 1, 2)), 1e-300)).tolist()
         _transient_check(yp, warnings)
-    x_p, v_p = periodic_kinematics(yp, fs, proc.kind)
+    # as the Welch route does: integrated records lose the lines below half the band
+    hp = proc.band[0] / 2 if proc.kind != "displacement" else 0.0
+    x_p, v_p = periodic_kinematics(yp, fs, proc.kind, highpass=hp)
     sets = [slice(0, None, 2), slice(1, None, 2)] if split else []
     # basis noise variance per period, per unknown element (variance across periods)
     var_p = [(x_p if fn.variable == "x" else v_p) @ el.w for _, el, _, fn in unknown]
@@ -458,7 +460,7 @@ def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.
             x, v = x_p[:, sel].mean(axis=1), v_p[:, sel].mean(axis=1)
         else:
             x, v = periodic_kinematics(yp[:, sel].mean(axis=1), fs, proc.kind,
-                                       weights=smooth)
+                                       weights=smooth, highpass=hp)
         force = np.fft.rfft(fp[:, sel].mean(axis=1), axis=1)[:, idx] * gain[:, None]
         cols = []
         labels.clear()

@@ -9,13 +9,21 @@ few hundred samples, which `EDGE_SECONDS`-style trimming in the estimators remov
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 import scipy.fft
 import scipy.signal
+import scipy.special
 
 from .errors import InputError
 
 KIND_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+# Lookahead (samples) of the hold-image filters and the band (fraction of fs) they are
+# designed for: drive content above HOLD_IMAGE_BAND * fs is not corrected.
+HOLD_IMAGE_LOOKAHEAD = 64
+HOLD_IMAGE_BAND = 0.45
 
 
 def change_kind(signal: np.ndarray, fs: float, order: int, *, highpass: float = 0.0,
@@ -196,20 +204,22 @@ def steady_periods(signal: np.ndarray, period: int, *, transient_periods: int = 
 
 
 def periodic_kinematics(periods: np.ndarray, fs: float, kind: str, *,
-                        lowpass: float | None = None,
+                        lowpass: float | None = None, highpass: float = 0.0,
                         weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Displacement and velocity of exactly periodic records (one period along axis -2).
 
     Each period is transformed once and multiplied by ``(i 2 pi f)^k`` at its exact DFT
     lines: no extension, no end effect, no leakage. Integration sets the mean (DC line) to
-    zero, odd orders drop the Nyquist line; ``lowpass`` zeroes the lines above it.
+    zero, odd orders drop the Nyquist line; ``lowpass`` zeroes the lines above it and
+    ``highpass`` those below it (integrated sensor noise grows as ``f^-k`` towards DC: below
+    the excited band it would swamp the displacement).
 
     Parameters
     ----------
     periods : ndarray, shape (..., period, n_ch)
     fs : float
     kind : {"displacement", "velocity", "acceleration"}
-    lowpass : float, optional
+    lowpass, highpass : float, optional
         Hz.
     weights : ndarray, shape (period // 2 + 1,) or (period // 2 + 1, n_ch), optional
         Further per-line gains (a smoothing filter, for example).
@@ -235,6 +245,7 @@ def periodic_kinematics(periods: np.ndarray, fs: float, kind: str, *,
             gain[-1] = 0.0                  # the Nyquist line of an odd derivative is not real
         if lowpass is not None:
             gain[f > lowpass] = 0.0
+        gain[f < highpass] = 0.0
         out.append(scipy.fft.irfft(spec * gain[:, None], n, axis=-2))
     return out[0], out[1]
 
@@ -261,3 +272,88 @@ def period_spectra(periods: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     mean = spec.mean(axis=1)
     noise = (np.abs(spec - mean[:, None]) ** 2).sum(axis=1) / ((n_p - 1) * n_p)
     return (np.abs(mean) ** 2).mean(axis=0), noise.mean(axis=0)
+
+
+def hold_image_gain(nu: np.ndarray, order: int) -> np.ndarray:
+    """Folded images of a first-order-hold drive seen through the mass line, per sample rate.
+
+    A force applied as the first-order hold of its samples ``F`` has spectral images at
+    ``f + m fs`` weighted by ``sinc^2(f/fs + m)``. A structure passes them to its
+    ``order``-th derivative (0 displacement, 1 velocity, 2 acceleration) with its
+    high-frequency asymptote ``M^-1 B (i w)^(order - 2)``, and sampling folds them back onto
+    ``f``. The folded sum, without the ``M^-1 B`` factor and with ``fs = 1``, is::
+
+        E(nu) = sum_{m != 0} sinc^2(nu + m) (2 pi i (nu + m))^(order - 2)
+
+    (``1 - sinc^2(nu)`` for acceleration: the sampled acceleration carries the drive sample
+    itself, not its baseband part). Multiply by ``fs^(order - 2)`` for physical units.
+
+    Parameters
+    ----------
+    nu : ndarray
+        Frequency / fs, in (-1, 1).
+    order : int <= 2
+        Power ``order - 2`` of ``i w``; orders below 0 give the higher terms of the
+        asymptotic expansion of the structure's response (`analysis.plant.Plant.image_gains`).
+
+    Returns
+    -------
+    ndarray, complex
+    """
+    nu = np.asarray(nu, dtype=float)
+    if order == 2:
+        return (1.0 - np.sinc(nu) ** 2).astype(complex)
+    p = 4 - order    # sum_{m != 0} (nu + m)^-p by polygamma functions
+    s = ((-1) ** p * scipy.special.polygamma(p - 1, 1 + nu)
+         + scipy.special.polygamma(p - 1, 1 - nu)) / math.factorial(p - 1)
+    return np.sin(np.pi * nu) ** 2 / np.pi ** 2 * s * (2j * np.pi) ** (order - 2)
+
+
+@functools.lru_cache(maxsize=None)
+def hold_image_taps(order: int, lookahead: int = HOLD_IMAGE_LOOKAHEAD,
+                    band: float = HOLD_IMAGE_BAND) -> np.ndarray:
+    """Symmetric FIR (``2 lookahead + 1`` taps, centre at ``lookahead``) of `hold_image_gain`.
+
+    Least-squares fit of the gain on ``0 <= nu <= band``; the band above is left free, which
+    makes the fit converge exponentially in the length (relative error ~1e-9 for the
+    defaults). Even orders give even taps, order 1 odd taps.
+    """
+    nu = np.linspace(0.0, band, 8 * lookahead + 1)
+    w = 2 * np.pi * nu
+    n = np.arange(1, lookahead + 1)
+    gain = hold_image_gain(nu, order)
+    if order % 2 == 0:   # response t0 + 2 sum t_n cos(w n)
+        basis = np.column_stack([np.ones_like(w), 2 * np.cos(np.outer(w, n))])
+        coef = np.linalg.lstsq(basis, gain.real, rcond=None)[0]
+        taps = np.concatenate([coef[:0:-1], coef])
+    else:                # taps t_{-n} = -t_n: response -2i sum t_n sin(w n) ... (t_n at lag -n)
+        basis = 2 * np.sin(np.outer(w, n))
+        coef = np.linalg.lstsq(basis, gain.imag, rcond=None)[0]
+        taps = np.concatenate([-coef[::-1], [0.0], coef])
+    taps.setflags(write=False)
+    return taps
+
+
+def hold_images(force: np.ndarray, fs: float, order: int) -> np.ndarray:
+    """Folded hold images (`hold_image_gain`) of a force record, per force channel.
+
+    Parameters
+    ----------
+    force : ndarray, shape (n + 2 L, n_in)
+        Force samples with ``L = HOLD_IMAGE_LOOKAHEAD`` samples of context before and after
+        the ``n`` samples wanted.
+    fs : float
+    order : int <= 2
+
+    Returns
+    -------
+    ndarray, shape (n, n_in)
+        Image term of the central samples (times a gain matrix of
+        `analysis.plant.Plant.image_gains`, the response part it causes).
+    """
+    taps = hold_image_taps(order)
+    f = np.asarray(force, dtype=float)
+    # y_k = sum_j t_j f_{k+j} (j = -L..L): a correlation, i.e. convolution with reversed taps
+    out = np.stack([np.convolve(f[:, i], taps[::-1], mode="valid")
+                    for i in range(f.shape[1])], axis=1)
+    return out * fs ** (order - 2)

@@ -4,6 +4,11 @@ One rig is one loop through the structure: the shaker side sets the drive wavefo
 output state; the DAQ side advances time and reads force and responses. Time advances only
 when the DAQ side asks for samples, so a rig driven with the same commands and seed produces
 the same sample stream whatever the frame size or transport (sim, serial, CAN).
+
+The response channels are anti-aliased like a DAQ's (`analysis.plant`, Sensor sampling): the
+folded images of the held drive are removed with the drive's next ``HOLD_IMAGE_LOOKAHEAD``
+samples, generated ahead with the commands in force (exact unless a command changes the drive
+within that lookahead, where the small image term follows the predicted drive).
 """
 
 from __future__ import annotations
@@ -16,7 +21,8 @@ import numpy as np
 
 from analysis.excitation import ExcitationError, multisine, random_gaussian, sine_block
 from analysis.model import Model
-from analysis.plant import Plant
+from analysis.plant import Plant, hold_image_response
+from analysis.signals import HOLD_IMAGE_LOOKAHEAD
 
 from .base import Channel, MultisineOutput, Output, RandomOutput, SineOutput, check_output
 from .errors import DriverConfigError
@@ -111,6 +117,7 @@ class SimRig:
         self._period_pos = 0
         self.sample_index = 0
         self.zero_commanded_at: float | None = None
+        self._past_force = np.zeros((HOLD_IMAGE_LOOKAHEAD, 1))   # before the start: at rest
 
     # --- shaker side ---------------------------------------------------------------------
     def set_output(self, output: Output) -> None:
@@ -169,9 +176,25 @@ class SimRig:
             drive = self._drive(n)
             force = (self.shaker_gain * drive)[:, None]
             out = self.plant.run(force)
+            ahead = (self.shaker_gain * self._peek(HOLD_IMAGE_LOOKAHEAD))[:, None]
+            context = np.concatenate([self._past_force, force, ahead])
+            self._past_force = context[-2 * HOLD_IMAGE_LOOKAHEAD:-HOLD_IMAGE_LOOKAHEAD]
             self.sample_index += n
-        return RigSamples(first, force, out.displacement, out.velocity, out.acceleration,
-                          out.response, self.response_kind)
+        fs, gains = self.fs, self.plant.image_gains
+        kinds = {k: getattr(out, k) - hold_image_response(context, fs, k, gains)
+                 for k in ("displacement", "velocity", "acceleration")}
+        response = out.response - hold_image_response(context, fs, self.response_kind, gains)
+        return RigSamples(first, force, kinds["displacement"], kinds["velocity"],
+                          kinds["acceleration"], response, self.response_kind)
+
+    def _peek(self, n: int) -> np.ndarray:
+        """The next ``n`` drive samples if no command changes them; the drive state is kept."""
+        keys = ("_envelope", "_phase", "_chunk", "_chunk_index", "_chunk_pos", "_period_pos")
+        saved = {k: getattr(self, k) for k in keys}
+        wave = self._drive(n)
+        for k, v in saved.items():
+            setattr(self, k, v)
+        return wave
 
     def _drive(self, n: int) -> np.ndarray:
         env = self._envelope_samples(n)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -28,9 +29,10 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
     a real shaker; each step's response is recorded in full. The drive's periodic layout
-    and other keys are carried to the recording.
+    and other keys are carried to the recording. The response is anti-aliased
+    (`analysis.plant.remove_hold_images`) like a DAQ's.
     """
-    from analysis.plant import Plant
+    from analysis.plant import Plant, remove_hold_images
 
     model.require_complete("simulation")
     dofs = drive["force_dofs"]
@@ -44,20 +46,22 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     plant = Plant(model, drive["fs"], dofs, oversample=oversample, noise_std=noise_std,
                   response_kind=response_kind, seed=seed)
     force = drive["force"]
-    if drive["excitation"] == "random":
-        step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
-        pieces = [plant.run(force[i:i + step]).response
-                  for i in progress(range(0, len(force), step), desc="simulate", unit="s")]
-        response = np.concatenate(pieces)
-    else:
-        response = np.stack([plant.run(f).response
-                             for f in progress(force, desc="simulate", unit="step")])
+    whole = force.reshape(-1, force.shape[-1])      # stepped sine: the steps back to back
+    step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
+    response = np.concatenate([plant.run(whole[i:i + step]).response
+                               for i in progress(range(0, len(whole), step), desc="simulate",
+                                                 unit="s")])
+    # the sensors' anti-alias filter (analysis.plant, Sensor sampling), over the whole record
+    response = remove_hold_images(response, whole, drive["fs"], response_kind,
+                                  plant.image_gains).reshape(force.shape[:-1] + (-1,))
     return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
                      force_hold="linear",  # the plant's drive definition
                      layout=drive["layout"], extra=drive["extra"],
-                     meta={"model": model.name, "noise_std": noise_std, "seed": seed})
+                     meta={"model": model.name, "noise_std": noise_std, "seed": seed,
+                           # substeps per sample at the end, times step doubling raised them
+                           "oversample": plant.oversample, "oversample_raised": plant.raised})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,13 +84,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         store.save_recording(out, rec, source="sim", model_toml=model_path.read_text(),
                              settings={"drive": str(args.drive), "noise_std": args.noise,
-                                       "seed": args.seed})
+                                       "seed": args.seed,
+                                       "oversample": rec.meta["oversample"]})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,
               "response_kind": rec.response_kind,
+              "oversample": rec.meta["oversample"],
+              "oversample_raised": rec.meta["oversample_raised"],
               "response_rms": np.sqrt(np.mean(rec.response.reshape(-1, rec.n_dof) ** 2,
                                               axis=0))}
+    if rec.meta["oversample_raised"]:
+        print(f"note: the drive stiffened the model's elements; the plant raised its substeps "
+              f"to {rec.meta['oversample']} per sample to hold its accuracy", file=sys.stderr)
     if args.json != "-":
         print(f"simulated {model.name} ({rec.excitation}, {result['n_samples']} samples"
               f"{'' if rec.excitation == 'random' else ' per step'}) -> {out}")
