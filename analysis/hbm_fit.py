@@ -155,6 +155,9 @@ class HBMFit:
         k_ref = float(np.max(np.abs(np.diag(self.model.stiffness))))
         f_ref = max(float(lv.force.max()) for lv in self.levels)
         u_ref = max(float(np.abs(lv.X[:, :, self.force_dof]).max()) for lv in self.levels)
+        if not (f_ref > 0 and u_ref > 0):
+            raise InputError("the measured force or the response at the force DOF is zero "
+                             "at every step: nothing to fit; check the channels")
         c_ref = max(float(np.max(np.abs(np.diag(self.model.damping)))), 1e-12)
         v_ref = u_ref * 2 * np.pi * float(np.median(self.levels[0].freqs))
         refs = Refs(k_ref, f_ref, u_ref, c_ref, v_ref)

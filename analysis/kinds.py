@@ -62,6 +62,8 @@ class Param:
         Value when the model file omits it (makes the parameter optional).
     bounds : (float, float), optional
         Absolute fit bounds (default: `analysis.hbm_fit` decades around the start).
+    smallest : float, optional
+        Smallest value a model file may give (beyond ``positive``), where the law needs it.
     """
 
     name: str
@@ -71,6 +73,7 @@ class Param:
     positive: bool = False
     default: float | None = None
     bounds: tuple[float, float] | None = None
+    smallest: float | None = None
 
 
 class Grid(NamedTuple):
@@ -244,11 +247,11 @@ KINDS: dict[str, Kind] = {
         plant_restart=_stick_slip_restart),
     "hysteresis": Kind(
         6, (_KD, _FD, Param("n", "sharpness exponent", "-", lambda r: 2.0, positive=True,
-                            bounds=(0.5, 1000.0))),
+                            bounds=(0.5, 1000.0), smallest=0.01)),
         memory=True, stiffness=lambda p, u: p["kd"],
         search=Search(starts=_slider_starts(2.0), inactive=_slips_below(0.5))),
     "gap": Kind(
-        7, (Param("k", "contact stiffness", "N/m", _stiffness_scale),
+        7, (Param("k", "contact stiffness", "N/m", _stiffness_scale, positive=True),
             Param("g", "width", "m", lambda r: 0.5 * r.u, positive=True)),
         coef="k", basis="gap", basis_arg="g", basis_label="gap({g:g})",
         stiffness=lambda p, u: max(p["k"], 0.0),

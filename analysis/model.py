@@ -17,6 +17,16 @@ import numpy as np
 
 from .elements import KINDS
 from .errors import ModelError
+from .textfile import nearest, read_text, unknown_keys
+
+TOP_KEYS = ("name", "linear", "element")
+LINEAR_KEYS = ("mass", "damping", "stiffness")
+MAX_DOF = 100
+MAX_ELEMENTS = 100
+MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
+MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
+MAX_PARAM = 1e30          # largest |element parameter|
+MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2 pi)
 
 
 @dataclass
@@ -58,8 +68,11 @@ class Model:
         self.damping = _matrix(self.damping, "linear.damping", n)
         self.stiffness = _matrix(self.stiffness, "linear.stiffness", n)
         _check_physics(self)
+        if len(self.elements) > MAX_ELEMENTS:
+            raise ModelError(f"{len(self.elements)} elements, more than {MAX_ELEMENTS}")
         for i, el in enumerate(self.elements):
             _check_element(el, i, n)
+        _check_rates(self)
 
     @property
     def n_dof(self) -> int:
@@ -125,34 +138,35 @@ class Model:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "model") -> "Model":
+        """Model from the tables of a model file (strict schema: see docs/model-format.md)."""
         try:
-            linear = data["linear"]
-        except KeyError:
-            raise ModelError(f"{source}: no [linear] table; give mass, damping and stiffness "
-                             "matrices under [linear]") from None
-        unknown = set(data) - {"name", "linear", "element"}
-        if unknown:
-            raise ModelError(f"{source}: unknown top-level key(s) {sorted(unknown)}; "
-                             "expected name, [linear] and [[element]]")
-        for key in ("mass", "damping", "stiffness"):
-            if key not in linear:
-                raise ModelError(f"{source}: [linear] lacks '{key}'; give an n x n matrix")
-        elements = []
-        for i, raw in enumerate(data.get("element", [])):
-            raw = dict(raw)
-            kind = raw.pop("kind", None)
-            if kind is None:
-                raise ModelError(f"{source}: element {i} has no 'kind'; "
-                                 f"use one of {', '.join(KINDS)}")
-            if "w" not in raw:
-                raise ModelError(f"{source}: element {i} ({kind}) has no position vector 'w'")
-            w = raw.pop("w")
-            elements.append(Element(str(kind), w, raw))
-        try:
-            return cls(linear["mass"], linear["damping"], linear["stiffness"], elements,
-                       str(data.get("name", "model")))
+            return cls._from_dict(data)
         except ModelError as exc:
             raise ModelError(f"{source}: {exc}") from None
+
+    @classmethod
+    def _from_dict(cls, data: dict[str, Any]) -> "Model":
+        _keys(data, TOP_KEYS, "top level")
+        linear = data.get("linear")
+        if not isinstance(linear, dict):
+            raise ModelError("no [linear] table; give mass, damping and stiffness matrices "
+                             "under [linear]")
+        _keys(linear, LINEAR_KEYS, "[linear]")
+        for key in LINEAR_KEYS:
+            if key not in linear:
+                raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
+            _toml_matrix(linear[key], f"linear.{key}")
+        name = data.get("name", "model")
+        if not isinstance(name, str):
+            raise ModelError(f"name must be a string, got {name!r}")
+        raw_elements = data.get("element", [])
+        if not isinstance(raw_elements, list):
+            raise ModelError("element must be an array of tables ([[element]])")
+        if len(raw_elements) > MAX_ELEMENTS:
+            raise ModelError(f"{len(raw_elements)} elements, more than {MAX_ELEMENTS}; "
+                             "split the model or merge elements acting on the same w")
+        elements = [_toml_element(raw, i) for i, raw in enumerate(raw_elements)]
+        return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name)
 
     @classmethod
     def loads(cls, text: str, source: str = "model") -> "Model":
@@ -164,14 +178,7 @@ class Model:
 
     @classmethod
     def load(cls, path: str | Path) -> "Model":
-        path = Path(path)
-        try:
-            text = path.read_text()
-        except FileNotFoundError:
-            raise ModelError(f"model file {path} not found; check the path") from None
-        except (IsADirectoryError, UnicodeDecodeError, PermissionError) as exc:
-            raise ModelError(f"cannot read model file {path}: {exc}") from None
-        return cls.loads(text, str(path))
+        return cls.loads(read_text(path, "model file", ModelError), str(path))
 
 
 def _toml_num(x: float) -> str:
@@ -184,6 +191,61 @@ def _toml_list(values: Any) -> str:
 
 def _toml_str(text: str) -> str:
     return json.dumps(text, ensure_ascii=False)  # JSON string escapes are valid TOML
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _keys(table: Any, allowed: tuple[str, ...], where: str, noun: str = "key") -> None:
+    if not isinstance(table, dict):
+        raise ModelError(f"{where} must be a table")
+    message = unknown_keys(table, allowed, where, noun)
+    if message:
+        raise ModelError(message)
+
+
+def _toml_matrix(value: Any, name: str) -> None:
+    """A matrix in a file is a list of equal-length rows of numbers (no scalar, no strings)."""
+    hint = "write it as a list of rows of numbers, e.g. [[1.0, 0.0], [0.0, 1.0]]"
+    if not isinstance(value, list) or not value:
+        raise ModelError(f"{name} = {_short(value)} is not a matrix; {hint}")
+    for r, row in enumerate(value):
+        if not isinstance(row, list):
+            raise ModelError(f"{name} row {r} = {_short(row)} is not a list; {hint}")
+        for c, x in enumerate(row):
+            if not _is_number(x):
+                raise ModelError(f"{name}[{r}][{c}] = {_short(x)} is not a number; {hint}")
+
+
+def _toml_element(raw: Any, i: int) -> Element:
+    if not isinstance(raw, dict):
+        raise ModelError(f"element {i} must be a table ([[element]])")
+    kind = raw.get("kind")
+    if not isinstance(kind, str):
+        raise ModelError(f"element {i} has no 'kind' string; use one of {', '.join(KINDS)}")
+    if kind not in KINDS:
+        hint = f"did you mean '{near}'? " if (near := nearest(kind, KINDS)) else ""
+        raise ModelError(f"element {i}: unknown kind '{kind}'; {hint}"
+                         f"use one of {', '.join(KINDS)}")
+    where = f"element {i} ({kind})"
+    _keys(raw, ("kind", "w") + KINDS[kind].all_params, where, "parameter")
+    if "w" not in raw:
+        raise ModelError(f"{where} has no position vector 'w'")
+    w = raw["w"]
+    if not isinstance(w, list) or not all(_is_number(x) for x in w):
+        raise ModelError(f"{where}: w = {_short(w)} must be a flat list of numbers, one per "
+                         "DOF (e.g. [0.0, 1.0])")
+    params = {k: v for k, v in raw.items() if k not in ("kind", "w")}
+    for name, value in params.items():
+        if not _is_number(value):
+            raise ModelError(f"{where}: parameter {name} = {_short(value)} is not a number")
+    return Element(kind, w, params)
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _matrix(value: Any, name: str, n: int | None = None) -> np.ndarray:
@@ -199,8 +261,15 @@ def _matrix(value: Any, name: str, n: int | None = None) -> np.ndarray:
     if n is not None and arr.shape[0] != n:
         raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]} but mass is {n} x {n}; "
                          "all linear matrices must have the same size")
+    if arr.shape[0] > MAX_DOF:
+        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]}: more than {MAX_DOF} "
+                         "DOFs; reduce the model (e.g. to the measured DOFs)")
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{name} holds NaN or infinite values")
+    big = np.abs(arr).max()
+    if big > MAX_ENTRY:
+        raise ModelError(f"{name} has an entry of magnitude {big:.3g}, above {MAX_ENTRY:g}; "
+                         "give SI units (kg, N s/m, N/m)")
     return arr
 
 
@@ -214,9 +283,45 @@ def _check_physics(model: Model) -> None:
         eig = np.linalg.eigvalsh(0.5 * (a + a.T))
         if positive and eig.min() <= 0:
             raise ModelError("linear.mass is not positive definite; every DOF needs mass > 0")
+        if positive and eig.min() < MIN_MASS:
+            raise ModelError(f"linear.mass has an eigenvalue of {eig.min():.3g} kg, below "
+                             f"{MIN_MASS:g} kg; give SI units (kg)")
         if not positive and eig.min() < -1e-9 * scale:
             raise ModelError(f"linear.{key} has a negative eigenvalue ({eig.min():.3g}); "
                              f"{key} must be positive semi-definite")
+
+
+def _rates(model: Model, elements: list[Element]) -> tuple[float, float]:
+    """Highest natural frequency and viscous decay rate, Hz, of the linear system stiffened
+    and damped by ``elements`` at rest (their kinds' slopes at zero amplitude: the
+    piecewise-linear and Coulomb kinds' steepest)."""
+    from scipy.linalg import eigh
+    stiff, visc = model.stiffness.copy(), model.damping.copy()
+    for el in elements:
+        spec, ww = KINDS[el.kind], np.outer(el.w, el.w)
+        if el.missing:                      # a candidate's unknown element: no slope yet
+            continue
+        if spec.stiffness is not None:
+            stiff += abs(spec.stiffness(el.params, 0.0)) * ww
+        if spec.damping is not None:
+            visc += abs(spec.damping(el.params, 0.0)) * ww
+    lam = eigh(stiff, model.mass, eigvals_only=True).max()
+    rate = eigh(visc, model.mass, eigvals_only=True).max()
+    return math.sqrt(max(lam, 0.0)) / (2 * np.pi), max(rate, 0.0) / (2 * np.pi)
+
+
+def _check_rates(model: Model) -> None:
+    """Refuse time scales no supported sample rate resolves (they stall the simulated plant
+    and overflow the estimators): name the matrix or the first element that makes them."""
+    if max(_rates(model, [])) > MAX_RATE_HZ:
+        raise ModelError(f"linear.stiffness/damping over mass give a natural frequency or decay "
+                         f"rate above {MAX_RATE_HZ:g} Hz; check the units (kg, N s/m, N/m)")
+    if not model.elements or max(_rates(model, model.elements)) <= MAX_RATE_HZ:
+        return
+    for i, el in enumerate(model.elements):
+        if max(_rates(model, model.elements[:i + 1])) > MAX_RATE_HZ:
+            raise ModelError(f"element {i} ({el.kind}) makes a natural frequency or decay "
+                             f"rate above {MAX_RATE_HZ:g} Hz; check its parameter values")
 
 
 def _check_element(el: Element, i: int, n: int) -> None:
@@ -226,22 +331,32 @@ def _check_element(el: Element, i: int, n: int) -> None:
                          f"use one of {', '.join(KINDS)}")
     spec = KINDS[el.kind]
     try:
-        el.w = np.array(el.w, dtype=float).reshape(-1)
+        el.w = np.array(el.w, dtype=float)
     except (TypeError, ValueError):
         raise ModelError(f"{where}: w must be a list of numbers") from None
-    if el.w.shape != (n,):
+    if el.w.ndim != 1:
+        raise ModelError(f"{where}: w must be a flat list of numbers, got shape {el.w.shape}")
+    if el.w.size != n:
         raise ModelError(f"{where}: w has {el.w.size} entries but the model has {n} DOFs")
     if not np.all(np.isfinite(el.w)) or not np.any(el.w):
         raise ModelError(f"{where}: w must be finite and not all zero")
+    if np.abs(el.w).max() > MAX_ENTRY:
+        raise ModelError(f"{where}: w has an entry above {MAX_ENTRY:g}; w is a position "
+                         "vector of order 1 (e.g. e_j - e_i)")
     params = {}
     for name, value in el.params.items():
         if name not in spec.all_params:
             raise ModelError(f"{where}: unknown parameter '{name}'; "
                              f"{el.kind} takes {', '.join(spec.all_params)}")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
                 or not math.isfinite(value):
             raise ModelError(f"{where}: parameter {name} = {value!r} is not a finite number")
         if name in spec.positive and value <= 0:
             raise ModelError(f"{where}: parameter {name} must be > 0, got {value}")
+        smallest = spec.param(name).smallest
+        lo, hi = (-MAX_PARAM if smallest is None else smallest), MAX_PARAM
+        if not lo <= value <= hi:
+            raise ModelError(f"{where}: parameter {name} = {value:g} is outside "
+                             f"{lo:g}..{hi:g}")
         params[name] = float(value)
     el.params = params

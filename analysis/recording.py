@@ -11,6 +11,9 @@ from .errors import RecordingError
 
 EXCITATIONS = ("random", "stepped-sine")
 RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
+MIN_FS, MAX_FS = 1e-3, 1e9  # Hz: sample rates of any acquisition
+MAX_SAMPLE = 1e15     # largest |force| or |response| sample: squares and sums stay finite
+MIN_PEAK = 1e-100     # smallest peak of a channel that is not all zero
 FORCE_HOLDS = ("none", "linear")
 DEFAULT_TRANSIENT_PERIODS = 1
 
@@ -148,8 +151,12 @@ class Recording:
 
     def validate(self) -> None:
         """Raise `RecordingError` naming the first inconsistency found."""
-        if not np.isfinite(self.fs) or self.fs <= 0:
-            raise RecordingError(f"sample rate fs must be a positive number, got {self.fs}")
+        if not MIN_FS <= self.fs <= MAX_FS:  # False for NaN
+            raise RecordingError(f"sample rate fs must be a number in {MIN_FS:g}..{MAX_FS:g} "
+                                 f"Hz, got {self.fs}")
+        if self.level is not None and not 0 < self.level <= MAX_SAMPLE:
+            raise RecordingError(f"level (force_rms or force_amplitude) must be a number in "
+                                 f"(0, {MAX_SAMPLE:g}] N, got {self.level}")
         if self.excitation not in EXCITATIONS:
             raise RecordingError(f"excitation '{self.excitation}' is not one of "
                                  f"{', '.join(EXCITATIONS)}")
@@ -171,6 +178,17 @@ class Recording:
                 bad = int(np.count_nonzero(~np.isfinite(arr)))
                 raise RecordingError(f"{name} holds {bad} NaN/infinite samples; "
                                      "remove or repair them before analysis")
+            if arr.shape[-2] < 2 or arr.shape[-1] < 1:
+                raise RecordingError(f"{name} of shape {arr.shape} holds no data: it needs at "
+                                     "least 2 samples and 1 channel")
+            flat = arr.reshape(-1, arr.shape[-1])
+            peak = np.maximum(flat.max(axis=0), -flat.min(axis=0))
+            bad = (peak > MAX_SAMPLE) | ((peak > 0) & (peak < MIN_PEAK))
+            if np.any(bad):
+                j = int(np.argmax(bad))
+                raise RecordingError(f"{name} channel {j} peaks at {peak[j]:.3g}, outside "
+                                     f"{MIN_PEAK:g}..{MAX_SAMPLE:g}; check the units (SI) and "
+                                     "the scaling")
         if self.force.shape[:-1] != self.response.shape[:-1]:
             raise RecordingError(f"force {self.force.shape} and response "
                                  f"{self.response.shape} differ in length")
@@ -184,7 +202,7 @@ class Recording:
             if self.freqs is None or self.freqs.shape != (self.force.shape[0],):
                 raise RecordingError("stepped-sine data needs freqs with one drive frequency "
                                      "per step")
-            if np.any(self.freqs <= 0) or np.any(self.freqs >= self.fs / 2):
+            if not np.all((self.freqs > 0) & (self.freqs < self.fs / 2)):
                 raise RecordingError("stepped-sine freqs must lie between 0 and fs/2")
         if self.layout is not None:
             if self.excitation != "random":

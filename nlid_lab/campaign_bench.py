@@ -12,13 +12,12 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
-from analysis.model import Model
 from drivers.base import Acquirer, SignalGenerator
 from drivers.errors import DriverConfigError
 from drivers.registry import open_daq, open_shaker
 from drivers.rig import SimRig
 
-from .campaign_config import Campaign, CampaignError, scheme
+from .campaign_config import Campaign, CampaignError, load_plant_model, scheme
 
 DEFAULT_PACE = {"serial-emu": 8.0, "can-emu": 8.0}
 
@@ -60,13 +59,10 @@ def _pace(campaign: Campaign, url: str) -> float:
 def _rig(campaign: Campaign) -> tuple[SimRig, str]:
     spec = campaign.plant
     assert spec is not None
-    model = Model.load(spec.model)
+    model = load_plant_model(campaign)
     rig = SimRig(model, campaign.fs, campaign.force_dof, shaker_gain=spec.shaker_gain,
                  noise_std=spec.noise_std, response_kind=campaign.response_kind,
                  seed=spec.seed, oversample=spec.oversample)
-    if model.n_dof != campaign.n_dof:
-        raise CampaignError(f"the model has {model.n_dof} DOFs but the campaign lists "
-                            f"{campaign.n_dof} response channels; give one per DOF")
     return rig, spec.model.read_text()
 
 

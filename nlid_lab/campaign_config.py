@@ -15,6 +15,7 @@ from urllib.parse import urlsplit
 
 from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS
+from analysis.textfile import read_text, unknown_keys
 from drivers.base import Channel
 from drivers.errors import DriverConfigError
 from drivers.faults import FaultSpec
@@ -25,6 +26,8 @@ SIMULATED = ("sim", "serial-emu", "can-emu")
 SCHEMES = SIMULATED + ("serial", "can")
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
             "safety", "emulator"}
+MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
+MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
 
 
 class CampaignError(InputError):
@@ -108,6 +111,36 @@ class Campaign:
             return control + record, p.max_control_iterations * control + record
         return control + p.averages - 1, p.max_control_iterations * control + p.averages
 
+    def plan_size(self) -> tuple[float, float, int]:
+        """Least and most measurement time (s) of the whole plan (see `blocks_per_level`), and
+        the bytes of float64 samples the least time records on every channel."""
+        lo, hi = self.blocks_per_level()
+        samples = len(self.levels) * lo * self.plan.block_size
+        return samples / self.fs, len(self.levels) * hi * self.plan.block_size / self.fs, \
+            samples * len(self.channels) * 8
+
+    def plan_summary(self) -> str:
+        """One line: the planned measurement time and recorded data."""
+        lo, hi, nbytes = self.plan_size()
+        return (f"measurement time {duration(lo)} to {duration(hi)} (level control and "
+                f"settling) plus drive ramps, at least {nbytes / 1e6:.3g} MB of data")
+
+    def plan_excess(self, model=None) -> str | None:
+        """Why the plan is beyond what `campaign run` starts unconfirmed, or None; with the
+        simulated plant's ``model``, also the plant's work (`nlid_lab.sim_budget`)."""
+        lo, _, nbytes = self.plan_size()
+        if model is not None and self.plant is not None:
+            from .sim_budget import excess
+            too_much = excess(model, self.fs, round(lo * self.fs), self.plant.oversample)
+            if too_much:
+                return f"the plan: {too_much}"
+        if lo > MAX_PLAN_S:
+            return f"the plan takes at least {duration(lo)}, more than {duration(MAX_PLAN_S)}"
+        if nbytes > MAX_PLAN_BYTES:
+            return (f"the plan records at least {nbytes / 1e9:.3g} GB, more than "
+                    f"{MAX_PLAN_BYTES / 1e9:.3g} GB")
+        return None
+
     @property
     def force_dof(self) -> int:
         return next(c.dof for c in self.channels if c.quantity == "force")
@@ -128,6 +161,13 @@ def scheme(url: str) -> str:
     return urlsplit(url).scheme
 
 
+def duration(seconds: float) -> str:
+    """``seconds`` as s, min or h for the terminal."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
+
+
 # --- parsing helpers ---------------------------------------------------------------------
 def _table(data: dict, key: str, where: str = "", required: bool = True) -> dict:
     value = data.get(key)
@@ -142,10 +182,9 @@ def _table(data: dict, key: str, where: str = "", required: bool = True) -> dict
 
 
 def _unknown(table: dict, allowed: set[str], name: str) -> None:
-    extra = set(table) - allowed
-    if extra:
-        raise CampaignError(f"[{name}]: unknown key(s) {sorted(extra)}; allowed: "
-                            f"{', '.join(sorted(allowed))}")
+    message = unknown_keys(table, sorted(allowed), f"[{name}]")
+    if message:
+        raise CampaignError(message)
 
 
 def _num(table: dict, key: str, name: str, *, default: Any = ..., lo: float = -math.inf,
@@ -408,13 +447,21 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         source=None, raw=data)
 
 
+def load_plant_model(campaign: Campaign):
+    """The simulated plant's `Model`, checked against the campaign's response channels."""
+    from analysis.model import Model
+    assert campaign.plant is not None
+    model = Model.load(campaign.plant.model)
+    if model.n_dof != campaign.n_dof:
+        raise CampaignError(f"the model has {model.n_dof} DOFs but the campaign lists "
+                            f"{campaign.n_dof} response channels; give one per DOF")
+    return model
+
+
 def load_campaign(path: str | Path) -> Campaign:
     """Read and validate a campaign TOML file."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except (FileNotFoundError, IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise CampaignError(f"cannot read campaign file {path}: {exc}") from None
+    text = read_text(path, "campaign file", CampaignError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -7,11 +7,17 @@ Set ``NLID_DEBUG=1`` to see tracebacks.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import pkgutil
 import sys
-from typing import Sequence
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
 
 from analysis.errors import InputError
 
@@ -42,14 +48,33 @@ def _bad_input_types() -> tuple[type[BaseException], ...]:
     return (InputError, FileNotFoundError, IsADirectoryError, PermissionError)
 
 
+@contextlib.contextmanager
+def _held_runtime_warnings(hold: bool) -> Iterator[list[str]]:
+    """Collect numpy's floating-point RuntimeWarnings (one line each) instead of printing
+    them: a bad input that ends in a one-line error must not bring a screen of them."""
+    held: list[str] = []
+    with warnings.catch_warnings():
+        show = warnings.showwarning
+
+        def keep(message, category, filename, lineno, file=None, line=None):  # noqa: ANN001
+            if hold and issubclass(category, RuntimeWarning):
+                held.append(f"warning: {category.__name__}: {message}")
+            else:
+                show(message, category, filename, lineno, file, line)
+        warnings.showwarning = keep
+        yield held
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = os.environ.get("NLID_DEBUG") == "1"
+    held: list[str] = []
     try:
         if args.command not in NO_KERNELS:
             _say_if_compiling()
-        result = args.func(args)
+        with _held_runtime_warnings(not debug) as held:
+            result = args.func(args)
     except _bad_input_types() as exc:
         if debug:
             raise
@@ -61,9 +86,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
         if debug:
             raise
+        _print_unique(held)
         print(f"nlid-lab: failed: {type(exc).__name__}: {_one_line(exc)} "
               "(set NLID_DEBUG=1 for a traceback)", file=sys.stderr)
         return 1
+    _print_unique(held)
     return int(result or 0)
 
 
@@ -72,6 +99,11 @@ def _say_if_compiling() -> None:
     if not kernels_cached():
         print("nlid-lab: compiling numeric kernels (first run only, up to a minute; "
               "`nlid-lab warmup` does it ahead)...", file=sys.stderr, flush=True)
+
+
+def _print_unique(lines: list[str]) -> None:
+    for line in dict.fromkeys(lines):
+        print(line, file=sys.stderr)
 
 
 def _one_line(exc: BaseException) -> str:

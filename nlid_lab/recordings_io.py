@@ -20,8 +20,11 @@ from typing import Any
 import numpy as np
 
 from analysis.errors import InputError, RecordingError
-from analysis.recording import FORCE_HOLDS, PeriodicLayout, Recording
+from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
+                                Recording)
+from analysis.textfile import read_text
 
+MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
 _COLUMN = re.compile(r"^\s*([A-Za-z_][\w.\-]*)\s*@\s*(?:dof)?(\d+)\s*$")
 
 
@@ -33,11 +36,33 @@ def _scalar(data, key: str, cast, path: Path):
     arr = np.asarray(data[key])
     if arr.size != 1:
         raise RecordingFileError(f"{path}: '{key}' must be a scalar, got shape {arr.shape}")
+    if cast is float:
+        _real(arr, key, path)
+    elif arr.dtype.kind not in "US":
+        raise RecordingFileError(f"{path}: '{key}' must be a string, got {arr.dtype} {arr!r}")
     try:
         return cast(arr.reshape(()).item())
     except (TypeError, ValueError):
         raise RecordingFileError(f"{path}: '{key}' = {arr!r} is not a valid {cast.__name__}") \
             from None
+
+
+def _real(arr: np.ndarray, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    """``arr`` if it holds real numbers (integers if ``integer``): no complex, text or bool."""
+    kinds = "iu" if integer else "iuf"
+    if arr.dtype.kind not in kinds:
+        if integer and arr.dtype.kind == "f" and np.all(np.abs(arr) < 2**31) \
+                and np.all(arr == np.round(arr)):  # False for NaN
+            return arr.astype(int)
+        what = "integers" if integer else "real numbers"
+        raise RecordingFileError(f"{path}: '{key}' must hold {what}, got dtype {arr.dtype}; "
+                                 "save plain numeric arrays")
+    return arr
+
+
+def _array(data, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    arr = _real(np.asarray(data[key]), key, path, integer)
+    return np.atleast_1d(arr).astype(int) if integer else arr.astype(float)
 
 
 def _load_npz(path: Path, what: str) -> dict[str, np.ndarray]:
@@ -83,15 +108,15 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
     excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
                   else ("stepped-sine" if "freqs" in data else "random"))
     try:
-        force = np.asarray(data["force"], dtype=float)
+        force = _array(data, "force", path)
         level, level_from = _level(data, path, excitation)
         return Recording(
             fs=_scalar(data, "fs", float, path), excitation=excitation,
-            force_dofs=np.asarray(data["force_dofs"]).astype(int),
-            force=force, response=np.asarray(data["response"], dtype=float),
+            force_dofs=_array(data, "force_dofs", path, integer=True),
+            force=force, response=_array(data, "response", path),
             response_kind=(_scalar(data, "response_kind", str, path)
                            if "response_kind" in data else "displacement"),
-            freqs=np.asarray(data["freqs"], dtype=float) if "freqs" in data else None,
+            freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=level, force_hold=_force_hold(data, path),
             layout=_layout(data, path, force.shape[0] if force.ndim else 0),
             extra=_extra(data, excitation, level_from), meta={"source": str(path)})
@@ -191,12 +216,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     ``response_kind`` None takes the file's key, else displacement.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise RecordingFileError(f"recording {path} not found; check the path") from None
-    except (UnicodeDecodeError, IsADirectoryError) as exc:
-        raise RecordingFileError(f"cannot read {path} as text CSV ({exc})") from None
+    text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
     keys = _csv_keys(text, path)
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 3:
@@ -331,9 +351,9 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  "needs fs, force and force_dofs")
     try:
         drive = {"fs": _scalar(data, "fs", float, path),
-                 "force": np.asarray(data["force"], dtype=float),
-                 "force_dofs": np.atleast_1d(np.asarray(data["force_dofs"])).astype(int),
-                 "freqs": np.asarray(data["freqs"], float) if "freqs" in data else None}
+                 "force": _array(data, "force", path),
+                 "force_dofs": _array(data, "force_dofs", path, integer=True),
+                 "freqs": _array(data, "freqs", path) if "freqs" in data else None}
         stepped = drive["freqs"] is not None
         drive["excitation"] = "stepped-sine" if stepped else "random"
         drive["level"], level_from = _level(data, path, drive["excitation"])
@@ -353,8 +373,19 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  f"({force.shape[0]})")
     if not np.all(np.isfinite(force)):
         raise RecordingFileError(f"{path}: force holds NaN/infinite samples; repair the drive")
-    if not np.isfinite(drive["fs"]) or drive["fs"] <= 0:
-        raise RecordingFileError(f"{path}: fs must be a positive number")
+    if force.size == 0 or force.shape[-2] < 2:
+        raise RecordingFileError(f"{path}: force of shape {force.shape} needs at least 2 "
+                                 "samples")
+    if np.abs(force).max() > MAX_SAMPLE:
+        raise RecordingFileError(f"{path}: force holds samples beyond +-{MAX_SAMPLE:g} N; "
+                                 "check the units and scaling")
+    if not MIN_FS <= drive["fs"] <= MAX_FS:
+        raise RecordingFileError(f"{path}: fs must be a number in {MIN_FS:g}..{MAX_FS:g} Hz")
+    if stepped and not np.all((drive["freqs"] > 0) & (drive["freqs"] < drive["fs"] / 2)):
+        raise RecordingFileError(f"{path}: freqs must lie between 0 and fs/2")
+    if drive["level"] is not None and not 0 < drive["level"] <= MAX_SAMPLE:
+        raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
+                                 f"number in (0, {MAX_SAMPLE:g}] N")
     try:
         drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
     except ValueError as exc:

@@ -9,7 +9,8 @@ import pytest
 
 from analysis.elements import KINDS
 from analysis.errors import InputError, ModelError
-from analysis.model import Element, Model
+from analysis.model import MAX_DOF, MAX_ELEMENTS, Element, Model
+from analysis.textfile import MAX_TOML_BYTES
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "models"
 
@@ -82,9 +83,10 @@ def _load_text(tmp_path, text):
     ("[linear]\nmass = [[1.0]]\ndamping = [[0.0]]\nstiffness = [[-1.0]]\n",
      "negative eigenvalue"),
     ("[linear]\nmass = [[1.0]]\ndamping = [[0.0]]\nstiffness = [[nan]]\n", "NaN"),
-    ("[linear]\nmass = [[1.0]]\ndamping = [['a']]\nstiffness = [[1.0]]\n", "matrix of numbers"),
+    ("[linear]\nmass = [[1.0]]\ndamping = [['a']]\nstiffness = [[1.0]]\n",
+     r"linear.damping\[0\]\[0\] = 'a' is not a number"),
     ("unit = 'mm'\n[linear]\nmass = [[1.0]]\ndamping = [[0.0]]\nstiffness = [[1.0]]\n",
-     "unknown top-level key"),
+     "top level: unknown key 'unit'"),
 ])
 def test_bad_model_files(tmp_path, text, match):
     with pytest.raises(ModelError, match=match):
@@ -99,7 +101,7 @@ def test_bad_model_files(tmp_path, text, match):
     ("kind = 'cubic_spring'\nw = [0.0, 0.0]\np = 1.0", "not all zero"),
     ("kind = 'cubic_spring'\nw = [1.0, 0.0]\nq = 1.0", "unknown parameter 'q'"),
     ("kind = 'cubic_spring'\nw = [1.0, 0.0]\np = nan", "not a finite number"),
-    ("kind = 'cubic_spring'\nw = [1.0, 0.0]\np = 'big'", "not a finite number"),
+    ("kind = 'cubic_spring'\nw = [1.0, 0.0]\np = 'big'", "p = 'big' is not a number"),
     ("kind = 'stick_slip'\nw = [1.0, 0.0]\nkd = 1e6\nfd = -2.0", "fd must be > 0"),
 ])
 def test_bad_elements(tmp_path, element, match):
@@ -110,7 +112,7 @@ def test_bad_elements(tmp_path, element, match):
 def test_missing_and_unreadable_files(tmp_path):
     with pytest.raises(ModelError, match="not found"):
         Model.load(tmp_path / "missing.toml")
-    with pytest.raises(ModelError, match="cannot read"):
+    with pytest.raises(ModelError, match="not a regular file"):
         Model.load(tmp_path)
     (tmp_path / "bin.toml").write_bytes(b"\xff\xfe\x00binary")
     with pytest.raises(ModelError):
@@ -132,3 +134,78 @@ def test_linear_frf_matches_direct_inverse():
     w = 2 * np.pi * 10.0
     z = -w**2 * model.mass + 1j * w * model.damping + model.stiffness
     np.testing.assert_allclose(h[1, :, 0], np.linalg.solve(z, [0.0, 1.0]), rtol=1e-12)
+
+
+LIN1 = "[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstiffness = [[1e4]]\n"
+
+
+@pytest.mark.parametrize("text,match", [
+    ("[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstiffness = [['1e4']]\n",
+     r"linear.stiffness\[0\]\[0\] = '1e4' is not a number"),
+    ("[linear]\nmass = [[true]]\ndamping = [[1.0]]\nstiffness = [[1e4]]\n",
+     r"linear.mass\[0\]\[0\] = True is not a number"),
+    ("[linear]\nmass = 1.0\ndamping = [[1.0]]\nstiffness = [[1e4]]\n",
+     "linear.mass = 1.0 is not a matrix"),
+    ("[linear]\nmass = [1.0]\ndamping = [[1.0]]\nstiffness = [[1e4]]\n",
+     "linear.mass row 0 = 1.0 is not a list"),
+    ("[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstifness = [[1e4]]\n",
+     r"\[linear\]: unknown key 'stifness'; did you mean 'stiffness'\?"),
+    ("[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstiffness = [[1e4]]\nmas = [[1.0]]\n",
+     "unknown key 'mas'; did you mean 'mass'"),
+    ("nme = 'x'\n" + LIN1, "unknown key 'nme'; did you mean 'name'"),
+    ("name = 3\n" + LIN1, "name must be a string"),
+    ("[linear]\nmass = [[1e308]]\ndamping = [[1.0]]\nstiffness = [[1e4]]\n",
+     "above 1e\\+15"),
+    ("[linear]\nmass = [[1e-300]]\ndamping = [[1.0]]\nstiffness = [[1e4]]\n",
+     "below 1e-12 kg"),
+    ("[linear]\nmass = [[1.0]]\ndamping = [[1.0]]\nstiffness = [[9223372036854775807]]\n",
+     "above 1e\\+15"),
+    ("[linear]\nmass = [[1e-9]]\ndamping = [[0.0]]\nstiffness = [[1e12]]\n",
+     "natural frequency or decay rate above 1e\\+07 Hz"),
+    ("element = 3\n" + LIN1, "array of tables"),
+])
+def test_strict_schema_and_ranges(tmp_path, text, match):
+    with pytest.raises(ModelError, match=match):
+        _load_text(tmp_path, text)
+
+
+@pytest.mark.parametrize("element,match", [
+    ("kind = 'cubic_spring'\nw = [[1.0]]\np = 1.0", "w = \\[\\[1.0\\]\\] must be a flat list"),
+    ("kind = 'cubic_spring'\nw = [true]\np = 1.0", "w = \\[True\\] must be a flat list"),
+    ("kind = 'cubic_spring'\nw = 1.0\np = 1.0", "w = 1.0 must be a flat list"),
+    ("kind = 'cubic_spring'\nw = [1.0]\np = true", "p = True is not a number"),
+    ("kind = 'cubic_spring'\nw = [1.0]\nP = 1.0", "unknown parameter 'P'; did you mean 'p'"),
+    ("kind = 'cubic_sprung'\nw = [1.0]\np = 1.0", "did you mean 'cubic_spring'"),
+    ("kind = 'gap'\nw = [1.0]\nk = 0.0\ng = 1e-3", "k must be > 0"),
+    ("kind = 'gap'\nw = [1.0]\nk = -1e4\ng = 1e-3", "k must be > 0"),
+    ("kind = 'cubic_spring'\nw = [1.0]\np = 1e308", "outside -1e\\+30..1e\\+30"),
+    ("kind = 'hysteresis'\nw = [1.0]\nkd = 1e4\nfd = 1.0\nn = 1e-300", "n = 1e-300 is outside"),
+    ("kind = 'stick_slip'\nw = [1.0]\nkd = 1e20\nfd = 1.0",
+     r"element 0 \(stick_slip\) makes a natural frequency"),
+    ("kind = 'coulomb_friction'\nw = [1.0]\nfc = 1.0\nv_reg = 1e-300",
+     r"element 0 \(coulomb_friction\) makes a natural frequency or decay rate"),
+    ("kind = 'cubic_spring'\nw = [1e300]\np = 1.0", "w has an entry above"),
+])
+def test_strict_elements(tmp_path, element, match):
+    with pytest.raises(ModelError, match=match):
+        _load_text(tmp_path, LIN1 + "\n[[element]]\n" + element + "\n")
+
+
+def test_size_bounds(tmp_path):
+    many = "".join("\n[[element]]\nkind = 'cubic_spring'\nw = [1.0]\np = 1.0\n"
+                   for _ in range(MAX_ELEMENTS + 1))
+    with pytest.raises(ModelError, match=f"more than {MAX_ELEMENTS}"):
+        _load_text(tmp_path, LIN1 + many)
+    n = MAX_DOF + 1
+    with pytest.raises(ModelError, match=f"more than {MAX_DOF} DOFs"):
+        Model(np.eye(n), np.zeros((n, n)), np.eye(n))
+
+
+def test_non_regular_and_huge_files_are_refused(tmp_path):
+    with pytest.raises(ModelError, match="not a regular file"):
+        Model.load("/dev/zero")
+    big = tmp_path / "big.toml"
+    with open(big, "wb") as fh:
+        fh.truncate(MAX_TOML_BYTES + 1)
+    with pytest.raises(ModelError, match="more than"):
+        Model.load(big)

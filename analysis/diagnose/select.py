@@ -22,7 +22,7 @@ from typing import Any, Hashable
 
 import numpy as np
 
-from ..errors import EstimationError, InputError
+from ..errors import EstimationError, InputError, ModelError
 from ..kinds import KINDS
 from ..model import Element, Model
 from ..recording import Recording
@@ -234,6 +234,15 @@ class RandomSearch(Search):
 
 def corrected_model(model: Model, fit: Fit) -> Model:
     """The model with the chosen candidate added."""
+    try:
+        return _corrected_model(model, fit)
+    except ModelError as exc:
+        raise ModelError(f"the fitted {fit.cand.kind} leaves the model's valid range ({exc}): "
+                         "the starting model is far from the data; check its units and "
+                         "values") from None
+
+
+def _corrected_model(model: Model, fit: Fit) -> Model:
     c = fit.cand
     if not c.linear:
         params = {k: v for k, v in fit.params.items() if k in KINDS[c.kind].all_params}

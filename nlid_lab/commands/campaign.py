@@ -89,11 +89,17 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
 
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
-    from ..campaign_config import load_campaign
+    from ..campaign_config import load_campaign, load_plant_model
     from ..outputs import refuse_overwrite, write_json
 
     refuse_overwrite(args.force, None if args.resume else args.out, args.json)
     campaign = load_campaign(args.campaign)
+    excess = campaign.plan_excess(load_plant_model(campaign) if campaign.plant else None)
+    if excess and not args.yes:
+        raise InputError(f"{args.campaign}: {excess} ({campaign.plan_summary()}); shorten the "
+                         "plan (fewer levels, averages or steps, smaller blocks) or pass --yes "
+                         "to run it")
+    print(f"campaign '{campaign.name}': {campaign.plan_summary()}", file=sys.stderr)
     overwrite = args.force and not args.resume
     if args.live or args.live_close:
         result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
@@ -112,21 +118,17 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from ..campaign_config import load_campaign
+    from ..campaign_config import load_campaign, load_plant_model
 
     c = load_campaign(args.campaign)
+    excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
     n = c.plan.averages if c.kind == "random" else len(c.plan.freqs)
     unit = "steps" if c.kind != "random" else ("realizations" if c.plan.periodic else "blocks")
     kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
-    lo, hi = (len(c.levels) * b * c.plan.block_size / c.fs for b in c.blocks_per_level())
     print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
-          f"shaker {c.shaker_url}, DAQ {c.daq_url}; measurement time {_duration(lo)} to "
-          f"{_duration(hi)} (level control and settling), plus drive ramps")
+          f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"
+          f"{f'; {excess}: campaign run needs --yes' if excess else ''}")
     return 0
-
-
-def _duration(seconds: float) -> str:
-    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -147,6 +149,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--json", metavar="FILE", help="write the summary as JSON ('-': stdout)")
     run.add_argument("--force", action="store_true",
                      help="replace an existing run file / JSON file (default: refuse)")
+    run.add_argument("--yes", action="store_true",
+                     help="run a plan longer than 1 h of measurement or larger than 2 GB of "
+                          "data (refused without it; `campaign check` shows the plan)")
     run.set_defaults(func=_run)
     check = actions.add_parser("check", help="validate a campaign file without running it")
     check.add_argument("campaign", metavar="CAMPAIGN.toml")

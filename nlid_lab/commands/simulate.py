@@ -12,7 +12,7 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS, Recording
 
-from .. import recordings_io
+from .. import recordings_io, sim_budget
 from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
 
@@ -39,6 +39,10 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     if dofs.min() < 0 or dofs.max() >= model.n_dof:
         raise InputError(f"drive force_dofs {dofs.tolist()} outside the model's DOFs "
                          f"0..{model.n_dof - 1} (0-based)")
+    too_much = sim_budget.excess(model, drive["fs"], drive["force"][..., 0].size, oversample)
+    if too_much:
+        raise InputError(f"{too_much}; shorten the drive, raise its fs, or check the model's "
+                         "stiffness and units")
     plant = Plant(model, drive["fs"], dofs, oversample=oversample, noise_std=noise_std,
                   response_kind=response_kind, seed=seed)
     force = drive["force"]

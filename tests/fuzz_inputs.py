@@ -1,0 +1,150 @@
+"""Helpers of the malformed-input property tests (tests/test_input_validation.py).
+
+A mutation replaces, deletes or misspells one entry of a valid input document. Mutations that
+break a documented rule are tagged *invalid*: the command must refuse them (exit 2). The
+others may be accepted or refused, but only with exit 0 or 2 and one line on stderr.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import signal
+import warnings
+from typing import Any
+
+from hypothesis import strategies as st
+
+from nlid_lab.cli import main
+
+#: values that no numeric, string or table entry of our formats accepts as given
+BAD_VALUES = ["1e4", True, False, [], [True], [["1"]], {"a": 1.0}, "", float("nan"),
+              float("inf"), -float("inf")]
+#: numbers that are of the right type but may be out of the physical range
+EDGE_NUMBERS = [0, 0.0, -1.0, 1, 2**63 - 1, -(2**63), 1e308, -1e308, 1e-300, 1e-12, 1e15,
+                1e16, 3.5, 500]
+
+
+class TimeLimit(Exception):
+    """A command ran past the test's time bound."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float):
+    """Raise `TimeLimit` in the main thread after ``seconds`` (SIGALRM)."""
+    def alarm(*_: Any) -> None:
+        raise TimeLimit(f"no answer within {seconds} s")
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def run_cli(argv: list[str], seconds: float = 60.0) -> tuple[int, str, str]:
+    """Exit code, stderr and stdout of ``nlid-lab argv`` run in this process within
+    ``seconds``."""
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out), time_limit(seconds), \
+            warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # argparse
+            code = exc.code if isinstance(exc.code, int) else 1
+    # the terminal would show each warning (two lines) before the command's own output
+    shown = "".join(warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
+                    for w in caught)
+    return code, shown + err.getvalue(), out.getvalue()
+
+
+def check_outcome(code: int, err: str, invalid: bool, what: str) -> None:
+    """The contract: success, or exit 2 with one line and no traceback; invalid -> exit 2."""
+    assert "Traceback" not in err, f"{what}: traceback\n{err}"
+    if invalid:
+        assert code == 2, f"{what}: invalid input accepted (exit {code})\n{err}"
+    assert code in (0, 2), f"{what}: exit {code}\n{err}"
+    if code == 2:
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert len(lines) == 1, f"{what}: {len(lines)} lines on stderr\n{err}"
+
+
+# --- mutations of a nested document (dicts and lists) -------------------------------------
+def paths(doc: Any, prefix: tuple = ()) -> list[tuple]:
+    """Every path to a value in ``doc`` (dict keys and list indices), leaves and tables."""
+    out = []
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) \
+        if isinstance(doc, list) else []
+    for key, value in items:
+        out.append(prefix + (key,))
+        out += paths(value, prefix + (key,))
+    return out
+
+
+def _parent(doc: Any, path: tuple) -> Any:
+    for key in path[:-1]:
+        doc = doc[key]
+    return doc
+
+
+def typo(word: str, i: int) -> str:
+    """``word`` with one letter dropped (or one added when it is a single letter)."""
+    return word + "x" if len(word) < 2 else word[:i % len(word)] + word[i % len(word) + 1:]
+
+
+@st.composite
+def mutations(draw, base: dict, invalid_numbers: callable) -> tuple[dict, str, bool]:
+    """A copy of ``base`` with one mutation, its description, and whether it is invalid.
+
+    ``invalid_numbers(path, value)`` says whether a number at ``path`` breaks a documented
+    range (the format's own oracle, written from its docs).
+    """
+    doc = json.loads(json.dumps(base))
+    path = draw(st.sampled_from(paths(doc)))
+    parent, key = _parent(doc, path), path[-1]
+    action = draw(st.sampled_from(["bad", "number", "typo", "extra"]))
+    if action == "typo" and isinstance(key, str):
+        new = typo(key, draw(st.integers(0, 20)))
+        parent[new] = parent.pop(key)
+        return doc, f"{path}: key renamed to {new!r}", True
+    if action == "extra" and isinstance(parent, dict):
+        parent["colour"] = 1.0
+        return doc, f"{path[:-1]}: extra key 'colour'", True
+    if action == "number" and isinstance(parent[key], (int, float)) \
+            and not isinstance(parent[key], bool):
+        value = draw(st.sampled_from(EDGE_NUMBERS))
+        parent[key] = value
+        return doc, f"{path} = {value!r}", invalid_numbers(path, value)
+    value, old = draw(st.sampled_from(BAD_VALUES)), parent[key]
+    # another string, or an empty list (a model without elements), may be allowed: no verdict
+    undetermined = (isinstance(value, str) and isinstance(old, str)) or (
+        value == [] and isinstance(old, list))
+    parent[key] = value
+    return doc, f"{path} = {value!r}", not undetermined
+
+
+# --- a small TOML writer (inline tables: enough for any mutated document) -----------------
+def toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return "{" + ", ".join(f"{json.dumps(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
+
+
+def toml_text(doc: dict) -> str:
+    return "".join(f"{json.dumps(k)} = {toml_value(v)}\n" for k, v in doc.items())
