@@ -17,7 +17,7 @@ Stepped-sine levels
 Each way about 1 % of the lines are flagged by chance; a share above 1 % plus four binomial
 standard deviations (widened by the window's bin correlation for Welch lines) detects a
 nonlinearity. The flagged band says where in frequency (which elements and where on the
-structure: `analysis.screening`, `analysis.diagnose`).
+structure: `analysis.reverse_path.screen_candidates`, `analysis.diagnose`).
 """
 
 from __future__ import annotations

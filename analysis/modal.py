@@ -254,7 +254,7 @@ def modal_summary(result: "ReversePathResult", n_modes: int,
         The model's DOF count, for which the fit of a lumped system's receptance is exact;
         modes outside the analysed band are extrapolated and flagged ``in_band: false``.
     linear : (freqs, frf, spectra), optional
-        The residual-force H1 (`analysis.reverse_path_linear.residual_force_frf`): the fit
+        The residual-force H1 (`analysis.reverse_path.residual_force_frf`): the fit
         then goes through the Welch window's smoothing kernel, which removes the leakage bias
         of the damping. Without it the reverse path's ``H_linear`` is fitted directly.
 

@@ -157,7 +157,8 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
 
 def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     """HTML report of the run (FRFs, coherence, reverse-path figures, stored estimates)."""
-    from .report import load_run, write_report
+    from .report import write_report
+    from .rundata import load_run
 
     run = load_run(run_path)
     return Path(write_report(run, cfg.out / "report")["html"])

@@ -13,7 +13,7 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from .report import LevelFRF
+    from analysis.frf import LevelFRF
 
 FIGSIZE = (8.0, 5.6)
 DPI = 110

@@ -1,6 +1,6 @@
 """Run reports: what a run shows (FRFs per level, estimates, diagnosis) and the HTML page.
 
-`load_run` reads a stored run (HDF5 through `nlid_lab.store`, or an NPZ recording),
+`nlid_lab.rundata.load_run` reads a stored run (HDF5 through `nlid_lab.store`, or an NPZ recording),
 `analysis.frf.level_frf` turns one level's recording into FRFs and coherences, and `write_report` writes the PNG figures
 (`nlid_lab.figures`) plus one ``index.html`` that links them. A section appears only when its
 data is stored in the run or can be computed from it.
@@ -9,73 +9,18 @@ data is stored in the run or can be computed from it.
 from __future__ import annotations
 
 import html
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
 from analysis.errors import InputError
-from analysis.frf import LevelFRF, level_frf
-from analysis.kinds import coefficient_units
-from analysis.recording import Recording
+from analysis.frf import LevelFRF
 
-from . import figures, recordings_io, store
+from . import figures
 from .outputs import level_text
-
-
-
-
-class ReportError(InputError):
-    """A run cannot be reported or exported as asked."""
-
-
-@dataclass
-class RunData:
-    """Everything a view, report or export needs from one stored run."""
-
-    path: Path
-    recordings: list[Recording]
-    meta: dict[str, Any] = field(default_factory=dict)
-    results: dict[str, Any] = field(default_factory=dict)
-    status: str = "complete"
-
-    @property
-    def name(self) -> str:
-        return self.path.stem
-
-
-def load_run(path: str | Path) -> RunData:
-    """Read a run: an HDF5 file written by the store, or an NPZ recording (contracts 3)."""
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(2, "No such file or directory", str(path))
-    if path.suffix.lower() not in (".h5", ".hdf5"):
-        return RunData(path, recordings_io.load_recordings(path))
-    run = store.open_run(path)
-    recs = run.recordings()
-    if not recs:
-        raise ReportError(f"{path} holds no recorded level; run or resume the campaign first")
-    return RunData(path, recs, dict(run.meta), dict(run.results), run.status)
-
-
-def all_level_frfs(run: RunData, progress: Callable[[int], None] | None = None
-                   ) -> list[LevelFRF]:
-    """`level_frf` of every level, in stored order."""
-    out = []
-    for i, rec in enumerate(run.recordings):
-        out.append(level_frf(rec, i))
-        if progress:
-            progress(1)
-    return out
+from .rundata import RunData, Section, all_level_frfs
 
 
 # --- report sections ----------------------------------------------------------------------
-@dataclass
-class Section:
-    """One report section: a heading, a short explanation and its figures."""
-
-    title: str
-    text: str
-    figures: list[tuple[str, Any]] = field(default_factory=list)   # (file stem, Figure)
 
 
 def find_result(results: dict[str, Any], *keys: str) -> tuple[str, dict] | None:
@@ -86,13 +31,6 @@ def find_result(results: dict[str, Any], *keys: str) -> tuple[str, dict] | None:
         if isinstance(res, dict) and all(k in res for k in keys):
             found = (name, res)
     return found
-
-
-def reference_model(run: RunData):
-    """The model stored with a simulated run (the reference system), or None."""
-    from analysis.model import Model
-    text = run.meta.get("model_toml") or ""
-    return Model.loads(text) if text.strip() else None
 
 
 def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
@@ -116,22 +54,6 @@ def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
                        for q in range(n_dof)]
         out.append(coh)
     return out
-
-
-#: Units of the coefficient of each element kind's basis function.
-PARAM_UNITS = coefficient_units()
-
-
-def candidate_model(run: RunData, candidate=None):
-    """Model for reverse path: ``candidate`` if given, else the run's stored reference model
-    with every element parameter removed (to be estimated); None when neither exists."""
-    if candidate is not None:
-        return candidate
-    ref = reference_model(run)
-    if ref is None or not ref.elements:
-        return None
-    from analysis.model import Element
-    return ref.with_elements([Element(el.kind, el.w.copy(), {}) for el in ref.elements])
 
 
 def diagnosis_section(run: RunData) -> Section | None:

@@ -15,7 +15,7 @@ from typing import Any, Iterable
 import numpy as np
 import pyuff
 
-from .report import LevelFRF
+from analysis.frf import LevelFRF
 
 FUNC_FRF = 4
 FUNC_COHERENCE = 6

@@ -17,7 +17,7 @@ from nlid_lab.cli import main  # noqa: E402
 from nlid_lab.gui import plots, snapshot  # noqa: E402
 from nlid_lab.gui.live import LiveView  # noqa: E402
 from nlid_lab.gui.offline import OfflineView  # noqa: E402
-from nlid_lab.report import all_level_frfs, load_run  # noqa: E402
+from nlid_lab.rundata import all_level_frfs, load_run  # noqa: E402
 from test_report import random_run  # noqa: E402
 
 MODEL = Model.load("examples/models/three-dof-paper.toml")

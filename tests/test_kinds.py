@@ -66,7 +66,7 @@ def test_every_descriptor_is_complete():
 
 
 def test_report_units_come_from_the_descriptors():
-    from nlid_lab.report import PARAM_UNITS
+    from nlid_lab.rundata import PARAM_UNITS
     assert PARAM_UNITS == {k: s.param(s.coef).unit for k, s in KINDS.items() if s.coef}
     assert PARAM_UNITS["cubic_spring"] == "N/m³"
 

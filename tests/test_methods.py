@@ -15,7 +15,8 @@ from analysis.model import Element, Model
 from nlid_lab import methods, recordings_io, store
 from nlid_lab import reanalyze as rea
 from nlid_lab.cli import build_parser, main
-from nlid_lab.report import Section, estimate_rows, load_run, write_report
+from nlid_lab.report import estimate_rows, write_report
+from nlid_lab.rundata import Section, load_run
 from test_report import random_run
 
 QUAD = Path("examples/models/sdof-cubic-quaddamp.toml")

@@ -304,7 +304,7 @@ class _Stop(Exception):
 def test_diagnose_reads_the_period_the_store_writes(tmp_path, monkeypatch):
     """The diagnosis read ``meta["period_samples"]`` while the store wrote ``period``: a
     periodic run was diagnosed as plain random data. It now takes ``layout.period``."""
-    import analysis.diagnose as dg
+    import analysis.diagnose.search as dg
     from analysis.model import Model
 
     seen = []

@@ -11,7 +11,9 @@ from analysis.model import Model
 from analysis.plant import Plant
 from nlid_lab import store
 from nlid_lab.cli import main
-from nlid_lab.report import level_frf, load_run, write_report
+from analysis.frf import level_frf
+from nlid_lab.report import write_report
+from nlid_lab.rundata import load_run
 
 QUAD = Path("examples/models/sdof-cubic-quaddamp.toml")
 STICK = Path("examples/models/sdof-stick-slip.toml")

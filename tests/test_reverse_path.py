@@ -9,7 +9,7 @@ from analysis.model import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recording import PeriodicLayout, Recording
 from analysis.reverse_path import reverse_path
-from analysis.reverse_path_noise import noise_floor
+from analysis.reverse_path import noise_floor
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"
 MDOF = "examples/models/three-dof-paper.toml"
@@ -394,7 +394,7 @@ def test_periodic_basis_upsampling_is_exact():
 
 
 def test_aliasing_warnings_merge_per_basis():
-    from analysis.reverse_path import _merge_alias_warnings
+    from analysis.reverse_path._estimator import _merge_alias_warnings
     w = ["noise note",
          "aliasing: basis v|v| of element 1 spans 1000 Hz and folds into the band (0.09 % "
          "in-band error) at fs = 1024 Hz; upsampled x2 before forming it",

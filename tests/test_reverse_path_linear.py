@@ -8,7 +8,7 @@ from analysis.model import Element, Model
 from analysis.plant import Plant
 from analysis.recording import Recording
 from analysis.reverse_path import reverse_path
-from analysis.reverse_path_linear import residual_force_frf
+from analysis.reverse_path import residual_force_frf
 from analysis.modal import modal_summary
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"

@@ -7,7 +7,8 @@ from analysis.errors import InputError
 from analysis.excitation import random_gaussian
 from analysis.model import Model
 from analysis.plant import Plant
-from analysis.screening import default_locations, screen_candidates
+from analysis.reverse_path import screen_candidates
+from analysis.reverse_path._screening import default_locations
 
 
 def _run(path, fs, rms, band, oversample, n=2**17):

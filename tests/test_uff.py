@@ -8,7 +8,7 @@ from analysis.recording import Recording
 from nlid_lab import uff
 from nlid_lab.cli import main
 from nlid_lab.recordings_io import write_npz
-from nlid_lab.report import level_frf
+from analysis.frf import level_frf
 
 MODEL = Model.load("examples/models/three-dof-paper.toml")
 FS = 2048.0

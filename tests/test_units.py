@@ -18,7 +18,7 @@ from nlid_lab import store  # noqa: E402
 from nlid_lab.gui.offline import OfflineView  # noqa: E402
 from analysis.frf import convert_frf  # noqa: E402
 from nlid_lab.methods.reverse_path import report_sections  # noqa: E402
-from nlid_lab.report import all_level_frfs, load_run  # noqa: E402
+from nlid_lab.rundata import all_level_frfs, load_run  # noqa: E402
 
 SDOF = Path(__file__).resolve().parents[1] / "examples" / "models" / "sdof-cubic-quaddamp.toml"
 FS = 512.0

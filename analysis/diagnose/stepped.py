@@ -32,6 +32,8 @@ from ..sine_fit import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2
 from .locate import level_dependence, mismatch_band
+from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, _apply, _pick_holdout, _pruned,
+                     decide, linear_only, model_change, pruned_labels)
 from .replay import periodic_replay
 from .report import Diagnosis, LevelCurves, explain, time_fit
 from .select import Fit, Search, candidate_extras, unit_params
@@ -217,7 +219,6 @@ def _refit(model: Model, fit: Fit, frfs: list[SteppedSineFRF]) -> tuple[Fit, lis
 
 def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
     """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
-    from . import BIC_MIN, MIN_REDUCTION, linear_only
     if linear_only(search):
         return [f for f in search.screen() if f.cand.linear]
     pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
@@ -248,9 +249,6 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
 def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                      holdout: float | str | None, floor: float) -> Diagnosis:
     """Stepped-sine counterpart of `analysis.diagnose.diagnose` (same selection rules)."""
-    from . import (MAX_EFFECTS, _apply, _pick_holdout, _pruned, decide, model_change,
-                   pruned_labels)
-
     frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
     order = np.argsort([f.level for f in frfs])
     frfs, recs = [frfs[i] for i in order], [recs[i] for i in order]

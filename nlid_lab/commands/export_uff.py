@@ -12,7 +12,7 @@ from ..progress import progress
 def run(args: argparse.Namespace) -> int:
     from .. import uff
     refuse_overwrite(args.force, args.out, args.json)
-    from ..report import all_level_frfs, load_run
+    from ..rundata import all_level_frfs, load_run
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)

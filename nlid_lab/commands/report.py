@@ -12,7 +12,8 @@ from .repair import check_runs, repair_option
 def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
-    from ..report import all_level_frfs, load_run, write_report
+    from ..report import write_report
+    from ..rundata import all_level_frfs, load_run
     refuse_overwrite(args.force, args.json, directories=(args.out,))
     check_runs([args.run], args.repair)
     data = load_run(args.run)

@@ -12,7 +12,8 @@ from PySide6 import QtCore, QtWidgets
 
 from analysis.frf import FRF_UNITS, LevelFRF, convert_frf
 
-from ..report import RunData, estimate_rows
+from ..report import estimate_rows
+from ..rundata import RunData
 from . import plots
 
 

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from analysis.recording import Recording
     from analysis.sine_fit import SteppedSineFRF
 
-    from ..report import RunData, Section
+    from ..rundata import RunData, Section
 
 NAME = "hbm"
 
@@ -231,7 +231,7 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
     from analysis.hbm import loop
 
     from .. import figures as report_figures
-    from ..report import Section, reference_model
+    from ..rundata import Section, reference_model
 
     if found is None:
         return []

@@ -83,7 +83,7 @@ class Method:
         `reanalyze`; default ``estimate([recording], model, options).to_json()``.
     sections : callable, optional
         ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
-        run (`nlid_lab.report.RunData`), its level FRFs, the method's latest stored result
+        run (`nlid_lab.rundata.RunData`), its level FRFs, the method's latest stored result
         (or None) and the candidate model asked for (or None).
     legacy_keys : tuple of str
         A stored result without ``"estimator"`` holding all these keys is this method's.

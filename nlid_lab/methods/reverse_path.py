@@ -21,9 +21,9 @@ if TYPE_CHECKING:
     from analysis.model import Model
     from analysis.recording import Recording
     from analysis.reverse_path import ReversePathResult
-    from analysis.screening import ScreeningResult
+    from analysis.reverse_path import ScreeningResult
 
-    from ..report import RunData, Section
+    from ..rundata import RunData, Section
 
 NAME = "reverse-path"
 
@@ -128,8 +128,8 @@ def estimate(recs: Sequence[Recording], model: Model,
     """
     from analysis.modal import modal_summary
     from analysis.reverse_path import reverse_path
-    from analysis.reverse_path_linear import residual_force_frf
-    from analysis.screening import screen_candidates
+    from analysis.reverse_path import residual_force_frf
+    from analysis.reverse_path import screen_candidates
 
     options = options or ReversePathOptions()
     holds = {r.force_hold for r in recs} if options.force_hold is None \
@@ -174,7 +174,7 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     from analysis.reverse_path import reverse_path
 
     from .. import figures
-    from ..report import PARAM_UNITS, Section, candidate_model, reference_model
+    from ..rundata import PARAM_UNITS, Section, candidate_model, reference_model
 
     model = candidate_model(run, candidate)
     recs = [r for r in run.recordings if r.excitation == "random"]

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from .model import Model
-from .reverse_path import ReversePathResult, _channels, _force_span, _Processing, _records
-from .spectral import Spectra, h1, spectral_matrix
+from ..model import Model
+from ._core import ReversePathResult, _channels, _force_span, _Processing, _records
+from ..spectral import Spectra, h1, spectral_matrix
 
 
 def residual_force_frf(data: Any, estimated: Model, result: ReversePathResult, *,

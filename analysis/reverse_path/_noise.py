@@ -37,17 +37,17 @@ import scipy.ndimage
 import scipy.signal
 import scipy.stats
 
-from . import basis as bas
-from .elements import restoring_force
-from .errors import InputError, ModelError
-from .model import Model
-from .plant import Plant, PlantError
-from .recording import DEFAULT_TRANSIENT_PERIODS, Recording
-from .reverse_path import (Z95, ReversePathResult, _alias_upsampling, _channels,
+from .. import basis as bas
+from ..elements import restoring_force
+from ..errors import InputError, ModelError
+from ..model import Model
+from ..plant import Plant, PlantError
+from ..recording import DEFAULT_TRANSIENT_PERIODS, Recording
+from ._core import (Z95, ReversePathResult, _alias_upsampling, _channels,
                            _coefficients, _estimate, _force_span, _Processing)
-from .signals import (KIND_ORDER, excitation_band, period_spectra, periodic_kinematics,
+from ..signals import (KIND_ORDER, excitation_band, period_spectra, periodic_kinematics,
                       steady_periods)
-from .spectral import Spectra, spectral_matrix
+from ..spectral import Spectra, spectral_matrix
 
 NOISE_THRESHOLD = 5e-3   # relative sensor-noise std above which noise="auto" uses "iv"
 IV_PASSES = 2            # instrument refinements (each re-simulates with the latest estimate)

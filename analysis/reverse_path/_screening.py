@@ -24,15 +24,15 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from . import basis as bas
-from .errors import InputError
-from .frf import default_nperseg
-from .model import Model
-from .recording import Recording
-from .reverse_path import (_Processing, _average, _channels,
+from .. import basis as bas
+from ..errors import InputError
+from ..frf import default_nperseg
+from ..model import Model
+from ..recording import Recording
+from ._core import (_Processing, _average, _channels,
                            _element_estimates, _records)
-from .signals import excitation_band
-from .spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
+from ..signals import excitation_band
+from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
 
 MIN_GAIN = 0.1    # decades of incoherence a term must remove to be selected
 

@@ -22,8 +22,8 @@ from typing import Callable
 
 import numpy as np
 
-from .model import Element, Model
-from .reverse_path import Z95, Coefficient, ReversePathResult, _force_span
+from ..model import Element, Model
+from ._core import Z95, Coefficient, ReversePathResult, _force_span
 
 
 def sequential(estimate: Callable[[Model], ReversePathResult], model: Model

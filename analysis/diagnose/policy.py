@@ -1,0 +1,144 @@
+"""What the diagnosis accepts: evidence thresholds, hold-out choice, the decision between
+candidates and the pruning after a joint refit (shared by the random and stepped-sine
+searches)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..model import Model
+from .candidates import Candidate
+from .compare import FLOOR
+from .joint import joint_refit
+from .locate import level_dependence
+from .prepare import DiagnoseInputError
+from .report import LevelCurves
+from .select import Fit, Search, corrected_model
+
+BIC_MIN = 10.0
+"""Minimum BIC gain ("very strong" evidence, Kass & Raftery) for a discrepancy."""
+
+
+MIN_REDUCTION = 0.25
+"""Minimum relative reduction of the weighted misfit for a discrepancy."""
+
+
+MIN_REDUCTION_NEXT = 0.5
+"""The same for a further effect (second pass): what remains after a correction holds the
+first estimate's error and model-form approximations, so a further effect must explain at
+least half of it."""
+
+
+MIN_EFFECT = 2 * FLOOR
+"""Minimum relative change of the fitting levels' model FRFs the correction must make."""
+
+
+MAX_EFFECTS = 3
+"""Search passes: after a found effect the library is searched again on the corrected model
+(a candidate already accepted is not offered again: the joint refit corrects its estimate)."""
+
+
+def _pick_holdout(levels: list[float], holdout: float | str | None) -> int | None:
+    """Index (into ascending levels) held back; None means a held-back segment."""
+    if holdout == "segment" or (holdout is None and len(levels) == 1):
+        return None
+    if holdout is None:
+        return len(levels) // 2 if len(levels) >= 3 else 0
+    try:
+        target = float(holdout)
+    except (TypeError, ValueError):
+        raise DiagnoseInputError(f"holdout {holdout!r} must be a level (number) or "
+                                 "'segment'") from None
+    i = int(np.argmin([abs(lv - target) for lv in levels]))
+    if abs(levels[i] - target) > 0.05 * max(abs(target), 1e-12):
+        raise DiagnoseInputError(f"no recording at level {target:g}; levels are "
+                                 f"{', '.join(f'{lv:g}' for lv in levels)}")
+    if len(levels) == 1:
+        raise DiagnoseInputError("holding back the only level leaves nothing to fit; give "
+                                 "more levels or --holdout segment")
+    return i
+
+
+def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
+    """Labels of accepted candidates that `_pruned` dropped."""
+    kept = [f.cand for f in chosen]
+    return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
+
+
+def _pruned(model: Model, search: Search, fits: list[Fit],
+            change: Callable[[Model, list[Fit]], float]) -> list[Fit]:
+    """Joint refit, then drop a later effect that the joint estimate makes irrelevant (its
+    removal changes the model FRFs by less than `MIN_EFFECT`: it only stood in for the
+    sequential error of an earlier estimate) and refit the rest."""
+    chosen = joint_refit(model, search, fits)
+    for k in range(len(chosen) - 1, 0, -1):
+        others = chosen[:k] + chosen[k + 1:]
+        if change(_apply(model, others), chosen) < MIN_EFFECT:
+            return _pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
+                           change)
+    return chosen
+
+
+def _apply(model: Model, fits: list[Fit]) -> Model:
+    """The model with every accepted candidate added, in order."""
+    for f in fits:
+        model = corrected_model(model, f)
+    return model
+
+
+@dataclass
+class SearchPass:
+    """One search of the library on the current model and its decision."""
+
+    search: Search
+    pool: list[Fit]
+    reduction: float
+    found: bool
+    fixed: Model
+    effect: float
+
+    @property
+    def best(self) -> Fit:
+        return self.pool[0]
+
+    def to_json(self) -> dict:
+        b = self.pool[0] if self.pool else None
+        return {"best": b.cand.label if b else None,
+                "delta_bic": float(b.delta_bic) if b else None,
+                "chi2_start": float(self.search.chi2_0),
+                "chi2_reduction": float(self.reduction),
+                "model_change": float(self.effect), "accepted": bool(self.found)}
+
+
+def decide(model: Model, search: Search, pool: list[Fit],
+           change: Callable[[Model], float], *, further: bool = False,
+           accepted: Sequence[Candidate] = ()) -> SearchPass:
+    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass if it passes
+    all three thresholds (a stricter misfit reduction for a ``further`` effect)."""
+    pool = [f for f in pool if f.cand not in accepted]
+    best = pool[0] if pool else None
+    reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
+    min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
+    found = best is not None and best.delta_bic > BIC_MIN and reduction > min_red
+    fixed = corrected_model(model, best) if found else model
+    effect = change(fixed) if found else 0.0
+    if found and effect < MIN_EFFECT:
+        found, fixed = False, model
+    return SearchPass(search, pool, reduction, found, fixed, effect)
+
+
+def linear_only(search: Search) -> bool:
+    """True when the fitting levels' FRFs are the same within their random error: then no
+    nonlinear candidate is supported by the data (homogeneity, paper chapter 2)."""
+    dep = level_dependence(search.levels)
+    return dep is not None and not dep.dependent
+
+
+def model_change(curves: list[LevelCurves]) -> float:
+    """Relative rms change of the model FRFs made by the correction (fitting levels)."""
+    num = sum(float(np.sum(np.abs(c.after - c.before) ** 2)) for c in curves)
+    den = sum(float(np.sum(np.abs(c.measured) ** 2)) for c in curves)
+    return float(np.sqrt(num / den))

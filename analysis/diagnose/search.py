@@ -1,0 +1,194 @@
+"""The diagnosis entry point and its search over random-data levels (`diagnose`); stepped
+sine goes to `.stepped`."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ..model import Model
+from ..recording import Recording
+from .candidates import Candidate
+from .compare import FLOOR, choose_nperseg, level_frf, model_frf, unit_force, weighted_error
+from .locate import level_dependence, mismatch_band
+from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random, record_level,
+                      split_segment)
+from .replay import horizon_samples, replay
+from .report import METRIC, Diagnosis, LevelCurves, explain, time_fit
+from .select import SHORTLIST, Fit, RandomSearch
+from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout, _pruned, decide,
+                     linear_only, model_change, pruned_labels)
+
+
+def _check(model: Model, recordings: Sequence[Recording]) -> list[Recording]:
+    recs = list(recordings)
+    if not recs:
+        raise DiagnoseInputError("no recordings given; pass at least one run")
+    for r in recs:
+        if r.n_dof != model.n_dof:
+            raise DiagnoseInputError(
+                f"a recording has {r.n_dof} response channels but the model has {model.n_dof} "
+                "DOFs; the diagnosis needs every DOF measured")
+    model.require_complete("a diagnosis")
+    return recs
+
+
+def diagnose(model: Model, recordings: Sequence[Recording], *,
+             holdout: float | str | None = None, band: tuple[float, float] | None = None,
+             nperseg: int | None = None, period: int | None = None,
+             floor: float = FLOOR) -> Diagnosis:
+    """Diagnose what ``model`` lacks to explain ``recordings``.
+
+    Parameters
+    ----------
+    model : Model
+        Starting model (complete: every element parameter given).
+    recordings : sequence of Recording
+        Random (or periodic multisine) runs, or stepped-sine runs, one level each.
+    holdout : float or "segment", optional
+        Level held back from fitting (default: the middle level of three or more, the lowest
+        of two); "segment" (or a single recording) holds back the last 30 % of each run.
+    band : (lo, hi), optional
+        Analysis band, Hz (default: the excited band of the force).
+    nperseg : int, optional
+        Welch segment length (default: resolves the narrowest model resonance).
+    period : int, optional
+        Samples per period of a periodic drive (else the recording's ``layout.period``).
+    floor : float
+        Model-precision floor, relative FRF deviation treated as insignificant.
+
+    Returns
+    -------
+    Diagnosis
+    """
+    recs = _check(model, recordings)
+    if all(r.excitation == "stepped-sine" for r in recs):
+        from .stepped import diagnose_stepped
+        return diagnose_stepped(model, recs, holdout=holdout, floor=floor)
+    warnings = []
+    if any(r.excitation != "random" for r in recs):
+        warnings.append("stepped-sine runs ignored: the random runs were diagnosed")
+        recs = [r for r in recs if r.excitation == "random"]
+    if len({r.fs for r in recs}) > 1 or len({tuple(r.force_dofs) for r in recs}) > 1:
+        raise DiagnoseInputError("the runs differ in sample rate or force DOFs; diagnose "
+                                 "runs of one test set-up together")
+    recs.sort(key=record_level)
+    per = [period or (r.layout.period if r.layout else None) for r in recs]
+    n_min = min(r.force.shape[0] for r in recs)
+    nps = nperseg if nperseg is not None else choose_nperseg(model, recs[0].fs, n_min)
+    if band is None:
+        band = analysis_band(recs[0], per[0] or nps)
+    band = (float(band[0]), float(band[1]))
+    preps = [prepare_random(r, band, f"level {record_level(r):g}",
+                            period=int(p) if p else None) for r, p in zip(recs, per)]
+    hold = _pick_holdout([p.level for p in preps], holdout)
+    if hold is None:
+        pairs = [split_segment(p) for p in preps]
+        fit_preps, held = [a for a, _ in pairs], [b for _, b in pairs]
+    else:
+        fit_preps = [p for i, p in enumerate(preps) if i != hold]
+        held = [preps[hold]]
+    if min(p.x.shape[0] for p in fit_preps + held) < 4 * nps:
+        raise DiagnoseInputError(f"records are too short for segments of {nps} samples; give "
+                                 "longer runs or a smaller --nperseg")
+    passes = []
+    current = model
+    for _ in range(MAX_EFFECTS):
+        step = _search_pass(current, fit_preps, band, nps, floor,
+                            [s.best.cand for s in passes if s.found])
+        passes.append(step)
+        if not step.found:
+            break
+        current = step.fixed
+    first = passes[0]
+
+    def change(without: Model, fits: list[Fit]) -> float:
+        return model_change([_curves(without, _apply(model, fits), p, band, nps, floor, False)
+                             for p in fit_preps])
+    chosen = _pruned(model, first.search, [s.best for s in passes if s.found], change)
+    current = _apply(model, chosen)
+    horizon = horizon_samples(model, recs[0].fs)
+    curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps), horizon)
+              for i, p in enumerate(fit_preps + held)]
+    held_curves = [c for c in curves if c.held_back]
+    before = float(np.mean([c.error_before for c in held_curves]))
+    after = float(np.mean([c.error_after for c in held_curves]))
+    dep = level_dependence(first.search.levels + (
+        [_level(model, h, band, nps, floor) for h in held] if hold is not None else []))
+    top = max(first.search.levels, key=lambda lf: lf.level)
+    loc_band = mismatch_band(top, first.search.H0s[first.search.levels.index(top)])
+    location = {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
+                "band_hz": [loc_band[0], loc_band[1]] if chosen else None}
+    d = Diagnosis(
+        "discrepancy" if chosen else "adequate",
+        dep.dependent if dep else None,
+        [f.to_json() for f in chosen],
+        [f.to_json() for f in first.pool[:8]],
+        location,
+        {"metric": METRIC, "before": before, "after": after,
+         "held_back": [h.label for h in held], "time_residual": time_fit(held_curves)},
+        current, curves,
+        {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
+         "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
+         "model_change": first.effect, "replay_horizon_samples": horizon,
+         "passes": [s.to_json() for s in passes],
+         "pruned_after_joint_refit": pruned_labels(passes, chosen),
+         "level_dependence": dep.to_json() if dep else None,
+         "residual_share_by_dof": _share(first.search)},
+        warnings)
+    d.explanation = explain(d, [f.cand for f in chosen])
+    return d
+
+
+def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
+                 floor: float, accepted: list[Candidate]) -> SearchPass:
+    """Screen the library, refine the best nonlinear ones by reverse path, decide."""
+    search = RandomSearch(model, fit_preps, band, nps, floor)
+    fits = search.screen()
+    if linear_only(search):
+        fits = [f for f in fits if f.cand.linear]
+    nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0][:SHORTLIST]
+    refined = [search.refine(f) for f in nonlinear]
+    pool = sorted(refined + [f for f in fits if f.cand.linear], key=lambda f: -f.delta_bic)
+    if pool and not pool[0].cand.linear and pool[0].delta_bic > BIC_MIN:
+        # Final estimate of the leading candidate, debiased for sensor noise when needed.
+        screened = nonlinear[refined.index(pool[0])]
+        final = search.refine(screened, noise="auto")
+        pool[0] = final if final is not screened else pool[0]
+
+    def change(fixed: Model) -> float:
+        return model_change([_curves(model, fixed, p, band, nps, floor, False)
+                             for p in fit_preps])
+    return decide(model, search, pool, change, further=bool(accepted), accepted=accepted)
+
+
+def _share(search: RandomSearch) -> list[float]:
+    from .compare import error_by_dof
+    top = max(range(len(search.levels)), key=lambda i: search.levels[i].level)
+    return [float(s) for s in error_by_dof(search.levels[top], search.H0s[top])]
+
+
+def _level(model: Model, p: Prepared, band, nps: int, floor: float):
+    bases = {("model", i): unit_force(el.kind, el.params, el.w, p)
+             for i, el in enumerate(model.elements)}
+    return level_frf(p, band, nps, bases, floor=floor)
+
+
+def _predicted(model: Model, p: Prepared, band, nps: int, floor: float):
+    lf = _level(model, p, band, nps, floor)
+    terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
+    return lf, model_frf(model.linear_frf(lf.freqs), lf, terms)
+
+
+def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,
+            held: bool, horizon: int | None = None) -> LevelCurves:
+    """FRFs of one level before/after; with ``horizon``, also the short-horizon replays."""
+    lf, h_before = _predicted(start, p, band, nps, floor)
+    _, h_after = _predicted(fixed, p, band, nps, floor)
+    c = LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
+                    weighted_error(lf, h_before), weighted_error(lf, h_after), lf.coh)
+    if horizon is not None:
+        c.replay_before = replay(start, p, horizon)
+        c.replay_after = c.replay_before if fixed is start else replay(fixed, p, horizon)
+    return c

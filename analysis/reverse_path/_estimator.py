@@ -1,0 +1,180 @@
+"""The reverse path estimator's entry point: records in, `ReversePathResult` out.
+
+It chooses the route (Welch spectra with or without instrumental variables, or period
+averaging for periodic records, `._noise`), runs the estimate (`._core`) and the optional
+sequential refinement (`._stages`).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Sequence
+
+from ..errors import InputError
+from ..frf import default_nperseg
+from ..model import Model
+from ..signals import excitation_band
+from ..spectral import Spectra, spectral_matrix
+from . import _noise as noise_mod
+from ._core import (ReversePathResult, _channels, _elements, _estimate, _Processing,
+                    _records)
+from ._stages import sequential
+
+
+def reverse_path(data: Any, model: Model, *, fs: float | None = None,
+                 force_dofs: Sequence[int] | None = None,
+                 response_kind: str = "displacement", band: tuple[float, float] | None = None,
+                 nperseg: int | None = None, window: str = "hann", overlap: float = 0.5,
+                 antialias: str = "auto", method: str = "direct",
+                 force_hold: str | None = None, noise: str = "auto",
+                 period: int | None = None, transient_periods: int | None = None,
+                 realizations: int | None = None, refine: str = "joint") -> ReversePathResult:
+    """Estimate the unknown element parameters of ``model`` and the underlying linear FRF.
+
+    Parameters
+    ----------
+    data : Recording, list of Recording, or (force, response) arrays
+        Random-excitation records at one or several levels (pooled). ``response`` holds
+        every DOF of the model. Periodic-random (multisine) records, marked by
+        a ``layout`` or ``period=``, go to the period-averaging estimator
+        (`._noise.periodic_reverse_path`).
+    model : Model
+        Candidate: elements with omitted parameters are estimated; complete elements are
+        included as known nonlinear forces.
+    fs, force_dofs, response_kind
+        Needed with plain arrays only.
+    band : (lo, hi), optional
+        Analysis band, Hz; by default the excited band of the force spectrum.
+    nperseg : int, optional
+        Welch segment length (default: a power of two <= n/16, at most 8192).
+    window, overlap
+        Welch window and overlap fraction.
+    antialias : {"auto", "warn", "off"}
+        When a basis function would alias into the band: upsample before forming it and
+        note it ("auto"), only warn ("warn"), or do nothing ("off").
+    method : {"direct", "conditioned"}
+        Invert ``G_RR`` directly (partially correlated inputs) or go through Bendat's
+        conditioned, uncorrelated inputs (same estimate, paper section 3.2).
+    force_hold : {"none", "linear"}, optional
+        How the applied force behaves between its samples. "linear" (the simulated plant's
+        first-order-hold drive) means the structure felt the baseband force
+        ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
+        ``force_hold`` ("none": a force transducer behind an anti-alias filter).
+    noise : {"auto", "iv", "none"}
+        "iv": instrumental variables and debiased bases (`._noise`),
+        "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
+        noise floor exceeds ``NOISE_THRESHOLD`` of its rms (random records) or when there
+        are two or more steady periods (periodic records).
+    period, transient_periods, realizations : int, optional
+        Periodic-random records: samples per period, leading periods of each realization
+        dropped as transient (default 1) and realizations (blocks with their own random
+        phases) per record (default 1); default: the recording's ``layout`` entries of the
+        same names. Each realization holds ``transient_periods + P`` whole periods.
+    refine : {"joint", "sequential"}
+        "sequential": after the joint estimate, re-estimate each coefficient with the
+        elements on forced DOFs fixed at their joint estimates, their uncertainty propagated
+        (`._stages`; for a basis that shares its deformation with
+        another, such as v|v| next to x^3).
+
+    Returns
+    -------
+    ReversePathResult
+    """
+    if antialias not in ("auto", "warn", "off"):
+        raise InputError(f"antialias must be auto, warn or off, got '{antialias}'")
+    if force_hold not in (None, "none", "linear"):
+        raise InputError(f"force_hold must be none or linear, got '{force_hold}'")
+    if method not in ("direct", "conditioned"):
+        raise InputError(f"method must be direct or conditioned, got '{method}'")
+    if noise not in ("auto", "iv", "none"):
+        raise InputError(f"noise must be auto, iv or none, got '{noise}'")
+    if refine not in ("joint", "sequential"):
+        raise InputError(f"refine must be joint or sequential, got '{refine}'")
+    if refine == "sequential":
+        opts = dict(fs=fs, force_dofs=force_dofs, response_kind=response_kind, band=band,
+                    nperseg=nperseg, window=window, overlap=overlap, antialias=antialias,
+                    method=method, force_hold=force_hold, noise=noise, period=period,
+                    transient_periods=transient_periods, realizations=realizations)
+        return sequential(lambda cand: reverse_path(data, cand, **opts), model)
+    # imported here: the noise module builds on this one's channel and estimate helpers
+    recs = _records(data, fs, force_dofs, response_kind)
+    rec0 = recs[0][0]
+    if rec0.n_dof != model.n_dof:
+        raise InputError(f"the response has {rec0.n_dof} channels but the model has "
+                         f"{model.n_dof} DOFs; reverse path needs every DOF measured")
+    unknown, known = _elements(model)
+    warnings: list[str] = []
+    layouts = [noise_mod.periodic_layout(r, period, transient_periods, realizations)
+               for r, _ in recs]
+    if any(lay is not None for lay in layouts):
+        return noise_mod.periodic_reverse_path(recs, layouts, model, unknown, known, band,
+                                               antialias, force_hold, noise, warnings)
+    fsr = float(rec0.fs)
+    fdofs = rec0.force_dofs
+    n_min = min(r.force.shape[0] for r, _ in recs)
+    nps = nperseg if nperseg is not None else default_nperseg(n_min)
+    if band is None:
+        fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
+                                              overlap=overlap) for r, _ in recs])
+        band = excitation_band(fspec.freqs, fspec.auto())
+    lo, hi = float(band[0]), float(band[1])
+    if not 0 <= lo < hi <= fsr / 2:
+        raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
+                         f"{fsr / 2:g}")
+    info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, noise, warnings)
+    welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
+    inputs = [f"force@{d}" for d in fdofs]
+    built = []
+    for (rec, kind), floor in zip(recs, floors):
+        proc = _Processing(fsr, kind, (lo, hi), antialias,
+                           force_hold or rec.force_hold,
+                           info["lowpass_hz"])
+        nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
+        channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
+                                     known, warnings, nvar)
+        built.append((rec, proc, channels))
+    inputs += labels
+    spec = Spectra.pool([spectral_matrix(c, fsr, **welch) for *_, c in built])
+    first: list[str] = []
+    result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), method, first)
+    if info["method"] != "iv":
+        warnings.extend(first)
+    else:
+        result = noise_mod.iv_passes(result, model, built, unknown, known, welch, info,
+                                     warnings)
+    result.warnings = _merge_alias_warnings(warnings)
+    result.noise = info
+    return result
+
+
+_ALIAS = re.compile(r"^(aliasing: basis .+? of element \d+) spans (\d+) Hz and folds into the "
+                    r"band \(([\d.e+-]+) % in-band error\) at fs = (\S+) Hz; (.*)$")
+
+
+def _merge_alias_warnings(warnings: list[str]) -> list[str]:
+    """Unique warnings in order, one aliasing line per basis instead of one per record."""
+    out: list[str] = []
+    groups: dict[str, list[re.Match]] = {}
+    for w in warnings:
+        m = _ALIAS.match(w)
+        if m is None:
+            if w not in out:
+                out.append(w)
+            continue
+        if m.group(1) not in groups:
+            groups[m.group(1)] = []
+            out.append(m.group(1))           # placeholder, keeps the order
+        groups[m.group(1)].append(m)
+    for key, ms in groups.items():
+        if len(ms) == 1:
+            text = ms[0].group(0)
+        else:
+            factors = sorted({int(f) for x in ms for f in re.findall(r"upsampled x(\d+)",
+                                                                      x.group(5))})
+            what = (f"upsampled x{'-x'.join(map(str, (factors[0], factors[-1])))} before "
+                    "forming it" if len(factors) > 1 else ms[0].group(5))
+            text = (f"{key} spans up to {max(int(x.group(2)) for x in ms)} Hz and folds into "
+                    f"the band (up to {max(float(x.group(3)) for x in ms):.2g} % in-band error, "
+                    f"{len(ms)} records) at fs = {ms[0].group(4)} Hz; {what}")
+        out[out.index(key)] = text
+    return out
