@@ -18,7 +18,7 @@ _EXPORTS = {
     "Plant": "plant", "PlantOutput": "plant", "add_relative_noise": "plant",
     "simulate": "plant",
     "ReversePathResult": "reverse_path", "reverse_path": "reverse_path",
-    "ScreeningResult": "screening", "screen_candidates": "screening",
+    "ScreeningResult": "reverse_path", "screen_candidates": "reverse_path",
     "HBMSystem": "hbm", "FitResult": "hbm_fit", "fit_hbm": "hbm_fit",
     "sine_fit": "sine_fit", "stepped_sine_frf": "sine_fit",
     "Diagnosis": "diagnose",

@@ -119,3 +119,9 @@ def test_h5py_only_in_the_store():
 
 def test_cycle_finder_sees_a_cycle():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_every_name_of_the_analysis_api_resolves():
+    import analysis
+    for name in analysis.__all__:
+        assert getattr(analysis, name) is not None, name

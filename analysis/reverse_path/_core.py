@@ -68,8 +68,6 @@ class ReversePathResult:
         Analysed frequencies, Hz.
     H_linear : ndarray, shape (n_f, n_dof, n_in)
         Underlying linear receptance columns at the forced DOFs.
-    H_full : ndarray, shape (n_f, n_dof, n_r)
-        H1 over all inputs ``R = {F, r_1..}``.
     coefficients : list of Coefficient
     coherence_linear, coherence_nonlinear : ndarray, shape (n_f, n_dof)
         Multiple coherence of each output for the linear (forces only) and the nonlinear
@@ -91,7 +89,6 @@ class ReversePathResult:
 
     freqs: np.ndarray
     H_linear: np.ndarray
-    H_full: np.ndarray
     coefficients: list[Coefficient]
     coherence_linear: np.ndarray
     coherence_nonlinear: np.ndarray
@@ -327,7 +324,7 @@ def _estimate(spec: Spectra, n_dof: int, fdofs: np.ndarray, unknown, inputs: lis
         worst = int(np.argmin(coh_nl.min(axis=0)))
         warnings.append(f"nonlinear multiple coherence drops to {coh_nl.min():.3f} (output "
                         f"{worst}); noise, a missing nonlinearity or too coarse a resolution")
-    return ReversePathResult(spec.freqs, H[:, :, :n_in], H, coefs, coh_lin, coh_nl,
+    return ReversePathResult(spec.freqs, H[:, :, :n_in], coefs, coh_lin, coh_nl,
                              cond.coherence, inputs, band, spec, fdofs, warnings, noise)
 
 
