@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.optimize
 import scipy.signal
 
 from .errors import EstimationError, InputError
@@ -203,40 +202,13 @@ def _refine_smoothed(f: np.ndarray, h: np.ndarray, wts: np.ndarray, poles: np.nd
                      smoothing: tuple[np.ndarray, np.ndarray]
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Poles and residues of ``sum_k r_k / (s - s_k) + conj`` whose Welch-smoothed FRF fits
-    ``h`` (relative error per line, times ``wts``); starts from ``poles``."""
-    offsets, kernel = smoothing
-    s = 2j * np.pi * (f[:, None] - offsets[None, :])             # (n_f, n_k)
-    mag = np.abs(h)
-    scale = wts[:, None] / np.maximum(mag, 1e-3 * mag.max(axis=0))  # (n_f, n_out)
-
-    def to_poles(x: np.ndarray) -> np.ndarray:
-        fn, zeta = x[0::2], x[1::2]
-        return 2 * np.pi * fn * (-zeta + 1j * np.sqrt(1 - zeta**2))
-
-    def project(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        cols = []
-        for p in to_poles(x):
-            g, gc = 1 / (s - p), 1 / (s - np.conj(p))
-            cols += [np.sum((g + gc) * kernel, axis=-1),          # Re r, Im r columns
-                     np.sum(1j * (g - gc) * kernel, axis=-1)]
-        basis = np.stack(cols, axis=1)                            # (n_f, 2 n_modes)
-        res, coef = [], []
-        for y in range(h.shape[1]):
-            a = basis * scale[:, y, None]
-            b = h[:, y] * scale[:, y]
-            a2, b2 = np.concatenate([a.real, a.imag]), np.concatenate([b.real, b.imag])
-            c = np.linalg.lstsq(a2, b2, rcond=None)[0]
-            res.append(a2 @ c - b2)
-            coef.append(c[0::2] + 1j * c[1::2])
-        return np.concatenate(res), np.array(coef).T              # (n_modes, n_out)
-
-    x0 = np.column_stack([np.abs(poles) / (2 * np.pi),
-                          np.clip(-poles.real / np.abs(poles), 1e-6, 0.9)]).ravel()
-    lower = np.tile([0.0, 1e-7], poles.size)
-    upper = np.tile([np.inf, 0.99], poles.size)
-    sol = scipy.optimize.least_squares(lambda x: project(x)[0], x0, bounds=(lower, upper),
-                                       x_scale=x0)
-    return to_poles(sol.x), project(sol.x)[1]
+    ``h`` (relative error per line, times ``wts``); starts from ``poles`` (`analysis.ema.refine`
+    without residual terms)."""
+    from .ema import refine
+    fn, zeta = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)
+    refined, residues, _, _ = refine(f, h, fn, zeta, residuals=(False, False),
+                                     smoothing=smoothing, weights=wts)
+    return refined, residues
 
 
 def modal_summary(result: "ReversePathResult", n_modes: int,
