@@ -14,6 +14,7 @@ import io
 import os
 import re
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,8 @@ from analysis.errors import InputError, RecordingError
 from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
                                 Recording)
 from analysis.textfile import read_text
+
+from .units import lookup, split_label
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
 _COLUMN = re.compile(r"^\s*([A-Za-z_][\w.\-]*)\s*@\s*(?:dof)?(\d+)\s*$")
@@ -184,81 +187,183 @@ def write_npz(path: str | os.PathLike, rec: Recording) -> None:
         np.savez(fh, **recording_keys(rec))
 
 
+@dataclass
+class _Column:
+    """One channel column of a CSV recording."""
+
+    index: int
+    name: str
+    dof: int | None
+    factor: float = 1.0              # to SI
+    quantity: str | None = None      # from the unit: force, displacement, velocity, ...
+
+
 def parse_header(names: list[str], force_cols: list[str] | None = None
-                 ) -> tuple[int, list[tuple[int, str, int]]]:
-    """Return the time column index and ``(column, name, dof)`` of each channel column."""
-    time_col = [i for i, n in enumerate(names) if n.strip().lower() in ("t", "time", "t [s]")]
+                 ) -> tuple[int, float, list[_Column]]:
+    """Time column index, its scale to seconds, and the channel columns.
+
+    A column is ``NAME@DOF`` or, as acquisition systems export them, ``NAME (UNIT)`` /
+    ``NAME [UNIT]`` (``Force (N)``, ``Acc1 [m/s^2]``): the unit scales the column to SI and
+    says what it measures (`nlid_lab.units`). Either every channel names its DOF or none does.
+    """
+    time_col, time_scale, chans = [], 1.0, []
+    for i, raw in enumerate(names):
+        base, unit = split_label(raw)
+        if base.lower() in ("t", "time"):
+            time_col.append(i)
+            if unit:
+                factor, quantity = lookup(unit, f"CSV column '{raw.strip()}'")
+                if quantity != "time":
+                    raise RecordingFileError(f"CSV column '{raw.strip()}': the time column "
+                                             "must be in s or ms")
+                time_scale = factor
+            continue
+        m = _COLUMN.match(base)
+        name, dof = (m.group(1), int(m.group(2))) if m else (base, None)
+        if not name or not re.match(r"^[A-Za-z_][\w .\-]*$", name):
+            raise RecordingFileError(f"CSV column '{raw.strip()}' is not NAME@DOF or NAME (UNIT)"
+                                     " (e.g. f0@0, x1@1, 'Acc1 [m/s^2]')")
+        factor, quantity = lookup(unit, f"CSV column '{raw.strip()}'") if unit else (1.0, None)
+        chans.append(_Column(i, name, dof, factor, quantity))
     if len(time_col) != 1:
         raise RecordingFileError("CSV header needs exactly one time column named 't' or "
-                                 f"'time'; got {names}")
-    chans = []
-    for i, name in enumerate(names):
-        if i == time_col[0]:
-            continue
-        m = _COLUMN.match(name)
-        if not m:
-            raise RecordingFileError(f"CSV column '{name.strip()}' is not NAME@DOF (e.g. "
-                                     "f0@0, x1@1); name every channel with its 0-based DOF")
-        chans.append((i, m.group(1), int(m.group(2))))
+                                 f"'time' (optionally with its unit, 'Time (s)'); got {names}")
+    if len({c.dof is None for c in chans}) > 1:
+        raise RecordingFileError("CSV header: name the DOF of every channel (NAME@DOF) or of "
+                                 "none (then responses are points 0.. in column order)")
     if force_cols is not None:
-        unknown = set(force_cols) - {c[1] for c in chans}
+        unknown = set(force_cols) - {c.name for c in chans}
         if unknown:
             raise RecordingFileError(f"--force-cols names {sorted(unknown)} not in the header")
-    return time_col[0], chans
+    return time_col[0], time_scale, chans
+
+
+def _is_force(c: _Column, force_cols: list[str] | None) -> bool:
+    if force_cols is not None:
+        return c.name in force_cols
+    if c.quantity is not None:
+        return c.quantity == "force"
+    return c.name.lower().startswith("f")
+
+
+def _csv_table(text: str, path: Path) -> tuple[list[str], np.ndarray]:
+    """Header names and data of a CSV export: comment lines (``#``) and any preamble before
+    the header are skipped; the delimiter (``,``, ``;`` or tab) and a decimal comma are
+    recognised from the first data row."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    for h in range(len(lines) - 1):
+        for delim in (",", ";", "\t"):
+            first = lines[h + 1].split(delim)
+            names = next(csv.reader([lines[h]], delimiter=delim))
+            if len(first) < 2 or len(first) != len(names):
+                continue
+            decimal_comma = delim != "," and any("," in c for c in first)
+            try:
+                [float(c.replace(",", ".") if decimal_comma else c) for c in first]
+            except ValueError:
+                continue
+            body = lines[h + 1:]
+            if decimal_comma:
+                body = [ln.replace(",", ".") for ln in body]
+            if len(body) < 2:
+                break
+            try:
+                data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=delim, ndmin=2)
+            except ValueError as exc:
+                raise RecordingFileError(f"{path}: bad number in the data ({exc})") from None
+            return names, data
+    raise RecordingFileError(f"{path}: needs a header row and at least two data rows of "
+                             "numbers (comma, semicolon or tab separated) after any preamble")
 
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
-             response_kind: str | None = None, level: float | None = None) -> Recording:
+             response_kind: str | None = None, level: float | None = None,
+             force_dofs: list[int] | None = None) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header).
 
     ``# key = value`` comment lines before the header carry recording keys (``fs``,
-    ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``).
-    ``response_kind`` None takes the file's key, else displacement.
+    ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``; ``force_dofs``
+    when the header names no DOF, or the ``force_dofs`` argument). ``response_kind`` None
+    takes the unit of the response columns, else the file's key, else displacement.
     """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
     keys = _csv_keys(text, path)
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if len(lines) < 3:
+    if force_dofs is not None:
+        keys["force_dofs"] = np.asarray(force_dofs)
+    names, data = _csv_table(text, path)
+    if data.shape[0] < 2:
         raise RecordingFileError(f"{path}: needs a header row and at least two data rows")
-    names = next(csv.reader([lines[0]]))
-    time_col, chans = parse_header(names, force_cols)
-    try:
-        data = np.loadtxt(io.StringIO("\n".join(lines[1:])), delimiter=",", ndmin=2)
-    except ValueError as exc:
-        raise RecordingFileError(f"{path}: bad number in the data ({exc})") from None
     if data.shape[1] != len(names):
         raise RecordingFileError(f"{path}: {data.shape[1]} data columns but {len(names)} "
                                  "header names")
-    fs = _csv_fs(data[:, time_col], keys, path)
-    is_force = [(n in force_cols) if force_cols is not None else n.lower().startswith("f")
-                for _, n, _ in chans]
-    forces = [c for c, f in zip(chans, is_force) if f]
-    responses = sorted((c for c, f in zip(chans, is_force) if not f), key=lambda c: c[2])
+    time_col, time_scale, chans = parse_header(names, force_cols)
+    fs = _csv_fs(data[:, time_col] * time_scale, keys, path)
+    forces = [c for c in chans if _is_force(c, force_cols)]
+    responses = [c for c in chans if not _is_force(c, force_cols)]
     if not forces or not responses:
         raise RecordingFileError(f"{path}: need at least one force and one response column "
-                                 "(forces are named f...@DOF unless --force-cols is given)")
-    dofs = [c[2] for c in responses]
-    if dofs != list(range(len(dofs))):
+                                 "(forces are named f...@DOF or carry a force unit, 'Force (N)'"
+                                 ", unless --force-cols is given)")
+    force_dofs = _csv_force_dofs(keys, forces, responses, path)
+    responses = sorted(responses, key=lambda c: c.dof if c.dof is not None else c.index)
+    dofs = [c.dof for c in responses]
+    if responses[0].dof is not None and dofs != list(range(len(dofs))):
         raise RecordingFileError(f"{path}: response columns must cover DOFs 0..n-1 once each, "
                                  f"got DOFs {dofs}")
     file_kind = _scalar(keys, "response_kind", str, path) if "response_kind" in keys else None
+    unit_kinds = {c.quantity for c in responses if c.quantity is not None}
+    if len(unit_kinds) > 1 or (unit_kinds and len(unit_kinds) == 1
+                               and any(c.quantity is None for c in responses)):
+        raise RecordingFileError(f"{path}: the response columns measure different quantities "
+                                 f"({', '.join(sorted(map(str, unit_kinds)))}); import them as "
+                                 "separate recordings")
+    for what, kind in (("the file's response_kind", file_kind),
+                       ("--response-kind", response_kind)):
+        if kind is not None and unit_kinds and kind not in unit_kinds:
+            raise RecordingFileError(f"{path}: {what} is {kind} but the column units say "
+                                     f"{unit_kinds.pop()}; drop one of them")
     if response_kind is not None and file_kind not in (None, response_kind):
         raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
                                  f"{response_kind} was asked for; drop one of them")
+    kind = response_kind or file_kind or (unit_kinds.pop() if unit_kinds else "displacement")
     keys["excitation"] = np.str_("random")
+    keys.pop("force_dofs", None)
     try:
         file_level, level_from = _level(keys, path, "random")
         return Recording(
-            fs=fs, excitation="random", force_dofs=[c[2] for c in forces],
-            force=data[:, [c[0] for c in forces]], response=data[:, [c[0] for c in responses]],
-            response_kind=response_kind or file_kind or "displacement",
+            fs=fs, excitation="random", force_dofs=force_dofs,
+            force=data[:, [c.index for c in forces]] * [c.factor for c in forces],
+            response=data[:, [c.index for c in responses]] * [c.factor for c in responses],
+            response_kind=kind,
             level=file_level if level is None else level, force_hold=_force_hold(keys, path),
             layout=_layout(keys, path, data.shape[0]),
             extra=_extra(keys, "random", level_from),
-            meta={"source": str(path), "channels": [c[1] for c in forces + responses]})
+            meta={"source": str(path), "channels": [c.name for c in forces + responses]})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
+
+
+def _csv_force_dofs(keys: dict, forces: list[_Column], responses: list[_Column],
+                    path: Path) -> list[int]:
+    """The DOF (response point) of each force: from ``NAME@DOF``, else a ``force_dofs`` key."""
+    if forces[0].dof is not None:
+        if "force_dofs" in keys:
+            raise RecordingFileError(f"{path}: the header names the force DOFs; remove the "
+                                     "'# force_dofs' line")
+        return [c.dof for c in forces]
+    if "force_dofs" not in keys:
+        raise RecordingFileError(f"{path}: say where each force acts: a '# force_dofs = K' line "
+                                 "(K the 0-based response column measured at the drive point, "
+                                 "a list for several forces) or NAME@DOF headers")
+    dofs = np.atleast_1d(keys["force_dofs"])
+    if dofs.size != len(forces) or dofs.dtype.kind not in "iu":
+        raise RecordingFileError(f"{path}: force_dofs must give one integer per force column "
+                                 f"({len(forces)}), got {keys['force_dofs']}")
+    if np.any(dofs < 0) or np.any(dofs >= len(responses)):
+        raise RecordingFileError(f"{path}: force_dofs {dofs.tolist()} outside the response "
+                                 f"columns 0..{len(responses) - 1}")
+    return dofs.astype(int).tolist()
 
 
 _CSV_KEY = re.compile(r"^\s*#\s*([A-Za-z_]\w*)\s*=\s*(.*?)\s*$")
@@ -272,12 +377,18 @@ def _csv_keys(text: str, path: Path) -> dict[str, np.ndarray]:
         if not m:
             continue
         key, raw = m.groups()
-        if key in ("excitation", "force_dofs", "force", "response", "freqs"):
+        if key in ("excitation", "force", "response", "freqs"):
             raise RecordingFileError(f"{path}: '{key}' comes from the CSV header and data, not "
                                      "from a '# key = value' line; remove that line")
         if len(raw) >= 2 and raw[0] == raw[-1] == '"':
             keys[key] = np.str_(raw[1:-1])
             continue
+        if raw.startswith("[") and raw.endswith("]"):        # a list of integers
+            try:
+                keys[key] = np.array([int(v) for v in raw[1:-1].split(",")])
+                continue
+            except ValueError:
+                pass
         for cast in (int, float):
             try:
                 keys[key] = np.asarray(cast(raw))

@@ -22,6 +22,7 @@ UNITS: dict[str, tuple[float, str]] = {
     "m/s^2": (1.0, "acceleration"), "m/s2": (1.0, "acceleration"),
     "m/s²": (1.0, "acceleration"), "mm/s^2": (1e-3, "acceleration"),
     "g": (G0, "acceleration"), "mg": (1e-3 * G0, "acceleration"),
+    "s": (1.0, "time"), "ms": (1e-3, "time"),
 }
 _FOLD = {name.lower(): name for name in UNITS}
 _LABEL = re.compile(r"^\s*(?P<name>.*?)\s*[\(\[]\s*(?P<unit>[^\)\]]+?)\s*[\)\]]\s*$")

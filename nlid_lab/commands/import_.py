@@ -19,7 +19,8 @@ def _read(src: Path, args: argparse.Namespace):
         return recordings_io.read_npz(src)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
-        return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind)
+        return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
+                                      force_dofs=args.force_dofs)
     if suffix == ".mat":
         from .. import mat_io
         tree = mat_io.read_mat_tree(src)
@@ -74,6 +75,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--response-kind", choices=RESPONSE_KINDS,
                    help="CSV/MAT: what the response columns measure (default: the file's "
                    "response_kind key, else displacement)")
+    p.add_argument("--force-dofs", type=int, nargs="+", metavar="K",
+                   help="CSV whose header names no DOF: the 0-based response column measured "
+                   "where each force acts")
     p.add_argument("--map", nargs="+", metavar="KEY=VALUE",
                    help="MAT: channel map, e.g. force=Force response=Acceleration[0:3]:g "
                    "fs=Fs force_dofs=0, or one MAP.toml")
