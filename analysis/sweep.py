@@ -144,11 +144,11 @@ class SweepFRF(SteppedSineFRF):
         Centre and length of each analysis window, s from the start of the sweep.
     """
 
-    noise: np.ndarray = None
+    noise: np.ndarray | None = None
     direction: int = 1
-    force_harmonics: np.ndarray = None
-    times: np.ndarray = None
-    window_s: np.ndarray = None
+    force_harmonics: np.ndarray | None = None
+    times: np.ndarray | None = None
+    window_s: np.ndarray | None = None
 
 
 def sweep_frf(force: np.ndarray, response: np.ndarray, fs: float, law: SweepLaw, *,
@@ -294,7 +294,7 @@ def harmonic_distortion(frf: SweepFRF, alpha: float = 1e-3, smooth: int = 5) -> 
     """
     keep = _independent(frf.times, frf.window_s)
     freqs, X, noise = frf.freqs[keep], frf.X[keep], frf.noise[keep]
-    Fh, force = frf.force_harmonics[keep], frf.force[keep]
+    Fh = frf.force_harmonics[keep]
     order = np.argsort(frf.freqs)
     i1 = int(np.flatnonzero(frf.harmonics == 1)[0])
     H1 = frf.X[order, i1] / frf.force[order, None]             # (n_f, channels)
