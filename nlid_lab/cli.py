@@ -14,10 +14,7 @@ import pkgutil
 import sys
 import warnings
 from collections.abc import Iterator
-from pathlib import Path
-from typing import Any, Sequence
-
-import numpy as np
+from typing import Sequence
 
 from analysis.errors import InputError
 

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from analysis.errors import InputError, RecordingError
+from analysis.errors import InputError
 from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
                                 Recording)
 from analysis.textfile import read_text
