@@ -25,6 +25,7 @@ import numpy as np
 
 from ..elements import restoring_force
 from ..model import Model
+from ..sine_fit import hold_gain
 from ..spectral import h1, multiple_coherence, spectral_matrix
 from .prepare import Prepared
 
@@ -101,7 +102,11 @@ def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) 
 
 def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
               bases: dict[Hashable, np.ndarray], *, floor: float = FLOOR) -> LevelFRF:
-    """Measured FRF of one level plus the force-to-basis transfer of every basis force."""
+    """Measured FRF of one level plus the force-to-basis transfer of every basis force.
+
+    Both are per unit of the force that acted: a first-order-hold force (``force_hold =
+    "linear"``) acted with ``sinc^2(f / fs)`` of its samples (`analysis.sine_fit.hold_gain`).
+    """
     keys = list(bases)
     n_dof, n_in = p.x.shape[1], p.force.shape[1]
 
@@ -119,7 +124,8 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
     sp.freqs, sp.S = sp.freqs[keep], sp.S[keep]
     S_ff = sp.block(fi, fi)
     S_xf = sp.block(xi, fi)
-    H = h1(S_xf, S_ff)
+    gain = hold_gain(sp.freqs, p.fs, p.force_hold)
+    H = h1(S_xf, S_ff) / gain[:, None, None]
     S_xx = np.einsum("fii->fi", sp.block(xi, xi)).real
     coh = np.clip(multiple_coherence(S_xx, S_xf, S_ff), 1e-6, 1 - 1e-12)
     coh = np.repeat(coh[:, :, None], n_in, axis=2)
@@ -137,7 +143,8 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
         sg = spectra(data)
         sg.S = sg.S[keep]
         for j, k in enumerate(group):
-            T[k] = h1(sg.block([n_in + j], fcols), sg.block(fcols, fcols))[:, 0, :]
+            T[k] = h1(sg.block([n_in + j], fcols), sg.block(fcols, fcols))[:, 0, :] \
+                / gain[:, None]
     B = np.zeros((n_dof, n_in))
     B[p.force_dofs, np.arange(n_in)] = 1.0
     return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor)

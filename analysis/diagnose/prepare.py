@@ -41,6 +41,8 @@ class Prepared:
     period : int or None
         Samples per period of a periodic drive (whole periods are kept).
     label : str
+    force_hold : {"none", "linear"}
+        How the recorded force samples acted (`analysis.recording.Recording.force_hold`).
     """
 
     x: np.ndarray
@@ -51,6 +53,7 @@ class Prepared:
     level: float
     period: int | None
     label: str
+    force_hold: str = "none"
 
 
 def record_level(rec: Recording) -> float:
@@ -113,7 +116,8 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
     if rec.response_kind != "displacement" and period is None:
         edge = int(EDGE_FRACTION * x.shape[0])
         x, v, force = x[edge:-edge], v[edge:-edge], force[edge:-edge]
-    return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label)
+    return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
+                    rec.force_hold)
 
 
 def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepared]:
@@ -122,5 +126,5 @@ def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepare
     cut = int(fraction * n) if p.period is None else int(fraction * n / p.period) * p.period
     def part(s: slice, tag: str) -> Prepared:
         return Prepared(p.x[s], p.v[s], p.force[s], p.force_dofs, p.fs, p.level, p.period,
-                        f"{p.label} ({tag})")
+                        f"{p.label} ({tag})", p.force_hold)
     return part(slice(0, cut), "fit segment"), part(slice(cut, n), "held-back segment")
