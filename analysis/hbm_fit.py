@@ -152,13 +152,12 @@ class HBMFit:
     # --- parametrisation -----------------------------------------------------------------
     def _nominal(self) -> np.ndarray:
         """Physical scale of each unknown from the data and the linear system."""
-        k_ref = float(np.max(np.abs(np.diag(self.model.stiffness))))
+        k_ref, c_ref = _linear_scales(self.model)
         f_ref = max(float(lv.force.max()) for lv in self.levels)
         u_ref = max(float(np.abs(lv.X[:, :, self.force_dof]).max()) for lv in self.levels)
         if not (f_ref > 0 and u_ref > 0):
             raise InputError("the measured force or the response at the force DOF is zero "
                              "at every step: nothing to fit; check the channels")
-        c_ref = max(float(np.max(np.abs(np.diag(self.model.damping)))), 1e-12)
         v_ref = u_ref * 2 * np.pi * float(np.median(self.levels[0].freqs))
         refs = Refs(k_ref, f_ref, u_ref, c_ref, v_ref)
         return np.array([spec.scale(refs) for spec in self.specs])
@@ -366,3 +365,15 @@ def _uncertainty(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray,
             warnings.append(f"element {e} {name} reached its {side} bound "
                             f"{float(problem.to_params(z)[i]):.4g}{note}")
     return ci, warnings
+
+
+def _linear_scales(model: Model) -> tuple[float, float]:
+    """Stiffness and viscous-damping scales at the points: the largest diagonal entries of
+    ``K`` and ``C`` (``[linear]`` form), or the stiffest point of the static flexibility and
+    that stiffness times the modes' median ``2 ζ / ω`` (``[modal]`` form)."""
+    if not model.is_modal:
+        return (float(np.max(np.abs(np.diag(model.stiffness)))),
+                max(float(np.max(np.abs(np.diag(model.damping)))), 1e-12))
+    k_ref = float(1.0 / np.min(np.diag(model.point_flexibility())))
+    ratio = np.diag(model.damping) / np.maximum(np.diag(model.stiffness), 1e-300)
+    return k_ref, max(k_ref * float(np.median(ratio)), 1e-12)

@@ -1,6 +1,11 @@
 """Structural models and their TOML form (contracts section 2).
 
-A `Model` holds the underlying linear system ``M, C, K`` and a list of nonlinear `Element`s.
+A `Model` holds the underlying linear system and a list of nonlinear `Element`s. The linear
+system is ``M q'' + C q' + K q`` over internal coordinates ``q`` seen at named *points* through
+``x = T q``: for the ``[linear]`` form ``q`` are the points themselves (``T = I``); for the
+``[modal]`` form ``q`` are modal coordinates (``M = I``, ``C = diag(2 ζ ω)``, ``K = diag(ω^2)``,
+``T`` the mass-normalised mode shapes at the points). Elements, forces and recordings act on
+points; only the simulated plant and the matrix-level diagnosis see ``q``.
 An element whose parameters are omitted is *unknown*: it marks what an estimator is to find.
 """
 
@@ -19,9 +24,13 @@ from .elements import KINDS
 from .errors import ModelError
 from .textfile import nearest, read_text, unknown_keys
 
-TOP_KEYS = ("name", "linear", "element")
+TOP_KEYS = ("name", "points", "linear", "modal", "element")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
-MAX_DOF = 100
+MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
+              "residual_damping_ratios", "residual_shapes")
+PLACEMENT_KEYS = ("w", "at", "between")
+MAX_DOF = 100             # points, and DOFs of the [linear] form
+MAX_MODES = 500
 MAX_ELEMENTS = 100
 MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
 MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
@@ -31,7 +40,7 @@ MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2
 
 @dataclass
 class Element:
-    """One nonlinear element acting on ``u = w.x``."""
+    """One nonlinear element acting on ``u = w.x`` (``w`` over the model's points)."""
 
     kind: str
     w: np.ndarray
@@ -54,29 +63,94 @@ class Element:
 
 @dataclass
 class Model:
-    """Linear system plus nonlinear elements: ``M x'' + C x' + K x + sum w g = B f``."""
+    """Linear system plus nonlinear elements: ``M q'' + C q' + K q + sum T'w g = T'B f``,
+    ``x = T q`` at the points (module docstring).
+
+    Parameters
+    ----------
+    mass, damping, stiffness : ndarray, shape (n_q, n_q)
+        Linear system over the internal coordinates (SI).
+    elements : list of Element
+        Each ``w`` has one entry per point.
+    name : str
+    points : list of str, optional
+        Point names; default ``"0", "1", ...``.
+    shapes : ndarray, shape (n_points, n_q), optional
+        ``T``; default the identity (the ``[linear]`` form).
+    n_residual : int
+        Trailing modal coordinates that are residual pseudo-modes (``[modal]`` form).
+    """
 
     mass: np.ndarray
     damping: np.ndarray
     stiffness: np.ndarray
     elements: list[Element] = field(default_factory=list)
     name: str = "model"
+    points: list[str] | None = None
+    shapes: np.ndarray | None = None
+    n_residual: int = 0
 
     def __post_init__(self) -> None:
-        self.mass = _matrix(self.mass, "linear.mass")
+        self.mass = _matrix(self.mass, "linear.mass", max_size=MAX_MODES)
         n = self.mass.shape[0]
-        self.damping = _matrix(self.damping, "linear.damping", n)
-        self.stiffness = _matrix(self.stiffness, "linear.stiffness", n)
+        self.damping = _matrix(self.damping, "linear.damping", n, max_size=MAX_MODES)
+        self.stiffness = _matrix(self.stiffness, "linear.stiffness", n, max_size=MAX_MODES)
+        if self.shapes is None:
+            if n > MAX_DOF:
+                raise ModelError(f"linear.mass is {n} x {n}: more than {MAX_DOF} DOFs; reduce "
+                                 "the model (e.g. to the measured DOFs) or give it in modal form")
+            self.shapes = np.eye(n)
+        self.shapes = _shapes(self.shapes, n)
+        self.points = _points(self.points, self.shapes.shape[0])
         _check_physics(self)
         if len(self.elements) > MAX_ELEMENTS:
             raise ModelError(f"{len(self.elements)} elements, more than {MAX_ELEMENTS}")
         for i, el in enumerate(self.elements):
-            _check_element(el, i, n)
+            _check_element(el, i, self.n_dof)
         _check_rates(self)
+
+    @classmethod
+    def modal(cls, freqs_hz: Any, damping_ratios: Any, shapes: Any, *,
+              elements: list[Element] | None = None, name: str = "model",
+              points: list[str] | None = None, residual_freqs_hz: Any = (),
+              residual_damping: Any = (), residual_shapes: Any = None) -> "Model":
+        """Model of the ``[modal]`` form: modes (and residual pseudo-modes) at the points.
+
+        ``shapes`` is (n_modes, n_points), mass-normalised (1/sqrt(kg)); the residual
+        pseudo-modes, outside the band, stand for the modes the table leaves out.
+        """
+        f, z, phi = _modes(freqs_hz, damping_ratios, shapes, "modal")
+        nr = len(residual_freqs_hz)
+        if nr:
+            fr, zr, phr = _modes(residual_freqs_hz, residual_damping, residual_shapes,
+                                 "modal.residual", n_points=phi.shape[1])
+            f, z, phi = np.r_[f, fr], np.r_[z, zr], np.vstack([phi, phr])
+        w = 2 * np.pi * f
+        return cls(np.eye(f.size), np.diag(2 * z * w), np.diag(w ** 2), list(elements or []),
+                   name, points, phi.T, nr)
 
     @property
     def n_dof(self) -> int:
+        """Number of points (the DOFs forces, elements and recordings refer to)."""
+        return self.shapes.shape[0]
+
+    @property
+    def n_q(self) -> int:
+        """Number of internal coordinates (DOFs of the [linear] form, or modes)."""
         return self.mass.shape[0]
+
+    @property
+    def is_modal(self) -> bool:
+        return not (self.shapes.shape[0] == self.shapes.shape[1]
+                    and np.array_equal(self.shapes, np.eye(self.n_q)))
+
+    def to_q(self, w: np.ndarray) -> np.ndarray:
+        """A vector over points (an element's ``w``, a force direction) in internal coordinates."""
+        return self.shapes.T @ np.asarray(w, dtype=float)
+
+    def point_index(self, point: str | int) -> int:
+        """Index of a point given by name or index."""
+        return _point_index(point, self.points, "point")
 
     @property
     def complete(self) -> bool:
@@ -91,45 +165,104 @@ class Model:
                     f"{what} needs every parameter: give it in the model file")
 
     def linear_frf(self, freqs: np.ndarray, force_dofs: list[int] | None = None) -> np.ndarray:
-        """Receptance of the underlying linear system, shape (n_f, n_dof, n_in)."""
+        """Receptance of the underlying linear system at the points, (n_f, n_dof, n_in)."""
         w = 2 * np.pi * np.asarray(freqs, dtype=float)
+        cols = self.shapes if force_dofs is None else self.shapes[list(force_dofs)]
+        if _is_diagonal(self.mass) and _is_diagonal(self.damping) \
+                and _is_diagonal(self.stiffness):
+            hq = 1.0 / (-w[:, None] ** 2 * np.diag(self.mass)
+                        + 1j * w[:, None] * np.diag(self.damping) + np.diag(self.stiffness))
+            return np.einsum("pq,fq,iq->fpi", self.shapes, hq, cols, optimize=True)
         z = (-w[:, None, None] ** 2 * self.mass + 1j * w[:, None, None] * self.damping
              + self.stiffness)
-        h = np.linalg.inv(z)
-        return h if force_dofs is None else h[:, :, list(force_dofs)]
+        h = np.linalg.solve(z, np.broadcast_to(cols.T, z.shape[:1] + cols.T.shape))
+        return h if not self.is_modal else np.einsum("pq,fqi->fpi", self.shapes, h)
 
     def natural_frequencies(self) -> np.ndarray:
-        """Undamped natural frequencies of the linear system, Hz, ascending."""
+        """Undamped natural frequencies of the linear system, Hz, ascending (pseudo-modes
+        included)."""
         from scipy.linalg import eigh
         lam = eigh(self.stiffness, self.mass, eigvals_only=True)
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
+    def point_flexibility(self) -> np.ndarray:
+        """Static flexibility ``T K^-1 T'`` at the points (m/N; pseudo-inverse if ``K`` is
+        singular)."""
+        return self.shapes @ np.linalg.pinv(self.stiffness) @ self.shapes.T
+
+    def modal_form(self, points: list[str | int], names: list[str] | None = None,
+                   n_modes: int | None = None) -> "Model":
+        """This model in ``[modal]`` form at some of its points (an FE model seen at its
+        sensors): the lowest ``n_modes`` modes (all by default), mass-normalised; damping
+        ratios from the diagonal of the modal damping (exact for modal damping). Elements
+        move along when they act on the kept points only."""
+        from scipy.linalg import eigh
+        idx = [self.point_index(p) for p in points]
+        names = list(names) if names is not None else [self.points[i] for i in idx]
+        lam, vec = eigh(self.stiffness, self.mass)
+        keep = slice(0, n_modes)
+        lam, vec = lam[keep], vec[:, keep]
+        w = np.sqrt(np.clip(lam, 0.0, None))
+        zeta = np.einsum("qi,qr,ri->i", vec, self.damping, vec) / (2 * w)
+        shapes = (self.shapes @ vec)[idx]
+        elements = []
+        for i, el in enumerate(self.elements):
+            if np.any(np.delete(el.w, idx)):
+                raise ModelError(f"element {i} ({el.kind}) acts on a point not kept; keep "
+                                 "its end points")
+            elements.append(Element(el.kind, el.w[idx], dict(el.params)))
+        return Model.modal(w / (2 * np.pi), zeta, shapes.T, elements=elements,
+                           name=self.name, points=names)
+
     def with_elements(self, elements: list[Element], name: str | None = None) -> "Model":
         """Copy of this model with another element list."""
-        return Model(self.mass.copy(), self.damping.copy(), self.stiffness.copy(),
-                     list(elements), name or self.name)
+        return self.with_linear(self.mass, self.damping, self.stiffness, elements,
+                                name or self.name)
+
+    def with_linear(self, mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray,
+                    elements: list[Element] | None = None, name: str | None = None
+                    ) -> "Model":
+        """Copy with other internal-coordinate matrices (same points and shapes)."""
+        return Model(np.array(mass, dtype=float), np.array(damping, dtype=float),
+                     np.array(stiffness, dtype=float),
+                     list(self.elements if elements is None else elements), name or self.name,
+                     list(self.points), self.shapes.copy(), self.n_residual)
 
     # --- TOML -----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "name": self.name,
-            "linear": {key: getattr(self, key).tolist()
-                       for key in ("mass", "damping", "stiffness")},
-        }
-        if self.elements:
-            out["element"] = [el.to_dict() for el in self.elements]
-        return out
+        """The tables of this model's file (what `from_dict` reads back)."""
+        return tomllib.loads(self.dumps())
 
     def dumps(self) -> str:
         """TOML text of this model (matrices one row per line; loads back exactly)."""
         # Written by hand: tomli-w puts every matrix entry on its own line, which makes model
         # files unreadable to the engineers who edit them. The schema is small and fixed.
-        lines = [f"name = {_toml_str(self.name)}", "", "[linear]"]
-        for key in ("mass", "damping", "stiffness"):
-            rows = ",\n    ".join(_toml_list(row) for row in getattr(self, key))
-            lines.append(f"{key} = [\n    {rows},\n]")
+        lines = [f"name = {_toml_str(self.name)}"]
+        named = self.points != _default_points(self.n_dof)
+        if named:
+            lines.append(f"points = [{', '.join(_toml_str(p) for p in self.points)}]")
+        if self.is_modal:
+            lines += ["", "[modal]                  # mass-normalised shapes: one row per mode, "
+                      "one value per point (1/sqrt(kg))"]
+            freqs, zeta, shapes, nr = _modal_tables(self)
+            for key, f, z, phi in (("", freqs[:-nr or None], zeta[:-nr or None],
+                                    shapes[:-nr or None]),
+                                   ("residual_", freqs[len(freqs) - nr:],
+                                    zeta[len(freqs) - nr:], shapes[len(freqs) - nr:])):
+                if not len(f):
+                    continue
+                rows = ",\n    ".join(_toml_list(row) for row in phi)
+                lines += [f"{key}frequencies_hz = {_toml_list(f)}",
+                          f"{key}damping_ratios = {_toml_list(z)}",
+                          f"{key}shapes = [\n    {rows},\n]"]
+        else:
+            lines += ["", "[linear]"]
+            for key in ("mass", "damping", "stiffness"):
+                rows = ",\n    ".join(_toml_list(row) for row in getattr(self, key))
+                lines.append(f"{key} = [\n    {rows},\n]")
         for el in self.elements:
-            lines += ["", "[[element]]", f"kind = {_toml_str(el.kind)}", f"w = {_toml_list(el.w)}"]
+            lines += ["", "[[element]]", f"kind = {_toml_str(el.kind)}",
+                      _toml_where(el.w, self.points) if named else f"w = {_toml_list(el.w)}"]
             lines += [f"{name} = {_toml_num(value)}" for name, value in el.params.items()]
         return "\n".join(lines) + "\n"
 
@@ -147,26 +280,54 @@ class Model:
     @classmethod
     def _from_dict(cls, data: dict[str, Any]) -> "Model":
         _keys(data, TOP_KEYS, "top level")
-        linear = data.get("linear")
-        if not isinstance(linear, dict):
-            raise ModelError("no [linear] table; give mass, damping and stiffness matrices "
-                             "under [linear]")
-        _keys(linear, LINEAR_KEYS, "[linear]")
-        for key in LINEAR_KEYS:
-            if key not in linear:
-                raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
-            _toml_matrix(linear[key], f"linear.{key}")
         name = data.get("name", "model")
         if not isinstance(name, str):
             raise ModelError(f"name must be a string, got {name!r}")
+        points = data.get("points")
+        if points is not None and (not isinstance(points, list) or not points):
+            raise ModelError(f"points = {_short(points)} must be a list of point names, e.g. "
+                             '["drive", "tip"]')
         raw_elements = data.get("element", [])
         if not isinstance(raw_elements, list):
             raise ModelError("element must be an array of tables ([[element]])")
         if len(raw_elements) > MAX_ELEMENTS:
             raise ModelError(f"{len(raw_elements)} elements, more than {MAX_ELEMENTS}; "
                              "split the model or merge elements acting on the same w")
-        elements = [_toml_element(raw, i) for i, raw in enumerate(raw_elements)]
-        return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name)
+        linear, modal = data.get("linear"), data.get("modal")
+        if linear is None and modal is None:
+            raise ModelError("no [linear] table; give mass, damping and stiffness matrices "
+                             "under [linear] (or modes under [modal], docs/model-format.md)")
+        if linear is not None and modal is not None:
+            raise ModelError("both [linear] and [modal]: give the linear system in one form")
+        if linear is not None:
+            _keys(linear, LINEAR_KEYS, "[linear]")
+            for key in LINEAR_KEYS:
+                if key not in linear:
+                    raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
+                _toml_matrix(linear[key], f"linear.{key}")
+            n_points = len(linear["mass"])
+        else:
+            _keys(modal, MODAL_KEYS, "[modal]")
+            for key in MODAL_KEYS[:3]:
+                if key not in modal:
+                    raise ModelError(f"[modal] lacks '{key}'; see docs/model-format.md")
+            _toml_matrix(modal["shapes"], "modal.shapes")
+            if points is None:
+                raise ModelError("a [modal] model needs top-level points = [...] naming the "
+                                 "point of each shape column")
+            n_points = len(points)
+        names = _points(points, n_points)
+        elements = [_toml_element(raw, i, names) for i, raw in enumerate(raw_elements)]
+        if linear is not None:
+            return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
+                       names)
+        if "residual_shapes" in modal:
+            _toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
+        return cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
+                         elements=elements, name=name, points=names,
+                         residual_freqs_hz=modal.get("residual_frequencies_hz", []),
+                         residual_damping=modal.get("residual_damping_ratios", []),
+                         residual_shapes=modal.get("residual_shapes"))
 
     @classmethod
     def loads(cls, text: str, source: str = "model") -> "Model":
@@ -218,7 +379,7 @@ def _toml_matrix(value: Any, name: str) -> None:
                 raise ModelError(f"{name}[{r}][{c}] = {_short(x)} is not a number; {hint}")
 
 
-def _toml_element(raw: Any, i: int) -> Element:
+def _toml_element(raw: Any, i: int, points: list[str]) -> Element:
     if not isinstance(raw, dict):
         raise ModelError(f"element {i} must be a table ([[element]])")
     kind = raw.get("kind")
@@ -229,18 +390,164 @@ def _toml_element(raw: Any, i: int) -> Element:
         raise ModelError(f"element {i}: unknown kind '{kind}'; {hint}"
                          f"use one of {', '.join(KINDS)}")
     where = f"element {i} ({kind})"
-    _keys(raw, ("kind", "w") + KINDS[kind].all_params, where, "parameter")
-    if "w" not in raw:
-        raise ModelError(f"{where} has no position vector 'w'")
-    w = raw["w"]
-    if not isinstance(w, list) or not all(_is_number(x) for x in w):
-        raise ModelError(f"{where}: w = {_short(w)} must be a flat list of numbers, one per "
-                         "DOF (e.g. [0.0, 1.0])")
-    params = {k: v for k, v in raw.items() if k not in ("kind", "w")}
+    _keys(raw, ("kind",) + PLACEMENT_KEYS + KINDS[kind].all_params, where, "parameter")
+    given = [key for key in PLACEMENT_KEYS if key in raw]
+    if len(given) != 1:
+        raise ModelError(f"{where}: " + ("has no position vector; " if not given else "")
+                         + "give its place as one of w = [...] (one entry per point), "
+                         'at = "point" (grounded) or between = ["a", "b"] (u = x_b - x_a)'
+                         + (f"; got {' and '.join(given)}" if given else ""))
+    w = _placement(given[0], raw[given[0]], points, where)
+    params = {k: v for k, v in raw.items() if k not in ("kind",) + PLACEMENT_KEYS}
     for name, value in params.items():
         if not _is_number(value):
             raise ModelError(f"{where}: parameter {name} = {_short(value)} is not a number")
     return Element(kind, w, params)
+
+
+def _placement(key: str, value: Any, points: list[str], where: str) -> np.ndarray | list:
+    """Position vector of an element from its ``w``, ``at`` or ``between`` entry."""
+    if key == "w":
+        if not isinstance(value, list) or not all(_is_number(x) for x in value):
+            raise ModelError(f"{where}: w = {_short(value)} must be a flat list of numbers, one "
+                             "per point (e.g. [0.0, 1.0])")
+        return value
+    ends = [value] if key == "at" else value
+    if key == "between" and not (isinstance(value, list) and len(value) == 2):
+        raise ModelError(f'{where}: between = {_short(value)} must name two points, e.g. '
+                         '["joint", "payload"]')
+    idx = [_point_index(p, points, f"{where}: {key}") for p in ends]
+    w = np.zeros(len(points))
+    if key == "between":
+        if idx[0] == idx[1]:
+            raise ModelError(f"{where}: between names point {points[idx[0]]!r} twice; use "
+                             f'at = "{points[idx[0]]}" for a grounded element')
+        w[idx[0]], w[idx[1]] = -1.0, 1.0
+    else:
+        w[idx[0]] = 1.0
+    return w
+
+
+def _point_index(point: Any, points: list[str], where: str) -> int:
+    if isinstance(point, str) and point in points:
+        return points.index(point)
+    if isinstance(point, int) and not isinstance(point, bool) and 0 <= point < len(points):
+        return point
+    hint = f"did you mean '{near}'? " if isinstance(point, str) and \
+        (near := nearest(point, points)) else ""
+    raise ModelError(f"{where}: no point {point!r}; {hint}the points are "
+                     f"{', '.join(points)} (or their indices 0..{len(points) - 1})")
+
+
+def _toml_where(w: np.ndarray, points: list[str]) -> str:
+    """The placement line of an element: ``at``/``between`` where ``w`` is a unit vector or
+    a unit difference, else ``w``."""
+    nz = np.flatnonzero(w)
+    if nz.size == 1 and w[nz[0]] == 1.0:
+        return f"at = {_toml_str(points[nz[0]])}"
+    if nz.size == 2 and sorted(w[nz]) == [-1.0, 1.0]:
+        a, b = nz if w[nz[0]] < 0 else nz[::-1]
+        return f"between = [{_toml_str(points[a])}, {_toml_str(points[b])}]"
+    return f"w = {_toml_list(w)}"
+
+
+def _default_points(n: int) -> list[str]:
+    return [str(i) for i in range(n)]
+
+
+def _points(points: Any, n: int) -> list[str]:
+    """Validated point names (default ``"0", "1", ...``)."""
+    if points is None:
+        return _default_points(n)
+    points = list(points)
+    if len(points) != n:
+        raise ModelError(f"points names {len(points)} points but the linear system has {n}; "
+                         "give one name per DOF or shape column")
+    for p in points:
+        if not isinstance(p, str) or not p.strip():
+            raise ModelError(f"points: {_short(p)} is not a point name (a non-empty string)")
+    dup = sorted({p for p in points if points.count(p) > 1})
+    if dup:
+        raise ModelError(f"points: {', '.join(map(repr, dup))} named twice; point names must "
+                         "be unique")
+    return points
+
+
+def _shapes(value: Any, n_q: int) -> np.ndarray:
+    arr = np.array(value, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != n_q or arr.shape[0] == 0:
+        raise ModelError(f"shapes must be n_points x {n_q}, got shape {arr.shape}")
+    if arr.shape[0] > MAX_DOF:
+        raise ModelError(f"{arr.shape[0]} points, more than {MAX_DOF}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError("shapes hold NaN or infinite values")
+    return arr
+
+
+def _modes(freqs: Any, zeta: Any, shapes: Any, where: str, n_points: int | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validated modal table: frequencies (Hz), damping ratios, shapes (n_modes, n_points)."""
+    residual = where.endswith("residual")
+    pre = "residual_" if residual else ""
+    f = _vector(freqs, f"{where.split('.')[0]}.{pre}frequencies_hz")
+    z = _vector(zeta, f"{where.split('.')[0]}.{pre}damping_ratios")
+    if f.size != z.size:
+        raise ModelError(f"{where}: {f.size} frequencies but {z.size} damping ratios; give one "
+                         "per mode")
+    if f.size > MAX_MODES:
+        raise ModelError(f"{where}: {f.size} modes, more than {MAX_MODES}")
+    if not np.all(f > 0) or f.max(initial=0) > MAX_RATE_HZ:
+        raise ModelError(f"{where}: frequencies must be > 0 Hz and <= {MAX_RATE_HZ:g} Hz, got "
+                         f"{f.min():g}..{f.max():g}")
+    lo_ok = (z >= 0) if residual else (z > 0)
+    if not np.all(lo_ok & (z < 1)):
+        raise ModelError(f"{where}: damping ratios must lie in {'[0' if residual else '(0'}, 1) "
+                         f"(fractions of critical, not %), got {z.min():g}..{z.max():g}")
+    try:
+        phi = np.array(shapes, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: {pre}shapes must be a list of rows of numbers, one row per "
+                         "mode") from None
+    if phi.ndim != 2 or phi.shape[0] != f.size or (n_points is not None
+                                                   and phi.shape[1] != n_points):
+        want = f"{f.size} x {n_points if n_points is not None else 'n_points'}"
+        raise ModelError(f"{where}: {pre}shapes must be {want} (one row per mode, one value "
+                         f"per point), got shape {phi.shape}")
+    if not np.all(np.isfinite(phi)) or np.abs(phi).max(initial=0) > MAX_ENTRY:
+        raise ModelError(f"{where}: {pre}shapes must be finite numbers below {MAX_ENTRY:g}")
+    if np.any(np.all(phi == 0, axis=1)):
+        raise ModelError(f"{where}: mode {int(np.flatnonzero(np.all(phi == 0, axis=1))[0])} "
+                         "has a zero shape at every point; drop it or give its shape")
+    return f, z, phi
+
+
+def _vector(value: Any, name: str) -> np.ndarray:
+    if not isinstance(value, (list, tuple, np.ndarray)) or not all(
+            _is_number(x) or isinstance(x, np.number) for x in np.ravel(value)):
+        raise ModelError(f"{name} = {_short(value)} must be a list of numbers")
+    arr = np.array(value, dtype=float).ravel()
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{name} holds NaN or infinite values")
+    return arr
+
+
+def _is_diagonal(a: np.ndarray) -> bool:
+    return not np.any(a - np.diag(np.diag(a)))
+
+
+def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Frequencies, damping ratios, shapes (n_modes, n_points) and the number of trailing
+    pseudo-modes of a modal model; matrices changed by a correction are diagonalised again
+    (undamped modes of ``K, M``; damping ratios from the diagonal of the modal damping)."""
+    m, c, k = model.mass, model.damping, model.stiffness
+    if _is_diagonal(m) and _is_diagonal(c) and _is_diagonal(k) and np.all(np.diag(m) == 1):
+        w = np.sqrt(np.diag(k))
+        return w / (2 * np.pi), np.diag(c) / (2 * w), model.shapes.T, model.n_residual
+    from scipy.linalg import eigh
+    lam, vec = eigh(k, m)
+    w = np.sqrt(np.clip(lam, 0.0, None))
+    zeta = np.einsum("qi,qr,ri->i", vec, c, vec) / (2 * np.maximum(w, 1e-300))
+    return w / (2 * np.pi), zeta, (model.shapes @ vec).T, 0
 
 
 def _short(value: Any) -> str:
@@ -248,7 +555,8 @@ def _short(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _matrix(value: Any, name: str, n: int | None = None) -> np.ndarray:
+def _matrix(value: Any, name: str, n: int | None = None, max_size: int = MAX_DOF
+            ) -> np.ndarray:
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -261,8 +569,8 @@ def _matrix(value: Any, name: str, n: int | None = None) -> np.ndarray:
     if n is not None and arr.shape[0] != n:
         raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]} but mass is {n} x {n}; "
                          "all linear matrices must have the same size")
-    if arr.shape[0] > MAX_DOF:
-        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]}: more than {MAX_DOF} "
+    if arr.shape[0] > max_size:
+        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]}: more than {max_size} "
                          "DOFs; reduce the model (e.g. to the measured DOFs)")
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{name} holds NaN or infinite values")
@@ -298,7 +606,8 @@ def _rates(model: Model, elements: list[Element]) -> tuple[float, float]:
     from scipy.linalg import eigh
     stiff, visc = model.stiffness.copy(), model.damping.copy()
     for el in elements:
-        spec, ww = KINDS[el.kind], np.outer(el.w, el.w)
+        wq = model.to_q(el.w)
+        spec, ww = KINDS[el.kind], np.outer(wq, wq)
         if el.missing:                      # a candidate's unknown element: no slope yet
             continue
         if spec.stiffness is not None:
@@ -337,7 +646,7 @@ def _check_element(el: Element, i: int, n: int) -> None:
     if el.w.ndim != 1:
         raise ModelError(f"{where}: w must be a flat list of numbers, got shape {el.w.shape}")
     if el.w.size != n:
-        raise ModelError(f"{where}: w has {el.w.size} entries but the model has {n} DOFs")
+        raise ModelError(f"{where}: w has {el.w.size} entries but the model has {n} points")
     if not np.all(np.isfinite(el.w)) or not np.any(el.w):
         raise ModelError(f"{where}: w must be finite and not all zero")
     if np.abs(el.w).max() > MAX_ENTRY:

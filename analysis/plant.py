@@ -126,16 +126,18 @@ def _element_stiffness(el: Any, u: np.ndarray | None = None,
     return k, c
 
 
-def _tangent_omega(model: Model, x: np.ndarray | None = None,
-                   v: np.ndarray | None = None) -> float:
+def _tangent_omega(model: Model, q: np.ndarray | None = None,
+                   dq: np.ndarray | None = None) -> float:
     """The frequency ``omega`` of the substep rule (module docstring), rad/s; with the
-    displacement and velocity (n, n_dof) of a stretch of run, from its running tangents."""
+    internal coordinates and their rates (n, n_q) over a stretch of run, from its running
+    tangents."""
     stiff = model.stiffness.copy()
     visc = np.zeros_like(stiff)
     for el in model.elements:
-        k, c = _element_stiffness(el, None if x is None else x @ el.w,
-                                  None if v is None else v @ el.w)
-        ww = np.outer(el.w, el.w)
+        wq = model.to_q(el.w)
+        k, c = _element_stiffness(el, None if q is None else q @ wq,
+                                  None if dq is None else dq @ wq)
+        ww = np.outer(wq, wq)
         stiff += k * ww
         visc += c * ww
     omega = math.sqrt(max(eigh(stiff, model.mass, eigvals_only=True).max(), 0.0))
@@ -167,17 +169,18 @@ class Plant:
     Parameters
     ----------
     model : Model
-        Complete model (every element parameter known).
+        Complete model (every element parameter known); the plant integrates its internal
+        coordinates and reports the points.
     fs : float
         Output sample rate, Hz.
     force_dofs : sequence of int
-        DOF (0-based) each drive channel acts on.
+        Point (0-based) each drive channel acts on.
     oversample : int, optional
         Internal substeps per output sample, fixed; None (default) starts from
         `auto_oversample` and raises it where step doubling finds the run less accurate than
         ``accuracy`` (module docstring).
     noise_std : float or array_like of shape (n_dof,)
-        Absolute sensor-noise standard deviation per DOF, in the units of `response_kind`.
+        Absolute sensor-noise standard deviation per point, in the units of `response_kind`.
     response_kind : {"displacement", "velocity", "acceleration"}
         Quantity reported in `PlantOutput.response`.
     seed : int, optional
@@ -223,19 +226,21 @@ class Plant:
                              f"got {oversample!r}")
         self.oversample = self._initial_oversample = int(oversample)
         self.seed = seed
-        sel = np.zeros((n, dofs.size))
-        sel[dofs, np.arange(dofs.size)] = 1.0
         mc, mk = np.linalg.solve(model.mass, model.damping), np.linalg.solve(model.mass,
                                                                            model.stiffness)
-        d = np.linalg.solve(model.mass, sel)
+        d = np.linalg.solve(model.mass, self._input_q())
         #: ``(G_0, G_1, G_2)``, each (n_dof, n_in): the acceleration per force at high
-        #: frequency is ``sum_j G_j (i w)^-j`` (``G_0 = M^-1 B``; `remove_hold_images`)
-        self.image_gains = (d, -mc @ d, (mc @ mc - mk) @ d)
+        #: frequency is ``sum_j G_j (i w)^-j`` (``G_0 = T M^-1 T'B``; `remove_hold_images`)
+        self.image_gains = tuple(model.shapes @ g for g in (d, -mc @ d, (mc @ mc - mk) @ d))
         self._kernels: dict[int, dict[str, Any]] = {}
         self.stats = np.zeros(4, dtype=np.int64)
         self.reset()
 
     # --- set-up -----------------------------------------------------------------------
+    def _input_q(self) -> np.ndarray:
+        """The force directions in internal coordinates, (n_q, n_in)."""
+        return self.model.shapes[self.force_dofs].T
+
     def _kernel(self, m: int) -> dict[str, Any]:
         """Integrator matrices for ``m`` substeps per sample (cached)."""
         if m not in self._kernels:
@@ -243,14 +248,13 @@ class Plant:
         return self._kernels[m]
 
     def _discretise(self, m: int) -> dict[str, Any]:
-        model, n, q = self.model, self.model.n_dof, HOLD_DEGREE
+        model, n, q = self.model, self.model.n_q, HOLD_DEGREE
         h = 1.0 / (self.fs * m)
         minv = np.linalg.inv(model.mass)
         a = np.block([[np.zeros((n, n)), np.eye(n)],
                       [-minv @ model.stiffness, -minv @ model.damping]])
-        sel = np.zeros((n, self.force_dofs.size))
-        sel[self.force_dofs, np.arange(self.force_dofs.size)] = 1.0
-        wmat = np.array([el.w for el in model.elements]).reshape(-1, n)
+        sel = self._input_q()
+        wmat = np.array([model.to_q(el.w) for el in model.elements]).reshape(-1, n)
         ne = wmat.shape[0]
         bf = np.vstack([np.zeros_like(sel), minv @ sel])
         bg = np.vstack([np.zeros((n, ne)), -minv @ wmat.T])
@@ -288,7 +292,7 @@ class Plant:
     # --- state ------------------------------------------------------------------------
     def reset(self) -> None:
         """Back to rest with virgin elements and zero force; the noise RNG is re-seeded."""
-        n, ne = self.model.n_dof, len(self.model.elements)
+        n, ne = self.model.n_q, len(self.model.elements)
         self._y = np.zeros(2 * n)
         self._gh = np.zeros((ne, HOLD_DEGREE))
         self._uh = np.zeros((ne, HOLD_DEGREE))
@@ -301,10 +305,11 @@ class Plant:
 
     @property
     def state(self) -> dict[str, Any]:
-        """Copy of the full state: ``x``, ``v``, element memory and hold history (with the
+        """Copy of the full state: ``x``, ``v`` (internal coordinates), element memory and
+        hold history (with the
         substeps per sample it is spaced for), last force sample and noise-generator state.
         Pass it to `set_state` to resume from here."""
-        n = self.model.n_dof
+        n = self.model.n_q
         return {"x": self._y[:n].copy(), "v": self._y[n:].copy(), "oversample": self.oversample,
                 "element_state": self._es.copy(), "force_history": self._gh.copy(),
                 "deformation_history": self._uh.copy(), "force_prev": self._fprev.copy(),
@@ -344,13 +349,15 @@ class Plant:
         if not np.all(np.isfinite(force)):
             raise PlantError("force holds NaN or infinite samples; repair the drive first")
         force = np.ascontiguousarray(force)
-        n, ndof = force.shape[0], self.model.n_dof
+        n, ndof, nq = force.shape[0], self.model.n_dof, self.model.n_q
         if self.adaptive:
             parts = [self._checked(force[i:i + CHUNK]) for i in range(0, n, CHUNK)]
             out_y, out_g, acc = (np.concatenate([p[j] for p in parts]) for j in range(3))
         else:
             out_y, out_g, acc = self._integrate(force, self.oversample)
-        x, v = out_y[:, :ndof], out_y[:, ndof:]
+        x, v = out_y[:, :nq], out_y[:, nq:]
+        if self.model.is_modal:
+            x, v, acc = (a @ self.model.shapes.T for a in (x, v, acc))
         clean = {"displacement": x, "velocity": v, "acceleration": acc}[self.response_kind]
         response = clean.copy()
         if np.any(self.noise_std):
@@ -360,7 +367,7 @@ class Plant:
     def _integrate(self, force: np.ndarray, m: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """State, element forces and acceleration over ``force`` with ``m`` substeps."""
-        n, ndof, ne = force.shape[0], self.model.n_dof, len(self.model.elements)
+        n, ndof, ne = force.shape[0], self.model.n_q, len(self.model.elements)
         out_y = np.empty((n, 2 * ndof))
         out_g = np.empty((n, ne))
         acc = np.empty((n, ndof))
@@ -373,7 +380,7 @@ class Plant:
 
     def _checked(self, force: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`_integrate` one chunk with the step-doubling check of the module docstring."""
-        ndof = self.model.n_dof
+        ndof = self.model.n_q
         start = self._snapshot()
         res = self._integrate(force, self.oversample)
         omega = _tangent_omega(self.model, res[0][:, :ndof], res[0][:, ndof:])
