@@ -44,10 +44,12 @@ class BLA:
     G : ndarray, shape (n_f, n_out), complex
         BLA from the force to each response.
     var_noise, var_total : ndarray, shape (n_f, n_out)
-        Noise and total variance of ``G``.
+        Noise and total variance of ``G`` (total: NaN with one realization, where the
+        stochastic distortions cannot be told from the linear part).
     coherence : ndarray, shape (n_f, n_out)
         Coherence of the period averages across realizations (noise and distortion lower
-        it; with few realizations it is biased high by about ``1 / M``).
+        it; with few realizations it is biased high by about ``1 / M``); with one
+        realization, that of a single period against the noise from the period spread.
     realizations, periods : int
     """
 
@@ -97,8 +99,6 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
                          "shaker's run separately")
     x = np.asarray(response, dtype=float)
     x = x[:, None] if x.ndim == 1 else x
-    if realizations < 2:
-        raise InputError("the BLA's total variance needs at least 2 realizations")
     per = steady_periods(np.concatenate([f, x], axis=1), period,
                          transient_periods=transient_periods, realizations=realizations)
     n_p = per.shape[1]
@@ -123,10 +123,16 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
              - 2 * (Gm.conj() * s_yu).real) / (np.abs(U) ** 2)[..., None]
     m = Gm.shape[0]
     G = Gm.mean(axis=0)
-    var_total = (np.abs(Gm - G) ** 2).sum(axis=0) / (m * (m - 1))
     var_noise = np.maximum(var_m, 0.0).sum(axis=0) / m**2
-    cross = np.abs((Y * U.conj()[..., None]).sum(axis=0)) ** 2
-    coherence = cross / ((np.abs(U) ** 2).sum(axis=0)[:, None] * (np.abs(Y) ** 2).sum(axis=0))
+    if m >= 2:
+        var_total = (np.abs(Gm - G) ** 2).sum(axis=0) / (m * (m - 1))
+        cross = np.abs((Y * U.conj()[..., None]).sum(axis=0)) ** 2
+        coherence = cross / ((np.abs(U) ** 2).sum(axis=0)[:, None]
+                             * (np.abs(Y) ** 2).sum(axis=0))
+    else:   # one realization: no total variance; coherence of one period against the noise
+        var_total = np.full_like(var_noise, np.nan)
+        signal = np.abs(G) ** 2
+        coherence = signal / np.maximum(signal + n_p * var_noise, 1e-300)
     freqs = lines * fs / period
     gain = hold_gain(freqs, fs, force_hold)[:, None]
     return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p)

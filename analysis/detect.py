@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
+import scipy.stats
 
 from .bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from .diagnose.prepare import record_level
@@ -59,7 +60,13 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     random = [r for r in recs if r.excitation == "random" and r.layout is None]
     stepped = [r for r in recs if r.excitation == "stepped-sine"]
     notes = []
-    tests = [_bla_test(r) for r in periodic]
+    single = [r for r in periodic if r.layout.realizations == 1]
+    tests = [_bla_test(r) for r in periodic if r.layout.realizations >= 2]
+    if len(single) >= 2:
+        tests.append(periodic_level_dependence(single))
+    elif single:
+        notes.append("one periodic level of one realization: the BLA distortion test needs "
+                     "two or more realizations, the level-dependence test two or more levels")
     for name, group, test in (("random", random, lambda g: level_dependence(g, nperseg=nperseg)),
                               ("stepped-sine", stepped, stepped_level_dependence)):
         if len(group) >= 2:
@@ -145,6 +152,35 @@ def stepped_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
     threshold = float(-np.log(1 - DETECT_QUANTILE) + np.log(H0.shape[2]))
     out = _summary(common, z > threshold, 1.0, "stepped-level-dependence")
     out.update(levels=[lo.level, hi.level],
+               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
+                                 for q in range(z.shape[1])])
+    return out
+
+
+def periodic_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
+    """Compare the period-averaged FRFs (`analysis.bla`, one realization each) of the lowest
+    and the highest periodic level on the lines both excite.
+
+    ``|G_lo - G_hi|^2 / (var_lo + var_hi)``, the variances from the spread over the periods,
+    is F(2, 2 (P - 1))-distributed for a linear structure (``P`` the fewer steady periods);
+    lines beyond its 99 % quantile are flagged.
+    """
+    recs = sorted(recordings, key=record_level)
+    lo, hi = (best_linear_approximation(r.force, r.response, r.fs, r.layout.period,
+                                        transient_periods=r.layout.transient_periods,
+                                        realizations=r.layout.realizations,
+                                        force_hold=r.force_hold) for r in (recs[0], recs[-1]))
+    common, i0, i1 = np.intersect1d(np.round(lo.freqs, 9), np.round(hi.freqs, 9),
+                                    return_indices=True)
+    if common.size == 0:
+        raise InputError("the periodic levels excite no common line; check their periods")
+    z = (np.abs(lo.G[i0] - hi.G[i1]) ** 2
+         / np.maximum(lo.var_noise[i0] + hi.var_noise[i1], 1e-300))
+    p = min(lo.periods, hi.periods)
+    threshold = float(scipy.stats.f.ppf(DETECT_QUANTILE, 2, 2 * (p - 1)))
+    out = _summary(common, z > threshold, 1.0, "level-dependence")
+    out.update(levels=[recs[0].level, recs[-1].level],
+               resolution_hz=float(recs[0].fs / recs[0].layout.period),
                median_change_db=[float(10 * np.log10(np.median(z[:, q])))
                                  for q in range(z.shape[1])])
     return out

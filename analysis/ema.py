@@ -20,6 +20,7 @@ real mode shapes at every measured point: ``A_id = φ_i φ_d / (2 j ω_d)``.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -27,6 +28,7 @@ import numpy as np
 import scipy.optimize
 
 from .errors import EstimationError, InputError
+from .model import Model
 
 
 @dataclass
@@ -232,7 +234,9 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
     wts = np.ones((f.size, 1)) if weights is None else np.asarray(weights, dtype=float)
     scale = wts.reshape(f.size, -1) / np.maximum(mag, 1e-3 * mag.max(axis=0))
     lower_on, upper_on = residuals
-    extra = ([np.sum(kernel / s ** 2, axis=-1)] if lower_on else []) \
+    # the lower term's 1/s^2 is left out at s = 0 (a kernel reaching 0 Hz from a low line)
+    inv_s2 = np.divide(1.0, s ** 2, out=np.zeros_like(s), where=s != 0)
+    extra = ([np.sum(kernel * inv_s2, axis=-1)] if lower_on else []) \
         + ([np.sum(np.ones_like(s) * kernel, axis=-1), np.sum(s ** 2 * kernel, axis=-1)]
            if upper_on else [])
 
@@ -312,6 +316,9 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
         Number of modes; automatic (stable over half the upper orders) when omitted.
     driving_point : int, optional
         Output measured where the force acts: shapes are then mass-normalised.
+    smoothing : (offsets, weights), optional
+        Welch smoothing kernel of the estimate (`analysis.modal.welch_smoothing`; weights
+        of shape (n_k,) or one row per line of ``freqs``).
     std : ndarray, shape (n_f, n_out), optional
         Standard deviation of each receptance value (measured noise): the refinement is then
         a maximum-likelihood fit; equal relative weights when omitted.
@@ -326,6 +333,8 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
     inb = (f >= lo) & (f <= hi) & (f > 0)
     w = None if std is None else np.abs(h[inb]) / np.maximum(
         np.asarray(std, dtype=float).reshape(h.shape)[inb], 1e-300)
+    if smoothing is not None and np.ndim(smoothing[1]) == 2:     # a kernel per line
+        smoothing = (smoothing[0], smoothing[1][inb])
     poles, res, lower, upper = refine(f[inb], h[inb], fn, zeta, residuals=residuals,
                                       smoothing=smoothing, weights=w)
     order = np.argsort(np.abs(poles))
@@ -336,3 +345,53 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
     fit = ModalFit(np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles), poles, res,
                    lower, upper, shapes, mac(shapes), support, err, (float(lo), float(hi)))
     return fit, stab
+
+
+PSEUDO_DAMPING = 0.05
+"""Damping ratio of the residual pseudo-modes (decays their ringing in a simulation)."""
+
+
+def modal_model(fit: ModalFit, driving_point: int, *, points: list[str] | None = None,
+                name: str = "fitted modal model", residuals: bool = True) -> Model:
+    """A ``[modal]`` model of the fitted modes, with residual pseudo-modes.
+
+    The modes keep their frequencies, damping ratios and mass-normalised real shapes. The
+    fit's residual terms become pseudo-modes with real coefficients ``a_i = φ_i φ_d``: the
+    upper term ``U0 + U2 s^2`` one with the same static flexibility (``a = Re(U0) ω_r^2``)
+    at ``ω_r^2 = -U0 / U2`` of the driving point where that lies above the band (else at
+    twice its upper edge), the lower term ``L / s^2`` one at half its lower edge with the same
+    mass line (``L / s^2 = -L / ω^2``, and ``a / (ω_r^2 - ω^2) -> -a / ω^2``: ``a = Re(L)``). A
+    pseudo-mode is kept where its driving-point coefficient is positive (it is then a mode of
+    shape ``a / sqrt(a_d)``).
+
+    Parameters
+    ----------
+    fit : ModalFit
+        From `fit_modes` with ``driving_point`` given (mass-normalised shapes).
+    driving_point : int
+        Output where the force acts.
+    points : list of str, optional
+        Point names of the outputs.
+    name : str
+    residuals : bool
+        Add the pseudo-modes (else the modes only).
+
+    Returns
+    -------
+    analysis.model.Model
+    """
+    lo, hi = fit.band_hz
+    pseudo, coef = [], []
+    if residuals:
+        u0, u2 = np.real(fit.upper[:, driving_point])
+        # the U0 + U2 s^2 rise fixes the pseudo-mode's frequency where it lies above the band
+        up = math.sqrt(-u0 / u2) / (2 * np.pi) if u0 * u2 < 0 else 0.0
+        up = up if up > 1.05 * hi else 2 * hi
+        for fr, a in ((lo / 2, np.real(fit.lower)), (up, np.real(fit.upper[0])
+                                                     * (2 * np.pi * up) ** 2)):
+            if fr > 0 and a[driving_point] > 0:
+                pseudo.append(fr)
+                coef.append(a / np.sqrt(a[driving_point]))
+    return Model.modal(fit.freqs_hz, fit.damping, fit.shapes, points=points, name=name,
+                       residual_freqs_hz=pseudo, residual_damping=[PSEUDO_DAMPING] * len(pseudo),
+                       residual_shapes=np.array(coef) if coef else None)

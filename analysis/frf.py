@@ -122,7 +122,7 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
     lay = rec.layout
-    if lay is not None and rec.n_in == 1 and lay.realizations >= 2:
+    if lay is not None and rec.n_in == 1 and (lay.realizations >= 2 or lay.periods >= 2):
         b = best_linear_approximation(rec.force, rec.response, rec.fs, lay.period,
                                       transient_periods=lay.transient_periods,
                                       realizations=lay.realizations,

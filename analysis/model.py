@@ -506,8 +506,8 @@ def _modes(freqs: Any, zeta: Any, shapes: Any, where: str, n_points: int | None 
     try:
         phi = np.array(shapes, dtype=float)
     except (TypeError, ValueError):
-        raise ModelError(f"{where}: {pre}shapes must be a list of rows of numbers, one row per "
-                         "mode") from None
+        raise ModelError(f"{where}: {pre}shapes must be a list of equal-length rows of "
+                         "numbers, one row per mode and one value per point") from None
     if phi.ndim != 2 or phi.shape[0] != f.size or (n_points is not None
                                                    and phi.shape[1] != n_points):
         want = f"{f.size} x {n_points if n_points is not None else 'n_points'}"

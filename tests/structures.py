@@ -64,3 +64,29 @@ def beam_with_payload(n_el: int = 10, length: float = 1.0, payload: float = 0.5,
     points = {"root": 2 * 1 - 2, "drive": 2 * 3 - 2, "joint": beam_dof - 2, "tip": n - 4,
               "payload": n - 2}
     return FEStructure(model, points)
+
+
+def gvt_recording(structure: FEStructure, sensors: list[str], drive: str, force_fine,
+                  fs: float, up: int, *, kind: str = "acceleration", noise: float = 0.01,
+                  seed: int = 2, layout=None, level: float | None = None, elements=()):
+    """What a DAQ records on this structure: simulated ``up`` times faster than ``fs``, the
+    force and the responses at ``sensors`` through the same anti-alias filter and decimated
+    (``force_hold = "none"``), relative sensor noise on the responses.
+
+    ``force_fine`` is the drive at ``fs * up``; ``elements`` (over the FE DOFs) are added to
+    the model for the run.
+    """
+    from scipy.signal import decimate
+
+    from analysis.plant import Plant, add_relative_noise
+    from analysis.recording import Recording
+    model = structure.model.with_elements(list(elements)) if elements else structure.model
+    cols = [structure.points[s] for s in sensors]
+    f = np.asarray(force_fine, dtype=float)
+    out = Plant(model, fs * up, [structure.points[drive]], response_kind=kind).run(f[:, None])
+    resp = decimate(out.response[:, cols], up, ftype="fir", axis=0, zero_phase=True)
+    force = decimate(f, up, ftype="fir", zero_phase=True)[:, None]
+    resp = add_relative_noise(resp, noise, np.random.default_rng(seed))
+    return Recording(fs=fs, excitation="random", force_dofs=np.array([sensors.index(drive)]),
+                     force=force, response=resp, response_kind=kind, level=level,
+                     force_hold="none", layout=layout)

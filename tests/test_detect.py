@@ -3,6 +3,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from analysis.detect import detect
@@ -96,3 +97,32 @@ def test_stepped_sine_level_dependence(tmp_path):
         verdicts[name] = t
     assert not verdicts["linear"]["nonlinear"]
     assert verdicts["cubic"]["nonlinear"] and verdicts["cubic"]["share_flagged"] > 0.8
+
+
+def test_periodic_levels_of_one_realization_are_period_averaged():
+    """Multisine levels as a GVT stores them (one realization of P periods each, levels in
+    separate recordings): the period-averaged FRFs of the lowest and highest level are compared
+    with their noise from the period spread; a cubic joint is flagged, the linear FE structure
+    is not."""
+    from analysis.excitation import multisine, periodic
+    from analysis.model import Element
+    from analysis.recording import PeriodicLayout
+    from structures import beam_with_payload, gvt_recording
+    beam = beam_with_payload()
+    names = ["drive", "joint", "payload"]
+    fs, n, up, p = 512.0, 1024, 4, 6
+    w = np.zeros(beam.model.n_dof)
+    w[beam.points["joint"]], w[beam.points["payload"]] = -1.0, 1.0
+    joint = [Element("cubic_spring", w, {"p": 3e10})]
+
+    def levels(elements):
+        return [gvt_recording(beam, names, "drive",
+                              periodic(multisine(n * up, fs * up, (2.0, 120.0), lev, seed=3),
+                                       p + 1),
+                              fs, up, layout=PeriodicLayout(n, 1, p, 1), level=lev,
+                              elements=elements, seed=int(lev)) for lev in (0.5, 20.0)]
+
+    linear = detect(levels(()))
+    assert linear["verdict"] == "no evidence", linear["tests"]
+    assert linear["tests"][0]["method"] == "level-dependence"
+    assert detect(levels(joint))["verdict"] == "nonlinear"

@@ -209,3 +209,61 @@ def test_non_regular_and_huge_files_are_refused(tmp_path):
         fh.truncate(MAX_TOML_BYTES + 1)
     with pytest.raises(ModelError, match="more than"):
         Model.load(big)
+
+
+MODAL = """
+name = "gvt"
+points = ["drive", "joint", "payload"]
+
+[modal]
+frequencies_hz = [6.6, 35.1]
+damping_ratios = [0.01, 0.02]
+shapes = [[0.2, 0.8, 0.9], [0.05, -0.4, 1.1]]
+residual_frequencies_hz = [400.0]
+residual_damping_ratios = [0.05]
+residual_shapes = [[0.3, 0.1, 0.0]]
+
+[[element]]
+kind = "stick_slip"
+between = ["joint", "payload"]
+kd = 1e5
+fd = 2.0
+"""
+
+
+def test_modal_form_round_trip_points_and_frf():
+    m = Model.loads(MODAL)
+    assert m.is_modal and m.n_dof == 3 and m.n_q == 3 and m.n_residual == 1
+    np.testing.assert_array_equal(m.elements[0].w, [0.0, -1.0, 1.0])
+    back = Model.loads(m.dumps())
+    assert back.dumps() == m.dumps() and back.points == m.points
+    # receptance = sum of phi phi' / (w_r^2 - w^2 + 2 i zeta w_r w), pseudo-mode included
+    f = np.array([3.0, 20.0, 60.0])
+    w, wr = 2 * np.pi * f, 2 * np.pi * np.array([6.6, 35.1, 400.0])
+    z = np.array([0.01, 0.02, 0.05])
+    phi = np.array([[0.2, 0.8, 0.9], [0.05, -0.4, 1.1], [0.3, 0.1, 0.0]])
+    want = sum(np.outer(phi[r], phi[r])[None] / (wr[r] ** 2 - w[:, None, None] ** 2
+                                                 + 2j * z[r] * wr[r] * w[:, None, None])
+               for r in range(3))
+    np.testing.assert_allclose(m.linear_frf(f), want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("change, match", [
+    (("frequencies_hz = [6.6, 35.1]", "frequencies_hz = [-6.6, 35.1]"), "must be > 0 Hz"),
+    (("damping_ratios = [0.01, 0.02]", "damping_ratios = [1.5, 0.02]"), r"in \(0, 1\)"),
+    (("damping_ratios = [0.01, 0.02]", "damping_ratios = [0.01]"), "1 damping ratios"),
+    (("shapes = [[0.2, 0.8, 0.9],", "shapes = [[0.2, 0.8],"), "one value per point"),
+    (("shapes = [[0.2, 0.8, 0.9], [0.05, -0.4, 1.1]]", "shapes = [[0.2, 0.8, 0.9]]"),
+     "shapes must be 2 x"),
+    (('points = ["drive", "joint", "payload"]', 'points = ["drive", "joint", "joint"]'),
+     "named twice"),
+    (('between = ["joint", "payload"]', 'between = ["joint", "paylod"]'),
+     "did you mean 'payload'"),
+    (('between = ["joint", "payload"]', 'at = "joint"\nw = [0.0, 1.0, 0.0]'), "got w and at"),
+    (('points = ["drive", "joint", "payload"]\n', ""), "needs top-level points"),
+])
+def test_bad_modal_files_name_the_problem(tmp_path, change, match):
+    path = tmp_path / "m.toml"
+    path.write_text(MODAL.replace(*change))
+    with pytest.raises(ModelError, match=match):
+        Model.load(path)

@@ -1,0 +1,141 @@
+"""``nlid-lab fit-linear RUN... --out MODEL.toml``: a test-derived ``[modal]`` model from the
+lowest level of a run (stabilisation diagram, mode shapes at every channel, residuals, MAC)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from analysis.errors import InputError
+
+from ..outputs import add_force_option, level_text, refuse_overwrite, write_json
+from .repair import check_runs, repair_option
+
+if TYPE_CHECKING:
+    from analysis.linear_fit import LinearFit
+
+
+def summary(fit: LinearFit) -> dict[str, Any]:
+    """JSON of a fit: modes with their quality, residual pseudo-modes, errors."""
+    m = fit.modes
+    mac = m.mac - np.eye(m.mac.shape[0])
+    model = fit.model
+    nr = model.n_residual
+    freqs = model.natural_frequencies() if nr else np.array([])
+    return {
+        "method": fit.data.method,
+        "band_hz": list(m.band_hz),
+        "points": list(model.points),
+        "driving_point": model.points[fit.data.driving_point],
+        "modes": [{"freq_hz": float(f), "damping_ratio": float(z), "support": float(s),
+                   "max_mac_other": float(mac[i].max(initial=0.0)),
+                   "shape": [float(v) for v in m.shapes[i]]}
+                  for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support))],
+        "residual_pseudo_modes_hz": [float(f) for f in freqs[len(freqs) - nr:]],
+        "frf_error": {p: float(e) for p, e in zip(model.points, fit.frf_error)},
+    }
+
+
+def format_summary(s: dict[str, Any], kind: str) -> str:
+    lines = [f"{len(s['modes'])} mode(s) in {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz from "
+             f"the {s['method']}; shapes mass-normalised at the driving point "
+             f"'{s['driving_point']}'",
+             "  mode   f [Hz]   zeta [%]  stable  max MAC to another mode"]
+    for i, m in enumerate(s["modes"]):
+        lines.append(f"  {i + 1:4d} {m['freq_hz']:8.3f} {100 * m['damping_ratio']:9.3f} "
+                     f"{100 * m['support']:6.0f} % {m['max_mac_other']:8.3f}")
+    if s["residual_pseudo_modes_hz"]:
+        lines.append("residual pseudo-modes at " + ", ".join(
+            f"{f:.4g} Hz" for f in s["residual_pseudo_modes_hz"]) + " (the modes outside the band)")
+    lines.append(f"in-band FRF error of the model ({kind}): " + ", ".join(
+        f"{p} {100 * e:.1f} %" for p, e in s["frf_error"].items()))
+    return "\n".join(lines)
+
+
+def plot_stabilisation(fit: LinearFit, path: str | Path) -> None:
+    """Stabilisation diagram over the measured receptance magnitude (PNG)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    stab, m, d = fit.stabilisation, fit.modes, fit.data
+    fig, ax = plt.subplots(figsize=(9, 5), layout="constrained")
+    for order, fr, st in zip(stab.orders, stab.freqs_hz, stab.stable):
+        ax.plot(fr[~st], np.full((~st).sum(), order), "o", mfc="none", color="0.6", ms=4)
+        ax.plot(fr[st], np.full(st.sum(), order), "+", color="C0", ms=6)
+    for f in m.freqs_hz:
+        ax.axvline(f, color="C3", lw=0.8, ls="--")
+    ax.set_xlim(*m.band_hz)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("model order")
+    ax.set_title("stabilisation diagram (+ stable, o not stable; dashed: selected modes)")
+    twin = ax.twinx()
+    inb = (d.freqs >= m.band_hz[0]) & (d.freqs <= m.band_hz[1])
+    twin.semilogy(d.freqs[inb], np.abs(d.H[inb]).sum(axis=1), color="k", lw=0.8)
+    twin.set_ylabel("sum of |receptance| [m/N]")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    from analysis.diagnose.prepare import record_level
+    from analysis.linear_fit import fit_linear
+    from ..recordings_io import load_recordings
+    refuse_overwrite(args.force, args.out, args.json, args.plot)
+    check_runs(args.runs, args.repair)
+    recs = [rec for path in args.runs for rec in load_recordings(path)]
+    if args.level is None:
+        rec = min(recs, key=record_level)
+    elif 0 <= args.level < len(recs):
+        rec = recs[args.level]
+    else:
+        raise InputError(f"--level {args.level}: the runs hold levels 0..{len(recs) - 1} "
+                         "(stored order)")
+    points = None if args.points is None else [p.strip() for p in args.points.split(",")]
+    n_modes = None if args.modes == "auto" else _modes(args.modes)
+    fit = fit_linear(rec, None if args.band is None else tuple(args.band), n_modes=n_modes,
+                     points=points, name=f"fit-linear of {Path(args.runs[0]).name}")
+    fit.model.save(args.out)
+    if args.plot:
+        plot_stabilisation(fit, args.plot)
+    result = summary(fit)
+    result["level"] = rec.level
+    text = (f"level {level_text(rec.level)}\n" + format_summary(result, rec.response_kind)
+            + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
+    if not args.quiet:
+        print(text, file=sys.stderr if args.json == "-" else sys.stdout)
+    write_json(result, args.json)
+    return 0
+
+
+def _modes(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise InputError(f"--modes {text}: give a number of modes >= 1 or 'auto'")
+    return n
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("fit-linear", help="fit a modal model ([modal] form) to a low level")
+    p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs, NPZ or CSV recordings")
+    p.add_argument("--out", required=True, metavar="MODEL.toml", help="model file to write")
+    p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"),
+                   help="fit band, Hz (default: the excited lines)")
+    p.add_argument("--modes", default="auto", metavar="N|auto",
+                   help="number of modes (default auto: the stabilisation diagram)")
+    p.add_argument("--level", type=int, metavar="INDEX",
+                   help="level to fit, 0-based in stored order (default: the lowest)")
+    p.add_argument("--points", metavar="NAME,...",
+                   help="names of the response channels (the model's points)")
+    p.add_argument("--plot", metavar="PNG", help="write the stabilisation diagram")
+    p.add_argument("--json", metavar="FILE", help="write the modes as JSON ('-' for stdout)")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    add_force_option(p)
+    repair_option(p)
+    p.set_defaults(func=run)
