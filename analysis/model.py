@@ -185,6 +185,14 @@ class Model:
         lam = eigh(self.stiffness, self.mass, eigvals_only=True)
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
+    def stiffness_along(self, w: np.ndarray) -> float:
+        """Stiffness the linear system shows along ``w`` (over points): ``w' K w`` of the
+        ``[linear]`` form, ``1 / (w' T K^-1 T' w)`` (static) of the ``[modal]`` form."""
+        w = np.asarray(w, dtype=float)
+        if not self.is_modal:
+            return float(w @ self.stiffness @ w)
+        return float(1.0 / max(w @ self.point_flexibility() @ w, 1e-300))
+
     def point_flexibility(self) -> np.ndarray:
         """Static flexibility ``T K^-1 T'`` at the points (m/N; pseudo-inverse if ``K`` is
         singular)."""

@@ -82,7 +82,7 @@ def choose_nperseg(model: Model, fs: float, n: int, *, min_avg: int = 24) -> int
     The frequency step is a sixth of the narrowest half-power bandwidth ``-Re(lambda)/pi``,
     limited so that at least ``min_avg`` half-overlapped segments fit in the record.
     """
-    nd = model.n_dof
+    nd = model.n_q
     minv = np.linalg.inv(model.mass)
     a = np.block([[np.zeros((nd, nd)), np.eye(nd)],
                   [-minv @ model.stiffness, -minv @ model.damping]])

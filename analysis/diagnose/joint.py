@@ -40,8 +40,9 @@ def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
             "stiffness": start.stiffness.copy()}
     for f, t in zip(fits, theta):
         if f.cand.linear:
-            mats[f.cand.kind.split("_")[0]] += t * np.outer(f.cand.w, f.cand.w)
-    return Model(mats["mass"], mats["damping"], mats["stiffness"], [], start.name)
+            wq = start.to_q(f.cand.w)
+            mats[f.cand.kind.split("_")[0]] += t * np.outer(wq, wq)
+    return start.with_linear(mats["mass"], mats["damping"], mats["stiffness"], [])
 
 
 def _valid(search: Search, fit: Fit, value: float) -> bool:

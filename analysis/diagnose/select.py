@@ -159,7 +159,8 @@ class Search:
 
     def linear_ok(self, c: Candidate, delta: float) -> bool:
         """A linear update must leave the mass positive definite and C, K semi-definite."""
-        ww = np.outer(c.w, c.w)
+        wq = self.model.to_q(c.w)
+        ww = np.outer(wq, wq)
         mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
                "stiffness_error": self.model.stiffness}[c.kind] + delta * ww
         ev = np.linalg.eigvalsh(mat).min()
@@ -249,10 +250,10 @@ def _corrected_model(model: Model, fit: Fit) -> Model:
         return model.with_elements(model.elements + [Element(c.kind, c.w, params)],
                                    name=f"{model.name} + {c.kind}")
     delta = next(iter(fit.params.values()))
-    ww = np.outer(c.w, c.w)
+    wq = model.to_q(c.w)
     mats = {"mass": model.mass.copy(), "damping": model.damping.copy(),
             "stiffness": model.stiffness.copy()}
-    mats[c.kind.split("_")[0]] += delta * ww
-    return Model(mats["mass"], mats["damping"], mats["stiffness"],
-                 [Element(e.kind, e.w.copy(), dict(e.params)) for e in model.elements],
-                 f"{model.name} + {c.kind}")
+    mats[c.kind.split("_")[0]] += delta * np.outer(wq, wq)
+    return model.with_linear(mats["mass"], mats["damping"], mats["stiffness"],
+                             [Element(e.kind, e.w.copy(), dict(e.params))
+                              for e in model.elements], f"{model.name} + {c.kind}")

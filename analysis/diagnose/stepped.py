@@ -140,7 +140,7 @@ class SteppedSearch(Search):
     def fit_memory(self, c: Candidate) -> Fit | None:
         """Nonlinear least squares of a memory element (log parameters, a few starts)."""
         names = KINDS[c.kind].params
-        k_w = float(c.w @ self.model.stiffness @ c.w)
+        k_w = self.model.stiffness_along(c.w)
         amps = [float(np.abs(f.X[:, 0] @ c.w).max()) for f in self.frfs]
         u_amp, u_max = float(np.median(amps)), max(amps)
         best = None
