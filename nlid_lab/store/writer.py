@@ -46,6 +46,16 @@ class LevelWriter:
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, float(freq), amp, extra)
 
+    def stored_force(self) -> tuple[list[np.ndarray], np.ndarray]:
+        """Force samples of each stored block/step of this level in ``seq`` order, and each
+        step's force amplitude (NaN for random blocks): what a level summary is built from."""
+        f = self._run._file
+        seg = f["segments"][:]
+        mine = np.sort(seg[seg["level"] == self.index], order="seq")
+        force = f["data/force"]
+        return ([force[s["start"]:s["start"] + s["length"]] for s in mine],
+                mine["amplitude"].astype(float))
+
     def complete(self) -> None:
         """Mark this level as fully measured."""
         ds = self._run._file["levels"]
