@@ -9,7 +9,6 @@ import shlex
 import signal
 import sys
 import threading
-from pathlib import Path
 from typing import Sequence
 
 from analysis.errors import InputError
@@ -108,7 +107,8 @@ def resume_command(args: argparse.Namespace) -> str:
     return shlex.join(argv + ["--quiet"] * args.quiet)
 
 
-def _say_interrupted(args: argparse.Namespace, unit: str, started: bool) -> None:
+def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
+                     started: bool) -> None:
     """What an interrupted campaign kept, and how to continue it (stderr, even --quiet)."""
     from ..store import open_run
 
@@ -123,7 +123,7 @@ def _say_interrupted(args: argparse.Namespace, unit: str, started: bool) -> None
               f"`nlid-lab repair {shlex.quote(args.out)}` may recover it", file=sys.stderr)
         return
     done = sum(lv.complete for lv in run.levels)
-    levels = ", ".join(f"level {lv.index + 1}: {lv.n_segments}"
+    levels = ", ".join(f"level {lv.index + 1}: {lv.n_segments}/{planned}"
                        f"{' (complete)' if lv.complete else ''}" for lv in run.levels)
     print(f"campaign interrupted: kept {sum(lv.n_segments for lv in run.levels)} {unit}s "
           f"({levels}; {done} of {len(run.levels)} level(s) complete) in {args.out}, marked "
@@ -150,6 +150,7 @@ def _run(args: argparse.Namespace) -> int:
     started = _Started()
     observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
     unit = "block" if campaign.kind == "random" else "step"
+    planned = campaign.plan.averages if campaign.kind == "random" else len(campaign.plan.freqs)
     try:
         if args.live or args.live_close:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
@@ -158,7 +159,7 @@ def _run(args: argparse.Namespace) -> int:
             result = run_campaign(campaign, args.out, resume=args.resume,
                                   overwrite=overwrite, observer=observers)
     except KeyboardInterrupt:
-        _say_interrupted(args, unit, started.started)
+        _say_interrupted(args, unit, planned, started.started)
         raise
     write_json(result.as_dict(), args.json)
     lost = (f", lost {result.lost_samples} samples in {result.lost_frames} frames (counted in "
