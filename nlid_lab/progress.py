@@ -58,7 +58,7 @@ class CampaignProgress:
                             desc=f"level {s.level + 1}/{self.n_levels} ({s.target:g} N "
                                  f"{'amplitude' if self.unit == 'step' else 'rms'})",
                             disable=enabled(), dynamic_ncols=True, file=self.file,
-                            bar_format="{desc}: {n_fmt}/{total_fmt} {unit}s |{bar}|{postfix}")
+                            bar_format="{desc}: {n_fmt}/{total_fmt} {unit}s{postfix} |{bar}|")
         if s.measured is None:
             self.bar.set_postfix_str("level control", refresh=True)
             return
