@@ -186,8 +186,8 @@ class _Runner:
                 self.observer.block(i, seq, force, resp)
                 self._stored(lw, level, plan.averages, float(np.std(force)), drive)
                 data = None
-            self._level_end(lw, level, plan.averages)
             self._stop()
+            self._level_end(lw, level, plan.averages)
 
     def periodic_random(self, plan: RandomSpec) -> None:
         """Per level ``averages`` realizations, each a multisine with its own phases held for
@@ -324,15 +324,19 @@ class _Runner:
     def _level_end(self, lw: LevelWriter, target: float, planned: int) -> None:
         """Mark the level complete and tell its summary, built from the stored data."""
         lw.complete()
-        forces, amplitudes = lw.stored_force()
+        n, total, squares, amplitudes = 0, 0.0, 0.0, []
+        for block, amplitude in lw.stored_force():      # a block at a time: any level size
+            x = block[self._skip:, 0]
+            n, total, squares = n + x.size, total + x.sum(), squares + x @ x
+            amplitudes.append(amplitude)
         stepped = isinstance(self.c.plan, SteppedSpec)
         force = error = None
-        if forces and stepped:
+        if amplitudes and stepped:
             force = float(np.mean(amplitudes))
-            errors = amplitudes / target - 1
+            errors = np.array(amplitudes) / target - 1
             error = float(errors[np.argmax(np.abs(errors))])
-        elif forces:
-            force = float(np.std(np.concatenate([f[self._skip:, 0] for f in forces])))
+        elif amplitudes:
+            force = float(np.sqrt(max(squares / n - (total / n) ** 2, 0.0)))
             error = force / target - 1
         unit = "step" if stepped else "realization" if self._skip else "block"
         summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,

@@ -11,6 +11,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 
 from nlid_lab.cli import main
 from nlid_lab.store import open_run
@@ -47,8 +48,9 @@ def test_level_lines_and_json_come_from_the_stored_run(tmp_path, capsys):
         assert m[8] == f"{stored:.4g}" and m[10] == f"{stored / lv.nominal - 1:+.2%}"
         assert summary["level"] == lv.index and summary["done"] == lv.n_segments == 3
         assert summary["target"] == lv.nominal and summary["planned"] == 3
-        assert summary["force"] == stored and summary["measure"] == "rms"
-        assert summary["control_error"] == stored / lv.nominal - 1
+        assert summary["force"] == pytest.approx(stored, rel=1e-12)     # rounding only
+        assert summary["measure"] == "rms"
+        assert summary["control_error"] == pytest.approx(stored / lv.nominal - 1, abs=1e-12)
         # the drive the level control settled on: target / 20 N/V (the simulated shaker),
         # not the first guess (gain_guess 10 N/V: twice that)
         assert abs(summary["drive"] * 20.0 / lv.nominal - 1) < 0.1

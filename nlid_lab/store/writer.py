@@ -6,7 +6,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import h5py
 import numpy as np
@@ -46,15 +46,14 @@ class LevelWriter:
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, float(freq), amp, extra)
 
-    def stored_force(self) -> tuple[list[np.ndarray], np.ndarray]:
-        """Force samples of each stored block/step of this level in ``seq`` order, and each
-        step's force amplitude (NaN for random blocks): what a level summary is built from."""
+    def stored_force(self) -> Iterator[tuple[np.ndarray, float]]:
+        """Force samples of each stored block/step of this level in ``seq`` order (read one
+        at a time) with the step's force amplitude (NaN for random blocks): what a level
+        summary is built from."""
         f = self._run._file
         seg = f["segments"][:]
-        mine = np.sort(seg[seg["level"] == self.index], order="seq")
-        force = f["data/force"]
-        return ([force[s["start"]:s["start"] + s["length"]] for s in mine],
-                mine["amplitude"].astype(float))
+        for s in np.sort(seg[seg["level"] == self.index], order="seq"):
+            yield f["data/force"][s["start"]:s["start"] + s["length"]], float(s["amplitude"])
 
     def complete(self) -> None:
         """Mark this level as fully measured."""
