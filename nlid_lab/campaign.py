@@ -13,9 +13,10 @@ or step.
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -25,9 +26,8 @@ from drivers.errors import CommsError
 
 from .campaign_bench import Bench, open_bench
 from .campaign_config import Campaign, RandomSpec, SteppedSpec
-from .observer import CampaignObserver, NullObserver
-from .progress import progress
-from .store import RunWriter
+from .observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
+from .store import LevelWriter, RunWriter
 
 
 MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
@@ -49,12 +49,14 @@ class CampaignResult:
     lost_samples: int = 0
     daq_stats: dict[str, int] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    levels: list[LevelSummary] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {"out": str(self.out), "status": self.status,
                 "segments": {str(k): v for k, v in self.segments.items()},
                 "lost_frames": self.lost_frames, "lost_samples": self.lost_samples,
-                "daq_stats": self.daq_stats, "warnings": self.warnings}
+                "daq_stats": self.daq_stats, "warnings": self.warnings,
+                "levels": [lv.as_dict() for lv in self.levels]}
 
 
 def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndarray:
@@ -80,7 +82,7 @@ def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndar
 
 class _Runner:
     def __init__(self, c: Campaign, bench: Bench, writer: RunWriter,
-                 observer: CampaignObserver, stop: threading.Event | None = None) -> None:
+                 observer: Watchers, stop: threading.Event | None = None) -> None:
         self.c, self.bench, self.writer, self.observer = c, bench, writer, observer
         self.stop = stop
         names = [ch.name for ch in c.channels]
@@ -93,6 +95,9 @@ class _Runner:
         self._carry: Block | None = None
         self._lost_frames_seen = 0
         self.warnings: list[str] = []
+        self.summaries: list[LevelSummary] = []
+        self._level_t0 = 0.0
+        self._drive: float | None = None
 
     # --- streaming -----------------------------------------------------------------------
     def _chunk(self) -> Block:
@@ -159,39 +164,39 @@ class _Runner:
         return float(min(max(wanted, drive / 4), drive * 4, self.c.max_drive))
 
     # --- random --------------------------------------------------------------------------
-    def random(self, plan: RandomSpec, bar) -> None:
+    def random(self, plan: RandomSpec) -> None:
         if plan.periodic:
-            self.periodic_random(plan, bar)
+            self.periodic_random(plan)
             return
         for i, level in enumerate(plan.levels):
             self.level = i
-            lw = self.writer.level(i, level)
+            lw = self._level_start(i, level, plan.averages)
             if lw.n_segments >= plan.averages:
-                lw.complete()
+                self._level_end(lw, level, plan.averages)
                 continue
             drive = min(level / self.gain, self.c.max_drive)
             seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
             self._start(RandomOutput(plan.band, seed), drive)
-            _, data, t0 = self._control_rms(plan, i, level, drive)
+            drive, data, t0 = self._control_rms(plan, i, level, drive)
             while lw.n_segments < plan.averages:
                 if data is None:
                     data, t0 = self.take(plan.block_size)
                 force, resp = self.split(data)
                 seq = lw.append_block(force, resp, t=t0)
                 self.observer.block(i, seq, force, resp)
-                bar.update(1)
+                self._stored(lw, level, plan.averages, float(np.std(force)), drive)
                 data = None
-            lw.complete()
             self._stop()
+            self._level_end(lw, level, plan.averages)
 
-    def periodic_random(self, plan: RandomSpec, bar) -> None:
+    def periodic_random(self, plan: RandomSpec) -> None:
         """Per level ``averages`` realizations, each a multisine with its own phases held for
         transient + steady periods and stored as one block; the drive is ramped down and up
         between realizations (the transient periods absorb it)."""
         n = (plan.transient_periods + plan.periods) * plan.block_size
         for i, level in enumerate(plan.levels):
             self.level = i
-            lw = self.writer.level(i, level)
+            lw = self._level_start(i, level, plan.averages)
             drive = min(level / self.gain, self.c.max_drive)
             base = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i
             controlled = False
@@ -205,9 +210,10 @@ class _Runner:
                 force, resp = self.split(data)
                 seq = lw.append_block(force, resp, t=t0)
                 self.observer.block(i, seq, force, resp)
-                bar.update(1)
+                self._stored(lw, level, plan.averages, float(np.std(force[self._skip:])),
+                             drive)
                 self._stop()
-            lw.complete()
+            self._level_end(lw, level, plan.averages)
 
     def _control_rms(self, plan: RandomSpec, i: int, level: float, drive: float
                      ) -> tuple[float, np.ndarray | None, float]:
@@ -233,24 +239,26 @@ class _Runner:
         return drive, data, t0
 
     # --- stepped sine ----------------------------------------------------------------------
-    def stepped(self, plan: SteppedSpec, bar) -> None:
+    def stepped(self, plan: SteppedSpec) -> None:
+        n_steps = len(plan.freqs)
         for i, amp in enumerate(plan.levels):
             self.level = i
-            lw = self.writer.level(i, amp)
+            lw = self._level_start(i, amp, n_steps)
             first = lw.n_segments
-            if first < len(plan.freqs):
+            if first < n_steps:
                 drive = min(amp / self.gain, self.c.max_drive)
                 self._start(SineOutput(plan.freqs[first]), drive)
-                for k in range(first, len(plan.freqs)):
+                for k in range(first, n_steps):
                     if k > first:
                         self.bench.shaker.set_frequency(plan.freqs[k])
-                    drive = self._step(lw, i, k, plan, amp, drive)
-                    bar.update(1)
+                    drive, famp = self._step(lw, i, k, plan, amp, drive)
+                    self._stored(lw, amp, n_steps, famp, drive)
                 self._stop()
-            lw.complete()
+            self._level_end(lw, amp, n_steps)
 
     def _step(self, lw, level: int, k: int, plan: SteppedSpec, amp: float,
-              drive: float) -> float:
+              drive: float) -> tuple[float, float]:
+        """Settle, record and store step ``k``; returns the drive and the force amplitude."""
         freq, fs = plan.freqs[k], self.c.fs
         prev, settled, changes, blocks = None, False, 0, 0
         skip = 1  # the block after a change holds the transient and data already in flight
@@ -290,7 +298,52 @@ class _Runner:
         lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0)
         self.observer.step(level, k, freq, force, resp, famp / amp - 1,
                            hs[:, self.resp_cols])
-        return drive
+        return drive, famp
+
+    # --- what the watchers are told ------------------------------------------------------
+    @property
+    def _skip(self) -> int:
+        """Samples of a stored block before its steady part (transient periods)."""
+        p = self.c.plan
+        return p.transient_periods * p.block_size \
+            if isinstance(p, RandomSpec) and p.periodic else 0
+
+    def _level_start(self, i: int, target: float, planned: int) -> LevelWriter:
+        lw = self.writer.level(i, target)
+        self._level_t0, self._drive = time.monotonic(), None
+        self.observer.level_progress(LevelStatus(i, target, lw.n_segments, planned, None,
+                                                 None, None))
+        return lw
+
+    def _stored(self, lw: LevelWriter, target: float, planned: int, measured: float,
+                drive: float) -> None:
+        self._drive = drive
+        self.observer.level_progress(LevelStatus(lw.index, target, lw.n_segments, planned,
+                                                 measured, drive, measured / target - 1))
+
+    def _level_end(self, lw: LevelWriter, target: float, planned: int) -> None:
+        """Mark the level complete and tell its summary, built from the stored data."""
+        lw.complete()
+        n, total, squares, amplitudes = 0, 0.0, 0.0, []
+        for block, amplitude in lw.stored_force():      # a block at a time: any level size
+            x = block[self._skip:, 0]
+            n, total, squares = n + x.size, total + x.sum(), squares + x @ x
+            amplitudes.append(amplitude)
+        stepped = isinstance(self.c.plan, SteppedSpec)
+        force = error = None
+        if amplitudes and stepped:
+            force = float(np.mean(amplitudes))
+            errors = np.array(amplitudes) / target - 1
+            error = float(errors[np.argmax(np.abs(errors))])
+        elif amplitudes:
+            force = float(np.sqrt(max(squares / n - (total / n) ** 2, 0.0)))
+            error = force / target - 1
+        unit = "step" if stepped else "realization" if self._skip else "block"
+        summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,
+                               lw.n_segments, planned, force, error, self._drive,
+                               time.monotonic() - self._level_t0)
+        self.summaries.append(summary)
+        self.observer.level_finished(summary)
 
     def run(self) -> None:
         c = self.c
@@ -304,19 +357,19 @@ class _Runner:
             info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
         if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
             info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
+        info.update(planned=per_level, unit="step" if isinstance(c.plan, SteppedSpec) else
+                    "realization" if self._skip else "block",
+                    stored=[self.writer.level(i, x).n_segments
+                            for i, x in enumerate(c.levels)])
         self.observer.campaign_started(info)
-        with progress(total=per_level * len(c.levels), desc=c.name,
-                      unit="block" if c.kind == "random" else "step") as bar:
-            bar.update(sum(lv.n_segments for lv in
-                           (self.writer.level(i, x) for i, x in enumerate(c.levels))))
-            try:
-                if isinstance(c.plan, RandomSpec):
-                    self.random(c.plan, bar)
-                else:
-                    self.stepped(c.plan, bar)
-            except BaseException:
-                self._safe_stop()
-                raise
+        try:
+            if isinstance(c.plan, RandomSpec):
+                self.random(c.plan)
+            else:
+                self.stepped(c.plan)
+        except BaseException:
+            self._safe_stop()
+            raise
 
     def _safe_stop(self) -> None:
         """Ramp the drive to zero whatever failed; a dead shaker link is reported, not
@@ -351,10 +404,12 @@ def _layout(c: Campaign) -> PeriodicLayout | None:
 
 
 def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
-                 overwrite: bool = False, observer: CampaignObserver | None = None, on_bench=None,
-                 stop: threading.Event | None = None) -> CampaignResult:
+                 overwrite: bool = False,
+                 observer: CampaignObserver | Sequence[CampaignObserver] | None = None,
+                 on_bench=None, stop: threading.Event | None = None) -> CampaignResult:
     """Run campaign ``c`` into the run file ``out``.
 
+    ``observer`` (one or several) is told of every block, step and level as it is stored.
     ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
     emulators). Setting ``stop`` (from another thread) ends the campaign at the next DAQ
     chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
@@ -364,7 +419,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     it) or ``overwrite`` (replace it).
     """
     out = Path(out)
-    observer = observer or NullObserver()
+    observer = Watchers(*observer) if isinstance(observer, Sequence) else Watchers(observer)
     status = "aborted"
     with open_bench(c) as bench:
         if on_bench is not None:
@@ -397,4 +452,4 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
             segments = {lv.index: lv.n_segments for lv in
                         [writer.level(i, n) for i, n in enumerate(c.levels)]}
     return CampaignResult(out, status, segments, stats["lost_frames"], stats["lost_samples"],
-                          stats, runner.warnings)
+                          stats, runner.warnings, runner.summaries)

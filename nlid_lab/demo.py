@@ -81,11 +81,13 @@ def step_simulate(cfg: DemoConfig, model: Model) -> Path:
     """Run the random campaign on the simulated rig: every level into one HDF5 run file."""
     from .campaign import run_campaign
     from .campaign_config import parse_campaign
+    from .progress import CampaignProgress
 
     cfg.out.mkdir(parents=True, exist_ok=True)
     path = cfg.out / "sdof-random.h5"
     path.unlink(missing_ok=True)
-    run_campaign(parse_campaign(campaign_dict(cfg), cfg.model_file.parent), path)
+    run_campaign(parse_campaign(campaign_dict(cfg), cfg.model_file.parent), path,
+                 observer=CampaignProgress())
     return path
 
 

@@ -2,18 +2,76 @@
 
 The campaign calls these methods from its acquisition thread; an observer must not block and
 must not touch GUI widgets directly (the live view queues the data for the GUI thread).
+``level_progress`` and ``level_finished`` are optional: a watcher without them is not told.
 """
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
 
+@dataclass(frozen=True)
+class LevelStatus:
+    """Where a level stands after a stored block/step (or at its start, with nothing
+    measured yet in this session)."""
+
+    level: int
+    target: float                 # N: force rms (random) or amplitude (stepped sine)
+    done: int                     # blocks/steps stored in the run
+    planned: int
+    measured: float | None        # last block's force rms / last step's amplitude, N
+    drive: float | None           # drive of the last block/step, V
+    control_error: float | None   # measured / target - 1
+
+
+@dataclass(frozen=True)
+class LevelSummary:
+    """One level once it ends, built from the blocks/steps stored in the run.
+
+    ``force`` is the force rms over the stored blocks (steady periods of a periodic-random
+    realization) or the mean amplitude of the stored steps; ``control_error`` is
+    ``force / target - 1`` (random) or the stored step farthest from the target (stepped);
+    ``drive`` the last drive of this session (None: the level was already complete);
+    ``seconds`` the time spent on the level in this session.
+    """
+
+    level: int
+    target: float
+    measure: str                  # "rms" | "amplitude"
+    unit: str                     # "block" | "realization" | "step"
+    done: int
+    planned: int
+    force: float | None
+    control_error: float | None
+    drive: float | None
+    seconds: float
+
+    def line(self, n_levels: int) -> str:
+        """One line for people: level, blocks done/total, force against the target."""
+        text = (f"level {self.level + 1}/{n_levels} ({self.target:g} N {self.measure}): "
+                f"{self.done}/{self.planned} {self.unit}s")
+        if self.force is not None:
+            what = "mean amplitude" if self.measure == "amplitude" else "rms"
+            err = "worst step " if self.measure == "amplitude" else ""
+            text += (f", force {what} {self.force:.4g} N (target {self.target:g} N, "
+                     f"{err}{self.control_error:+.2%})")
+        if self.drive is not None:
+            text += f", drive {self.drive:.4g} V"
+        return text + (f", {self.seconds:.1f} s" if self.drive is not None
+                       else ", already stored")
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
 class CampaignObserver(Protocol):
     def campaign_started(self, info: dict[str, Any]) -> None:
-        """``info``: fs, excitation, force_dofs, n_dof, channel names and units, levels."""
+        """``info``: fs, excitation, force_dofs, n_dof, channel names and units, levels,
+        ``planned`` blocks/steps per level, ``stored`` per level already in the run, ``unit``
+        (block, realization or step)."""
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         """A random-excitation block: force (n, n_in), response (n, n_dof)."""
@@ -22,6 +80,12 @@ class CampaignObserver(Protocol):
              response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
         """A measured stepped-sine step; ``harmonics`` (n_harm, n_dof) complex amplitudes;
         ``control_error`` the relative force-amplitude error of the level control."""
+
+    def level_progress(self, status: LevelStatus) -> None:
+        """Optional: a level started or stored a block/step."""
+
+    def level_finished(self, summary: LevelSummary) -> None:
+        """Optional: a level ended (complete)."""
 
     def campaign_finished(self, status: str) -> None:
         """``status``: complete, aborted or interrupted."""
@@ -40,5 +104,43 @@ class NullObserver:
              response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
         pass
 
+    def level_progress(self, status: LevelStatus) -> None:
+        pass
+
+    def level_finished(self, summary: LevelSummary) -> None:
+        pass
+
     def campaign_finished(self, status: str) -> None:
         pass
+
+
+class Watchers:
+    """Several observers as one: each event goes to every watcher that has its method."""
+
+    def __init__(self, *observers: CampaignObserver | None) -> None:
+        self.observers = [o for o in observers if o is not None]
+
+    def _tell(self, event: str, *args: Any) -> None:
+        for observer in self.observers:
+            method = getattr(observer, event, None)
+            if method is not None:
+                method(*args)
+
+    def campaign_started(self, info: dict[str, Any]) -> None:
+        self._tell("campaign_started", info)
+
+    def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
+        self._tell("block", level, seq, force, response)
+
+    def step(self, level: int, index: int, freq: float, force: np.ndarray,
+             response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
+        self._tell("step", level, index, freq, force, response, control_error, harmonics)
+
+    def level_progress(self, status: LevelStatus) -> None:
+        self._tell("level_progress", status)
+
+    def level_finished(self, summary: LevelSummary) -> None:
+        self._tell("level_finished", summary)
+
+    def campaign_finished(self, status: str) -> None:
+        self._tell("campaign_finished", status)

@@ -4,14 +4,17 @@ Every command that writes a file checks its targets with `refuse_overwrite` befo
 working, so that an existing file is never replaced without ``--force`` (the command exits 2
 with one line naming the file, and the file is left as it was). ``-`` (stdout) is never a file.
 A directory target (``report --out DIR``) is refused when it exists and is not empty.
+Commands print a summary for people on `summary_stream` (stderr with ``--json -``, nothing
+with ``--quiet``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -28,6 +31,31 @@ def add_force_option(p: argparse.ArgumentParser) -> None:
     """The ``--force`` option of a command that writes files."""
     p.add_argument("--force", action="store_true",
                    help="replace output files that already exist (default: refuse)")
+
+
+def add_quiet_option(p: argparse.ArgumentParser) -> None:
+    """The ``--quiet`` option of a command that prints a summary of its result."""
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="print no summary and no progress (errors still go to stderr; "
+                   "--json keeps the result)")
+
+
+class _Discard:
+    """A text stream that drops what is written (``--quiet``)."""
+
+    def write(self, text: str) -> int:
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+def summary_stream(json_dest: str | None, quiet: bool = False) -> TextIO:
+    """Where a command prints its summary for people: stdout, or stderr when ``--json -``
+    holds stdout (which then stays pure JSON); nowhere with ``--quiet``."""
+    if quiet:
+        return _Discard()  # type: ignore[return-value]
+    return sys.stderr if json_dest == STDOUT else sys.stdout
 
 
 def refuse_overwrite(force: bool, *targets: str | Path | None,

@@ -200,3 +200,53 @@ def test_progress_switch(monkeypatch, capsys):
     monkeypatch.setenv("NLID_PROGRESS", "0")
     list(progress(range(3), desc="silent"))
     assert capsys.readouterr().err == ""
+
+
+def test_diagnose_prints_its_verdict_unless_quiet(tmp_path, capsys):
+    """With --json FILE the verdict still reaches the terminal; --json - keeps stdout pure
+    JSON (the verdict goes to stderr); --quiet prints nothing."""
+    from diagnose_scenarios import hidden_cubic
+    sc = hidden_cubic(n=1 << 13)
+    sc.start.save(tmp_path / "start.toml")
+    runs = []
+    for i, rec in enumerate(sc.recordings):
+        recordings_io.write_npz(tmp_path / f"level{i}.npz", rec)
+        runs.append(str(tmp_path / f"level{i}.npz"))
+    base = ["diagnose", str(tmp_path / "start.toml"), *runs]
+    assert main([*base, "--json", str(tmp_path / "d.json")]) == 0
+    result = json.loads((tmp_path / "d.json").read_text())
+    shown = f"{result['verdict']}: {result['explanation']}"
+    assert capsys.readouterr().out.strip() == shown
+    assert main([*base, "--json", "-"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["verdict"] == result["verdict"]
+    assert shown in captured.err
+    assert main([*base, "--json", str(tmp_path / "q.json"), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err == ""
+    assert json.loads((tmp_path / "q.json").read_text())["verdict"] == result["verdict"]
+
+
+def test_quiet_commands_print_nothing(drives, capsys):
+    """--quiet: no summary on either stream, the JSON result still written."""
+    d = drives
+    with np.load(d / "random.npz") as drive:
+        np.savez(d / "strong.npz", **{**drive, "force": 4 * drive["force"], "force_rms": 20.0})
+    runs = [str(d / "r5.npz"), str(d / "r20.npz")]
+    for drive, out in zip(("random.npz", "strong.npz"), runs):
+        assert main(["simulate", str(SDOF), "--drive", str(d / drive), "--out", out,
+                     "--noise", "1e-7"]) == 0
+    _write(d / "cand.toml", SDOF.read_text().replace("p = 6.0e10\n", ""))
+    commands = {
+        "detect": ["detect", *runs],
+        "analyze": ["analyze", "reverse-path", *runs, "--model", str(d / "cand.toml")],
+        "predict": ["predict", str(SDOF), "--amplitude", "1", "--band", "5", "40"],
+    }
+    for name, argv in commands.items():
+        capsys.readouterr()
+        assert main(argv) == 0, name
+        assert capsys.readouterr().out.strip(), name         # a summary by default
+        assert main([*argv, "--json", str(d / f"{name}.json"), "--quiet"]) == 0, name
+        captured = capsys.readouterr()
+        assert captured.out == "" and captured.err == "", (name, captured)
+        assert json.loads((d / f"{name}.json").read_text()), name

@@ -6,15 +6,13 @@ One sub-command per registered method (`nlid_lab.methods`), with that method's o
 from __future__ import annotations
 
 import argparse
-import sys
-from typing import TextIO
 
 
 def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
     from .. import methods
-    from ..outputs import refuse_overwrite, write_json
+    from ..outputs import refuse_overwrite, summary_stream, write_json
     from ..recordings_io import load_recordings
     from ..store import check_result_target, save_result
 
@@ -29,8 +27,7 @@ def run(args: argparse.Namespace) -> int:
     estimate = method.estimate(recs, model, options)
     out = estimate.to_json()
     # with --json - the table goes to stderr so stdout stays pure JSON
-    stream: TextIO = sys.stderr if args.json == "-" else sys.stdout
-    print(estimate.table(), file=stream)
+    print(estimate.table(), file=summary_stream(args.json, args.quiet))
     write_json(out, args.json)
     if args.store:
         save_result(args.store, method.result_name, out)
@@ -40,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     from .. import methods
-    from ..outputs import add_force_option
+    from ..outputs import add_force_option, add_quiet_option
 
     p = sub.add_parser("analyze", help="estimate nonlinear parameters from stored runs")
     kinds = p.add_subparsers(dest="method", metavar="METHOD")
@@ -58,4 +55,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                         f"'{method.result_name}'), where `nlid-lab report` and `view` show it "
                         "(earlier results stay in the run's log, the latest is shown)")
         add_force_option(mp)
+        add_quiet_option(mp)
         mp.set_defaults(func=run)

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import signal
 import sys
 import threading
+from typing import Sequence
 
 from analysis.errors import InputError
 
@@ -15,13 +17,14 @@ POLL_MS = 100
 
 
 def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = False,
-             close_when_done: bool = False):
+             close_when_done: bool = False, observers: Sequence = ()):
     """Run ``campaign`` in a worker thread while the live view shows it (GUI thread).
 
     The window stays open after the campaign until the user closes it, unless
     ``close_when_done``. Closing the window (or Ctrl-C) while the campaign runs stops it like
     Ctrl-C: drive to zero, run marked interrupted, `KeyboardInterrupt`. Returns the
-    `CampaignResult`; re-raises the campaign's error in this thread.
+    `CampaignResult`; re-raises the campaign's error in this thread. ``observers`` are told
+    of the campaign besides the view.
     """
     try:
         from PySide6 import QtCore
@@ -46,8 +49,8 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
     def work() -> None:
         try:
             outcome["result"] = run_campaign(campaign, out, resume=resume,
-                                             overwrite=overwrite, observer=view.observer,
-                                             stop=stop)
+                                             overwrite=overwrite,
+                                             observer=[view.observer, *observers], stop=stop)
         except BaseException as exc:  # noqa: BLE001 - handed to the GUI thread below
             outcome["error"] = exc
 
@@ -87,10 +90,52 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
     return outcome["result"]
 
 
+class _Started:
+    """Observer noting that the campaign got as far as its run file."""
+
+    started = False
+
+    def campaign_started(self, info) -> None:
+        self.started = True
+
+
+def resume_command(args: argparse.Namespace) -> str:
+    """The command line that continues this campaign run (same files and confirmations)."""
+    argv = ["nlid-lab", "campaign", "run", args.campaign, "--out", args.out, "--resume"]
+    argv += ["--live"] * args.live + ["--live-close"] * args.live_close + ["--yes"] * args.yes
+    argv += ["--json", args.json, *["--force"] * args.force] if args.json else []
+    return shlex.join(argv + ["--quiet"] * args.quiet)
+
+
+def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
+                     started: bool) -> None:
+    """What an interrupted campaign kept, and how to continue it (stderr, even --quiet)."""
+    from ..store import open_run
+
+    if not started:
+        print(f"campaign interrupted before {args.out} was opened: nothing recorded; run the "
+              "same command again", file=sys.stderr)
+        return
+    try:
+        run = open_run(args.out)
+    except Exception as exc:  # noqa: BLE001 - the interruption is the news, not this
+        print(f"campaign interrupted; {args.out} could not be read ({exc}); "
+              f"`nlid-lab repair {shlex.quote(args.out)}` may recover it", file=sys.stderr)
+        return
+    done = sum(lv.complete for lv in run.levels)
+    levels = ", ".join(f"level {lv.index + 1}: {lv.n_segments}/{planned}"
+                       f"{' (complete)' if lv.complete else ''}" for lv in run.levels)
+    print(f"campaign interrupted: kept {sum(lv.n_segments for lv in run.levels)} {unit}s "
+          f"({levels}; {done} of {len(run.levels)} level(s) complete) in {args.out}, marked "
+          f"{run.status}", file=sys.stderr)
+    print(f"continue it with: {resume_command(args)}", file=sys.stderr)
+
+
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
     from ..campaign_config import load_campaign, load_plant_model
-    from ..outputs import refuse_overwrite, write_json
+    from ..outputs import refuse_overwrite, summary_stream, write_json
+    from ..progress import CampaignProgress
 
     refuse_overwrite(args.force, None if args.resume else args.out, args.json)
     campaign = load_campaign(args.campaign)
@@ -99,19 +144,28 @@ def _run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.campaign}: {excess} ({campaign.plan_summary()}); shorten the "
                          "plan (fewer levels, averages or steps, smaller blocks) or pass --yes "
                          "to run it")
-    print(f"campaign '{campaign.name}': {campaign.plan_summary()}", file=sys.stderr)
+    say = summary_stream("-", args.quiet)      # stdout is for --json -
+    print(f"campaign '{campaign.name}': {campaign.plan_summary()}", file=say)
     overwrite = args.force and not args.resume
-    if args.live or args.live_close:
-        result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
-                          close_when_done=args.live_close)
-    else:
-        result = run_campaign(campaign, args.out, resume=args.resume, overwrite=overwrite)
+    started = _Started()
+    observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
+    unit = "block" if campaign.kind == "random" else "step"
+    planned = campaign.plan.averages if campaign.kind == "random" else len(campaign.plan.freqs)
+    try:
+        if args.live or args.live_close:
+            result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
+                              close_when_done=args.live_close, observers=observers)
+        else:
+            result = run_campaign(campaign, args.out, resume=args.resume,
+                                  overwrite=overwrite, observer=observers)
+    except KeyboardInterrupt:
+        _say_interrupted(args, unit, planned, started.started)
+        raise
     write_json(result.as_dict(), args.json)
     lost = (f", lost {result.lost_samples} samples in {result.lost_frames} frames (counted in "
             "the run)" if result.lost_samples or result.lost_frames else "")
-    print(f"campaign '{campaign.name}' {result.status}: "
-          f"{sum(result.segments.values())} {'blocks' if campaign.kind == 'random' else 'steps'}"
-          f" in {len(result.segments)} level(s) -> {args.out}{lost}", file=sys.stderr)
+    print(f"campaign '{campaign.name}' {result.status}: {sum(result.segments.values())} "
+          f"{unit}s in {len(result.segments)} level(s) -> {args.out}{lost}", file=say)
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     return 0
@@ -132,6 +186,8 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    from ..outputs import add_quiet_option
+
     p = sub.add_parser("campaign", help="run a test campaign (shaker + DAQ -> HDF5 run)")
     actions = p.add_subparsers(dest="action", metavar="ACTION")
     actions.required = True
@@ -152,6 +208,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--yes", action="store_true",
                      help="run a plan longer than 1 h of measurement or larger than 2 GB of "
                           "data (refused without it; `campaign check` shows the plan)")
+    add_quiet_option(run)
     run.set_defaults(func=_run)
     check = actions.add_parser("check", help="validate a campaign file without running it")
     check.add_argument("campaign", metavar="CAMPAIGN.toml")

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
-from ..outputs import add_force_option, level_text, refuse_overwrite, write_json
+from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_overwrite,
+                       summary_stream, write_json)
 from .repair import check_runs, repair_option
 
 
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     check_runs(args.runs, args.repair)
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
-    print(format_tests(result), file=sys.stderr if args.json == "-" else sys.stdout)
+    print(format_tests(result), file=summary_stream(args.json, args.quiet))
     write_json(result, args.json)
     return 0
 
@@ -50,5 +50,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nperseg", type=int, help="Welch segment length for random levels")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
+    add_quiet_option(p)
     repair_option(p)
     p.set_defaults(func=run)

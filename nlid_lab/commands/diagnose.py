@@ -31,6 +31,8 @@ def _holdout(text: str) -> float | str:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    from nlid_lab.outputs import add_quiet_option
+
     p = sub.add_parser("diagnose", help="find what a model lacks to explain recordings")
     p.add_argument("model", metavar="MODEL.toml", help="starting model (complete)")
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs, NPZ or CSV recordings "
@@ -53,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="replace existing --json / --model-out files and write into a "
                    "non-empty --report directory (default: refuse)")
+    add_quiet_option(p)
     p.set_defaults(func=run)
 
 
@@ -60,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from analysis.diagnose import DiagnoseInputError, diagnose
     from analysis.model import Model
 
-    from nlid_lab.outputs import refuse_overwrite, write_json
+    from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.recordings_io import load_recordings
     from nlid_lab.store import open_run, save_result
 
@@ -90,8 +93,7 @@ def run(args: argparse.Namespace) -> int:
     if args.store:
         save_result(args.store, RESULT_NAME, result)
     write_json(result, args.json)
-    if not args.json:
-        print(f"{d.verdict}: {d.explanation}")
+    print(f"{d.verdict}: {d.explanation}", file=summary_stream(args.json, args.quiet))
     return 0
 
 

@@ -5,7 +5,6 @@ model predicts a sine test shows, through the folds (harmonic balance + arc-leng
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -13,7 +12,8 @@ import numpy as np
 
 from analysis.errors import InputError
 
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
+                       write_json)
 
 if TYPE_CHECKING:
     from analysis.continuation import Branch
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     result = {"model": model.name, "force_dof": args.force_dof,
               "harmonics": system.harmonics, "band_hz": [lo, hi], "curves": curves}
     shown = dofs[0] if args.dof is not None else args.force_dof
-    out = sys.stderr if args.json == "-" else sys.stdout
+    out = summary_stream(args.json, args.quiet)
     print(_summary(curves, shown), file=out)
     if args.plot:
         from ..figures import response_curves as figure
@@ -97,4 +97,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="FILE.png", help="draw the curves (unstable dashed)")
     p.add_argument("--json", metavar="FILE", help="write the curves as JSON ('-' for stdout)")
     add_force_option(p)
+    add_quiet_option(p)
     p.set_defaults(func=run)

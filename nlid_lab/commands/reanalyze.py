@@ -7,14 +7,13 @@ and names each failure); 2 bad input (model, paths, method, scheduler address).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
     from nlid_lab import methods
-    from nlid_lab.outputs import refuse_overwrite, write_json
+    from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.reanalyze import (ReanalysisError, check_request, dask_client,
                                     expand_runs, reanalyze, write_results)
 
@@ -30,8 +29,9 @@ def run(args: argparse.Namespace) -> int:
                               "first (checked before the runs are analysed)")
     with dask_client(args.workers, args.scheduler) as client:
         result = reanalyze(runs, model, client, args.method, options,
-                           progress=not args.no_progress, run_timeout_s=args.run_timeout)
-    to = sys.stderr if args.json == "-" else sys.stdout  # keep stdout pure JSON then
+                           progress=not (args.no_progress or args.quiet),
+                           run_timeout_s=args.run_timeout)
+    to = summary_stream(args.json, args.quiet)  # stderr with --json -: stdout stays JSON
     print(result.summary(), file=to)
     if args.out:
         write_results(result, args.out)
@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     from nlid_lab import methods
+    from nlid_lab.outputs import add_quiet_option
 
     names = [m.name for m in methods.methods()]
     p = sub.add_parser("reanalyze", help="re-estimate many stored runs in parallel on Dask",
@@ -69,4 +70,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--force", action="store_true",
                    help="replace existing --out / --json files (default: refuse)")
+    add_quiet_option(p)
     p.set_defaults(func=run)

@@ -6,7 +6,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import h5py
 import numpy as np
@@ -45,6 +45,15 @@ class LevelWriter:
             raise StoreError(f"step frequency must be a positive number, got {freq}")
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, float(freq), amp, extra)
+
+    def stored_force(self) -> Iterator[tuple[np.ndarray, float]]:
+        """Force samples of each stored block/step of this level in ``seq`` order (read one
+        at a time) with the step's force amplitude (NaN for random blocks): what a level
+        summary is built from."""
+        f = self._run._file
+        seg = f["segments"][:]
+        for s in np.sort(seg[seg["level"] == self.index], order="seq"):
+            yield f["data/force"][s["start"]:s["start"] + s["length"]], float(s["amplitude"])
 
     def complete(self) -> None:
         """Mark this level as fully measured."""
