@@ -190,6 +190,7 @@ class LiveView(QtWidgets.QWidget):
 
     def _on_block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         if level != self.level:
+            self._finish_level()
             self.level, self.level_blocks = level, 0
             if self.info.get("period"):
                 self._acc = BlaAccumulator(self.fs, int(self.info["period"]),
@@ -210,6 +211,7 @@ class LiveView(QtWidgets.QWidget):
     def _on_step(self, level: int, index: int, freq: float, force: np.ndarray,
                  response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
         if level != self.level:
+            self._finish_level()
             self.level, self.level_blocks = level, 0
             self.steps = []
         self.step_index = index
@@ -221,6 +223,15 @@ class LiveView(QtWidgets.QWidget):
         self.blocks += 1
         self.level_blocks += 1
         self._dirty = True
+
+    def _finish_level(self) -> None:
+        """Draw the last data of the level that ends (its curves stay in the plots)."""
+        if self.level is None:
+            return
+        if self.stepped:
+            self._redraw_steps()
+        else:
+            self._redraw_frf()
 
     def level_value(self, level: int) -> float | None:
         levels = self.info.get("levels") or []
