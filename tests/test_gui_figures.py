@@ -93,6 +93,8 @@ def test_viewer_axes_units_legend_and_panels(qtbot, runs):
 def test_viewer_stepped_levels_show_harmonic_distortion(qtbot, runs):
     view = offline(qtbot, runs["stepped"])
     assert not view.coh.isVisible() and view.dist.isVisible()     # no empty coherence panel
+    qtbot.wait(50)
+    assert view.coh.size().height() < 1 and view.dist.size().height() > 150   # nor its room
     assert view.dist.getAxis("left").labelText == "THD [dB]"
     assert not view.dist.getAxis("left").logMode
     rec = runs["stepped"].recordings[1]

@@ -171,8 +171,14 @@ class OfflineView(QtWidgets.QWidget):
                                 ("std of G: noise", QtCore.Qt.PenStyle.DotLine)):
                 self.mag.legend.addItem(pg.PlotDataItem(pen=pg.mkPen("#555", width=1,
                                                                       style=dash)), label)
-        self.coh.setVisible(shown_coh)
-        self.dist.setVisible(shown_dist)
+        self._show_panel(self.coh, 2, shown_coh)
+        self._show_panel(self.dist, 3, shown_dist)
+
+    def _show_panel(self, plot: pg.PlotItem, row: int, shown: bool) -> None:
+        """Show a lower panel, or hide it and give its room to the others."""
+        plot.setVisible(shown)
+        plot.setMaximumHeight(1e6 if shown else 0)
+        self.graphs.ci.layout.setRowStretchFactor(row, 2 if shown else 0)
 
     def distortion(self, r: int, i: int) -> np.ndarray:
         """Total harmonic distortion (dB) of each step's response of stepped level ``i`` of
