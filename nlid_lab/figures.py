@@ -1,28 +1,76 @@
 """Report figures (matplotlib, Agg): one function per paper-style figure, each returns a Figure.
 
 Every axis carries its quantity and unit; curves across levels use one sequential colour map
-(low level light, high level dark) so the trend reads at a glance.
+ordered by force level (low level light, high level dark) so the trend reads at a glance, with
+a legend in newtons (a colour bar when there are more than `MAX_LEGEND_LEVELS` levels).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 if TYPE_CHECKING:
     from analysis.frf import LevelFRF
 
 FIGSIZE = (8.0, 5.6)
 DPI = 110
+#: Colour map of force levels, and the span of it used (its lightest yellow is unreadable).
+LEVEL_CMAP, LEVEL_SPAN = "viridis", (0.9, 0.0)
+#: Up to this many levels are named in a legend; more get a colour bar.
+MAX_LEGEND_LEVELS = 6
 
 
-def level_colours(n: int) -> list[tuple[float, ...]]:
-    """Sequential colours for ``n`` levels (light = low, dark = high)."""
-    cmap = colormaps["viridis"]
-    return [cmap(x) for x in np.linspace(0.85, 0.0, n)] if n > 1 else [cmap(0.3)]
+def level_colours(n: int, levels: Sequence[float | None] | None = None
+                  ) -> list[tuple[float, ...]]:
+    """Sequential colours for ``n`` levels (light = low, dark = high), ordered by the
+    values ``levels`` when given (ties and missing values keep their position)."""
+    cmap = colormaps[LEVEL_CMAP]
+    if n <= 1:
+        return [cmap(0.3)] * n
+    palette = [cmap(x) for x in np.linspace(*LEVEL_SPAN, n)]
+    if levels is None or any(v is None for v in levels):
+        return palette
+    rank = np.argsort(np.argsort(np.asarray(levels, dtype=float), kind="stable"),
+                      kind="stable")
+    return [palette[r] for r in rank]
+
+
+def level_unit(frf: "LevelFRF") -> str:
+    """Unit of a level's nominal force: rms for random, amplitude for sine excitation."""
+    return "N rms" if frf.excitation == "random" else "N"
+
+
+def _level_key(fig: Figure, ax, frfs: Sequence["LevelFRF"], extra: list | None = None) -> None:
+    """Legend of the levels (by their labels, in newtons) and ``extra`` handles; beyond
+    `MAX_LEGEND_LEVELS` levels a colour bar in newtons replaces the level entries."""
+    levels = [f.level for f in frfs]
+    handles, labels = ax.get_legend_handles_labels()
+    if len(frfs) > MAX_LEGEND_LEVELS and all(v is not None for v in levels):
+        named = {f.label for f in frfs}
+        keep = [(h, lab) for h, lab in zip(handles, labels) if lab not in named]
+        order = np.argsort(levels)
+        colours = level_colours(len(frfs), levels)
+        cmap = ListedColormap([colours[i] for i in order])
+        norm = BoundaryNorm(np.arange(len(frfs) + 1) - 0.5, cmap.N)
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, ticks=np.arange(len(frfs)),
+                           fraction=0.05, pad=0.02)
+        bar.ax.set_yticklabels([f"{levels[i]:.3g}" for i in order])
+        bar.set_label(f"force level [{level_unit(frfs[0])}]")
+        handles, labels = [h for h, _ in keep], [lab for _, lab in keep]
+    for h in extra or []:
+        handles.append(h)
+        labels.append(h.get_label())
+    if handles:
+        ax.legend(handles, labels, title="force level" if len(frfs) <= MAX_LEGEND_LEVELS
+                  else None, fontsize="small")
 
 
 def phase_deg(h: np.ndarray) -> np.ndarray:
@@ -52,15 +100,19 @@ def frf_levels(frfs: Sequence["LevelFRF"], out: int, inp: int = 0) -> Figure:
     """FRF magnitude and phase at every level overlaid (paper figs 2.1, 3.5, 4.5)."""
     ref = frfs[0]
     fig, mag, ph = _frf_axes(f"FRF per level: {_pair_name(ref, out, inp)}")
-    for frf, colour in zip(frfs, level_colours(len(frfs))):
+    for frf, colour in zip(frfs, _colours_of(frfs)):
         h = frf.H[:, out, inp]
         style = "o-" if frf.excitation == "stepped-sine" else "-"
         mag.semilogy(frf.freqs, np.abs(h), style, color=colour, ms=3, lw=1.2, label=frf.label)
         ph.plot(frf.freqs, phase_deg(h), style, color=colour, ms=3, lw=1.2)
     mag.set_ylabel(f"|H| [{ref.units}]")
-    mag.legend(title="force level", fontsize="small")
+    _level_key(fig, mag, frfs)
     _fit_band(mag, frfs)
     return fig
+
+
+def _colours_of(frfs: Sequence["LevelFRF"]) -> list[tuple[float, ...]]:
+    return level_colours(len(frfs), [f.level for f in frfs])
 
 
 def _fit_band(ax, frfs: Sequence["LevelFRF"]) -> None:
@@ -74,10 +126,10 @@ def multiple_coherence_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     fig = Figure(figsize=(FIGSIZE[0], 3.6), dpi=DPI, layout="constrained")
     ax = fig.subplots()
     shown = [f for f in frfs if f.multiple_coherence is not None]
-    for frf, colour in zip(shown, level_colours(len(shown))):
+    for frf, colour in zip(shown, _colours_of(shown)):
         ax.plot(frf.freqs, frf.multiple_coherence[:, out], color=colour, lw=1.2, label=frf.label)
     _coherence_axes(ax, f"Multiple coherence, response DOF {out} (linear analysis)")
-    ax.legend(title="force level", fontsize="small")
+    _level_key(fig, ax, shown)
     _fit_band(ax, shown)
     return fig
 
@@ -108,7 +160,7 @@ def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     nonlinear distortion, dashed) and its noise standard deviation (dotted)."""
     fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    for k, (frf, colour) in enumerate(zip(frfs, level_colours(len(frfs)))):
+    for k, (frf, colour) in enumerate(zip(frfs, _colours_of(frfs))):
         b = frf.bla
         ax.semilogy(b.freqs, np.abs(b.G[:, out]), color=colour, lw=1.3, label=frf.label)
         ax.semilogy(b.freqs, np.sqrt(b.var_total[:, out]), "--", color=colour, lw=0.9,
@@ -119,7 +171,7 @@ def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
     ax.set_xlabel("Frequency [Hz]")
     ax.set_ylabel(f"|G| [{frfs[0].units}]")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="small")
+    _level_key(fig, ax, frfs)
     _fit_band(ax, frfs)
     return fig
 
@@ -158,13 +210,16 @@ def linear_and_coefficients(freqs: np.ndarray, H_lin: np.ndarray, units: str,
     axes[0].set_ylabel(f"|H_L| [{units}]")
     axes[0].legend(fontsize="small", ncol=2)
     for ax, (name, c) in zip(axes[1:], coefficients.items()):
+        ratio = np.nanmedian(np.abs(c.imag) / np.maximum(np.abs(c.real), 1e-300))
+        ax.axhline(0.0, color="0.5", lw=0.6)
         ax.plot(freqs, c.real, color="C0", lw=1.2, label="real part")
-        ax.plot(freqs, c.imag, color="C1", lw=1.0, alpha=0.8, label="imaginary part")
+        ax.plot(freqs, c.imag, color="C1", lw=1.0, alpha=0.9,
+                label=f"imaginary part (median |Im/Re| {100 * ratio:.2g} %)")
         if exact and name in exact:
             ax.axhline(exact[name], color="k", ls="--", lw=0.9, label=f"true {exact[name]:.3g}")
         ax.set_title(name, fontsize="medium")
         ax.set_ylabel(f"coefficient [{coefficient_units.get(name, '-')}]")
-        ax.set_ylim(*_robust_limits(c.real, exact.get(name) if exact else None))
+        ax.set_ylim(*coefficient_limits(c, exact.get(name) if exact else None))
         ax.legend(fontsize="small", loc="best")
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
@@ -172,13 +227,16 @@ def linear_and_coefficients(freqs: np.ndarray, H_lin: np.ndarray, units: str,
     return fig
 
 
-def _robust_limits(values: np.ndarray, extra: float | None) -> tuple[float, float]:
-    """Y range holding the central 90 % of ``values`` (and ``extra``): a few wild bins at
-    resonance (where the estimate's variance peaks) must not flatten the rest."""
-    lo, hi = np.nanpercentile(values, [5, 95])
+def coefficient_limits(c: np.ndarray, extra: float | None = None) -> tuple[float, float]:
+    """One y range showing the real and the imaginary part of a coefficient (and zero and
+    ``extra``): the central 90 % of each part, so that a few wild bins at resonance (where
+    the estimate's variance peaks) do not flatten the rest, padded by a tenth of the span."""
+    parts = [np.nanpercentile(part, [5, 95]) for part in (c.real, c.imag)]
+    lo = min(0.0, *(p[0] for p in parts))
+    hi = max(0.0, *(p[1] for p in parts))
     if extra is not None:
         lo, hi = min(lo, extra), max(hi, extra)
-    pad = 0.5 * (hi - lo) or abs(hi) * 0.1 or 1.0
+    pad = 0.1 * (hi - lo) or abs(hi) * 0.1 or 1.0
     return lo - pad, hi + pad
 
 
@@ -213,38 +271,124 @@ def hysteresis_loops(loops: dict[str, tuple[np.ndarray, np.ndarray]]) -> Figure:
     return fig
 
 
-def fitted_frfs(measured: Sequence["LevelFRF"], fitted: Sequence[tuple[np.ndarray, np.ndarray]],
-                out: int, inp: int = 0) -> Figure:
-    """Measured stepped-sine FRFs (markers) vs FRFs of the estimated model (lines), fig 4.8.
+@dataclass
+class ModelCurve:
+    """A model's fundamental FRF along a continued response curve (through its folds).
 
-    ``fitted[i]`` is ``(freqs, H)`` with H (n_f, n_dof) complex for ``measured[i]``'s level.
+    ``H`` (n, n_dof) complex, in the measured response kind; ``stable`` (n,) bool.
+    """
+
+    freqs: np.ndarray
+    H: np.ndarray
+    stable: np.ndarray
+
+
+def fitted_frfs(measured: Sequence["LevelFRF"], fitted: Sequence[ModelCurve], out: int,
+                inp: int = 0) -> Figure:
+    """Measured stepped-sine FRFs (markers) vs the estimated model's response curves through
+    their folds (lines: stable solid, unstable dashed, folds circled), paper fig 4.8.
+
+    ``fitted[i]`` is the model curve at ``measured[i]``'s level.
     """
     ref = measured[0]
     fig, mag, ph = _frf_axes(f"Measured (markers) vs estimated model (lines): "
                              f"{_pair_name(ref, out, inp)}")
-    for frf, (f_fit, h_fit), colour in zip(measured, fitted, level_colours(len(measured))):
+    for frf, curve, colour in zip(measured, fitted, _colours_of(measured)):
         h = frf.H[:, out, inp]
-        mag.semilogy(frf.freqs, np.abs(h), "o", color=colour, ms=3.5, label=frf.label)
-        mag.semilogy(f_fit, np.abs(h_fit[:, out]), "-", color=colour, lw=1.2)
-        ph.plot(frf.freqs, phase_deg(h), "o", color=colour, ms=3.5)
-        ph.plot(f_fit, phase_deg(h_fit[:, out]), "-", color=colour, lw=1.2)
+        hm = curve.H[:, out]
+        for ax, y, ym in ((mag, np.abs(h), np.abs(hm)), (ph, phase_deg(h), phase_deg(hm))):
+            for stable in (True, False):
+                shown = np.where(_runs_with_ends(curve.stable == stable), ym, np.nan)
+                ax.plot(curve.freqs, shown, "-" if stable else "--", color=colour, lw=1.3)
+            folds = np.flatnonzero(np.diff(curve.stable.astype(int)) != 0) + 1
+            ax.plot(curve.freqs[folds], ym[folds], "o", mfc="none", color=colour, ms=7)
+            ax.plot(frf.freqs, y, "o", color=colour, mec="k", mew=0.6, ms=4.5, ls="none",
+                    label=frf.label if ax is mag else None)
+    mag.set_yscale("log")
     mag.set_ylabel(f"|H| [{ref.units}]")
-    mag.legend(title="force level", fontsize="small")
+    _level_key(fig, mag, measured, [
+        Line2D([], [], color="0.3", marker="o", mec="k", ls="none", label="measured"),
+        Line2D([], [], color="0.3", label="model, stable"),
+        Line2D([], [], color="0.3", ls="--", label="model, unstable"),
+        Line2D([], [], color="0.3", marker="o", mfc="none", ls="none",
+               label="model fold (jump)")])
     _fit_band(mag, measured)
     return fig
 
 
-def diagnosis_fit(metric: str, before: float, after: float, verdict: str) -> Figure:
-    """Model-to-measurement discrepancy before and after the diagnosed correction."""
-    fig = Figure(figsize=(5.0, 3.6), dpi=DPI, layout="constrained")
+def diagnosis_fit(metric: str, before: float, after: float, title: str,
+                  levels: Sequence[dict] | None = None) -> Figure:
+    """Model-to-measurement discrepancy before and after the diagnosed correction: one bar
+    pair, or one pair per level when ``levels`` (dicts with ``label``, ``before``, ``after``,
+    ``held_back``) are given. ``metric`` (a sentence) is the subtitle."""
+    import textwrap
+    fig = Figure(figsize=(6.4, 4.2), dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    bars = ax.bar(["model as given", "corrected model"], [before, after],
-                  color=["#c0504d", "#4f81bd"])
-    ax.bar_label(bars, fmt="%.3g")
-    ax.set_ylabel(f"{metric} [-]")
-    ax.set_title(f"Diagnosis: {verdict}")
+    if levels:
+        names = [f"{lv['label']}{' (held back)' if lv.get('held_back') else ''}"
+                 for lv in levels]
+        b = [float(lv["before"]) for lv in levels]
+        a = [float(lv["after"]) for lv in levels]
+    else:
+        names, b, a = ["held-back recording"], [before], [after]
+    x = np.arange(len(names))
+    for vals, shift, colour, label in ((b, -0.2, "#c0504d", "model as given"),
+                                       (a, 0.2, "#4f81bd", "corrected model")):
+        bars = ax.bar(x + shift, vals, 0.4, color=colour, label=label)
+        ax.bar_label(bars, fmt="%.3g", fontsize="small")
+    ax.set_xticks(x, names)
+    ax.set_ylabel("relative error [-]")
+    ax.set_ylim(0, 1.18 * max(max(b), max(a), 1e-12))
+    ax.set_title(title, fontsize="medium")
+    fig.suptitle("\n".join(textwrap.wrap(metric, 80)), fontsize="small", color="0.3")
+    ax.legend(fontsize="small")
     ax.grid(True, axis="y", alpha=0.3)
     return fig
+
+
+def diagnosis_overlay(curve, title: str) -> Figure:
+    """One level of a diagnosis (`analysis.diagnose.report.LevelCurves`): measured FRF
+    against the model before and after the correction, and the time residuals of the
+    replays, one row per response DOF."""
+    n_dof = curve.measured.shape[1]
+    fig = Figure(figsize=(11.0, 1.0 + 2.8 * n_dof), dpi=DPI, layout="constrained")
+    axes = fig.subplots(n_dof, 2, squeeze=False)
+    fig.suptitle(title)
+    for dof in range(n_dof):
+        ax = axes[dof, 0]
+        ax.semilogy(curve.freqs, np.abs(curve.measured[:, dof, 0]), "k", lw=1.2,
+                    label="measured")
+        ax.semilogy(curve.freqs, np.abs(curve.before[:, dof, 0]), "C3--", lw=1.1,
+                    label="model before")
+        ax.semilogy(curve.freqs, np.abs(curve.after[:, dof, 0]), "C0", lw=1.1,
+                    label="model after")
+        ax.set_ylabel(f"|H| DOF {dof} [m/N]")
+        ax.grid(True, which="both", alpha=0.3)
+        _time_residual_panel(axes[dof, 1], curve, dof)
+    axes[0, 0].set_title("FRF")
+    axes[0, 1].set_title("Time residual (replay of the measured force)")
+    for ax in axes[0]:
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize="small")
+    axes[-1, 0].set_xlabel("Frequency [Hz]")
+    axes[-1, 1].set_xlabel("Time [s]")
+    return fig
+
+
+def _time_residual_panel(ax, curve, dof: int) -> None:
+    """Measured displacement and the residuals of the replays before/after."""
+    rb, ra = curve.replay_before, curve.replay_after
+    if rb is None or ra is None or rb.t.size == 0:
+        ax.text(0.5, 0.5, "no replay", transform=ax.transAxes, ha="center")
+        return
+    ax.plot(rb.t, rb.measured[:, dof], "k", lw=1.0, label="measured")
+    ax.plot(rb.t, rb.measured[:, dof] - rb.predicted[:, dof], "C3--", lw=1,
+            label=f"residual before ({rb.residual[dof]:.3g})")
+    ax.plot(ra.t, ra.measured[:, dof] - ra.predicted[:, dof], "C0", lw=1,
+            label=f"residual after ({ra.residual[dof]:.3g})")
+    ax.set_ylabel(f"x DOF {dof} [m]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
 
 
 def response_curves(branches: Sequence, amplitudes: Sequence[float], dof: int,
@@ -253,8 +397,7 @@ def response_curves(branches: Sequence, amplitudes: Sequence[float], dof: int,
     marked; one ordered colour per force amplitude."""
     fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
     ax = fig.subplots()
-    order = np.argsort(amplitudes)
-    colours = dict(zip(order, level_colours(len(amplitudes))))
+    colours = level_colours(len(amplitudes), amplitudes)
     for i, (branch, amp) in enumerate(zip(branches, amplitudes)):
         a = branch.amplitude(dof)
         colour = colours[i]

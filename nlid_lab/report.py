@@ -66,13 +66,32 @@ def diagnosis_section(run: RunData) -> Section | None:
     if fit.get("before") is not None and fit.get("after") is not None:
         sec.figures.append(("diagnosis_fit", figures.diagnosis_fit(
             str(fit.get("metric", "misfit")), float(fit["before"]), float(fit["after"]),
-            str(res["verdict"]))))
+            f"FRF error before and after the correction (verdict: {res['verdict']})",
+            diagnosis_levels(res, "N rms" if run.recordings and
+                             run.recordings[0].excitation == "random" else "N"))))
     tr = fit.get("time_residual")
     if tr and tr.get("before") is not None and tr.get("after") is not None:
         sec.figures.append(("diagnosis_time", figures.diagnosis_fit(
             str(tr.get("metric", "time residual")), float(tr["before"]), float(tr["after"]),
-            str(res["verdict"]))))
+            "Time residual of replays before and after the correction")))
     return sec
+
+
+def diagnosis_levels(res: dict[str, Any], unit: str = "N") -> list[dict[str, Any]] | None:
+    """Per-level FRF errors of a stored diagnosis (``fit.levels``, else the top-level
+    ``levels`` with ``error_before``/``error_after``) as label (the level in ``unit``),
+    before, after, held_back."""
+    out = []
+    for i, lv in enumerate(res.get("fit", {}).get("levels") or res.get("levels") or []):
+        before = lv.get("before", lv.get("error_before"))
+        after = lv.get("after", lv.get("error_after"))
+        if before is None or after is None:
+            return None
+        label = (f"{lv['level']:.3g} {unit}" if lv.get("level") is not None
+                 else lv.get("label") or f"level {i + 1}")
+        out.append({"label": label, "before": before, "after": after,
+                    "held_back": bool(lv.get("held_back"))})
+    return out or None
 
 
 def level_change_section(run: RunData) -> Section | None:

@@ -99,9 +99,7 @@ def run(args: argparse.Namespace) -> int:
 
 def write_report(d: Diagnosis, out: Path) -> None:
     """Before/after FRF overlays and time residuals per level, plus a markdown report."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .. import figures
 
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",
@@ -115,25 +113,8 @@ def write_report(d: Diagnosis, out: Path) -> None:
         lines.append(f"| {c.level:g} | {'yes' if c.held_back else 'no'} | "
                      f"{c.error_before:.4g} | {c.error_after:.4g} | {tb} | {ta} |")
         title = f"{c.label}{' (held back)' if c.held_back else ''}"
-        n_dof = c.measured.shape[1]
-        fig, axes = plt.subplots(n_dof, 2, figsize=(12, 2.2 * n_dof), squeeze=False)
-        for dof in range(n_dof):
-            ax = axes[dof, 0]
-            ax.semilogy(c.freqs, np.abs(c.measured[:, dof, 0]), "k", lw=1.2, label="measured")
-            ax.semilogy(c.freqs, np.abs(c.before[:, dof, 0]), "C3--", lw=1, label="model before")
-            ax.semilogy(c.freqs, np.abs(c.after[:, dof, 0]), "C0", lw=1, label="model after")
-            ax.set_ylabel(f"|H| DOF {dof} (m/N)")
-            _time_panel(axes[dof, 1], c, dof)
-        axes[0, 0].set_title(f"{title}: FRF")
-        axes[0, 1].set_title(f"{title}: time residual (replay of the measured force)")
-        axes[0, 0].legend(fontsize=8)
-        axes[0, 1].legend(fontsize=8)
-        axes[-1, 0].set_xlabel("frequency (Hz)")
-        axes[-1, 1].set_xlabel("time (s)")
-        fig.tight_layout()
         name = f"frf-level-{i}.png"
-        fig.savefig(out / name, dpi=90)
-        plt.close(fig)
+        figures.diagnosis_overlay(c, title).savefig(out / name)
         figs += ["", f"![{c.label}]({name})"]
     lines += figs
     lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |",
@@ -142,17 +123,3 @@ def write_report(d: Diagnosis, out: Path) -> None:
         params = ", ".join(f"{k}={v:.4g}" for k, v in r["params"].items())
         lines.append(f"| {r['kind']} | {r['dofs']} | {params} | {r['delta_bic']:.4g} |")
     (out / "report.md").write_text("\n".join(lines) + "\n")
-
-
-def _time_panel(ax, c, dof: int) -> None:
-    """Measured displacement and the residuals of the replays before/after."""
-    rb, ra = c.replay_before, c.replay_after
-    if rb is None or ra is None or rb.t.size == 0:
-        ax.text(0.5, 0.5, "no replay", transform=ax.transAxes, ha="center")
-        return
-    ax.plot(rb.t, rb.measured[:, dof], "k", lw=1.0, label="measured")
-    ax.plot(rb.t, rb.measured[:, dof] - rb.predicted[:, dof], "C3--", lw=1,
-            label=f"residual before ({rb.residual[dof]:.3g})")
-    ax.plot(ra.t, ra.measured[:, dof] - ra.predicted[:, dof], "C0", lw=1,
-            label=f"residual after ({ra.residual[dof]:.3g})")
-    ax.set_ylabel(f"x DOF {dof} (m)")

@@ -1,5 +1,9 @@
 """Live campaign view: time blocks, FRFs building up average by average, stepped-sine sweep.
 
+Every level keeps its curves when the next one starts, so the finished levels stay overlaid
+in ordered colours (`plots.level_colours`, light = low level); response DOFs differ by line
+style (`DOF_STYLES`).
+
 `LiveObserver` is the `nlid_lab.observer.CampaignObserver` handed to the campaign: its methods
 run in the acquisition thread and only copy the data onto a queue. `LiveView` (GUI thread)
 drains that queue on a QTimer, folds each random block into a running spectral matrix
@@ -25,6 +29,11 @@ from . import plots
 #: Seconds of time history kept per channel (ring buffer).
 HISTORY_S = 2.0
 REFRESH_MS = 50
+#: Pen style of response DOF q in the FRF panels (colour is the level's).
+DOF_STYLES = [QtCore.Qt.PenStyle.SolidLine, QtCore.Qt.PenStyle.DashLine,
+              QtCore.Qt.PenStyle.DotLine, QtCore.Qt.PenStyle.DashDotLine]
+#: Bottom of the harmonic-content bars, dB below the fundamental.
+HARMONIC_FLOOR_DB = -120.0
 
 
 class LiveObserver:
@@ -127,10 +136,13 @@ class LiveView(QtWidgets.QWidget):
         self.observer = LiveObserver()
         self.info: dict[str, Any] = {}
         self.status = "waiting"
-        self.blocks = 0
+        self.blocks = 0               # blocks or steps received in the whole campaign
+        self.level_blocks = 0         # ... in the current level
+        self.step_index: int | None = None   # campaign's index of the last step in its level
         self.steps: list[tuple[float, np.ndarray, float]] = []  # freq, H1 (n_dof,), error
         self.harmonics: np.ndarray | None = None
         self.level: int | None = None
+        self.level_curves: dict[int, dict[str, list]] = {}   # level -> its plot items
         self.frf: LevelFRF | None = None
         self._acc: FrfAccumulator | BlaAccumulator | None = None
         self._ring: RingBuffer | None = None
@@ -169,15 +181,17 @@ class LiveView(QtWidgets.QWidget):
     def _on_started(self, info: dict[str, Any]) -> None:
         self.info = info
         self.status = "running"
-        self.blocks = 0
+        self.blocks = self.level_blocks = 0
         self.steps = []
-        self.level = None
+        self.level = self.step_index = None
+        self.level_curves = {}
         self._build()
         self._dirty = True
 
     def _on_block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         if level != self.level:
-            self.level = level
+            self._finish_level()
+            self.level, self.level_blocks = level, 0
             if self.info.get("period"):
                 self._acc = BlaAccumulator(self.fs, int(self.info["period"]),
                                            int(self.info.get("transient_periods", 1)))
@@ -187,7 +201,9 @@ class LiveView(QtWidgets.QWidget):
         self._acc.add(force, response)
         self._ring.extend(np.concatenate([force, response], axis=1))
         self.blocks += 1
-        self.frf = self._acc.estimate(label=f"level {level}", level=None, excitation="random",
+        self.level_blocks += 1
+        self.frf = self._acc.estimate(label=self.level_text(level), level=self.level_value(level),
+                                      excitation="random",
                                       response_kind=self.response_kind,
                                       force_dofs=np.asarray(self.force_dofs))
         self._dirty = True
@@ -195,15 +211,43 @@ class LiveView(QtWidgets.QWidget):
     def _on_step(self, level: int, index: int, freq: float, force: np.ndarray,
                  response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
         if level != self.level:
-            self.level = level
+            self._finish_level()
+            self.level, self.level_blocks = level, 0
             self.steps = []
+        self.step_index = index
         f1 = sine_fit(force[:, 0], self.fs, freq)[0]
         h = harmonics[self._h1_row(len(harmonics))] / f1 if f1 != 0 else np.full(harmonics.shape[1], np.nan)
         self.steps.append((freq, h, control_error))
         self.harmonics = harmonics
         self._ring.extend(np.concatenate([force, response], axis=1))
         self.blocks += 1
+        self.level_blocks += 1
         self._dirty = True
+
+    def _finish_level(self) -> None:
+        """Draw the last data of the level that ends (its curves stay in the plots)."""
+        if self.level is None:
+            return
+        if self.stepped:
+            self._redraw_steps()
+        else:
+            self._redraw_frf()
+
+    def level_value(self, level: int) -> float | None:
+        levels = self.info.get("levels") or []
+        return float(levels[level]) if level is not None and level < len(levels) else None
+
+    def level_text(self, level: int | None) -> str:
+        """``"5 N rms"`` (random) or ``"8 N"`` (stepped-sine amplitude) of a level index."""
+        value = self.level_value(level)
+        if value is None:
+            return "-" if level is None else f"level {level + 1}"
+        unit = "N" if self.stepped else "N rms"
+        return f"{value:.3g} {unit}"
+
+    @property
+    def stepped(self) -> bool:
+        return self.info.get("excitation") == "stepped-sine"
 
     def orders(self, n_rows: int) -> list[int]:
         """Harmonic order of each row of ``harmonics`` (campaign default: 0, 1, ... n-1)."""
@@ -254,34 +298,74 @@ class LiveView(QtWidgets.QWidget):
             self.time_curves.append(p.plot(pen=plots.pen(plots.channel_colour(i), 1)))
         n_dof = int(self.info["n_dof"])
         units = FRF_UNITS[self.response_kind]
-        stepped = self.info.get("excitation") == "stepped-sine"
-        self.mag, self.phase = plots.frf_plots(
-            right, units, title="FRF (fundamental, per step)" if stepped else "FRF H1")
-        style = dict(symbol="o", symbolSize=5) if stepped else {}
-        self.mag_curves, self.phase_curves = [], []
-        for q in range(n_dof):
-            c = plots.channel_colour(len(self.force_dofs) + q)
-            sym = dict(symbolBrush=c, symbolPen=c, **style) if stepped else {}
-            self.mag_curves.append(self.mag.plot(pen=plots.pen(c), name=f"DOF {q}", **sym))
-            self.phase_curves.append(self.phase.plot(pen=plots.pen(c), **sym))
+        stepped = self.stepped
+        title = ("FRF of the fundamental, per step" if stepped else
+                 "FRF: best linear approximation over the realizations"
+                 if self.info.get("period") else "FRF: H1 averaged over the blocks")
+        self.mag, self.phase = plots.frf_plots(right, units, title=title,
+                                               quantity=plots.FRF_QUANTITY[self.response_kind])
+        if n_dof > 1:                 # line style per DOF, colour per level
+            for q in range(n_dof):
+                self.mag.legend.addItem(pg.PlotDataItem(pen=pg.mkPen(
+                    "#555", width=1.5, style=DOF_STYLES[q % len(DOF_STYLES)])), f"DOF {q}")
         if stepped:
             self.error_plot = right.addPlot(row=2, col=0, title="Level-control error")
             plots.style(self.error_plot, "error", "%")
             self.error_plot.setXLink(self.mag)
-            self.error_curve = self.error_plot.plot(pen=plots.pen("#d62728"), symbol="o",
-                                                    symbolSize=4, symbolBrush="#d62728")
             self.harm_plot = right.addPlot(row=3, col=0, title="Harmonic content (current step)")
-            plots.style(self.harm_plot, "|X_k| / |X_1|", "-", bottom="Harmonic order",
-                         bottom_unit="-")
+            plots.style(self.harm_plot, "|X_k| / |X_1|", "dB", bottom="Harmonic order",
+                        bottom_unit="-")
             self.harm_bars: list[pg.BarGraphItem] = []
         else:
-            self.coh_plot = plots.coherence_plot(right, row=2)
+            self.coh_plot = plots.coherence_plot(
+                right, row=2, title="Multiple coherence (across realizations)"
+                if self.info.get("period") else "Multiple coherence")
             self.coh_plot.setXLink(self.mag)
-            self.coh_curves = [self.coh_plot.plot(pen=plots.pen(
-                plots.channel_colour(len(self.force_dofs) + q))) for q in range(n_dof)]
         g.ci.layout.setColumnStretchFactor(0, 2)
         g.ci.layout.setColumnStretchFactor(1, 3)
-        self.progress.setVisible(stepped)
+        self.progress.setVisible(True)
+        self.progress.setValue(0)
+        self.progress.setFormat("waiting for the first level")
+
+    def _curves(self, level: int) -> dict[str, list]:
+        """The plot items of ``level`` (made on its first data; kept when it is finished)."""
+        if level not in self.level_curves:
+            levels = [float(v) for v in self.info.get("levels") or []]
+            colour = (plots.level_colours(len(levels), levels) if level < len(levels)
+                      else plots.level_colours(level + 1))[level]
+            sym = dict(symbol="o", symbolSize=5, symbolBrush=colour, symbolPen=colour) \
+                if self.stepped else {}
+            items: dict[str, list] = {"mag": [], "phase": [], "coh": [], "error": []}
+            for q in range(int(self.info["n_dof"])):
+                pen = pg.mkPen(colour, width=1.5, style=DOF_STYLES[q % len(DOF_STYLES)])
+                items["mag"].append(self.mag.plot(
+                    pen=pen, name=self.level_text(level) if q == 0 else None, **sym))
+                items["phase"].append(self.phase.plot(pen=pen, **sym))
+                if not self.stepped:
+                    items["coh"].append(self.coh_plot.plot(pen=pen))
+            if self.stepped:
+                items["error"].append(self.error_plot.plot(
+                    pen=plots.pen(colour), symbol="o", symbolSize=4, symbolBrush=colour,
+                    symbolPen=colour))
+            self.level_curves[level] = items
+        return self.level_curves[level]
+
+    @property
+    def mag_curves(self) -> list:
+        """Magnitude curves of the current level, one per response DOF."""
+        return self._curves(self.level)["mag"] if self.level is not None else []
+
+    @property
+    def phase_curves(self) -> list:
+        return self._curves(self.level)["phase"] if self.level is not None else []
+
+    @property
+    def coh_curves(self) -> list:
+        return self._curves(self.level)["coh"] if self.level is not None else []
+
+    @property
+    def error_curve(self):
+        return self._curves(self.level)["error"][0]
 
     # --- drawing ----------------------------------------------------------------------------
     def _redraw(self) -> None:
@@ -291,10 +375,11 @@ class LiveView(QtWidgets.QWidget):
         t = (np.arange(data.shape[0]) - data.shape[0]) / self.fs
         for i, curve in enumerate(self.time_curves):
             curve.setData(t, data[:, i])
-        if self.info.get("excitation") == "stepped-sine":
+        if self.stepped:
             self._redraw_steps()
         else:
             self._redraw_frf()
+        self._update_progress()
         self.label.setText(self._summary())
 
     def _redraw_frf(self) -> None:
@@ -327,24 +412,59 @@ class LiveView(QtWidgets.QWidget):
         self.harm_bars = []
         n_dof = mags.shape[1]
         width = 0.8 / n_dof
+        with np.errstate(divide="ignore"):
+            db = np.maximum(20 * np.log10(mags / ref), HARMONIC_FLOOR_DB)
         for q in range(n_dof):
             bars = pg.BarGraphItem(x=orders + (q - (n_dof - 1) / 2) * width,
-                                   height=mags[:, q] / ref[q], width=width,
+                                   y0=HARMONIC_FLOOR_DB, height=db[:, q] - HARMONIC_FLOOR_DB,
+                                   width=width,
                                    brush=plots.channel_colour(len(self.force_dofs) + q))
             self.harm_plot.addItem(bars)
             self.harm_bars.append(bars)
-        n_steps = int(self.info.get("n_steps", 0)) or len(self.steps)
-        self.progress.setRange(0, n_steps)
-        self.progress.setValue(len(self.steps))
-        self.progress.setFormat(f"step %v/%m at {f[-1]:.2f} Hz")
+        self.harm_plot.setYRange(HARMONIC_FLOOR_DB, 5)
+        self.harm_plot.getAxis("bottom").setTicks([[(int(k), str(int(k))) for k in orders]])
+
+    def _update_progress(self) -> None:
+        """Progress of the current level, in the same numbers as the header."""
+        done, total = self._level_progress()
+        if self.level is None:
+            return
+        self.progress.setRange(0, max(total, 1))
+        self.progress.setValue(min(done, max(total, 1)))
+        what = "step" if self.stepped else "realization" if self.info.get("period") \
+            else "block"
+        self.progress.setFormat(f"level {self._level_of()} · {what} {done}/{total}")
+
+    def _level_progress(self) -> tuple[int, int]:
+        """(done, planned) steps or blocks of the current level."""
+        if self.stepped:
+            done = (self.step_index + 1) if self.step_index is not None else 0
+            return done, int(self.info.get("n_steps", 0)) or done
+        return self.level_blocks, int(self.info.get("averages", 0)) or self.level_blocks
+
+    def _level_of(self) -> str:
+        n = len(self.info.get("levels") or [])
+        return f"{self.level + 1}/{n}" if n else f"{self.level + 1}"
 
     def _summary(self) -> str:
         kind = self.info.get("excitation", "?")
-        text = f"{kind} · level {self.level} · {self.status}"
-        if kind == "stepped-sine" and self.steps:
+        if self.info.get("period"):
+            kind = "periodic random"
+        if self.level is None:
+            return f"{kind} · {self.status}"
+        text = (f"{kind} · level {self._level_of()}: {self.level_text(self.level)} · "
+                f"{self.status}")
+        done, total = self._level_progress()
+        if self.stepped and self.steps:
             f, _, err = self.steps[-1]
-            text += (f" · step {len(self.steps)} · {f:.2f} Hz · control error "
+            text += (f" · step {done}/{total} · {f:.2f} Hz · control error "
                      f"{100 * err:+.2f} %")
-        elif self.frf is not None:
-            text += f" · {self.blocks} blocks · {self.frf.n_averages} averages"
+        elif self.info.get("period"):
+            text += f" · realization {done}/{total}"
+            if self.frf is not None:
+                text += f" · BLA over {self.frf.n_averages} realizations"
+        else:
+            text += f" · block {done}/{total}"
+            if self.frf is not None:
+                text += f" · {self.frf.n_averages} averages"
         return text

@@ -5,6 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pyqtgraph as pg
 
+from PySide6 import QtGui
+
+from .. import figures
 from ..figures import phase_deg
 
 pg.setConfigOptions(background="w", foreground="k", antialias=False)
@@ -14,14 +17,19 @@ CHANNEL_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
 
 
+#: What the FRF of each response kind is called on an axis.
+FRF_QUANTITY = {"displacement": "Receptance |X/F|", "velocity": "Mobility |V/F|",
+                "acceleration": "Accelerance |A/F|"}
+
+
 def channel_colour(i: int) -> str:
     return CHANNEL_COLOURS[i % len(CHANNEL_COLOURS)]
 
 
-def level_colours(n: int) -> list[str]:
-    """Sequential colours for ``n`` levels (viridis: light = low level, dark = high)."""
-    cmap = pg.colormap.get("viridis")
-    return [cmap.map(x, mode="qcolor").name() for x in np.linspace(0.85, 0.0, max(n, 1))]
+def level_colours(n: int, levels=None) -> list[str]:
+    """Sequential colours for ``n`` levels, ordered by the values ``levels`` when given
+    (viridis: light = low level, dark = high; as the report, `nlid_lab.figures`)."""
+    return [QtGui.QColor.fromRgbF(*c).name() for c in figures.level_colours(n, levels)]
 
 
 def pen(colour: str, width: float = 1.5) -> pg.mkPen:
@@ -41,13 +49,30 @@ def style(plot: pg.PlotItem, left: str, unit: str, bottom: str | None = "Frequen
     return plot
 
 
+class LogAxis(pg.AxisItem):
+    """Log axis with ticks at the decades and their 2x and 5x only: pyqtgraph's own log ticks
+    label every 1..9 x 10^n, and over a decade or two those labels pile up."""
+
+    def logTickValues(self, minVal, maxVal, size, stdTicks):  # noqa: N802 (pyqtgraph API)
+        lo, hi = int(np.floor(minVal)), int(np.ceil(maxVal))
+        decades = [float(d) for d in range(lo, hi + 1) if minVal <= d <= maxVal]
+        if hi - lo > 3:           # wide range: decades only, thinned to about six labels
+            step = max(1, (hi - lo) // 6)
+            return [(float(step), [d for d in decades if int(d) % step == 0]), (None, [])]
+        minor = [d + np.log10(m) for d in range(lo, hi + 1) for m in (2, 5)
+                 if minVal <= d + np.log10(m) <= maxVal]
+        return [(1.0, decades), (None, minor)]
+
+
 def frf_plots(layout: pg.GraphicsLayout, units: str, row: int = 0, col: int = 0,
-              title: str = "FRF") -> tuple[pg.PlotItem, pg.PlotItem]:
+              title: str = "FRF", quantity: str = "|H|") -> tuple[pg.PlotItem, pg.PlotItem]:
     """Magnitude (log) above phase, x-linked; returns both plot items."""
-    mag = layout.addPlot(row=row, col=col, title=title)
-    style(mag, "|H|", units, bottom=None)
+    mag = layout.addPlot(row=row, col=col, title=title,
+                         axisItems={"left": LogAxis(orientation="left")})
+    style(mag, quantity, units, bottom=None)
     mag.setLogMode(y=True)
-    mag.addLegend(offset=(-10, 10), labelTextSize="8pt")
+    mag.addLegend(offset=(-10, 10), labelTextSize="8pt", brush=(255, 255, 255, 210),
+                  pen=(180, 180, 180))
     ph = layout.addPlot(row=row + 1, col=col)
     style(ph, "Phase", "deg")
     ph.setYRange(-270, 90)

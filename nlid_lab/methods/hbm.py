@@ -163,56 +163,61 @@ def estimate(recs: Sequence[Recording], model: Model, options: HbmOptions | None
 
 def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarray,
             receptance, reference: Model | None, dest: Path) -> list[Path]:
-    """Measured vs fitted FRFs per level (paper fig 4.8) to ``dest``; hysteresis loops of the
-    estimated (and reference) elements (fig 4.7) to ``<dest stem>-loop.png``."""
-    from matplotlib.figure import Figure
-
+    """Measured vs fitted FRFs per level (paper fig 4.8; the model's curves continued through
+    their folds) to ``dest``; hysteresis loops of the estimated (and reference) elements
+    (fig 4.7) to ``<dest stem>-loop.png``."""
+    from analysis.frf import LevelFRF
     from analysis.hbm import HBMSystem, loop
 
-    system = HBMSystem(result.model, [levels[0].force_dof], harmonics, receptance=receptance)
-    fig = Figure(figsize=(8, 6), layout="constrained")
-    mag, ph = fig.subplots(2, 1, sharex=True)
-    amp = 0.0
-    for lv, colour in zip(levels, _colours(len(levels))):
-        order = np.argsort(lv.freqs)
-        res = system.sweep(lv.freqs, lv.force[:, None])
-        h = res.frf(lv.force_dof, 1.0) / lv.force
-        amp = max(amp, float(np.abs(res.U[:, 0]).max()) if res.U.size else 0.0)
-        f, hm = lv.freqs[order], lv.frf[order, lv.force_dof]
-        mag.semilogy(f, np.abs(hm), "o", ms=3, color=colour, label=f"{lv.level:g} N")
-        mag.semilogy(f, np.abs(h[order]), "-", color=colour)
-        ph.plot(f, np.degrees(np.angle(hm)), "o", ms=3, color=colour)
-        ph.plot(f, np.degrees(np.angle(h[order])), "-", color=colour)
-    mag.set_title("Measured (markers) vs fitted harmonic balance (lines)")
-    mag.set_ylabel("|X1/F| [m/N]")
-    ph.set_ylabel("phase [deg]")
-    ph.set_xlabel("frequency [Hz]")
-    mag.legend(title="force level", fontsize="small")
+    from .. import figures as report_figures
+
+    dof = levels[0].force_dof
+    system = HBMSystem(result.model, [dof], harmonics, receptance=receptance)
+    measured, curves = [], []
+    for lv in levels:
+        amp = float(np.median(lv.force))
+        measured.append(LevelFRF(label=f"{lv.level:.3g} N", level=lv.level,
+                                 excitation="stepped-sine", response_kind="displacement",
+                                 force_dofs=np.array([dof]), freqs=lv.freqs,
+                                 H=lv.frf[:, :, None]))
+        curves.append(model_curve(system, lv.freqs, amp, "displacement"))
     dest.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(dest, dpi=110)
+    report_figures.fitted_frfs(measured, curves, dof).savefig(dest)
     written = [dest]
+    amp = max(float(np.abs(c.H).max()) * float(np.median(lv.force))
+              for c, lv in zip(curves, levels))
     loops = {}
     for label, model in (("estimated", result.model), ("reference", reference)):
         for e, el in enumerate(model.elements if model else []):
             loops[f"{label} element {e} ({el.kind})"] = loop(el.kind, el.params, amp)
     if loops and amp > 0:
-        fig = Figure(figsize=(6.4, 5), layout="constrained")
-        ax = fig.subplots()
-        for (label, (u, g)), style in zip(loops.items(), ["-", "--", ":", "-."] * 4):
-            ax.plot(u, g, style, label=label)
-        ax.set_xlabel("deformation u [m]")
-        ax.set_ylabel("restoring force g [N]")
-        ax.set_title("Hysteresis loop at the largest fitted amplitude")
-        ax.legend(fontsize="small")
         loop_path = dest.with_name(dest.stem + "-loop.png")
-        fig.savefig(loop_path, dpi=110)
+        report_figures.hysteresis_loops(loops).savefig(loop_path)
         written.append(loop_path)
     return written
 
 
-def _colours(n: int):
-    from matplotlib import colormaps
-    return [colormaps["viridis"](x) for x in np.linspace(0.0, 0.85, max(n, 1))]
+def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
+    """The model's fundamental FRF at force amplitude ``amp`` over the measured band,
+    continued through its folds (`analysis.continuation.response_curves`), in the measured
+    response kind; a plain sweep at ``freqs`` (all marked stable) if continuation fails."""
+    from analysis.continuation import response_curves
+    from analysis.errors import EstimationError
+    from analysis.hbm import HBMError
+
+    from ..figures import ModelCurve
+
+    i1 = int(np.flatnonzero(system.harmonics == 1)[0])
+    try:
+        branch = response_curves(system, float(np.min(freqs)), float(np.max(freqs)), [amp])[0]
+        f, X, stable = branch.freqs, branch.X[:, i1, :], branch.stable
+    except (EstimationError, HBMError):
+        f = np.sort(freqs)
+        X = system.sweep(f, [amp]).X[:, i1, :]
+        stable = np.ones(f.size, bool)
+    jw = 2j * np.pi * f[:, None]
+    H = X / amp * {"displacement": 1, "velocity": jw, "acceleration": jw ** 2}[response_kind]
+    return ModelCurve(f, H, stable)
 
 
 # --- report --------------------------------------------------------------------------------
@@ -256,10 +261,12 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
         out.append(sec)
     stepped = [(f, r) for f, r in zip(frfs, run.recordings) if f.excitation == "stepped-sine"]
     if est and ref is not None and stepped:
-        fitted = [_hbm_frf(ref.with_elements(est), f, r) for f, r in stepped]
+        fitted = [_hbm_frf(ref.with_elements(est), r) for _, r in stepped]
         sec = Section("Measured vs estimated model", "Stepped-sine FRFs at every level "
-                      "(markers) and the harmonic-balance FRFs of the estimated model (lines), "
-                      "paper fig 4.8.")
+                      "(markers) and the harmonic-balance response curves of the estimated "
+                      "model at the same force amplitude (lines), continued through their "
+                      "folds: where the model's curve bends back, the dashed part is unstable "
+                      "and a sweep jumps at the circled folds (paper fig 4.8).")
         sec.figures = [(f"hbm_fit_out{q}", report_figures.fitted_frfs(
                            [f for f, _ in stepped], fitted, q))
                        for q in range(stepped[0][0].H.shape[1])]
@@ -284,8 +291,8 @@ def _same_position(el, ref):
     return None
 
 
-def _hbm_frf(model, frf: LevelFRF, rec: Recording) -> tuple[np.ndarray, np.ndarray]:
-    """Fundamental FRF of ``model`` at the level's drive amplitude (same response kind)."""
+def _hbm_frf(model, rec: Recording):
+    """The model's response curve at the level's drive amplitude (same response kind)."""
     from analysis.hbm import HBMSystem
     from analysis.sine_fit import sine_fit
 
@@ -293,11 +300,7 @@ def _hbm_frf(model, frf: LevelFRF, rec: Recording) -> tuple[np.ndarray, np.ndarr
         [sine_fit(rec.force[i, :, 0], rec.fs, f)[0]
          for i, f in enumerate(rec.freqs)])))
     system = HBMSystem(model, force_dofs=rec.force_dofs[:1])
-    sweep = system.sweep(rec.freqs, [amp])
-    H = np.stack([sweep.frf(q, amp) for q in range(model.n_dof)], axis=1)
-    jw = 2j * np.pi * rec.freqs[:, None]
-    H = H * {"displacement": 1, "velocity": jw, "acceleration": jw ** 2}[rec.response_kind]
-    return rec.freqs, H
+    return model_curve(system, rec.freqs, amp, rec.response_kind)
 
 
 def output_files(options: HbmOptions) -> list[str]:
