@@ -222,4 +222,8 @@ def test_cli_screen_with_a_candidate_adds_ranking(sdof, tmp_path, capsys):
     assert [r["kind"] for r in js["screening"]["ranking"][:2]] == ["cubic_spring",
                                                                    "quadratic_damping"]
     assert len(js["elements"]) == 2
+    # both chosen candidates are already in the model: nothing to add
+    assert js["screening"]["chosen"][:2] == ["cubic_spring DOF 0 to ground",
+                                             "quadratic_damping DOF 0 to ground"]
+    assert js["screening"]["snippet"] == ""
     assert "candidate screening" in capsys.readouterr().out

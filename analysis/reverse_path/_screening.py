@@ -76,7 +76,8 @@ class ScreeningResult:
         ``kind`` (model-file kind, None for a basis no kind has), ``where``, ``label``,
         ``basis``, ``w``, ``selected``, ``significant``, ``conditioned_coherence``,
         ``coherence_gain`` (decades), ``param``, ``p``, ``ci95``, ``z`` (``|p|/sigma``),
-        ``imag_ratio``, ``rel_ci``.
+        ``imag_ratio``, ``rel_ci``, ``in_model`` (the screened model already has this kind
+        at this ``w``).
     coherence : list of float
         Selection score after each step (forces only first), decades.
     band : (lo, hi)
@@ -103,10 +104,10 @@ class ScreeningResult:
 
     def snippet(self) -> str:
         """``[[element]]`` tables (kind and w, parameters omitted) adding the chosen
-        candidates to a model file; empty when none is significant."""
+        candidates the model does not hold yet to a model file; empty when there is none."""
         out = []
         for r in self.chosen:
-            if r["kind"] is None:
+            if r["kind"] is None or r["in_model"]:
                 continue
             w = "[" + ", ".join(repr(float(v)) for v in r["w"]) + "]"
             out += [f"[[element]]    # screened: {r['label']}, {r['param']} to estimate",
@@ -232,7 +233,11 @@ def screen_candidates(data: Any, model: Model,
     n_known = spec.S.shape[1] - n_dof - n_in - len(cands)
     base = list(range(n_dof, n_dof + n_in + n_known))      # forces and known nuisances
     first = n_dof + n_in + n_known
-    return _rank(spec, n_dof, base, first, cands, rec0.force_dofs, band, max_terms)
+    res = _rank(spec, n_dof, base, first, cands, rec0.force_dofs, band, max_terms)
+    present = {(el.kind, tuple(el.w.tolist())) for el in model.elements}
+    for r in res.rows:
+        r["in_model"] = (r["kind"], tuple(r["w"])) in present
+    return res
 
 
 def _candidate_list(candidates, locations, kinds, n_dof: int) -> list[_Candidate]:

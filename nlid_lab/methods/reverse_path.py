@@ -127,9 +127,11 @@ class ReversePathEstimate:
 
     def warnings(self) -> list[str]:
         """Screening warnings (the estimate's own are in its result)."""
-        if self.screening is None or self.screening.chosen:
+        if self.screening is None or self.screening.snippet():
             return []
-        return ["screening: no candidate is significant; nothing to add to the model"
+        why = ("every significant candidate is already in the model" if self.screening.chosen
+               else "no candidate is significant")
+        return [f"screening: {why}; nothing to add to the model"
                 + (f" ({self.candidate_out} not written)" if self.candidate_out else "")]
 
     def table(self) -> str:
