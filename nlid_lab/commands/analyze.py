@@ -9,6 +9,7 @@ import argparse
 
 
 def run(args: argparse.Namespace) -> int:
+    from analysis.errors import InputError
     from analysis.model import Model
 
     from .. import methods
@@ -23,6 +24,9 @@ def run(args: argparse.Namespace) -> int:
     if args.store:
         check_result_target(args.store)      # before the work: a bad target exits 2 at once
     model = Model.load(args.model)
+    if args.store and all(el.known for el in model.elements):
+        raise InputError(f"--store saves estimated parameters but {args.model} has none to "
+                         "estimate; drop --store (screening results go to --json)")
     recs = [rec for path in args.runs for rec in load_recordings(path)]
     estimate = method.estimate(recs, model, options)
     out = estimate.to_json()

@@ -4,7 +4,10 @@ Besides the contracts section 4 keys, the JSON holds ``"estimator": "reverse-pat
 ``"force_hold"`` (how the applied force was taken to behave between samples) and ``"modal"``:
 natural frequencies, damping ratios and mode shapes of the estimated underlying linear FRF
 columns (`analysis.modal.modal_summary`; through the Welch kernel on the residual-force H1
-where that applies, docs/reverse-path.md). ``--screen`` adds ``"screening"``.
+where that applies, docs/reverse-path.md). ``--screen`` adds ``"screening"`` (ranked table,
+significance rule, chosen candidates and the ``[[element]]`` snippet adding them); with a
+model that has nothing to estimate (a linear model) ``--screen`` screens only: ``"elements"``
+is empty and there is no ``"modal"``/``"multiple_coherence"``.
 """
 
 from __future__ import annotations
@@ -45,8 +48,15 @@ class ReversePathOptions:
         help="how the applied force behaves between samples: 'linear' for a first-order-hold "
         "drive such as the simulated plant's, 'none' for a force transducer behind an "
         "anti-alias filter (default: what the run declares, else none)")
-    screen: bool = option("--screen", default=False, action="store_true",
-                          help="also rank the candidate basis library by conditioned coherence")
+    screen: bool = option(
+        "--screen", default=False, action="store_true",
+        help="also rank every element kind reverse path can estimate at every DOF and DOF pair "
+        "(coherence gain, |p|/sigma) and print the [[element]] tables adding the significant "
+        "ones; with a linear model (nothing to estimate) only this")
+    candidate_out: str | None = option(
+        "--candidate-out", metavar="CANDIDATE.toml",
+        help="with --screen: write the model with the significant candidates added, "
+        "parameters omitted (the candidate model for the estimate)")
     refine: str = option(
         "--refine", default="joint", batch=True, choices=("joint", "sequential"),
         help="'sequential': re-estimate each coefficient with the elements on forced DOFs "
@@ -93,31 +103,61 @@ def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
 class ReversePathEstimate:
     """A reverse-path estimate with its modal summary (the `Estimate` of this method)."""
 
-    result: ReversePathResult
+    result: ReversePathResult | None          # None: screening only (nothing to estimate)
     modal: dict[str, Any] | None
     force_hold: str
     n_records: int
     screening: ScreeningResult | None = None
+    model: Model | None = None
+    candidate_out: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """Contracts section 4 JSON plus ``estimator``, ``force_hold``, ``modal`` (and
         ``screening``)."""
-        out = {ESTIMATOR_KEY: NAME, **self.result.to_json(), "force_hold": self.force_hold,
-               "modal": self.modal}
+        if self.result is None:
+            out = {ESTIMATOR_KEY: NAME, "elements": [], "warnings": self.warnings(),
+                   "force_hold": self.force_hold}
+        else:
+            out = {ESTIMATOR_KEY: NAME, **self.result.to_json(),
+                   "force_hold": self.force_hold, "modal": self.modal}
+            out["warnings"] = out["warnings"] + self.warnings()
         if self.screening is not None:
             out["screening"] = self.screening.to_json()
         return out
 
+    def warnings(self) -> list[str]:
+        """Screening warnings (the estimate's own are in its result)."""
+        if self.screening is None or self.screening.snippet():
+            return []
+        why = ("every significant candidate is already in the model" if self.screening.chosen
+               else "no candidate is significant")
+        return [f"screening: {why}; nothing to add to the model"
+                + (f" ({self.candidate_out} not written)" if self.candidate_out else "")]
+
     def table(self) -> str:
-        lines = [f"{self.n_records} record(s), force hold '{self.force_hold}'",
-                 format_table(self.result, self.modal)]
+        lines = [f"{self.n_records} record(s), force hold '{self.force_hold}'"]
+        if self.result is not None:
+            lines.append(format_table(self.result, self.modal))
         if self.screening is not None:
-            lines += ["candidate screening (paper eq 20 library; * = selected):",
-                      self.screening.table()]
+            lines += ["candidate screening (every kind reverse path estimates, at every DOF "
+                      "and DOF pair; best first):", self.screening.table()]
+            snippet = self.screening.snippet()
+            if snippet:
+                lines += ["add to the model file (parameters omitted: `analyze reverse-path` "
+                          "estimates them)" + (f"; written with the model to "
+                                              f"{self.candidate_out}" if self.candidate_out
+                                              else "") + ":", snippet.rstrip()]
+        lines += [f"warning: {w}" for w in self.warnings()]
         return "\n".join(lines)
 
     def write_files(self) -> list[str]:
-        return []
+        """``--candidate-out``: the model with the screened snippet appended."""
+        if (not self.candidate_out or self.screening is None or self.model is None
+                or not self.screening.snippet()):
+            return []
+        with open(self.candidate_out, "w") as fh:
+            fh.write(self.model.dumps() + "\n" + self.screening.snippet())
+        return [self.candidate_out]
 
 
 def estimate(recs: Sequence[Recording], model: Model,
@@ -132,12 +172,24 @@ def estimate(recs: Sequence[Recording], model: Model,
     from analysis.reverse_path import screen_candidates
 
     options = options or ReversePathOptions()
+    if options.candidate_out and not options.screen:
+        raise InputError("--candidate-out writes the screened candidates: add --screen")
+    to_estimate = any(not el.known for el in model.elements)
+    if not to_estimate and not options.screen:
+        raise InputError("the candidate model has no unknown parameter: omit the parameters "
+                         "of the elements to estimate, or add --screen to rank candidate "
+                         "elements for this model")
     holds = {r.force_hold for r in recs} if options.force_hold is None \
         else {options.force_hold}
     if len(holds) > 1:
         raise InputError("the runs declare different force holds; analyse them separately "
                          "or give --force-hold")
     hold = holds.pop()
+    if not to_estimate:
+        screening = screen_candidates(recs, model, band=options.band,
+                                      nperseg=options.nperseg, force_hold=hold)
+        return ReversePathEstimate(None, None, hold, len(recs), screening, model,
+                                   options.candidate_out)
     result = reverse_path(recs, model, band=options.band, nperseg=options.nperseg,
                           force_hold=hold, refine=options.refine)
     try:   # an estimate a model file cannot hold (e.g. negative damping): H_linear instead
@@ -152,7 +204,8 @@ def estimate(recs: Sequence[Recording], model: Model,
         modal = None
     screening = screen_candidates(recs, model, band=result.band, nperseg=options.nperseg,
                                   force_hold=hold) if options.screen else None
-    return ReversePathEstimate(result, modal, hold, len(recs), screening)
+    return ReversePathEstimate(result, modal, hold, len(recs), screening, model,
+                               options.candidate_out)
 
 
 def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
@@ -208,6 +261,11 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     return [sec]
 
 
+def output_files(options: ReversePathOptions) -> list[str]:
+    """``--candidate-out``."""
+    return [options.candidate_out] if options.candidate_out else []
+
+
 register(Method(NAME, "random excitation: reverse path / NIFO", ReversePathOptions, "random",
                 estimate, estimate_level, report_sections,
-                legacy_keys=("elements", "multiple_coherence")))
+                legacy_keys=("elements", "multiple_coherence"), output_files=output_files))
