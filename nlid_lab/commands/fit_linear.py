@@ -4,7 +4,6 @@ lowest level of a run (stabilisation diagram, mode shapes at every channel, resi
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -12,7 +11,8 @@ import numpy as np
 
 from analysis.errors import InputError
 
-from ..outputs import add_force_option, level_text, refuse_overwrite, write_json
+from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_overwrite,
+                       summary_stream, write_json)
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
@@ -105,8 +105,7 @@ def run(args: argparse.Namespace) -> int:
     result["level"] = rec.level
     text = (f"level {level_text(rec.level)}\n" + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
-    if not args.quiet:
-        print(text, file=sys.stderr if args.json == "-" else sys.stdout)
+    print(text, file=summary_stream(args.json, args.quiet))
     write_json(result, args.json)
     return 0
 
@@ -135,7 +134,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="names of the response channels (the model's points)")
     p.add_argument("--plot", metavar="PNG", help="write the stabilisation diagram")
     p.add_argument("--json", metavar="FILE", help="write the modes as JSON ('-' for stdout)")
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    add_quiet_option(p)
     add_force_option(p)
     repair_option(p)
     p.set_defaults(func=run)
