@@ -79,12 +79,12 @@ def test_sdof_ranks_cubic_and_quadratic_damping_first(sdof):
 
 
 def test_sdof_screening_gives_the_example_candidate(sdof):
-    """examples/models/sdof-candidate.toml is what screening adds to sdof-linear.toml."""
+    """examples/candidates/sdof-candidate.toml is what screening adds to sdof-linear.toml."""
     _, force, x = sdof
     linear = Model.load("examples/models/sdof-linear.toml")
     res = _screen(force, x, linear, fs=1024.0)
     got = Model.loads(linear.dumps() + res.snippet())
-    example = Model.load("examples/models/sdof-candidate.toml")
+    example = Model.load("examples/candidates/sdof-candidate.toml")
     assert [(e.kind, e.w.tolist(), e.params) for e in got.elements] == \
         [(e.kind, e.w.tolist(), {}) for e in example.elements]
     assert np.array_equal(example.stiffness, linear.stiffness)
@@ -216,7 +216,7 @@ def test_cli_screen_with_a_candidate_adds_ranking(sdof, tmp_path, capsys):
              response=x)
     out = tmp_path / "out.json"
     assert main(["analyze", "reverse-path", str(rec), "--model",
-                 "examples/models/sdof-candidate.toml", "--json", str(out), "--screen",
+                 "examples/candidates/sdof-candidate.toml", "--json", str(out), "--screen",
                  "--nperseg", "4096"]) == 0
     js = json.loads(out.read_text())
     assert [r["kind"] for r in js["screening"]["ranking"][:2]] == ["cubic_spring",

@@ -116,12 +116,13 @@ class ScreeningResult:
 
     def table(self) -> str:
         """Readable table."""
-        out = [f"{'rank':>4}  {'candidate':<36} {'basis':<8} {'sel':>3} {'sig':>3} "
+        width = max([len("candidate")] + [len(r["label"]) for r in self.rows])
+        out = [f"{'rank':>4}  {'candidate':<{width}} {'basis':<8} {'sel':>3} {'sig':>3} "
                f"{'cond.coh':>8} {'gain':>7} {'coefficient':>15} {'|p|/sig':>9} "
                f"{'|Im/Re|':>8} {'ci/p':>8}"]
         for r in self.rows:
             coef = f"{r['param']} = {r['p']:.4g}"
-            out.append(f"{r['rank']:>4}  {r['label']:<36} {r['basis']:<8} "
+            out.append(f"{r['rank']:>4}  {r['label']:<{width}} {r['basis']:<8} "
                        f"{'*' if r['selected'] else '':>3} {'*' if r['significant'] else '':>3} "
                        f"{r['conditioned_coherence']:8.4f} {r['coherence_gain']:7.3f} "
                        f"{coef:>15} {r['z']:9.3g} {r['imag_ratio']:8.3f} {r['rel_ci']:8.3f}")
