@@ -4,7 +4,7 @@ searches)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
@@ -41,12 +41,18 @@ MAX_EFFECTS = 3
 (a candidate already accepted is not offered again: the joint refit corrects its estimate)."""
 
 
-def _pick_holdout(levels: list[float], holdout: float | str | None) -> int | None:
-    """Index (into ascending levels) held back; None means a held-back segment."""
+def _pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] | None:
+    """Indices (into ascending levels) held back; None means a held-back segment.
+
+    Default: the lowest of two levels, the middle one of three, and every other interior
+    level of four or more (indices 1, 3, ...: the lowest and highest levels are always
+    fitted, so held-back levels are interpolated, never extrapolated)."""
     if holdout == "segment" or (holdout is None and len(levels) == 1):
         return None
     if holdout is None:
-        return len(levels) // 2 if len(levels) >= 3 else 0
+        if len(levels) >= 4:
+            return list(range(1, len(levels) - 1, 2))
+        return [len(levels) // 2 if len(levels) >= 3 else 0]
     try:
         target = float(holdout)
     except (TypeError, ValueError):
@@ -59,7 +65,7 @@ def _pick_holdout(levels: list[float], holdout: float | str | None) -> int | Non
     if len(levels) == 1:
         raise DiagnoseInputError("holding back the only level leaves nothing to fit; give "
                                  "more levels or --holdout segment")
-    return i
+    return [i]
 
 
 def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
@@ -99,6 +105,7 @@ class SearchPass:
     found: bool
     fixed: Model
     effect: float
+    rejected: list[dict] = field(default_factory=list)
 
     @property
     def best(self) -> Fit:
@@ -110,24 +117,44 @@ class SearchPass:
                 "delta_bic": float(b.delta_bic) if b else None,
                 "chi2_start": float(self.search.chi2_0),
                 "chi2_reduction": float(self.reduction),
-                "model_change": float(self.effect), "accepted": bool(self.found)}
+                "model_change": float(self.effect), "accepted": bool(self.found),
+                "rejected": self.rejected}
+
+
+MAX_TRIED = 4
+"""Candidates passing the thresholds that a pass tries when a better one is vetoed."""
 
 
 def decide(model: Model, search: Search, pool: list[Fit],
            change: Callable[[Model], float], *, further: bool = False,
-           accepted: Sequence[Candidate] = ()) -> SearchPass:
-    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass if it passes
-    all three thresholds (a stricter misfit reduction for a ``further`` effect)."""
+           accepted: Sequence[Candidate] = (),
+           veto: Callable[[Model], str | None] | None = None) -> SearchPass:
+    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass that passes
+    all three thresholds (a stricter misfit reduction for a ``further`` effect) and that
+    ``veto`` (corrected model -> reason or None) does not reject; the vetoed ones are kept
+    in ``rejected`` with their reason, and the next candidate is tried (at most
+    `MAX_TRIED`)."""
     pool = [f for f in pool if f.cand not in accepted]
-    best = pool[0] if pool else None
-    reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
     min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
-    found = best is not None and best.delta_bic > BIC_MIN and reduction > min_red
-    fixed = corrected_model(model, best) if found else model
-    effect = change(fixed) if found else 0.0
-    if found and effect < MIN_EFFECT:
-        found, fixed = False, model
-    return SearchPass(search, pool, reduction, found, fixed, effect)
+    rejected: list[dict] = []
+    first = (search.chi2_0 - pool[0].chi2) / search.chi2_0 if pool else 0.0
+    first_effect = 0.0
+    for best in pool[:MAX_TRIED]:
+        reduction = (search.chi2_0 - best.chi2) / search.chi2_0
+        if not (best.delta_bic > BIC_MIN and reduction > min_red):
+            break
+        fixed = corrected_model(model, best)
+        effect = change(fixed)
+        first_effect = first_effect or effect
+        if effect < MIN_EFFECT:
+            break
+        reason = veto(fixed) if veto is not None else None
+        if reason is None:
+            rest = [f for f in pool if f is not best]
+            return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
+        rejected.append({"candidate": best.cand.label, "reason": reason})
+        best.evidence["rejected"] = reason
+    return SearchPass(search, pool, first, False, model, first_effect, rejected)
 
 
 def linear_only(search: Search) -> bool:

@@ -29,6 +29,7 @@ from ..recording import Recording
 from ..reverse_path import reverse_path
 from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import LevelFRF, chi2, level_frf, model_frf, unit_force
+from .leakage import leakage_bias
 from .linear_update import Z95, fit_linear_error, updated_frf
 from .prepare import Prepared
 
@@ -174,6 +175,9 @@ class RandomSearch(Search):
         low = min(preps, key=lambda p: p.level)
         extra = candidate_extras(model, low.x, low.v)
         levels = [self._level(model, extra, p, floor) for p in preps]
+        terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
+        for lf in levels:   # the starting model as the Welch estimate sees it
+            lf.leakage = leakage_bias(model, lf, terms)
         super().__init__(model, levels, extra)
 
     def _level(self, model: Model, extra: dict, p: Prepared, floor: float) -> LevelFRF:

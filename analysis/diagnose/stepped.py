@@ -255,7 +255,7 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
     if len(frfs) < 2 or holdout == "segment":
         raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
                          "back); record another level")
-    hold = _pick_holdout([f.level for f in frfs], holdout)
+    hold = _pick_holdout([f.level for f in frfs], holdout)[0]   # one held-back level
     fit_idx = [i for i in range(len(frfs)) if i != hold]
     cache: dict[tuple[int, int], np.ndarray] = {}
 
