@@ -4,9 +4,9 @@ A Welch H1 estimate is the true FRF smoothed by the window's power kernel (weigh
 input spectrum, `analysis.modal.welch_smoothing`). Where the line spacing is not well below
 a resonance's half-power bandwidth that smoothing flattens and widens the peak: the
 measured FRF of an exact model then differs from the model's FRF by far more than the noise
-(examples/campaign-sim-random.toml, level 5 N, 1.6 lines per bandwidth: 17 %). The model is
-therefore compared *as the estimator sees it*. With ``K[.]`` the input-weighted kernel smoothing, the Welch
-estimate of ``x = H_L (B f - sum_m w_m p_m g_m)`` is
+(examples/campaign-sim-random.toml, level 5 N, 1.6 lines per bandwidth: 17 %). The model
+is therefore compared *as the estimator sees it*. With ``K[.]`` the input-weighted kernel
+smoothing, the Welch estimate of ``x = H_L (B f - sum_m w_m p_m g_m)`` is
 
     H1 = K[H_L B] - sum_m p_m K[H_L w_m T_m],      T_m = S_{g_m f} / S_ff,
 

@@ -128,10 +128,10 @@ MAX_TRIED = 4
 def decide(model: Model, search: Search, pool: list[Fit],
            change: Callable[[Model], float], *, further: bool = False,
            accepted: Sequence[Candidate] = (),
-           veto: Callable[[Model], str | None] | None = None) -> SearchPass:
+           veto: Callable[[Fit], str | None] | None = None) -> SearchPass:
     """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass that passes
     all three thresholds (a stricter misfit reduction for a ``further`` effect) and that
-    ``veto`` (corrected model -> reason or None) does not reject; the vetoed ones are kept
+    ``veto`` (candidate -> reason or None) does not reject; the vetoed ones are kept
     in ``rejected`` with their reason, and the next candidate is tried (at most
     `MAX_TRIED`)."""
     pool = [f for f in pool if f.cand not in accepted]
@@ -148,7 +148,7 @@ def decide(model: Model, search: Search, pool: list[Fit],
         first_effect = first_effect or effect
         if effect < MIN_EFFECT:
             break
-        reason = veto(fixed) if veto is not None else None
+        reason = veto(best) if veto is not None else None
         if reason is None:
             rest = [f for f in pool if f is not best]
             return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
@@ -169,3 +169,43 @@ def model_change(curves: list[LevelCurves]) -> float:
     num = sum(float(np.sum(np.abs(c.after - c.before) ** 2)) for c in curves)
     den = sum(float(np.sum(np.abs(c.measured) ** 2)) for c in curves)
     return float(np.sqrt(num / den))
+
+
+def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[dict]) -> dict:
+    """Where the model still misfits beyond the floor: the worst level (error over floor),
+    the band holding the central 90 % of its coherence-weighted squared error, its DOFs above
+    the floor, the error at every level, and what the search tried."""
+    ratio = [c.error_after / c.floor.limit for c in curves]
+    c = curves[int(np.argmax(ratio))]
+    g = np.ones(c.measured.shape) if c.coh is None else c.coh
+    e = np.sum(g * np.abs(c.measured - c.after) ** 2, axis=(1, 2))
+    cum = np.cumsum(e) / max(e.sum(), 1e-300)
+    i0 = int(np.searchsorted(cum, 0.05))
+    i1 = int(min(np.searchsorted(cum, 0.95), c.freqs.size - 1))
+    per_dof = c.frequency_residual(c.after)
+    dofs = [i for i, v in enumerate(per_dof) if v > c.floor.limit] or [int(np.argmax(per_dof))]
+    best = first.pool[0] if first.pool else None
+    return {"level": c.label, "band_hz": [float(c.freqs[i0]), float(c.freqs[i1])],
+            "dofs": dofs, "error_by_dof": per_dof,
+            "level_trend": [{"level": x.level, "error": x.error_after, "floor": x.floor.limit}
+                            for x in sorted(curves, key=lambda x: x.level)],
+            "tried": {"candidates": len(first.search.cands),
+                      "best": best.cand.label if best else None,
+                      "best_chi2_reduction": float(first.reduction),
+                      "best_delta_bic": float(best.delta_bic) if best else None,
+                      "required_chi2_reduction": MIN_REDUCTION, "required_delta_bic": BIC_MIN,
+                      "rejected": [r["candidate"] for r in rejected]}}
+
+
+def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
+               judge: Callable[[Model, Model], str | None]) -> Callable[[Fit], str | None]:
+    """Veto of a further candidate: the accepted effects plus it, refitted jointly on the
+    first search's levels (as the final correction will be), judged against the correction
+    without it (``judge(previous, corrected)`` -> reason or None). The first estimates of a
+    sequential search are biased by the effects not yet found, so the sequentially corrected
+    model is not what is judged."""
+    if not accepted:
+        return lambda fit: judge(model, corrected_model(model, fit))
+    previous = _apply(model, joint_refit(model, first(), accepted))
+    return lambda fit: judge(previous, _apply(model, joint_refit(model, first(),
+                                                                 accepted + [fit])))

@@ -152,8 +152,8 @@ def worsened(curves: list[LevelCurves], floors: list[Floor]) -> str | None:
     if not bad:
         return None
     return "it worsens " + "; ".join(
-        f"{c.label}{' (held back)' if c.held_back else ''}: FRF error {change(c.error_before, c.error_after)}, floor {f.limit:.3g}"
-        for c, f in bad)
+        f"{c.label}{' (held back)' if c.held_back else ''}: FRF error "
+        f"{change(c.error_before, c.error_after)}, floor {f.limit:.3g}" for c, f in bad)
 
 
 def change(before: float, after: float) -> str:

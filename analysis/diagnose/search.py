@@ -19,8 +19,9 @@ from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_rando
 from .replay import Replay, horizon_samples, replay
 from .report import METRIC, Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import SHORTLIST, Fit, RandomSearch
-from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, SearchPass, _apply, _pick_holdout,
-                     _pruned, decide, linear_only, model_change, pruned_labels)
+from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout,
+                     _pruned, decide, joint_veto, linear_only, misfit_summary, model_change,
+                     pruned_labels)
 
 
 def _check(model: Model, recordings: Sequence[Recording]) -> list[Recording]:
@@ -106,17 +107,17 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     tick = _ticker(progress, MAX_EFFECTS + 1 + len(all_preps))
     floors = [level_floor(_level(model, p, band, nps, floor), floor) for p in all_preps]
 
-    def veto(start: Model) -> Callable[[Model], str | None]:
-        return lambda fixed: worsened(
-            [_curves(start, fixed, p, band, nps, floor, i >= len(fit_preps))
-             for i, p in enumerate(all_preps)], floors)
+    def judge(previous: Model, fixed: Model) -> str | None:
+        return worsened([_curves(previous, fixed, p, band, nps, floor, i >= len(fit_preps))
+                         for i, p in enumerate(all_preps)], floors)
 
-    passes = []
+    passes: list[SearchPass] = []
     current = model
     for k in range(MAX_EFFECTS):
         tick(f"search pass {k + 1}")
-        step = _search_pass(current, fit_preps, band, nps, floor,
-                            [s.best.cand for s in passes if s.found], veto(current))
+        found = [s.best for s in passes if s.found]
+        step = _search_pass(current, fit_preps, band, nps, floor, [f.cand for f in found],
+                            joint_veto(model, lambda: passes[0].search, found, judge))
         passes.append(step)
         if not step.found:
             break
@@ -165,7 +166,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     verdict = "discrepancy" if chosen else "adequate" if within else "unexplained"
     misfit = None
     if not within:
-        misfit = _misfit(current, curves, all_preps, band, nps, floor, first, rejected)
+        misfit = misfit_summary(curves, first, rejected)
         if verdict == "unexplained":
             location = {"dofs": misfit["dofs"], "band_hz": misfit["band_hz"]}
     d = Diagnosis(
@@ -215,34 +216,9 @@ def _replays(model: Model, preps: list[Prepared], horizon: int,
     return out
 
 
-def _misfit(model: Model, curves: list[LevelCurves], preps: list[Prepared], band, nps: int,
-            floor: float, first: SearchPass, rejected: list[dict]) -> dict:
-    """Where the (corrected) model still misfits: worst level's band and channels, the
-    error at every level, and what the search tried."""
-    ratio = [c.error_after / c.floor.limit for c in curves]
-    worst = int(np.argmax(ratio))
-    lf, h = _predicted(model, preps[worst], band, nps, floor)
-    lo, hi = mismatch_band(lf, h)
-    per_dof = curves[worst].frequency_residual(curves[worst].after)
-    lim = curves[worst].floor.limit
-    dofs = [i for i, e in enumerate(per_dof) if e > lim] or [int(np.argmax(per_dof))]
-    order = sorted(range(len(curves)), key=lambda i: curves[i].level)
-    best = first.pool[0] if first.pool else None
-    return {"level": curves[worst].label, "band_hz": [lo, hi], "dofs": dofs,
-            "error_by_dof": per_dof,
-            "level_trend": [{"level": curves[i].level, "error": curves[i].error_after,
-                             "floor": curves[i].floor.limit} for i in order],
-            "tried": {"candidates": len(first.search.cands),
-                      "best": best.cand.label if best else None,
-                      "best_chi2_reduction": float(first.reduction),
-                      "best_delta_bic": float(best.delta_bic) if best else None,
-                      "required_chi2_reduction": MIN_REDUCTION, "required_delta_bic": BIC_MIN,
-                      "rejected": [r["candidate"] for r in rejected]}}
-
-
 def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
                  floor: float, accepted: list[Candidate],
-                 veto: Callable[[Model], str | None]) -> SearchPass:
+                 veto: Callable[[Fit], str | None]) -> SearchPass:
     """Screen the library, refine the best nonlinear ones by reverse path, decide."""
     search = RandomSearch(model, fit_preps, band, nps, floor)
     fits = search.screen()
