@@ -215,6 +215,18 @@ def _rejected_text(d: Diagnosis) -> str:
     return " Rejected: " + "; ".join(f"{r['candidate']} ({r['reason']})" for r in rej) + "."
 
 
+def _trend(errors: list[float]) -> str:
+    """How the error (ascending levels) changes with level, in words."""
+    steps = np.diff(errors)
+    if len(errors) < 2 or max(errors) <= 1.5 * min(errors):
+        return "is about the same at every level"
+    if np.all(steps >= 0):
+        return "grows with level"
+    if np.all(steps <= 0):
+        return "falls with level"
+    return "changes from level to level without a monotonic trend"
+
+
 def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     band = d.location.get("band_hz")
     lvl = ("The measured FRFs change with excitation level beyond their random error, so the "
@@ -232,10 +244,7 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     if d.verdict == "unexplained":
         m = d.evidence["misfit"]
         tried = m["tried"]
-        trend = [t["error"] for t in m["level_trend"]]
-        how = ("grows with level" if trend[-1] > 1.5 * trend[0] else
-               "falls with level" if trend[0] > 1.5 * trend[-1] else
-               "is about the same at every level") if len(trend) > 1 else "is"
+        how = _trend([t["error"] for t in m["level_trend"]])
         best = (f" The best candidate ({tried['best']}) removes "
                 f"{100 * max(tried['best_chi2_reduction'], 0.0):.3g} % of the weighted misfit "
                 f"(needed: {100 * tried['required_chi2_reduction']:.3g} % and "

@@ -140,9 +140,10 @@ class Search:
             return -np.inf, np.inf
         if not flex > 0:
             return -np.inf, np.inf
-        u = np.linspace(-reach, reach, 401)
-        kt = np.gradient(restoring_force(c.kind, unit_params(c.kind, extra), u,
-                                         np.zeros_like(u))[0], u)
+        u, du = np.linspace(-reach, reach, 401), 1e-4 * reach
+        both = np.concatenate([u + du, u - du])
+        g = restoring_force(c.kind, unit_params(c.kind, extra), both, np.zeros_like(both))[0]
+        kt = (g[:u.size] - g[u.size:]) / (2 * du)     # tangent at unit coefficient
         lo = -MARGIN / flex / kt.max() if kt.max() > 0 else -np.inf
         hi = MARGIN / flex / -kt.min() if kt.min() < 0 else np.inf
         return float(lo), float(hi)
