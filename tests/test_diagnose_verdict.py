@@ -46,8 +46,12 @@ def example_runs(tmp_path_factory):
 
 def test_true_model_of_the_two_level_example_is_adequate(example_runs):
     truth = Model.load(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml")
-    d = diagnose(truth, example_runs)
+    calls = []
+    d = diagnose(truth, example_runs, progress=lambda *a: calls.append(a))
     assert d.verdict == "adequate", d.explanation
+    assert calls[0] == (0, calls[0][1], "search pass 1")
+    assert calls[-1] == (calls[-1][1], calls[-1][1], "done")
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
     assert d.missing_physics() == []
     assert d.fit["within_floor"]
     assert len(d.fit["levels"]) == 2

@@ -104,7 +104,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     if min(p.x.shape[0] for p in all_preps) < 4 * nps:
         raise DiagnoseInputError(f"records are too short for segments of {nps} samples; give "
                                  "longer runs or a smaller --nperseg")
-    tick = _ticker(progress, MAX_EFFECTS + 1 + len(all_preps))
+    tick = _ticker(progress, MAX_EFFECTS + 1 + 2 * len(all_preps))
     floors = [level_floor(_level(model, p, band, nps, floor), floor) for p in all_preps]
 
     def judge(previous: Model, fixed: Model) -> str | None:
@@ -132,7 +132,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     rejected = [dict(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes)
                 for r in s.rejected]
     horizon = horizon_samples(model, recs[0].fs)
-    start_replays = _replays(model, all_preps, horizon, warnings)
+    start_replays = _replays(model, all_preps, horizon, warnings, tick)
     while True:   # the final correction must not worsen a level, and its replay must run
         current = _apply(model, chosen)
         curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps))
@@ -140,7 +140,10 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         reason = worsened(curves, floors) if chosen else None
         if reason is None and chosen:
             try:
-                after_replays = [replay(current, p, horizon) for p in all_preps]
+                after_replays = []
+                for p in all_preps:
+                    tick(f"replay of {p.label} (corrected model)")
+                    after_replays.append(replay(current, p, horizon))
             except PlantError as exc:
                 reason = f"the corrected model's replay fails ({exc})"
         if reason is None:
@@ -152,7 +155,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         c.floor = fl
         c.replay_before = before
         c.replay_after = after_replays[curves.index(c)] if chosen else before
-        tick(f"{c.label} replayed")
+    tick("done", finished=True)
     held_curves = [c for c in curves if c.held_back]
     before = float(np.mean([c.error_before for c in held_curves]))
     after_err = float(np.mean([c.error_after for c in held_curves]))
@@ -192,21 +195,24 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     return d
 
 
-def _ticker(progress: Progress | None, total: int) -> Callable[[str], None]:
+def _ticker(progress: Progress | None, total: int) -> Callable[..., None]:
+    """``tick(stage)`` reports the start of the next step; ``finished=True`` the end."""
     done = [0]
 
-    def tick(stage: str) -> None:
+    def tick(stage: str, finished: bool = False) -> None:
+        done[0] = total if finished else done[0]
         if progress is not None:
             progress(done[0], total, stage)
         done[0] += 1
     return tick
 
 
-def _replays(model: Model, preps: list[Prepared], horizon: int,
-             warnings: list[str]) -> list[Replay | None]:
+def _replays(model: Model, preps: list[Prepared], horizon: int, warnings: list[str],
+             tick: Callable[[str], None]) -> list[Replay | None]:
     """Replays of the starting model (None, with a warning, where its simulation fails)."""
     out: list[Replay | None] = []
     for p in preps:
+        tick(f"replay of {p.label}")
         try:
             out.append(replay(model, p, horizon))
         except PlantError as exc:
