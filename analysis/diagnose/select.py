@@ -134,8 +134,8 @@ class Search:
         reach = self.reach.get(c.dofs)
         if c.linear or spec.dissipative or spec.memory or not reach:
             return -np.inf, np.inf
-        try:
-            flex = float(c.w @ np.linalg.solve(self.model.stiffness, c.w))
+        try:   # static flexibility at the location, w^T H_L(0) w = w^T K^-1 w
+            flex = float((c.w @ self.model.linear_frf(np.zeros(1))[0] @ c.w).real)
         except np.linalg.LinAlgError:
             return -np.inf, np.inf
         if not flex > 0:
