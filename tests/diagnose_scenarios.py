@@ -199,3 +199,36 @@ def three_effects(n: int = 1 << 15, seed: int = 51) -> Scenario:
 
 SCENARIOS = {"hidden_cubic": hidden_cubic, "relative_damping": relative_damping,
              "linear_mass_error": linear_mass_error, "no_discrepancy": no_discrepancy}
+
+
+def hidden_absorber(n: int = 1 << 15, seed: int = 61) -> Scenario:
+    """Physics outside the library: a small mass (6 % of DOF 1's) on a spring and dashpot
+    hangs from DOF 1, tuned to 24 Hz, and is not measured. Seen from the two measured DOFs
+    it is a frequency-dependent stiffness (an extra resonance/antiresonance pair) that no
+    element, mass, stiffness or damping error reproduces. Linear, so level independent."""
+    start = chain([1.0, 0.8], [2.0e4], [1.2e4, 0.0])
+    m_a, f_a = 0.05, 24.0
+    k_a = m_a * (2 * np.pi * f_a) ** 2
+    truth = chain([1.0, 0.8, m_a], [2.0e4, k_a], [1.2e4, 0.0, 0.0])
+    truth.damping[:2, :2] = start.damping
+    truth.damping[1:, 1:] += 0.02 * k_a / (2 * np.pi * f_a) * np.array([[1.0, -1.0],
+                                                                         [-1.0, 1.0]])
+    full = random_runs(truth, 0, [2.0, 6.0, 18.0], n=n, seed=seed)
+    recs = [Recording(r.fs, "random", r.force_dofs, r.force, r.response[:, :2],
+                      r.response_kind, level=r.level) for r in full]
+    return Scenario("hidden absorber (outside the library)", truth, start, recs,
+                    "unexplained", level_dependent=False)
+
+
+def drifting_structure(n: int = 1 << 15, seed: int = 71) -> Scenario:
+    """Four levels of a 2-DOF chain whose ground spring at DOF 0 was 20 % stiffer during
+    the lowest and the highest run than during the two middle ones (the model's value): a
+    stiffness error fitted to the fitting levels (lowest, third, highest) helps the outer
+    two and harms the middle ones, the held-back second level among them."""
+    start = chain([1.0, 0.8], [2.0e4], [1.2e4, 0.0])
+    stiff = chain([1.0, 0.8], [2.0e4], [1.2e4 * 1.2, 0.0])
+    stiff.damping = start.damping.copy()
+    levels = [2.0, 4.0, 8.0, 16.0]
+    recs = [random_runs(stiff if lv in (2.0, 16.0) else start, 1, [lv], n=n,
+                        seed=seed + i)[0] for i, lv in enumerate(levels)]
+    return Scenario("structure changed between runs", stiff, start, recs, "unexplained")

@@ -24,6 +24,7 @@ from typing import Hashable
 import numpy as np
 
 from ..elements import restoring_force
+from ..modal import welch_smoothing
 from ..model import Model
 from ..sine_fit import hold_gain
 from ..spectral import h1, multiple_coherence, spectral_matrix
@@ -58,6 +59,15 @@ class LevelFRF:
         Basis key -> rms of the deformation ``u`` and rate ``u'`` it acts on.
     bin_factor : float
         Correlation of adjacent bins (effective number of independent values divisor).
+    n_eff : float
+        Equivalent number of independent Welch averages.
+    smoothing : (offsets, weights), optional
+        The Welch kernel with which the estimate smooths the true FRF
+        (`analysis.modal.welch_smoothing`, weighted by the measured input spectrum); None for
+        leakage-free whole-period spectra.
+    leakage : ndarray, optional
+        Welch leakage of the model FRF at this level (`.leakage.leakage_bias`), added by
+        `model_frf` so that the model is compared as the estimator sees it.
     """
 
     label: str
@@ -69,6 +79,9 @@ class LevelFRF:
     B: np.ndarray
     T: dict[Hashable, np.ndarray] = field(default_factory=dict)
     bin_factor: float = 1.0
+    n_eff: float = 1.0
+    smoothing: tuple[np.ndarray, np.ndarray] | None = None
+    leakage: np.ndarray | None = None
 
     @property
     def n_values(self) -> float:
@@ -147,7 +160,10 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
                 / gain[:, None]
     B = np.zeros((n_dof, n_in))
     B[p.force_dofs, np.arange(n_in)] = 1.0
-    return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor)
+    smoothing = None if p.period is not None else welch_smoothing(
+        "hann", nperseg, p.fs, input_spectrum=(sp.freqs, fpsd[keep]))
+    return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor, n_eff,
+                    smoothing)
 
 
 def model_frf(H_lin: np.ndarray, lf: LevelFRF,
@@ -164,7 +180,7 @@ def model_frf(H_lin: np.ndarray, lf: LevelFRF,
     rhs = np.broadcast_to(lf.B, (lf.freqs.size,) + lf.B.shape).astype(complex)
     for w, coef, key in terms:
         rhs = rhs - coef * w[None, :, None] * lf.T[key][:, None, :]
-    return H_lin @ rhs
+    return H_lin @ rhs if lf.leakage is None else H_lin @ rhs + lf.leakage
 
 
 def chi2(lf: LevelFRF, H_model: np.ndarray) -> float:

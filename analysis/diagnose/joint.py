@@ -48,7 +48,8 @@ def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
 def _valid(search: Search, fit: Fit, value: float) -> bool:
     if fit.cand.linear:
         return search.linear_ok(fit.cand, value)
-    return value >= 0 or not KINDS[fit.cand.kind].dissipative
+    lo, hi = search.bounds(fit.cand, grid_value(fit.cand.kind, fit.params))
+    return (value >= 0 or not KINDS[fit.cand.kind].dissipative) and lo <= value <= hi
 
 
 def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:

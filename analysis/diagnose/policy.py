@@ -4,7 +4,7 @@ searches)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
@@ -41,12 +41,18 @@ MAX_EFFECTS = 3
 (a candidate already accepted is not offered again: the joint refit corrects its estimate)."""
 
 
-def _pick_holdout(levels: list[float], holdout: float | str | None) -> int | None:
-    """Index (into ascending levels) held back; None means a held-back segment."""
+def _pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] | None:
+    """Indices (into ascending levels) held back; None means a held-back segment.
+
+    Default: the lowest of two levels, the middle one of three, and every other interior
+    level of four or more (indices 1, 3, ...: the lowest and highest levels are always
+    fitted, so held-back levels are interpolated, never extrapolated)."""
     if holdout == "segment" or (holdout is None and len(levels) == 1):
         return None
     if holdout is None:
-        return len(levels) // 2 if len(levels) >= 3 else 0
+        if len(levels) >= 4:
+            return list(range(1, len(levels) - 1, 2))
+        return [len(levels) // 2 if len(levels) >= 3 else 0]
     try:
         target = float(holdout)
     except (TypeError, ValueError):
@@ -59,7 +65,7 @@ def _pick_holdout(levels: list[float], holdout: float | str | None) -> int | Non
     if len(levels) == 1:
         raise DiagnoseInputError("holding back the only level leaves nothing to fit; give "
                                  "more levels or --holdout segment")
-    return i
+    return [i]
 
 
 def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
@@ -99,6 +105,7 @@ class SearchPass:
     found: bool
     fixed: Model
     effect: float
+    rejected: list[dict] = field(default_factory=list)
 
     @property
     def best(self) -> Fit:
@@ -110,24 +117,44 @@ class SearchPass:
                 "delta_bic": float(b.delta_bic) if b else None,
                 "chi2_start": float(self.search.chi2_0),
                 "chi2_reduction": float(self.reduction),
-                "model_change": float(self.effect), "accepted": bool(self.found)}
+                "model_change": float(self.effect), "accepted": bool(self.found),
+                "rejected": self.rejected}
+
+
+MAX_TRIED = 4
+"""Candidates passing the thresholds that a pass tries when a better one is vetoed."""
 
 
 def decide(model: Model, search: Search, pool: list[Fit],
            change: Callable[[Model], float], *, further: bool = False,
-           accepted: Sequence[Candidate] = ()) -> SearchPass:
-    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass if it passes
-    all three thresholds (a stricter misfit reduction for a ``further`` effect)."""
+           accepted: Sequence[Candidate] = (),
+           veto: Callable[[Fit], str | None] | None = None) -> SearchPass:
+    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass that passes
+    all three thresholds (a stricter misfit reduction for a ``further`` effect) and that
+    ``veto`` (candidate -> reason or None) does not reject; the vetoed ones are kept
+    in ``rejected`` with their reason, and the next candidate is tried (at most
+    `MAX_TRIED`)."""
     pool = [f for f in pool if f.cand not in accepted]
-    best = pool[0] if pool else None
-    reduction = (search.chi2_0 - best.chi2) / search.chi2_0 if best else 0.0
     min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
-    found = best is not None and best.delta_bic > BIC_MIN and reduction > min_red
-    fixed = corrected_model(model, best) if found else model
-    effect = change(fixed) if found else 0.0
-    if found and effect < MIN_EFFECT:
-        found, fixed = False, model
-    return SearchPass(search, pool, reduction, found, fixed, effect)
+    rejected: list[dict] = []
+    first = (search.chi2_0 - pool[0].chi2) / search.chi2_0 if pool else 0.0
+    first_effect = 0.0
+    for best in pool[:MAX_TRIED]:
+        reduction = (search.chi2_0 - best.chi2) / search.chi2_0
+        if not (best.delta_bic > BIC_MIN and reduction > min_red):
+            break
+        fixed = corrected_model(model, best)
+        effect = change(fixed)
+        first_effect = first_effect or effect
+        if effect < MIN_EFFECT:
+            break
+        reason = veto(best) if veto is not None else None
+        if reason is None:
+            rest = [f for f in pool if f is not best]
+            return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
+        rejected.append({"candidate": best.cand.label, "reason": reason})
+        best.evidence["rejected"] = reason
+    return SearchPass(search, pool, first, False, model, first_effect, rejected)
 
 
 def linear_only(search: Search) -> bool:
@@ -142,3 +169,43 @@ def model_change(curves: list[LevelCurves]) -> float:
     num = sum(float(np.sum(np.abs(c.after - c.before) ** 2)) for c in curves)
     den = sum(float(np.sum(np.abs(c.measured) ** 2)) for c in curves)
     return float(np.sqrt(num / den))
+
+
+def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[dict]) -> dict:
+    """Where the model still misfits beyond the floor: the worst level (error over floor),
+    the band holding the central 90 % of its coherence-weighted squared error, its DOFs above
+    the floor, the error at every level, and what the search tried."""
+    ratio = [c.error_after / c.floor.limit for c in curves]
+    c = curves[int(np.argmax(ratio))]
+    g = np.ones(c.measured.shape) if c.coh is None else c.coh
+    e = np.sum(g * np.abs(c.measured - c.after) ** 2, axis=(1, 2))
+    cum = np.cumsum(e) / max(e.sum(), 1e-300)
+    i0 = int(np.searchsorted(cum, 0.05))
+    i1 = int(min(np.searchsorted(cum, 0.95), c.freqs.size - 1))
+    per_dof = c.frequency_residual(c.after)
+    dofs = [i for i, v in enumerate(per_dof) if v > c.floor.limit] or [int(np.argmax(per_dof))]
+    best = first.pool[0] if first.pool else None
+    return {"level": c.label, "band_hz": [float(c.freqs[i0]), float(c.freqs[i1])],
+            "dofs": dofs, "error_by_dof": per_dof,
+            "level_trend": [{"level": x.level, "error": x.error_after, "floor": x.floor.limit}
+                            for x in sorted(curves, key=lambda x: x.level)],
+            "tried": {"candidates": len(first.search.cands),
+                      "best": best.cand.label if best else None,
+                      "best_chi2_reduction": float(first.reduction),
+                      "best_delta_bic": float(best.delta_bic) if best else None,
+                      "required_chi2_reduction": MIN_REDUCTION, "required_delta_bic": BIC_MIN,
+                      "rejected": [r["candidate"] for r in rejected]}}
+
+
+def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
+               judge: Callable[[Model, Model], str | None]) -> Callable[[Fit], str | None]:
+    """Veto of a further candidate: the accepted effects plus it, refitted jointly on the
+    first search's levels (as the final correction will be), judged against the correction
+    without it (``judge(previous, corrected)`` -> reason or None). The first estimates of a
+    sequential search are biased by the effects not yet found, so the sequentially corrected
+    model is not what is judged."""
+    if not accepted:
+        return lambda fit: judge(model, corrected_model(model, fit))
+    previous = _apply(model, joint_refit(model, first(), accepted))
+    return lambda fit: judge(previous, _apply(model, joint_refit(model, first(),
+                                                                 accepted + [fit])))

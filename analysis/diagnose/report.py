@@ -9,10 +9,17 @@ import numpy as np
 
 from ..model import Model
 from .candidates import Candidate
+from .leakage import Floor
 from .replay import Replay
 
 METRIC = ("coherence-weighted relative FRF error (rms over the analysis band) on the "
           "held-back recording")
+FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
+                "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
+                "coherence and number of Welch averages (Bendat & Piersol), sd = the standard "
+                "deviation of its square (bin correlation included; 3.72 = one-sided p 1e-4), "
+                "precision = the 1 % model-precision floor; the model FRF is compared through "
+                "the Welch window's leakage kernel (analysis.diagnose.leakage)")
 TIME_METRIC = ("relative rms of the displacement residual of short-horizon replays of the "
                "measured force (restarted from the measured state), mean over DOFs, on the "
                "held-back recording")
@@ -34,6 +41,18 @@ class LevelCurves:
     coh: np.ndarray | None = None
     replay_before: Replay | None = None
     replay_after: Replay | None = None
+    floor: Floor | None = None
+
+    def level_json(self) -> dict[str, Any]:
+        """Error before/after the correction and the level's floor."""
+        out: dict[str, Any] = {"label": self.label, "level": self.level,
+                               "held_back": self.held_back, "before": self.error_before,
+                               "after": self.error_after}
+        if self.floor is not None:
+            out.update(floor=self.floor.limit, floor_parts=self.floor.to_json(),
+                       within_floor_before=bool(self.error_before <= self.floor.limit),
+                       within_floor=bool(self.error_after <= self.floor.limit))
+        return out
 
     def frequency_residual(self, model: np.ndarray) -> list[float]:
         """Relative (coherence-weighted) FRF error per response DOF."""
@@ -60,7 +79,10 @@ class Diagnosis:
 
     Attributes
     ----------
-    verdict : {"adequate", "discrepancy"}
+    verdict : {"adequate", "discrepancy", "unexplained"}
+        ``adequate``: every level within its floor (`FLOOR_METHOD`) and nothing found;
+        ``discrepancy``: a correction found that worsens no level; ``unexplained``: the
+        model misfits and nothing in the library explains enough (``evidence["misfit"]``).
     level_dependent : bool or None
         Whether the measured FRFs change with level beyond their random error.
     chosen : list of dict
@@ -105,12 +127,40 @@ class Diagnosis:
             "explanation": self.explanation,
             "ranking": self.ranking,
             "evidence": self.evidence,
-            "levels": [{"label": c.label, "level": c.level, "held_back": c.held_back,
-                        "error_before": c.error_before, "error_after": c.error_after}
-                       for c in self.curves],
+            "levels": [dict(c.level_json(), error_before=c.error_before,
+                             error_after=c.error_after) for c in self.curves],
             "residuals": [c.residuals() for c in self.curves],
             "warnings": self.warnings,
         }
+
+
+def level_fit(curves: list[LevelCurves]) -> dict[str, Any]:
+    """``fit`` keys per level: errors before/after with floors, and the explained share."""
+    b2 = sum(c.error_before**2 for c in curves)
+    a2 = sum(c.error_after**2 for c in curves)
+    return {"levels": [c.level_json() for c in curves], "floor_method": FLOOR_METHOD,
+            "within_floor": all(c.floor is None or c.error_after <= c.floor.limit
+                                for c in curves),
+            "explained": float(1 - a2 / b2) if b2 > 0 else 0.0}
+
+
+def worsened(curves: list[LevelCurves], floors: list[Floor]) -> str | None:
+    """Why a correction is rejected: a level whose error rises above both its former value
+    and its floor (None when no level is worsened)."""
+    bad = [(c, f) for c, f in zip(curves, floors)
+           if c.error_after > max(c.error_before, f.limit)]
+    if not bad:
+        return None
+    return "it worsens " + "; ".join(
+        f"{c.label}{' (held back)' if c.held_back else ''}: FRF error "
+        f"{change(c.error_before, c.error_after)}, floor {f.limit:.3g}" for c, f in bad)
+
+
+def change(before: float, after: float) -> str:
+    """``"rises from a to b"`` / ``"falls from a to b"`` / ``"stays at a"``, from the numbers."""
+    if f"{before:.3g}" == f"{after:.3g}":
+        return f"stays at {before:.3g}"
+    return f"{'rises' if after > before else 'falls'} from {before:.3g} to {after:.3g}"
 
 
 def time_fit(held: list[LevelCurves]) -> dict[str, Any] | None:
@@ -132,20 +182,49 @@ UNCONFIRMED = 0.5   # held-back error kept above this fraction: the found physic
 
 
 def explain(d: Diagnosis, cands: list[Candidate]) -> str:
-    """One paragraph a test engineer can act on.
+    """One paragraph a test engineer can act on, built from the numbers.
 
     When the corrected model does not at least halve the held-back error, a warning is added to
     ``d.warnings`` and the paragraph says the finding is tentative.
     """
     fit = d.fit
-    if d.verdict != "adequate" and fit["after"] > UNCONFIRMED * fit["before"]:
+    if d.verdict == "discrepancy" and fit["after"] > UNCONFIRMED * fit["before"]:
         d.warnings.append(
-            f"the held-back recording does not confirm the finding (error {fit['before']:.3g} "
-            f"-> {fit['after']:.3g}): the fitting levels cannot tell the candidates apart")
+            f"the held-back recording does not confirm the finding (error "
+            f"{change(fit['before'], fit['after'])}): the fitting levels cannot tell the "
+            "candidates apart")
         return (_explain(d, cands) + " The held-back recording does not confirm this, so treat "
                 "it as tentative: record more levels spanning the nonlinearity (the held-back "
                 "level should exercise it) and diagnose again.")
     return _explain(d, cands)
+
+
+def _levels_text(d: Diagnosis, after: bool) -> str:
+    parts = []
+    for lv in sorted(d.fit.get("levels", []), key=lambda lv: lv["level"]):
+        err = (change(lv["before"], lv["after"]) if after else f"{lv['before']:.3g}")
+        fl = f", floor {lv['floor']:.3g}" if "floor" in lv else ""
+        parts.append(f"{lv['label']}{' (held back)' if lv['held_back'] else ''} {err}{fl}")
+    return "; ".join(parts)
+
+
+def _rejected_text(d: Diagnosis) -> str:
+    rej = d.evidence.get("rejected") or []
+    if not rej:
+        return ""
+    return " Rejected: " + "; ".join(f"{r['candidate']} ({r['reason']})" for r in rej) + "."
+
+
+def _trend(errors: list[float]) -> str:
+    """How the error (ascending levels) changes with level, in words."""
+    steps = np.diff(errors)
+    if len(errors) < 2 or max(errors) <= 1.5 * min(errors):
+        return "is about the same at every level"
+    if np.all(steps >= 0):
+        return "grows with level"
+    if np.all(steps <= 0):
+        return "falls with level"
+    return "changes from level to level without a monotonic trend"
 
 
 def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
@@ -155,11 +234,30 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
            "The measured FRFs do not change with level beyond their random error. "
            if d.level_dependent is False else "")
     fit = d.fit
+    library = ("nonlinear stiffness, damping and friction elements and linear mass, "
+               "stiffness and damping errors at every DOF and DOF pair")
     if d.verdict == "adequate":
-        return (lvl + "No candidate in the library (nonlinear stiffness, damping and friction "
-                "elements and linear mass, stiffness and damping errors at every DOF and DOF "
-                "pair) improves the fit significantly: the model is adequate for these "
-                f"recordings (held-back FRF error {fit['before']:.3g}).")
+        return (lvl + f"Every level lies within its noise and model-precision floor (FRF error "
+                f"by level: {_levels_text(d, False)}) and no candidate in the library "
+                f"({library}) improves the fit significantly: the model is adequate for these "
+                "recordings." + _rejected_text(d))
+    if d.verdict == "unexplained":
+        m = d.evidence["misfit"]
+        tried = m["tried"]
+        how = _trend([t["error"] for t in m["level_trend"]])
+        best = (f" The best candidate ({tried['best']}) removes "
+                f"{100 * max(tried['best_chi2_reduction'], 0.0):.3g} % of the weighted misfit "
+                f"(needed: {100 * tried['required_chi2_reduction']:.3g} % and "
+                f"{tried['required_delta_bic']:.3g} BIC points; it gains "
+                f"{tried['best_delta_bic']:.3g})." if tried["best"] else "")
+        return (lvl + f"The model misfits beyond the noise and model-precision floor and nothing "
+                f"in the library ({tried['candidates']} candidates: {library}) explains enough: "
+                f"the misfit is largest at {m['level']} between {m['band_hz'][0]:.3g} and "
+                f"{m['band_hz'][1]:.3g} Hz on DOF(s) {', '.join(map(str, m['dofs']))}, and it "
+                f"{how} (FRF error by level: {_levels_text(d, False)}).{best}"
+                + _rejected_text(d) + " The missing physics is outside the library (for "
+                "example a frequency-dependent stiffness, an unmodelled mode or DOF, or another "
+                "nonlinear law): check the structure there and extend the model by hand.")
     what = " and ".join(dict.fromkeys("a linear model error" if c.linear else
                                       "missing nonlinear physics" for c in cands))
     band_txt = f" between {band[0]:.3g} and {band[1]:.3g} Hz" if band else ""
@@ -173,10 +271,17 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     second = (" A second search on the corrected model found the further effect."
               if len(cands) > 1 else "")
     tres = fit.get("time_residual")
-    time_txt = (f" (short-horizon time residual from {tres['before']:.3g} to "
-                f"{tres['after']:.3g})" if tres else "")
+    time_txt = (f" (short-horizon time residual {change(tres['before'], tres['after'])})"
+                if tres else "")
     where = " and ".join(dict.fromkeys(c.where for c in cands))
-    return (lvl + f"The mismatch is {what}{band_txt}: {found}.{runner}{second} Adding it "
-            f"reduces the held-back FRF error from {fit['before']:.3g} to {fit['after']:.3g}"
-            f"{time_txt}. Check the structure {where} (joint, support or added mass) and keep "
-            "the corrected model file for further simulation.")
+    rest = ""
+    if not fit.get("within_floor", True):
+        out = [lv["label"] for lv in fit["levels"] if not lv.get("within_floor", True)]
+        rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
+                f"explains {100 * fit['explained']:.3g} % of the squared FRF error, the rest is "
+                "unexplained (see evidence.misfit).")
+    return (lvl + f"The mismatch is {what}{band_txt}: {found}.{runner}{second} With it the "
+            f"held-back FRF error {change(fit['before'], fit['after'])}{time_txt}; by level: "
+            f"{_levels_text(d, True)}.{rest}" + _rejected_text(d) + f" Check the structure "
+            f"{where} (joint, support or added mass) and keep the corrected model file for "
+            "further simulation.")

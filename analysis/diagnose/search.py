@@ -3,22 +3,25 @@ sine goes to `.stepped`."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from ..model import Model
+from ..plant import PlantError
 from ..recording import Recording
 from .candidates import Candidate
 from .compare import FLOOR, choose_nperseg, level_frf, model_frf, unit_force, weighted_error
+from .leakage import leakage_bias, level_floor
 from .locate import level_dependence, mismatch_band
 from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random, record_level,
                       split_segment)
-from .replay import horizon_samples, replay
-from .report import METRIC, Diagnosis, LevelCurves, explain, time_fit
+from .replay import Replay, horizon_samples, replay
+from .report import METRIC, Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import SHORTLIST, Fit, RandomSearch
-from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout, _pruned, decide,
-                     linear_only, model_change, pruned_labels)
+from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout,
+                     _pruned, decide, joint_veto, linear_only, misfit_summary, model_change,
+                     pruned_labels)
 
 
 def _check(model: Model, recordings: Sequence[Recording]) -> list[Recording]:
@@ -34,10 +37,15 @@ def _check(model: Model, recordings: Sequence[Recording]) -> list[Recording]:
     return recs
 
 
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, stage)``: called as the diagnosis advances (search passes, joint
+refit, replays of each level)."""
+
+
 def diagnose(model: Model, recordings: Sequence[Recording], *,
              holdout: float | str | None = None, band: tuple[float, float] | None = None,
              nperseg: int | None = None, period: int | None = None,
-             floor: float = FLOOR) -> Diagnosis:
+             floor: float = FLOOR, progress: Progress | None = None) -> Diagnosis:
     """Diagnose what ``model`` lacks to explain ``recordings``.
 
     Parameters
@@ -47,8 +55,9 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     recordings : sequence of Recording
         Random (or periodic multisine) runs, or stepped-sine runs, one level each.
     holdout : float or "segment", optional
-        Level held back from fitting (default: the middle level of three or more, the lowest
-        of two); "segment" (or a single recording) holds back the last 30 % of each run.
+        Level held back from fitting (default: the lowest of two levels, the middle one of
+        three, every other interior level of four or more); "segment" (or a single
+        recording) holds back the last 30 % of each run.
     band : (lo, hi), optional
         Analysis band, Hz (default: the excited band of the force).
     nperseg : int, optional
@@ -57,6 +66,8 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         Samples per period of a periodic drive (else the recording's ``layout.period``).
     floor : float
         Model-precision floor, relative FRF deviation treated as insignificant.
+    progress : callable, optional
+        ``progress(done, total, stage)`` (random data).
 
     Returns
     -------
@@ -87,16 +98,26 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         pairs = [split_segment(p) for p in preps]
         fit_preps, held = [a for a, _ in pairs], [b for _, b in pairs]
     else:
-        fit_preps = [p for i, p in enumerate(preps) if i != hold]
-        held = [preps[hold]]
-    if min(p.x.shape[0] for p in fit_preps + held) < 4 * nps:
+        fit_preps = [p for i, p in enumerate(preps) if i not in hold]
+        held = [preps[i] for i in hold]
+    all_preps = fit_preps + held
+    if min(p.x.shape[0] for p in all_preps) < 4 * nps:
         raise DiagnoseInputError(f"records are too short for segments of {nps} samples; give "
                                  "longer runs or a smaller --nperseg")
-    passes = []
+    tick = _ticker(progress, MAX_EFFECTS + 1 + 2 * len(all_preps))
+    floors = [level_floor(_level(model, p, band, nps, floor), floor) for p in all_preps]
+
+    def judge(previous: Model, fixed: Model) -> str | None:
+        return worsened([_curves(previous, fixed, p, band, nps, floor, i >= len(fit_preps))
+                         for i, p in enumerate(all_preps)], floors)
+
+    passes: list[SearchPass] = []
     current = model
-    for _ in range(MAX_EFFECTS):
-        step = _search_pass(current, fit_preps, band, nps, floor,
-                            [s.best.cand for s in passes if s.found])
+    for k in range(MAX_EFFECTS):
+        tick(f"search pass {k + 1}")
+        found = [s.best for s in passes if s.found]
+        step = _search_pass(current, fit_preps, band, nps, floor, [f.cand for f in found],
+                            joint_veto(model, lambda: passes[0].search, found, judge))
         passes.append(step)
         if not step.found:
             break
@@ -106,34 +127,67 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     def change(without: Model, fits: list[Fit]) -> float:
         return model_change([_curves(without, _apply(model, fits), p, band, nps, floor, False)
                              for p in fit_preps])
+    tick("joint refit")
     chosen = _pruned(model, first.search, [s.best for s in passes if s.found], change)
-    current = _apply(model, chosen)
+    rejected = [dict(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes)
+                for r in s.rejected]
     horizon = horizon_samples(model, recs[0].fs)
-    curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps), horizon)
-              for i, p in enumerate(fit_preps + held)]
+    start_replays = _replays(model, all_preps, horizon, warnings, tick)
+    while True:   # the final correction must not worsen a level, and its replay must run
+        current = _apply(model, chosen)
+        curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps))
+                  for i, p in enumerate(all_preps)]
+        reason = worsened(curves, floors) if chosen else None
+        if reason is None and chosen:
+            try:
+                after_replays = []
+                for p in all_preps:
+                    tick(f"replay of {p.label} (corrected model)")
+                    after_replays.append(replay(current, p, horizon))
+            except PlantError as exc:
+                reason = f"the corrected model's replay fails ({exc})"
+        if reason is None:
+            break
+        rejected.append({"candidate": chosen[-1].cand.label, "reason": reason,
+                         "stage": "joint correction"})
+        chosen = _pruned(model, first.search, chosen[:-1], change) if chosen[1:] else []
+    for c, fl, before in zip(curves, floors, start_replays):
+        c.floor = fl
+        c.replay_before = before
+        c.replay_after = after_replays[curves.index(c)] if chosen else before
+    tick("done", finished=True)
     held_curves = [c for c in curves if c.held_back]
     before = float(np.mean([c.error_before for c in held_curves]))
-    after = float(np.mean([c.error_after for c in held_curves]))
+    after_err = float(np.mean([c.error_after for c in held_curves]))
     dep = level_dependence(first.search.levels + (
         [_level(model, h, band, nps, floor) for h in held] if hold is not None else []))
     top = max(first.search.levels, key=lambda lf: lf.level)
     loc_band = mismatch_band(top, first.search.H0s[first.search.levels.index(top)])
     location = {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
                 "band_hz": [loc_band[0], loc_band[1]] if chosen else None}
+    within = all(c.error_after <= c.floor.limit for c in curves)
+    verdict = "discrepancy" if chosen else "adequate" if within else "unexplained"
+    misfit = None
+    if not within:
+        misfit = misfit_summary(curves, first, rejected)
+        if verdict == "unexplained":
+            location = {"dofs": misfit["dofs"], "band_hz": misfit["band_hz"]}
     d = Diagnosis(
-        "discrepancy" if chosen else "adequate",
+        verdict,
         dep.dependent if dep else None,
         [f.to_json() for f in chosen],
         [f.to_json() for f in first.pool[:8]],
         location,
-        {"metric": METRIC, "before": before, "after": after,
-         "held_back": [h.label for h in held], "time_residual": time_fit(held_curves)},
+        {"metric": METRIC, "before": before, "after": after_err,
+         "held_back": [h.label for h in held], "time_residual": time_fit(held_curves),
+         **level_fit(curves)},
         current, curves,
         {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
          "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
          "model_change": first.effect, "replay_horizon_samples": horizon,
          "passes": [s.to_json() for s in passes],
          "pruned_after_joint_refit": pruned_labels(passes, chosen),
+         "rejected": rejected, "misfit": misfit,
          "level_dependence": dep.to_json() if dep else None,
          "residual_share_by_dof": _share(first.search)},
         warnings)
@@ -141,8 +195,36 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     return d
 
 
+def _ticker(progress: Progress | None, total: int) -> Callable[..., None]:
+    """``tick(stage)`` reports the start of the next step; ``finished=True`` the end."""
+    done = [0]
+
+    def tick(stage: str, finished: bool = False) -> None:
+        done[0] = total if finished else done[0]
+        if progress is not None:
+            progress(done[0], total, stage)
+        done[0] += 1
+    return tick
+
+
+def _replays(model: Model, preps: list[Prepared], horizon: int, warnings: list[str],
+             tick: Callable[[str], None]) -> list[Replay | None]:
+    """Replays of the starting model (None, with a warning, where its simulation fails)."""
+    out: list[Replay | None] = []
+    for p in preps:
+        tick(f"replay of {p.label}")
+        try:
+            out.append(replay(model, p, horizon))
+        except PlantError as exc:
+            warnings.append(f"the starting model's replay of {p.label} fails ({exc}): no "
+                            "time residual for it")
+            out.append(None)
+    return out
+
+
 def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
-                 floor: float, accepted: list[Candidate]) -> SearchPass:
+                 floor: float, accepted: list[Candidate],
+                 veto: Callable[[Fit], str | None]) -> SearchPass:
     """Screen the library, refine the best nonlinear ones by reverse path, decide."""
     search = RandomSearch(model, fit_preps, band, nps, floor)
     fits = search.screen()
@@ -160,7 +242,8 @@ def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
     def change(fixed: Model) -> float:
         return model_change([_curves(model, fixed, p, band, nps, floor, False)
                              for p in fit_preps])
-    return decide(model, search, pool, change, further=bool(accepted), accepted=accepted)
+    return decide(model, search, pool, change, further=bool(accepted), accepted=accepted,
+                  veto=veto)
 
 
 def _share(search: RandomSearch) -> list[float]:
@@ -178,17 +261,14 @@ def _level(model: Model, p: Prepared, band, nps: int, floor: float):
 def _predicted(model: Model, p: Prepared, band, nps: int, floor: float):
     lf = _level(model, p, band, nps, floor)
     terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
+    lf.leakage = leakage_bias(model, lf, terms)
     return lf, model_frf(model.linear_frf(lf.freqs), lf, terms)
 
 
 def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,
-            held: bool, horizon: int | None = None) -> LevelCurves:
-    """FRFs of one level before/after; with ``horizon``, also the short-horizon replays."""
+            held: bool) -> LevelCurves:
+    """FRFs of one level before/after (the replays are added by `diagnose`)."""
     lf, h_before = _predicted(start, p, band, nps, floor)
-    _, h_after = _predicted(fixed, p, band, nps, floor)
-    c = LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
-                    weighted_error(lf, h_before), weighted_error(lf, h_after), lf.coh)
-    if horizon is not None:
-        c.replay_before = replay(start, p, horizon)
-        c.replay_after = c.replay_before if fixed is start else replay(fixed, p, horizon)
-    return c
+    _, h_after = _predicted(fixed, p, band, nps, floor) if fixed is not start else (lf, h_before)
+    return LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
+                       weighted_error(lf, h_before), weighted_error(lf, h_after), lf.coh)

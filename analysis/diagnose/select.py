@@ -22,6 +22,7 @@ from typing import Any, Hashable
 
 import numpy as np
 
+from ..elements import restoring_force
 from ..errors import EstimationError, InputError, ModelError
 from ..kinds import KINDS
 from ..model import Element, Model
@@ -29,10 +30,17 @@ from ..recording import Recording
 from ..reverse_path import reverse_path
 from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import LevelFRF, chi2, level_frf, model_frf, unit_force
+from .leakage import leakage_bias
 from .linear_update import Z95, fit_linear_error, updated_frf
 from .prepare import Prepared
 
 SHORTLIST = 4
+REACH = 1.5
+"""Deformation range (times the largest measured one) over which a stiffness candidate's
+tangent stiffness must stay positive (a replay may overshoot the measured motion)."""
+MARGIN = 0.9
+"""Share of the structure's own stiffness at a location that a softening candidate may
+remove at the edge of `REACH` (softening beyond it makes the replay diverge)."""
 
 
 @dataclass
@@ -102,6 +110,7 @@ class Search:
     def __init__(self, model: Model, levels: list[LevelFRF],
                  extra: dict[tuple, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
+        self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
         self.cands = [c for c in library(model.n_dof) if not c.memory]
         self.H_lins = [model.linear_frf(lf.freqs) for lf in self.levels]
         self.terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
@@ -111,6 +120,33 @@ class Search:
 
     def bic_gain(self, chi2_c: float, k: int) -> float:
         return self.chi2_0 - chi2_c - k * np.log(self.n_values)
+
+    def bounds(self, c: Candidate, extra: float | None) -> tuple[float, float]:
+        """Coefficient range keeping the tangent stiffness along ``c.w`` positive.
+
+        A restoring (non-dissipative, memoryless) candidate with tangent ``p k_t(u)`` at unit
+        coefficient ``p`` may not remove more than `MARGIN` of the stiffness the structure
+        offers at its location, ``1 / (w^T K^-1 w)``, for deformations up to ``self.reach``
+        (a softening cubic spring otherwise turns the tangent negative and the replay
+        diverges). Unbounded without a known reach or a positive definite K.
+        """
+        spec = KINDS[c.kind]
+        reach = self.reach.get(c.dofs)
+        if c.linear or spec.dissipative or spec.memory or not reach:
+            return -np.inf, np.inf
+        try:   # static flexibility at the location, w^T H_L(0) w = w^T K^-1 w
+            flex = float((c.w @ self.model.linear_frf(np.zeros(1))[0] @ c.w).real)
+        except np.linalg.LinAlgError:
+            return -np.inf, np.inf
+        if not flex > 0:
+            return -np.inf, np.inf
+        u, du = np.linspace(-reach, reach, 401), 1e-4 * reach
+        both = np.concatenate([u + du, u - du])
+        g = restoring_force(c.kind, unit_params(c.kind, extra), both, np.zeros_like(both))[0]
+        kt = (g[:u.size] - g[u.size:]) / (2 * du)     # tangent at unit coefficient
+        lo = -MARGIN / flex / kt.max() if kt.max() > 0 else -np.inf
+        hi = MARGIN / flex / -kt.min() if kt.min() < 0 else np.inf
+        return float(lo), float(hi)
 
     # --- screening ---------------------------------------------------------------------
     def _fit_coefficient(self, c: Candidate, extra: float | None) -> tuple[float, float, float]:
@@ -125,6 +161,7 @@ class Search:
         p = -num / den if den > 0 else 0.0
         if KINDS[c.kind].dissipative:
             p = max(p, 0.0)   # negative dissipation is not physical
+        p = float(np.clip(p, *self.bounds(c, extra)))
         bf = np.mean([lf.bin_factor for lf in self.levels])
         se = float(np.sqrt(bf / (2 * den))) if den > 0 else float("inf")
         x2 = sum(chi2(lf, h0 - p * d) for lf, h0, d in zip(self.levels, self.H0s, ds))
@@ -175,7 +212,13 @@ class RandomSearch(Search):
         low = min(preps, key=lambda p: p.level)
         extra = candidate_extras(model, low.x, low.v)
         levels = [self._level(model, extra, p, floor) for p in preps]
+        reach = {c.dofs: REACH * max(float(np.abs(p.x @ c.w).max()) for p in preps)
+                 for c in library(model.n_dof)}
+        terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
+        for lf in levels:   # the starting model as the Welch estimate sees it
+            lf.leakage = leakage_bias(model, lf, terms)
         super().__init__(model, levels, extra)
+        self.reach = reach
 
     def _level(self, model: Model, extra: dict, p: Prepared, floor: float) -> LevelFRF:
         bases: dict[Hashable, np.ndarray] = {}
@@ -212,6 +255,10 @@ class RandomSearch(Search):
         if KINDS[c.kind].dissipative and p <= 0:
             fit.evidence["reverse_path"] = "negative dissipative coefficient"
             return fit
+        lo, hi = self.bounds(c, grid_value(c.kind, fit.params))
+        bounded = not lo <= p <= hi
+        if bounded:
+            p = float(np.clip(p, lo, hi))
         wts = 1.0 / np.maximum(coef.variance, 1e-300)
         vals = coef.values
         scale = max(abs(p), 1e-300)
@@ -222,6 +269,10 @@ class RandomSearch(Search):
                                  / scale),
             "coherence_gain": float(np.mean(rp.coherence_nonlinear - rp.coherence_linear)),
         }
+        if bounded:
+            evidence["bounded"] = (f"estimate {float(coef.value):.4g} clipped to {p:.4g}: the "
+                                   "tangent stiffness must stay positive over the measured "
+                                   "deformation range")
         params = dict(fit.params)
         params[name] = p
         extra = grid_value(c.kind, params)

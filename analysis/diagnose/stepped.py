@@ -33,9 +33,11 @@ from .candidates import Candidate, library
 from .compare import LevelFRF, chi2
 from .locate import level_dependence, mismatch_band
 from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, _apply, _pick_holdout, _pruned,
+                     joint_veto, misfit_summary,
                      decide, linear_only, model_change, pruned_labels)
 from .replay import periodic_replay
-from .report import Diagnosis, LevelCurves, explain, time_fit
+from .leakage import level_floor
+from .report import Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import Fit, Search, candidate_extras, unit_params
 
 HARMONICS = (1, 3, 5, 7)
@@ -255,7 +257,7 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
     if len(frfs) < 2 or holdout == "segment":
         raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
                          "back); record another level")
-    hold = _pick_holdout([f.level for f in frfs], holdout)
+    hold = _pick_holdout([f.level for f in frfs], holdout)[0]   # one held-back level
     fit_idx = [i for i in range(len(frfs)) if i != hold]
     cache: dict[tuple[int, int], np.ndarray] = {}
 
@@ -274,6 +276,9 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
                            periodic_replay(f.freqs, f.harmonics, f.X, xb),
                            periodic_replay(f.freqs, f.harmonics, f.X, xa))
 
+    floors = [level_floor(_level(model, recs[i], frfs[i], {}, floor, ""), floor)
+              for i in range(len(frfs))]
+    every = fit_idx + [hold]
     warnings: list[str] = []
     passes = []
     current = model
@@ -285,7 +290,10 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
         accepted = [s.best.cand for s in passes if s.found]
         step = decide(current, search, pool, lambda fixed: model_change(
             [curve(start, fixed, i) for i in fit_idx]), further=bool(accepted),
-            accepted=accepted)
+            accepted=accepted, veto=joint_veto(
+                model, lambda: passes[0].search, [s.best for s in passes if s.found],
+                lambda prev, fixed: worsened([curve(prev, fixed, i) for i in every],
+                                             [floors[i] for i in every])))
         passes.append(step)
         if not step.found:
             break
@@ -296,7 +304,20 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
         [curve(without, _apply(model, fits), i) for i in fit_idx]))
     if len(chosen) > 1 or len(chosen) < len(found):
         current = _apply(model, chosen)
-    curves = [curve(model, current, i) for i in range(len(frfs))]
+    rejected = [dict(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes)
+                for r in s.rejected]
+    while True:   # the final correction must not worsen a level
+        curves = [curve(model, current, i) for i in range(len(frfs))]
+        reason = worsened(curves, floors) if chosen else None
+        if reason is None:
+            break
+        rejected.append({"candidate": chosen[-1].cand.label, "reason": reason,
+                         "stage": "joint correction"})
+        chosen = chosen[:-1]
+        current = _apply(model, chosen)
+    for c, fl in zip(curves, floors):
+        c.floor = fl
+    within = all(c.error_after <= c.floor.limit for c in curves)
     held = curves[hold]
     all_levels = first.search.levels + [_level(model, recs[hold], frfs[hold], {}, floor,
                                                "held")]
@@ -304,17 +325,20 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
     top = int(np.argmax([lf.level for lf in first.search.levels]))
     lo, hi = mismatch_band(first.search.levels[top], first.search.H0s[top])
     d = Diagnosis(
-        "discrepancy" if chosen else "adequate", dep.dependent if dep else None,
+        "discrepancy" if chosen else "adequate" if within else "unexplained",
+        dep.dependent if dep else None,
         [f.to_json() for f in chosen], [f.to_json() for f in first.pool[:8]],
         {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
          "band_hz": [lo, hi] if chosen else None},
         {"metric": METRIC, "before": held.error_before, "after": held.error_after,
-         "held_back": [held.label], "time_residual": time_fit([held])},
+         "held_back": [held.label], "time_residual": time_fit([held]), **level_fit(curves)},
         current, curves,
         {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
          "chi2_reduction": first.reduction, "model_change": first.effect,
          "passes": [s.to_json() for s in passes],
          "pruned_after_joint_refit": pruned_labels(passes, chosen),
+         "rejected": rejected,
+         "misfit": None if within else misfit_summary(curves, first, rejected),
          "level_dependence": dep.to_json() if dep else None,
          "odd_harmonic_ratio": _odd_ratio(first.search.frfs[-1])},
         warnings)

@@ -64,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
     from analysis.model import Model
 
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
+    from nlid_lab.progress import progress
     from nlid_lab.recordings_io import load_recordings
     from nlid_lab.store import open_run, save_result
 
@@ -82,9 +83,11 @@ def run(args: argparse.Namespace) -> int:
         period = int(round(args.period * recs[0].fs))
     if args.nperseg is not None and args.nperseg < 16:
         raise DiagnoseInputError("--nperseg must be at least 16 samples")
-    d = diagnose(model, recs, holdout=args.holdout,
-                 band=tuple(args.band) if args.band else None, nperseg=args.nperseg,
-                 period=period)
+    with progress(total=1, desc="diagnose", unit="step") as bar:
+        d = diagnose(model, recs, holdout=args.holdout,
+                     band=tuple(args.band) if args.band else None, nperseg=args.nperseg,
+                     period=period, progress=lambda done, total, stage: _show(bar, done, total,
+                                                                              stage))
     if args.model_out:
         d.model.save(args.model_out)
     if args.report:
@@ -97,6 +100,13 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _show(bar, done: int, total: int, stage: str) -> None:
+    """Move the progress bar to ``done`` of ``total`` steps, naming the stage."""
+    bar.total = total
+    bar.n = done
+    bar.set_postfix_str(stage)
+
+
 def write_report(d: Diagnosis, out: Path) -> None:
     """Before/after FRF overlays and time residuals per level, plus a markdown report."""
     from .. import figures
@@ -104,14 +114,16 @@ def write_report(d: Diagnosis, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",
              d.explanation, "", "| level | held back | FRF error before | FRF error after | "
-             "time residual before | time residual after |", "|---|---|---|---|---|---|"]
+             "floor | time residual before | time residual after |",
+             "|---|---|---|---|---|---|---|"]
     figs = []
     for i, c in enumerate(d.curves):
         res = c.residuals().get("time")
         tb, ta = ((f"{np.mean(res['before']):.4g}", f"{np.mean(res['after']):.4g}") if res
                   else ("-", "-"))
         lines.append(f"| {c.level:g} | {'yes' if c.held_back else 'no'} | "
-                     f"{c.error_before:.4g} | {c.error_after:.4g} | {tb} | {ta} |")
+                     f"{c.error_before:.4g} | {c.error_after:.4g} | "
+                     f"{f'{c.floor.limit:.4g}' if c.floor else '-'} | {tb} | {ta} |")
         title = f"{c.label}{' (held back)' if c.held_back else ''}"
         name = f"frf-level-{i}.png"
         figures.diagnosis_overlay(c, title).savefig(out / name)
