@@ -44,8 +44,8 @@ def test_convert_frf_is_i_omega_per_derivative():
     np.testing.assert_array_equal(convert_frf(H, f, "velocity", "velocity"), H)
 
 
-@pytest.mark.parametrize("first, unit", [("displacement", "|H| [m/N]"),
-                                         ("acceleration", "|H| [(m/s²)/N]")])
+@pytest.mark.parametrize("first, unit", [("displacement", "Receptance |X/F| [m/N]"),
+                                         ("acceleration", "Accelerance |A/F| [(m/s²)/N]")])
 def test_viewer_shows_mixed_kinds_in_the_first_runs_kind(qtbot, tmp_path, first, unit):
     other = "acceleration" if first == "displacement" else "displacement"
     runs = [load_run(_run(tmp_path / f"{k}.h5", k)) for k in (first, other)]
