@@ -156,6 +156,7 @@ def screenable_kinds() -> dict[str, bas.Basis]:
 def default_locations(n_dof: int) -> list[np.ndarray]:
     """Each grounded DOF (``e_i``) and each DOF pair (``e_j - e_i``, ``i < j``): the
     diagnosis library's locations."""
+    # imported here: analysis.diagnose imports this package when it loads
     from ..diagnose.candidates import Candidate, locations
     return [Candidate("", dofs, n_dof).w for dofs in locations(n_dof)]
 
