@@ -47,5 +47,23 @@ def test_bla_input_errors():
     f = np.zeros((8 * N, 2))
     with pytest.raises(InputError, match="one force channel"):
         best_linear_approximation(f, f, FS, N, realizations=2)
-    with pytest.raises(InputError, match="2 realizations"):
+    with pytest.raises(InputError, match="no DFT line"):
         best_linear_approximation(f[:, :1], f, FS, N, realizations=1)
+
+
+def test_one_realization_gives_the_period_average_and_its_noise():
+    """One realization of P periods: G is the period average, its noise variance comes from
+    the spread over the periods (it covers the error of G), and the total variance - which
+    needs two realizations - is not invented (NaN)."""
+    u = periodic(multisine(N, FS, (5.0, 200.0), 1.0, seed=4), P + 1)
+    rng = np.random.default_rng(5)
+    y = np.column_stack([np.convolve(u, [0.5, 0.3, 0.2])[:u.size], np.roll(u, 3)])
+    y_noisy = y + 0.01 * y.std(axis=0) * rng.standard_normal(y.shape)
+    b = best_linear_approximation(u, y_noisy, FS, N, transient_periods=1, realizations=1)
+    exact = best_linear_approximation(u, y, FS, N, transient_periods=1, realizations=1)
+    assert b.realizations == 1 and b.periods == P and np.all(np.isnan(b.var_total))
+    z = np.abs(b.G - exact.G) ** 2 / b.var_noise
+    # |error|^2 / estimated var is F(2, 2 (P - 1)): mean 2 (P - 1) / (2 (P - 1) - 2)
+    mean = 2 * (P - 1) / (2 * (P - 1) - 2)
+    assert abs(np.mean(z) / mean - 1) < 0.15, np.mean(z)
+    assert np.all(exact.var_noise < 1e-20 * np.abs(exact.G).max() ** 2)
