@@ -220,6 +220,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     fb = np.empty(nin)
     z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
     vh = np.empty(ne)            # element deformation rates at the last node
+    n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
     _history(fprev, gh, z)
     for e in range(ne):
         g[e] = gh[e, q - 1]
@@ -272,7 +273,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             for e in range(ne):
                 ev_prev[e] = 0
             for it in range(MAX_ITER):
-                stats[S_ITER] += 1
+                n_iter += 1
                 for r in range(2 * ne):
                     acc[r] = pk[r]
                 for e in range(ne):
@@ -357,7 +358,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                     break
                 dprev = dmax
             if not converged:
-                stats[S_NOCONV] += 1
+                n_noconv += 1
             # end state: the hold used gc at the end node, the history keeps g
             for r in range(ny):
                 s[r] = kn[r]
@@ -378,7 +379,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 vh[e] = uv[ne + e]
                 if event[e] == 0:
                     continue
-                stats[S_EVENTS] += 1
+                n_events += 1
                 for nd in range(q - 1):
                     gold[nd] = gh[e, nd]
                 if event[e] == 1:      # history continues on the slip branch
@@ -406,3 +407,6 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             out_x[k, p] = x + _dot(out_z[0, p], z, 0)
             out_v[k, p] = v + _dot(out_z[1, p], z, 0)
             out_a[k, p] = _dot(tax[p], s, 0) + _dot(tav[p], s, n) + _dot(out_z[2, p], z, 0)
+    stats[S_ITER] += n_iter
+    stats[S_NOCONV] += n_noconv
+    stats[S_EVENTS] += n_events

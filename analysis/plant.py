@@ -286,7 +286,7 @@ class Plant:
         if q * h * self._decay <= MAX_LOG_GROWTH:
             # accumulated form: each node's whole influence enters the state once
             back = [np.eye(2 * n)]
-            inv = np.linalg.inv(phis[0])
+            inv = _phi_functions(-a * h, 0)[0]          # Phi^-1, as accurate as Phi
             for _ in range(q):
                 back.append(inv @ back[-1])
             u_g = sum(back[d] @ wd[d] for d in range(q + 1))
@@ -322,8 +322,7 @@ class Plant:
         out_z = np.hstack([np.vstack([np.zeros((2 * npt, sel.shape[1])), t @ minv @ sel])
                            - cy @ r_f, *out_g])
         corr = -np.hstack([proj @ r_f, *(proj @ r for r in r_g[1:])])
-        diagonal = all(np.array_equal(x, np.diag(np.diag(x)))
-                       for x in (model.mass, model.damping, model.stiffness))
+        diagonal = all(_is_diagonal(x) for x in (model.mass, model.damping, model.stiffness))
         phi_d = np.array([np.diag(phis[0][:n, :n]), np.diag(phis[0][:n, n:]),
                           np.diag(phis[0][n:, :n]), np.diag(phis[0][n:, n:])])
         args = dict(
@@ -532,6 +531,10 @@ class _Block(NamedTuple):
     a: np.ndarray
     g: np.ndarray
     uv: np.ndarray
+
+
+def _is_diagonal(a: np.ndarray) -> bool:
+    return bool(np.array_equal(a, np.diag(np.diag(a))))
 
 
 def _bound(slopes: np.ndarray, factor: float) -> np.ndarray:
