@@ -10,6 +10,8 @@ element's force and deformation at the history nodes (column ``q-1`` = start of 
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -76,18 +78,21 @@ def _root_poly(coef: np.ndarray, target: float) -> float:
 
 @numba.njit(cache=True)
 def _root_velocity(u0: float, v0: float, u1: float, v1: float, h: float) -> float:
-    """Time fraction where the Hermite interpolant's velocity changes sign."""
+    """Time fraction where the Hermite interpolant's velocity changes sign: the root in
+    [0, 1] of the quadratic ``a t^2 + b t + v0`` (`_hermite`'s ``du``)."""
     if v0 * v1 > 0.0 or v0 == 0.0:
         return 0.0
-    lo, hi = 0.0, 1.0
-    for _ in range(60):
-        t = 0.5 * (lo + hi)
-        d = _hermite(u0, v0, u1, v1, h, t)[1]
-        if d * v0 > 0.0:
-            lo = t
-        else:
-            hi = t
-    return 0.5 * (lo + hi)
+    a = 6.0 * (u0 - u1) / h + 3.0 * (v0 + v1)
+    b = 6.0 * (u1 - u0) / h - 4.0 * v0 - 2.0 * v1
+    c = v0
+    if abs(a) <= 1e-12 * (abs(b) + abs(c)):
+        return min(max(-c / b, 0.0), 1.0)
+    disc = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+    qq = -0.5 * (b + math.copysign(disc, b))      # the stable pair of roots: qq/a, c/qq
+    for t in (qq / a, c / qq if qq != 0.0 else -1.0):
+        if 0.0 <= t <= 1.0:
+            return t
+    return min(max(qq / a, 0.0), 1.0)
 
 
 @numba.njit(cache=True)
@@ -220,6 +225,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     fb = np.empty(nin)
     z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
     vh = np.empty(ne)            # element deformation rates at the last node
+    state = s              # s and kn swap roles every substep; the result goes to state
     n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
     _history(fprev, gh, z)
     for e in range(ne):
@@ -241,8 +247,7 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 for e in range(ne):
                     _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
             if ne == 0:
-                for r in range(ny):
-                    s[r] = kn[r]
+                s, kn = kn, s
                 continue
             # element deformations and rates of the known part (less the pending history)
             for e in range(ne):
@@ -360,14 +365,12 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             if not converged:
                 n_noconv += 1
             # end state: the hold used gc at the end node, the history keeps g
-            for r in range(ny):
-                s[r] = kn[r]
             for e in range(ne):
-                _axpy(g[e], u_g[e], s)
+                _axpy(g[e], u_g[e], kn)
                 if event[e] != 0:
-                    _axpy(gc[e] - g[e], we[e], s)
+                    _axpy(gc[e] - g[e], we[e], kn)
                     for i in range(nt):
-                        _axpy(ev_c[e, i], ab[e, i], s)
+                        _axpy(ev_c[e, i], ab[e, i], kn)
             for e in range(ne):
                 for i in range(es.shape[1]):
                     es[e, i] = st[e, i]
@@ -390,7 +393,8 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                         gh[e, nd] = sigma0[e] * prm[e, 1] + prm[e, 0] * (uh[e, nd]
                                                                          - ev_ut[e])
                 for nd in range(q - 1):  # the accumulated state holds the old history
-                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], s)
+                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
+            s, kn = kn, s
         stats[S_SUBSTEPS] += m
         for i in range(nin):
             fprev[i] = force[k, i]
@@ -410,3 +414,5 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
+    for r in range(ny):
+        state[r] = s[r]
