@@ -268,6 +268,15 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 for nd in range(q):
                     gp += xpred[nd] * gh[e, nd]
                 gc[e] = gp
+            for e in range(ne):
+                if codes[e] == STICK_SLIP and sigma0[e] == 0.0:
+                    # sticking, the law is linear: solve its own deformation exactly
+                    kd, z0 = prm[e, 0], es[e, 0]
+                    t = pk[e] - pwe[e, e] * gc[e]
+                    for f in range(ne):
+                        t += pwe[e, f] * gc[f]
+                    a = pwe[e, e] * kd
+                    gc[e] = kd * ((t - a * z0) / (1.0 - a) - z0)
             for r in range(2 * ne):
                 t = pk[r]
                 for e in range(ne):
