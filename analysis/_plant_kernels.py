@@ -26,7 +26,7 @@ _element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
 
 STICK_SLIP = 5
 MAX_ITER = 30
-# reassociation lets LLVM vectorise the dot products; results stay deterministic
+# reassociation lets LLVM vectorise the dot products (deterministic all the same)
 FASTMATH = {"reassoc", "contract"}
 RTOL = 1e-12
 # stats slots
@@ -137,7 +137,7 @@ def _axpy(a: float, x: np.ndarray, out: np.ndarray) -> None:
         out[r] += a * x[r]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always")
+@numba.njit(cache=True, inline="always")
 def _dot(a: np.ndarray, b: np.ndarray, lo: int) -> float:
     """``a . b[lo:lo + len(a)]``."""
     s = 0.0
@@ -157,7 +157,7 @@ def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
             z[nin + b * ne + e] = gh[e, q - 1 - b]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH, inline="always")
+@numba.njit(cache=True, inline="always")
 def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
     """``out = Phi s``: ``phi`` dense, or (when ``phi`` is empty) per-mode 2 x 2 blocks given
     by the four diagonals ``phi_d`` of ``[[P11, P12], [P21, P22]]``."""
@@ -178,8 +178,7 @@ MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "
 """The discretisation arguments of `integrate`, in order (`analysis.plant.Plant._discretise`)."""
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)
-def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
+def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
               inj_f: np.ndarray, inj_g: np.ndarray, u_g: np.ndarray, we: np.ndarray,
               r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
               pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
@@ -425,3 +424,12 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     stats[S_EVENTS] += n_events
     for r in range(ny):
         state[r] = s[r]
+
+
+integrate = numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)(_integrate)
+# The same loop without fast-math, for runs with kinds registered at run time: the fast-math
+# flags reach the built-in laws inlined here but not a registered law (a call), which would
+# then differ from an identical built-in law in the last bits (tests/test_kinds.py). Not
+# cached on disk: its cache entries would share `integrate`'s index (same function), and
+# registered kinds are compiled off the disk cache anyway (`_numba_cache`).
+integrate_strict = numba.njit(error_model="numpy")(_integrate)

@@ -77,7 +77,7 @@ from scipy.linalg import eigh, expm
 from scipy.sparse.csgraph import connected_components
 
 from . import _plant_kernels as _k
-from .elements import KINDS, N_PARAM, N_STATE, pack_params
+from .elements import KINDS, N_BUILTIN, N_PARAM, N_STATE, pack_params
 from .errors import InputError
 from .model import Model
 from .recording import RESPONSE_KINDS
@@ -442,8 +442,10 @@ class Plant:
         """Outputs at the points, element forces and deformations over ``force`` with ``m``
         substeps, into ``out``."""
         kern = self._kernel(m)
-        _k.integrate(force, m, *(kern[name] for name in _k.MATRICES), self._s, self._gh,
-                     self._uh, self._es, self._fprev, *out, self.stats)
+        kernel = _k.integrate_strict if any(spec.code >= N_BUILTIN for spec in KINDS.values()) \
+            else _k.integrate
+        kernel(force, m, *(kern[name] for name in _k.MATRICES), self._s, self._gh, self._uh,
+               self._es, self._fprev, *out, self.stats)
         if not np.all(np.isfinite(self._s)):
             raise PlantError("the simulation diverged; raise oversample or lower the drive")
 
