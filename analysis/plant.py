@@ -20,6 +20,19 @@ Each output interval ``1/fs`` is split into ``oversample`` substeps of length ``
   end value is implicit and found by fixed-point iteration on the element
   deformations (predictor = extrapolated history, corrector to a relative 1e-13). Element memory
   state is committed only when a substep is accepted (`element_force` ``s_in``/``s_out``).
+* The state advanced by the loop is the *accumulated* state ``s = y + R z``: ``z`` holds the
+  drive and element forces at the last hold nodes, ``R z`` what they will still add to the
+  coming substeps (their hold weights carried back by ``Phi^-1``), so that each node's whole
+  influence enters ``s`` once, when it is known, instead of at every substep of its stencil;
+  the element deformations and the outputs subtract the pending part in element and point
+  space. This needs ``Phi^-HOLD_DEGREE`` to stay moderate; a linear system decaying faster
+  than ``e^MAX_LOG_GROWTH`` over the stencil uses the direct form (history injected every
+  substep). ``Phi^-1`` is a matrix exponential of its own (as accurate as ``Phi``).
+* A modal model (diagonal ``M, C, K``) propagates per mode (2 x 2 blocks of ``Phi``); the
+  matrix exponentials are computed block by block (connected components of ``A``), so their
+  zero pattern is exact. Displacement, velocity and acceleration are computed at the points
+  only (``T``-premultiplied output matrices), and a sticking ``stick_slip`` element's
+  predictor solves its linear law exactly.
 * ``stick_slip`` transitions are located inside the substep: stick -> slip where the stick
   branch reaches ``+-fd``, slip -> stick where the deformation rate reverses (cubic Hermite
   interpolation). The force jump relative to the hold polynomial is integrated exactly with the
@@ -56,9 +69,11 @@ the decay rate of the viscous slopes (Coulomb ``fc / v_reg``). Amplitude-depende
 hold grows with them, so the run is checked by step doubling: a chunk of at most
 ``CHUNK`` samples whose running tangent frequency (the same rule with each element's largest
 slope over the chunk) exceeds the largest already checked is integrated again from its start
-with twice the substeps; if the two differ by more than ``accuracy`` (relative, displacement
-and velocity), the substeps are raised for good (by the ``ORDER``-th root of the excess, at
-most doubled; the hold history is resampled), the chunk is run again and checked in turn.
+with twice the substeps (the eigenvalue problem of the rule is skipped while every element
+slope stays below a bound proven to keep it checked, `_bound`); if the two differ by more
+than ``accuracy`` (relative, displacement and velocity at the points), the substeps are
+raised for good (by the ``ORDER``-th root of the excess, at most doubled; the hold history
+is resampled), the chunk is run again and checked in turn.
 The check is local: where the dynamics amplify small differences strongly (measured: x300
 within 0.1 s on the 3-DOF chain with a 4e16 cubic at 40 N rms on two DOFs, against
 solve_ivp too), the global error can exceed ``accuracy`` by that factor.
@@ -374,25 +389,25 @@ class Plant:
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a state returned by `state` (of a plant with the same model and settings)."""
-        y = np.concatenate([state["x"], state["v"]])
-        new = {"_y": y, "_es": state["element_state"], "_gh": state["force_history"],
-               "_uh": state["deformation_history"], "_fprev": state["force_prev"]}
-        for key, value in new.items():
-            old = self._s if key == "_y" else getattr(self, key)
-            value = np.array(value, dtype=float)
-            if value.shape != old.shape:
-                raise PlantError(f"state entry for {key.strip('_')} has shape {value.shape}, "
-                                 f"this plant needs {old.shape}")
-            new[key] = value
-        self._es, self._gh, self._uh, self._fprev = (new[k] for k in ("_es", "_gh", "_uh",
-                                                                     "_fprev"))
+        n = self.model.n_q
+        current = {"x": self._s[:n], "v": self._s[n:], "element_state": self._es,
+                   "force_history": self._gh, "deformation_history": self._uh,
+                   "force_prev": self._fprev}
+        new = {}
+        for key, old in current.items():
+            new[key] = np.array(state[key], dtype=float)
+            if new[key].shape != old.shape:
+                raise PlantError(f"state entry {key} has shape {new[key].shape}, this plant "
+                                 f"needs {old.shape}")
+        self._es, self._gh, self._uh, self._fprev = (new[k] for k in list(current)[2:])
         self._rng = np.random.default_rng()
         self._rng.bit_generator.state = state["rng"]
         self.oversample = int(state.get("oversample", self.oversample))
+        y = np.concatenate([new["x"], new["v"]])
         pending = self._pending(self.oversample, self._fprev, self._gh)
         acc = np.asarray(state.get("accumulated", np.zeros(0)), dtype=float)
-        same = acc.shape == y.shape and np.array_equal(acc - pending, new["_y"])
-        self._s = acc.copy() if same else new["_y"] + pending
+        same = acc.shape == y.shape and np.array_equal(acc - pending, y)
+        self._s = acc.copy() if same else y + pending
 
     def _pending(self, m: int, fprev: np.ndarray, gh: np.ndarray) -> np.ndarray:
         """What the accumulated state holds beyond the state at ``m`` substeps per sample:
@@ -434,6 +449,7 @@ class Plant:
         return PlantOutput(out.x, out.v, out.a, response, out.g, self.oversample)
 
     def _outputs(self, n: int) -> "_Block":
+        """Empty output arrays for ``n`` samples."""
         npt, ne = self.model.n_dof, len(self.model.elements)
         return _Block(np.empty((n, npt)), np.empty((n, npt)), np.empty((n, npt)),
                       np.empty((n, ne)), np.empty((n, 2 * ne)))
