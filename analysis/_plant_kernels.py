@@ -10,6 +10,8 @@ element's force and deformation at the history nodes (column ``q-1`` = start of 
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -24,6 +26,8 @@ _element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
 
 STICK_SLIP = 5
 MAX_ITER = 30
+# reassociation lets LLVM vectorise the dot products (deterministic all the same)
+FASTMATH = {"reassoc", "contract"}
 RTOL = 1e-12
 # stats slots
 S_SUBSTEPS, S_ITER, S_EVENTS, S_NOCONV = 0, 1, 2, 3
@@ -74,18 +78,21 @@ def _root_poly(coef: np.ndarray, target: float) -> float:
 
 @numba.njit(cache=True)
 def _root_velocity(u0: float, v0: float, u1: float, v1: float, h: float) -> float:
-    """Time fraction where the Hermite interpolant's velocity changes sign."""
+    """Time fraction where the Hermite interpolant's velocity changes sign: the root in
+    [0, 1] of the quadratic ``a t^2 + b t + v0`` (`_hermite`'s ``du``)."""
     if v0 * v1 > 0.0 or v0 == 0.0:
         return 0.0
-    lo, hi = 0.0, 1.0
-    for _ in range(60):
-        t = 0.5 * (lo + hi)
-        d = _hermite(u0, v0, u1, v1, h, t)[1]
-        if d * v0 > 0.0:
-            lo = t
-        else:
-            hi = t
-    return 0.5 * (lo + hi)
+    a = 6.0 * (u0 - u1) / h + 3.0 * (v0 + v1)
+    b = 6.0 * (u1 - u0) / h - 4.0 * v0 - 2.0 * v1
+    c = v0
+    if abs(a) <= 1e-12 * (abs(b) + abs(c)):
+        return min(max(-c / b, 0.0), 1.0)
+    disc = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+    qq = -0.5 * (b + math.copysign(disc, b))      # the stable pair of roots: qq/a, c/qq
+    for t in (qq / a, c / qq if qq != 0.0 else -1.0):
+        if 0.0 <= t <= 1.0:
+            return t
+    return min(max(qq / a, 0.0), 1.0)
 
 
 @numba.njit(cache=True)
@@ -108,45 +115,100 @@ def _jump_coeffs(dnodes: np.ndarray, theta: float, vinv: np.ndarray, h: float,
             binom = binom * (m - k) / (k + 1)
     r = 1.0 - theta
     delta = r * h
+    kfact, rk = 1.0, r
+    for k in range(nq):        # d_k h k! r^(k+1)
+        if k > 0:
+            kfact *= k
+            rk *= r
+        dsh[k] *= h * kfact * rk
+    dpow = 1.0
     for i in range(out.shape[0]):
         acc = 0.0
-        kfact = 1.0
         for k in range(nq):
-            if k > 0:
-                kfact *= k
-            acc += dsh[k] * h * kfact * r ** (k + 1) * inv_fact[i + k + 1]
-        out[i] = acc * delta ** i
+            acc += dsh[k] * inv_fact[i + k + 1]
+        out[i] = acc * dpow
+        dpow *= delta
 
 
-@numba.njit(cache=True, error_model="numpy")
-def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: np.ndarray,
-              wh: np.ndarray, we: np.ndarray, proj: np.ndarray, pwe: np.ndarray,
-              ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray, xpred: np.ndarray,
-              inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray, h: float,
-              y: np.ndarray, gh: np.ndarray, uh: np.ndarray, es: np.ndarray,
-              fprev: np.ndarray, acc_f: np.ndarray, acc_y: np.ndarray, acc_g: np.ndarray,
-              out_y: np.ndarray, out_g: np.ndarray, out_a: np.ndarray,
+@numba.njit(cache=True, inline="always")
+def _axpy(a: float, x: np.ndarray, out: np.ndarray) -> None:
+    """``out += a x``."""
+    for r in range(out.shape[0]):
+        out[r] += a * x[r]
+
+
+@numba.njit(cache=True, inline="always")
+def _dot(a: np.ndarray, b: np.ndarray, lo: int) -> float:
+    """``a . b[lo:lo + len(a)]``."""
+    s = 0.0
+    for c in range(a.shape[0]):
+        s += a[c] * b[lo + c]
+    return s
+
+
+@numba.njit(cache=True, inline="always")
+def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
+    """``z = [f, g at age 0, ..., g at age q-1]`` (ages in nodes back from the last)."""
+    nin, ne, q = f.shape[0], gh.shape[0], gh.shape[1]
+    for i in range(nin):
+        z[i] = f[i]
+    for b in range(q):
+        for e in range(ne):
+            z[nin + b * ne + e] = gh[e, q - 1 - b]
+
+
+@numba.njit(cache=True, inline="always")
+def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    """``out = Phi s``: ``phi`` dense, or (when ``phi`` is empty) per-mode 2 x 2 blocks given
+    by the four diagonals ``phi_d`` of ``[[P11, P12], [P21, P22]]``."""
+    if phi.shape[0] == 0:
+        n = phi_d.shape[1]
+        for i in range(n):
+            x, v = s[i], s[n + i]
+            out[i] = phi_d[0, i] * x + phi_d[1, i] * v
+            out[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
+    else:
+        for r in range(phi.shape[0]):
+            out[r] = _dot(phi[r], s, 0)
+
+
+MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "corr", "pwe",
+            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "prm", "h", "shapes",
+            "identity", "tax", "tav", "out_z")
+"""The discretisation arguments of `integrate`, in order (`analysis.plant.Plant._discretise`)."""
+
+
+def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
+              inj_f: np.ndarray, inj_g: np.ndarray, u_g: np.ndarray, we: np.ndarray,
+              r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
+              pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
+              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray,
+              h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
+              out_z: np.ndarray, s: np.ndarray, gh: np.ndarray, uh: np.ndarray,
+              es: np.ndarray, fprev: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
+              out_a: np.ndarray, out_el: np.ndarray, out_uv: np.ndarray,
               stats: np.ndarray) -> None:
     """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
 
-    ``y, gh, uh, es, fprev`` are updated in place (they are the plant state); ``out_y``,
-    ``out_g`` and ``out_a`` receive the state, element forces and acceleration
-    ``acc_f f + acc_y y + acc_g g`` at each output sample.
+    ``s, gh, uh, es, fprev`` are updated in place (they are the plant state; ``s`` the
+    accumulated state of `analysis.plant`, Method). ``out_x, out_v, out_a`` receive
+    displacement, velocity and acceleration at the points, ``out_el`` the element forces and
+    ``out_uv`` the element deformations and rates at each output sample.
     """
-    ny = y.shape[0]
+    ny = s.shape[0]
+    n = ny // 2
     ne = codes.shape[0]
     q = gh.shape[1]
     nin = force.shape[1]
     nt = ab.shape[1]
-    known = np.empty(ny)
-    ynew = np.empty(ny)
+    npt = out_x.shape[1]
+    kn = np.empty(ny)
     pk = np.empty(2 * ne)
     uv = np.empty(2 * ne)
     acc = np.empty(2 * ne)
     g = np.zeros(ne)       # force at the end node (the branch the element is on at the end)
     gc = np.zeros(ne)      # force the hold polynomial uses at the end node (old branch)
-    u0 = np.empty(ne)
-    v0 = np.empty(ne)
+    gold = np.empty(q)
     sigma0 = np.zeros(ne)
     st = es.copy()
     pscr = np.empty(prm.shape[1])
@@ -160,37 +222,44 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
     dnodes = np.empty(q + 1)
     fa = np.empty(nin)
     fb = np.empty(nin)
+    z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
+    vh = np.empty(ne)            # element deformation rates at the last node
+    state = s              # s and kn swap roles every substep; the result goes to state
+    n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
+    _history(fprev, gh, z)
+    for e in range(ne):
+        g[e] = gh[e, q - 1]
+        vh[e] = _dot(wq[e], s, n) - _dot(r_v[e], z, 0)
     for k in range(force.shape[0]):
         for j in range(m):
             for i in range(nin):
                 df = (force[k, i] - fprev[i]) / m
                 fa[i] = fprev[i] + j * df
                 fb[i] = fa[i] + df
-            for r in range(ny):
-                s = 0.0
-                for c in range(ny):
-                    s += phi[r, c] * y[c]
-                for c in range(nin):
-                    s += wf0[r, c] * fa[c] + wf1[r, c] * fb[c]
-                for nd in range(q):
-                    for e in range(ne):
-                        s += wh[nd, r, e] * gh[e, nd]
-                known[r] = s
+            # known part of the end state: free response, drive, injected history
+            _propagate(phi, phi_d, s, kn)
+            for i in range(nin):
+                _axpy(fb[i], inj_f[0, i], kn)
+                if inj_f.shape[0] > 1:
+                    _axpy(fa[i], inj_f[1, i], kn)
+            for a in range(inj_g.shape[0]):
+                for e in range(ne):
+                    _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
             if ne == 0:
-                for r in range(ny):
-                    y[r] = known[r]
+                s, kn = kn, s
                 continue
-            for r in range(2 * ne):
-                s = 0.0
-                for c in range(ny):
-                    s += proj[r, c] * known[c]
-                pk[r] = s
+            # element deformations and rates of the known part (less the pending history)
             for e in range(ne):
-                u0[e] = uh[e, q - 1]
-                s = 0.0
-                for c in range(ny):
-                    s += proj[ne + e, c] * y[c]
-                v0[e] = s
+                pk[e] = _dot(wq[e], kn, 0)
+                pk[ne + e] = _dot(wq[e], kn, n)
+            for i in range(nin):
+                z[i] = fb[i]
+            for a in range(1, q):
+                for e in range(ne):
+                    z[nin + (a - 1) * ne + e] = gh[e, q - a]
+            for r in range(2 * ne):
+                pk[r] += _dot(corr[r], z, 0)
+            for e in range(ne):
                 sigma0[e] = 0.0
                 if codes[e] == STICK_SLIP:
                     sigma0[e] = es[e, 1]
@@ -198,17 +267,26 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
                 for nd in range(q):
                     gp += xpred[nd] * gh[e, nd]
                 gc[e] = gp
+            for e in range(ne):
+                if codes[e] == STICK_SLIP and sigma0[e] == 0.0:
+                    # sticking, the law is linear: solve its own deformation exactly
+                    kd, z0 = prm[e, 0], es[e, 0]
+                    t = pk[e] - pwe[e, e] * gc[e]
+                    for f in range(ne):
+                        t += pwe[e, f] * gc[f]
+                    a = pwe[e, e] * kd
+                    gc[e] = kd * ((t - a * z0) / (1.0 - a) - z0)
             for r in range(2 * ne):
-                s = pk[r]
+                t = pk[r]
                 for e in range(ne):
-                    s += pwe[r, e] * gc[e]
-                uv[r] = s
+                    t += pwe[r, e] * gc[e]
+                uv[r] = t
             converged = False
             dprev = 0.0
             for e in range(ne):
                 ev_prev[e] = 0
             for it in range(MAX_ITER):
-                stats[S_ITER] += 1
+                n_iter += 1
                 for r in range(2 * ne):
                     acc[r] = pk[r]
                 for e in range(ne):
@@ -245,8 +323,9 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
                                 st[e, 0] = u1 - sg * fd / kd
                                 st[e, 1] = sg
                             else:  # slip -> stick where the velocity reverses
-                                th = _root_velocity(u0[e], v0[e], u1, v1, h)
-                                ut = _hermite(u0[e], v0[e], u1, v1, h, th)[0]
+                                u0 = uh[e, q - 1]
+                                th = _root_velocity(u0, vh[e], u1, v1, h)
+                                ut = _hermite(u0, vh[e], u1, v1, h, th)[0]
                                 ev_theta[e] = th
                                 ev_ut[e] = ut
                                 for nd in range(q):
@@ -259,10 +338,10 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
                         if event[e] != 0:
                             _jump_coeffs(dnodes, ev_theta[e], vinv, h, inv_fact, ev_c[e])
                             for r in range(2 * ne):
-                                s = 0.0
+                                t = 0.0
                                 for i in range(nt):
-                                    s += pab[e, i, r] * ev_c[e, i]
-                                acc[r] += s
+                                    t += pab[e, i, r] * ev_c[e, i]
+                                acc[r] += t
                     else:
                         # scratch copies: passing row views costs more than the force law
                         for i in range(pscr.shape[0]):
@@ -292,17 +371,14 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
                     break
                 dprev = dmax
             if not converged:
-                stats[S_NOCONV] += 1
-            for r in range(ny):
-                s = known[r]
-                for e in range(ne):
-                    s += we[r, e] * gc[e]
-                    if event[e] != 0:
-                        for i in range(nt):
-                            s += ab[e, i, r] * ev_c[e, i]
-                ynew[r] = s
-            for r in range(ny):
-                y[r] = ynew[r]
+                n_noconv += 1
+            # end state: the hold used gc at the end node, the history keeps g
+            for e in range(ne):
+                _axpy(g[e], u_g[e], kn)
+                if event[e] != 0:
+                    _axpy(gc[e] - g[e], we[e], kn)
+                    for i in range(nt):
+                        _axpy(ev_c[e, i], ab[e, i], kn)
             for e in range(ne):
                 for i in range(es.shape[1]):
                     es[e, i] = st[e, i]
@@ -311,28 +387,49 @@ def integrate(force: np.ndarray, m: int, phi: np.ndarray, wf0: np.ndarray, wf1: 
                     uh[e, nd] = uh[e, nd + 1]
                 gh[e, q - 1] = g[e]
                 uh[e, q - 1] = uv[e]
+                vh[e] = uv[ne + e]
+                if event[e] == 0:
+                    continue
+                n_events += 1
+                for nd in range(q - 1):
+                    gold[nd] = gh[e, nd]
                 if event[e] == 1:      # history continues on the slip branch
                     for nd in range(q - 1):
                         gh[e, nd] = g[e]
-                elif event[e] == 2:    # history continues on the new stick branch
+                else:                  # history continues on the new stick branch
                     for nd in range(q - 1):
                         gh[e, nd] = sigma0[e] * prm[e, 1] + prm[e, 0] * (uh[e, nd]
                                                                          - ev_ut[e])
-                if event[e] != 0:
-                    stats[S_EVENTS] += 1
+                for nd in range(q - 1):  # the accumulated state holds the old history
+                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
+            s, kn = kn, s
         stats[S_SUBSTEPS] += m
         for i in range(nin):
             fprev[i] = force[k, i]
-        for r in range(ny):
-            out_y[k, r] = y[r]
         for e in range(ne):
-            out_g[k, e] = g[e]
-        for r in range(out_a.shape[1]):
-            s = 0.0
-            for c in range(nin):
-                s += acc_f[r, c] * force[k, c]
-            for c in range(ny):
-                s += acc_y[r, c] * y[c]
-            for e in range(ne):
-                s += acc_g[r, e] * g[e]
-            out_a[k, r] = s
+            out_el[k, e] = g[e]
+            out_uv[k, e] = uv[e]
+            out_uv[k, ne + e] = uv[ne + e]
+        _history(fprev, gh, z)
+        for p in range(npt):
+            if identity:
+                x, v = s[p], s[n + p]
+            else:
+                x, v = _dot(shapes[p], s, 0), _dot(shapes[p], s, n)
+            out_x[k, p] = x + _dot(out_z[0, p], z, 0)
+            out_v[k, p] = v + _dot(out_z[1, p], z, 0)
+            out_a[k, p] = _dot(tax[p], s, 0) + _dot(tav[p], s, n) + _dot(out_z[2, p], z, 0)
+    stats[S_ITER] += n_iter
+    stats[S_NOCONV] += n_noconv
+    stats[S_EVENTS] += n_events
+    for r in range(ny):
+        state[r] = s[r]
+
+
+integrate = numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)(_integrate)
+# The same loop without fast-math, for runs with kinds registered at run time: the fast-math
+# flags reach the built-in laws inlined here but not a registered law (a call), which would
+# then differ from an identical built-in law in the last bits (tests/test_kinds.py). Not
+# cached on disk: its cache entries would share `integrate`'s index (same function), and
+# registered kinds are compiled off the disk cache anyway (`_numba_cache`).
+integrate_strict = numba.njit(error_model="numpy")(_integrate)

@@ -18,19 +18,24 @@ MODELS = Path(__file__).resolve().parents[1] / "examples" / "models"
 
 
 def reference_response(model: Model, force: np.ndarray, fs: float, force_dofs, *,
-                       rtol: float = 1e-12, method: str = "DOP853") -> dict[str, np.ndarray]:
+                       rtol: float = 1e-12, method: str = "DOP853",
+                       input_matrix: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Independent reference: `solve_ivp` interval by interval between drive samples.
 
     The drive is the first-order hold of the samples with a zero sample one period before the
     first (the plant's definition). Smooth elements are hand-written here; each stick_slip
     element adds its slider position ``z`` as an ODE state (``z' = 0`` sticking, ``z' = u'``
     slipping) and its stick/slip switches are located by terminal events: stick -> slip when
-    ``|kd (u - z)| = fd``, slip -> stick when ``u'`` changes sign.
+    ``|kd (u - z)| = fd``, slip -> stick when ``u'`` changes sign. ``input_matrix`` (n, n_in)
+    replaces the unit force directions of ``force_dofs`` (a modal model in its coordinates:
+    the mode shapes at the driven points).
     """
     n = model.n_dof
     minv = np.linalg.inv(model.mass)
     sel = np.zeros((n, len(force_dofs)))
     sel[list(force_dofs), np.arange(len(force_dofs))] = 1.0
+    if input_matrix is not None:
+        sel = np.asarray(input_matrix, dtype=float)
     els = model.elements
     slip_idx = [i for i, el in enumerate(els) if el.kind == "stick_slip"]
     mode = {i: 0 for i in slip_idx}            # 0 stick, +-1 slipping in that direction
