@@ -57,8 +57,14 @@ def test_linear_modal_plant_equals_fe_plant_at_the_points():
     full = Plant(fe, FS, [idx[drive]]).run(force)
     red = Plant(modal, FS, [drive]).run(force)
     assert modal.is_modal and modal.n_q == fe.n_q
+    # both are exact discretisations: they differ by rounding, amplified by the spread of
+    # time scales (the dense FE matrices mix 2 Hz and 5 kHz modes): eps (f_max / f_min)^2,
+    # with a factor 100 for the accumulation over the record and the matrix products
+    f = fe.natural_frequencies()
+    rounding = 100 * np.finfo(float).eps * (f.max() / f.min()) ** 2
+    assert rounding < 1e-7                 # far below the 1e-6 the issue asks
     for kind in ("displacement", "velocity", "acceleration"):
-        assert _rel(getattr(red, kind), getattr(full, kind)[:, idx]) < 1e-9, kind
+        assert _rel(getattr(red, kind), getattr(full, kind)[:, idx]) < rounding, kind
 
 
 def test_joint_between_points_modal_equals_fe():
