@@ -11,7 +11,6 @@ An element whose parameters are omitted is *unknown*: it marks what an estimator
 
 from __future__ import annotations
 
-import json
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -22,13 +21,15 @@ import numpy as np
 
 from .elements import KINDS
 from .errors import ModelError
-from .textfile import nearest, read_text, unknown_keys
+from ._model_file import (check_keys, check_toml_matrix, default_points, is_number,
+                          point_index, short, toml_element, toml_list, toml_num, toml_str,
+                          toml_where)
+from .textfile import read_text
 
 TOP_KEYS = ("name", "points", "linear", "modal", "element")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
 MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
               "residual_damping_ratios", "residual_shapes")
-PLACEMENT_KEYS = ("w", "at", "between")
 MAX_DOF = 100             # points, and DOFs of the [linear] form
 MAX_MODES = 500
 MAX_ELEMENTS = 100
@@ -144,13 +145,19 @@ class Model:
         return not (self.shapes.shape[0] == self.shapes.shape[1]
                     and np.array_equal(self.shapes, np.eye(self.n_q)))
 
+    @property
+    def decoupled(self) -> bool:
+        """Whether ``M``, ``C`` and ``K`` are all diagonal (uncoupled modal coordinates)."""
+        return all(np.array_equal(a, np.diag(np.diag(a)))
+                   for a in (self.mass, self.damping, self.stiffness))
+
     def to_q(self, w: np.ndarray) -> np.ndarray:
         """A vector over points (an element's ``w``, a force direction) in internal coordinates."""
         return self.shapes.T @ np.asarray(w, dtype=float)
 
     def point_index(self, point: str | int) -> int:
         """Index of a point given by name or index."""
-        return _point_index(point, self.points, "point")
+        return point_index(point, self.points, "point")
 
     @property
     def complete(self) -> bool:
@@ -168,8 +175,7 @@ class Model:
         """Receptance of the underlying linear system at the points, (n_f, n_dof, n_in)."""
         w = 2 * np.pi * np.asarray(freqs, dtype=float)
         cols = self.shapes if force_dofs is None else self.shapes[list(force_dofs)]
-        if _is_diagonal(self.mass) and _is_diagonal(self.damping) \
-                and _is_diagonal(self.stiffness):
+        if self.decoupled:
             hq = 1.0 / (-w[:, None] ** 2 * np.diag(self.mass)
                         + 1j * w[:, None] * np.diag(self.damping) + np.diag(self.stiffness))
             return np.einsum("pq,fq,iq->fpi", self.shapes, hq, cols, optimize=True)
@@ -245,10 +251,10 @@ class Model:
         """TOML text of this model (matrices one row per line; loads back exactly)."""
         # Written by hand: tomli-w puts every matrix entry on its own line, which makes model
         # files unreadable to the engineers who edit them. The schema is small and fixed.
-        lines = [f"name = {_toml_str(self.name)}"]
-        named = self.points != _default_points(self.n_dof)
+        lines = [f"name = {toml_str(self.name)}"]
+        named = self.points != default_points(self.n_dof)
         if named:
-            lines.append(f"points = [{', '.join(_toml_str(p) for p in self.points)}]")
+            lines.append(f"points = [{', '.join(toml_str(p) for p in self.points)}]")
         if self.is_modal:
             lines += ["", "[modal]                  # mass-normalised shapes: one row per mode, "
                       "one value per point (1/sqrt(kg))"]
@@ -259,19 +265,19 @@ class Model:
                                     zeta[len(freqs) - nr:], shapes[len(freqs) - nr:])):
                 if not len(f):
                     continue
-                rows = ",\n    ".join(_toml_list(row) for row in phi)
-                lines += [f"{key}frequencies_hz = {_toml_list(f)}",
-                          f"{key}damping_ratios = {_toml_list(z)}",
+                rows = ",\n    ".join(toml_list(row) for row in phi)
+                lines += [f"{key}frequencies_hz = {toml_list(f)}",
+                          f"{key}damping_ratios = {toml_list(z)}",
                           f"{key}shapes = [\n    {rows},\n]"]
         else:
             lines += ["", "[linear]"]
             for key in ("mass", "damping", "stiffness"):
-                rows = ",\n    ".join(_toml_list(row) for row in getattr(self, key))
+                rows = ",\n    ".join(toml_list(row) for row in getattr(self, key))
                 lines.append(f"{key} = [\n    {rows},\n]")
         for el in self.elements:
-            lines += ["", "[[element]]", f"kind = {_toml_str(el.kind)}",
-                      _toml_where(el.w, self.points) if named else f"w = {_toml_list(el.w)}"]
-            lines += [f"{name} = {_toml_num(value)}" for name, value in el.params.items()]
+            lines += ["", "[[element]]", f"kind = {toml_str(el.kind)}",
+                      toml_where(el.w, self.points) if named else f"w = {toml_list(el.w)}"]
+            lines += [f"{name} = {toml_num(value)}" for name, value in el.params.items()]
         return "\n".join(lines) + "\n"
 
     def save(self, path: str | Path) -> None:
@@ -287,13 +293,13 @@ class Model:
 
     @classmethod
     def _from_dict(cls, data: dict[str, Any]) -> "Model":
-        _keys(data, TOP_KEYS, "top level")
+        check_keys(data, TOP_KEYS, "top level")
         name = data.get("name", "model")
         if not isinstance(name, str):
             raise ModelError(f"name must be a string, got {name!r}")
         points = data.get("points")
         if points is not None and (not isinstance(points, list) or not points):
-            raise ModelError(f"points = {_short(points)} must be a list of point names, e.g. "
+            raise ModelError(f"points = {short(points)} must be a list of point names, e.g. "
                              '["drive", "tip"]')
         raw_elements = data.get("element", [])
         if not isinstance(raw_elements, list):
@@ -308,29 +314,29 @@ class Model:
         if linear is not None and modal is not None:
             raise ModelError("both [linear] and [modal]: give the linear system in one form")
         if linear is not None:
-            _keys(linear, LINEAR_KEYS, "[linear]")
+            check_keys(linear, LINEAR_KEYS, "[linear]")
             for key in LINEAR_KEYS:
                 if key not in linear:
                     raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
-                _toml_matrix(linear[key], f"linear.{key}")
+                check_toml_matrix(linear[key], f"linear.{key}")
             n_points = len(linear["mass"])
         else:
-            _keys(modal, MODAL_KEYS, "[modal]")
+            check_keys(modal, MODAL_KEYS, "[modal]")
             for key in MODAL_KEYS[:3]:
                 if key not in modal:
                     raise ModelError(f"[modal] lacks '{key}'; see docs/model-format.md")
-            _toml_matrix(modal["shapes"], "modal.shapes")
+            check_toml_matrix(modal["shapes"], "modal.shapes")
             if points is None:
                 raise ModelError("a [modal] model needs top-level points = [...] naming the "
                                  "point of each shape column")
             n_points = len(points)
         names = _points(points, n_points)
-        elements = [_toml_element(raw, i, names) for i, raw in enumerate(raw_elements)]
+        elements = [Element(*toml_element(raw, i, names)) for i, raw in enumerate(raw_elements)]
         if linear is not None:
             return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
                        names)
         if "residual_shapes" in modal:
-            _toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
+            check_toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
         return cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
                          elements=elements, name=name, points=names,
                          residual_freqs_hz=modal.get("residual_frequencies_hz", []),
@@ -350,130 +356,39 @@ class Model:
         return cls.loads(read_text(path, "model file", ModelError), str(path))
 
 
-def _toml_num(x: float) -> str:
-    return repr(float(x))
 
 
-def _toml_list(values: Any) -> str:
-    return "[" + ", ".join(_toml_num(x) for x in values) + "]"
 
 
-def _toml_str(text: str) -> str:
-    return json.dumps(text, ensure_ascii=False)  # JSON string escapes are valid TOML
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def _keys(table: Any, allowed: tuple[str, ...], where: str, noun: str = "key") -> None:
-    if not isinstance(table, dict):
-        raise ModelError(f"{where} must be a table")
-    message = unknown_keys(table, allowed, where, noun)
-    if message:
-        raise ModelError(message)
 
 
-def _toml_matrix(value: Any, name: str) -> None:
-    """A matrix in a file is a list of equal-length rows of numbers (no scalar, no strings)."""
-    hint = "write it as a list of rows of numbers, e.g. [[1.0, 0.0], [0.0, 1.0]]"
-    if not isinstance(value, list) or not value:
-        raise ModelError(f"{name} = {_short(value)} is not a matrix; {hint}")
-    for r, row in enumerate(value):
-        if not isinstance(row, list):
-            raise ModelError(f"{name} row {r} = {_short(row)} is not a list; {hint}")
-        for c, x in enumerate(row):
-            if not _is_number(x):
-                raise ModelError(f"{name}[{r}][{c}] = {_short(x)} is not a number; {hint}")
 
 
-def _toml_element(raw: Any, i: int, points: list[str]) -> Element:
-    if not isinstance(raw, dict):
-        raise ModelError(f"element {i} must be a table ([[element]])")
-    kind = raw.get("kind")
-    if not isinstance(kind, str):
-        raise ModelError(f"element {i} has no 'kind' string; use one of {', '.join(KINDS)}")
-    if kind not in KINDS:
-        hint = f"did you mean '{near}'? " if (near := nearest(kind, KINDS)) else ""
-        raise ModelError(f"element {i}: unknown kind '{kind}'; {hint}"
-                         f"use one of {', '.join(KINDS)}")
-    where = f"element {i} ({kind})"
-    _keys(raw, ("kind",) + PLACEMENT_KEYS + KINDS[kind].all_params, where, "parameter")
-    given = [key for key in PLACEMENT_KEYS if key in raw]
-    if len(given) != 1:
-        raise ModelError(f"{where}: " + ("has no position vector; " if not given else "")
-                         + "give its place as one of w = [...] (one entry per point), "
-                         'at = "point" (grounded) or between = ["a", "b"] (u = x_b - x_a)'
-                         + (f"; got {' and '.join(given)}" if given else ""))
-    w = _placement(given[0], raw[given[0]], points, where)
-    params = {k: v for k, v in raw.items() if k not in ("kind",) + PLACEMENT_KEYS}
-    for name, value in params.items():
-        if not _is_number(value):
-            raise ModelError(f"{where}: parameter {name} = {_short(value)} is not a number")
-    return Element(kind, w, params)
 
 
-def _placement(key: str, value: Any, points: list[str], where: str) -> np.ndarray | list:
-    """Position vector of an element from its ``w``, ``at`` or ``between`` entry."""
-    if key == "w":
-        if not isinstance(value, list) or not all(_is_number(x) for x in value):
-            raise ModelError(f"{where}: w = {_short(value)} must be a flat list of numbers, one "
-                             "per point (e.g. [0.0, 1.0])")
-        return value
-    ends = [value] if key == "at" else value
-    if key == "between" and not (isinstance(value, list) and len(value) == 2):
-        raise ModelError(f'{where}: between = {_short(value)} must name two points, e.g. '
-                         '["joint", "payload"]')
-    idx = [_point_index(p, points, f"{where}: {key}") for p in ends]
-    w = np.zeros(len(points))
-    if key == "between":
-        if idx[0] == idx[1]:
-            raise ModelError(f"{where}: between names point {points[idx[0]]!r} twice; use "
-                             f'at = "{points[idx[0]]}" for a grounded element')
-        w[idx[0]], w[idx[1]] = -1.0, 1.0
-    else:
-        w[idx[0]] = 1.0
-    return w
 
 
-def _point_index(point: Any, points: list[str], where: str) -> int:
-    if isinstance(point, str) and point in points:
-        return points.index(point)
-    if isinstance(point, int) and not isinstance(point, bool) and 0 <= point < len(points):
-        return point
-    hint = f"did you mean '{near}'? " if isinstance(point, str) and \
-        (near := nearest(point, points)) else ""
-    raise ModelError(f"{where}: no point {point!r}; {hint}the points are "
-                     f"{', '.join(points)} (or their indices 0..{len(points) - 1})")
 
 
-def _toml_where(w: np.ndarray, points: list[str]) -> str:
-    """The placement line of an element: ``at``/``between`` where ``w`` is a unit vector or
-    a unit difference, else ``w``."""
-    nz = np.flatnonzero(w)
-    if nz.size == 1 and w[nz[0]] == 1.0:
-        return f"at = {_toml_str(points[nz[0]])}"
-    if nz.size == 2 and sorted(w[nz]) == [-1.0, 1.0]:
-        a, b = nz if w[nz[0]] < 0 else nz[::-1]
-        return f"between = [{_toml_str(points[a])}, {_toml_str(points[b])}]"
-    return f"w = {_toml_list(w)}"
 
 
-def _default_points(n: int) -> list[str]:
-    return [str(i) for i in range(n)]
 
 
 def _points(points: Any, n: int) -> list[str]:
     """Validated point names (default ``"0", "1", ...``)."""
     if points is None:
-        return _default_points(n)
+        return default_points(n)
     points = list(points)
     if len(points) != n:
         raise ModelError(f"points names {len(points)} points but the linear system has {n}; "
                          "give one name per DOF or shape column")
     for p in points:
         if not isinstance(p, str) or not p.strip():
-            raise ModelError(f"points: {_short(p)} is not a point name (a non-empty string)")
+            raise ModelError(f"points: {short(p)} is not a point name (a non-empty string)")
     dup = sorted({p for p in points if points.count(p) > 1})
     if dup:
         raise ModelError(f"points: {', '.join(map(repr, dup))} named twice; point names must "
@@ -531,16 +446,12 @@ def _modes(freqs: Any, zeta: Any, shapes: Any, where: str, n_points: int | None 
 
 def _vector(value: Any, name: str) -> np.ndarray:
     if not isinstance(value, (list, tuple, np.ndarray)) or not all(
-            _is_number(x) or isinstance(x, np.number) for x in np.ravel(value)):
-        raise ModelError(f"{name} = {_short(value)} must be a list of numbers")
+            is_number(x) or isinstance(x, np.number) for x in np.ravel(value)):
+        raise ModelError(f"{name} = {short(value)} must be a list of numbers")
     arr = np.array(value, dtype=float).ravel()
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{name} holds NaN or infinite values")
     return arr
-
-
-def _is_diagonal(a: np.ndarray) -> bool:
-    return not np.any(a - np.diag(np.diag(a)))
 
 
 def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -548,7 +459,7 @@ def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int
     pseudo-modes of a modal model; matrices changed by a correction are diagonalised again
     (undamped modes of ``K, M``; damping ratios from the diagonal of the modal damping)."""
     m, c, k = model.mass, model.damping, model.stiffness
-    if _is_diagonal(m) and _is_diagonal(c) and _is_diagonal(k) and np.all(np.diag(m) == 1):
+    if model.decoupled and np.all(np.diag(m) == 1):
         w = np.sqrt(np.diag(k))
         return w / (2 * np.pi), np.diag(c) / (2 * w), model.shapes.T, model.n_residual
     from scipy.linalg import eigh
@@ -558,9 +469,6 @@ def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int
     return w / (2 * np.pi), zeta, (model.shapes @ vec).T, 0
 
 
-def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _matrix(value: Any, name: str, n: int | None = None, max_size: int = MAX_DOF

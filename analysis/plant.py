@@ -96,7 +96,10 @@ from .elements import KINDS, N_BUILTIN, N_PARAM, N_STATE, pack_params
 from .errors import InputError
 from .model import Model
 from .recording import RESPONSE_KINDS
-from .signals import HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, hold_images
+from .signals import hold_image_response, remove_hold_images
+
+__all__ = ["Plant", "PlantError", "PlantOutput", "add_relative_noise", "auto_oversample",
+           "hold_image_response", "remove_hold_images", "simulate"]
 
 HOLD_DEGREE = 5
 AUTO_H_OMEGA = 0.25
@@ -337,7 +340,7 @@ class Plant:
         out_z = np.hstack([np.vstack([np.zeros((2 * npt, sel.shape[1])), t @ minv @ sel])
                            - cy @ r_f, *out_g])
         corr = -np.hstack([proj @ r_f, *(proj @ r for r in r_g[1:])])
-        diagonal = all(_is_diagonal(x) for x in (model.mass, model.damping, model.stiffness))
+        diagonal = model.decoupled
         phi_d = np.array([np.diag(phis[0][:n, :n]), np.diag(phis[0][:n, n:]),
                           np.diag(phis[0][n:, :n]), np.diag(phis[0][n:, n:])])
         args = dict(
@@ -551,10 +554,6 @@ class _Block(NamedTuple):
     uv: np.ndarray
 
 
-def _is_diagonal(a: np.ndarray) -> bool:
-    return bool(np.array_equal(a, np.diag(np.diag(a))))
-
-
 def _bound(slopes: np.ndarray, factor: float) -> np.ndarray:
     """Element slopes up to which the tangent frequency stays below ``factor`` times that of
     ``slopes`` (``factor >= 1``): ``K + f S <= f (K + S)`` for ``K >= 0``, so the stiffness
@@ -567,47 +566,6 @@ def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     nb = np.linalg.norm(b)
     d = np.linalg.norm(a - b)
     return float(d / nb) if nb > 0 else (0.0 if d == 0 else math.inf)
-
-
-def remove_hold_images(samples: np.ndarray, force: np.ndarray, fs: float, kind: str,
-                       image_gains: Sequence[np.ndarray]) -> np.ndarray:
-    """Anti-aliased response of a whole record from the plant's instantaneous samples.
-
-    Subtracts the folded hold images of the drive (module docstring, Sensor sampling). The
-    plant is taken at rest with zero force before the record; past its end the force is
-    continued by its mirror image (the last ``HOLD_IMAGE_LOOKAHEAD`` samples depend on that
-    continuation).
-
-    Parameters
-    ----------
-    samples : ndarray, shape (n, n_dof)
-        Instantaneous ``kind`` samples (`PlantOutput` fields, noise-free or not).
-    force : ndarray, shape (n, n_in)
-        The drive that produced them, from rest.
-    fs : float
-    kind : {"displacement", "velocity", "acceleration"}
-    image_gains : sequence of ndarray, shape (n_dof, n_in)
-        `Plant.image_gains`.
-
-    Returns
-    -------
-    ndarray, shape (n, n_dof)
-    """
-    f = np.asarray(force, dtype=float).reshape(len(samples), -1)
-    lag = HOLD_IMAGE_LOOKAHEAD
-    tail = f[::-1][:lag]
-    if tail.shape[0] < lag:
-        tail = np.concatenate([tail, np.zeros((lag - tail.shape[0], f.shape[1]))])
-    ext = np.concatenate([np.zeros((lag, f.shape[1])), f, tail])
-    return samples - hold_image_response(ext, fs, kind, image_gains)
-
-
-def hold_image_response(force: np.ndarray, fs: float, kind: str,
-                        image_gains: Sequence[np.ndarray]) -> np.ndarray:
-    """Folded hold images in a ``kind`` response, (n, n_dof), from a force record with
-    ``HOLD_IMAGE_LOOKAHEAD`` samples of context at each end (`analysis.signals.hold_images`)."""
-    k = KIND_ORDER[kind]
-    return sum(hold_images(force, fs, k - j) @ g.T for j, g in enumerate(image_gains))
 
 
 def simulate(model: Model, force: np.ndarray, fs: float, force_dofs: Sequence[int], *,

@@ -10,6 +10,7 @@ few hundred samples, which `EDGE_SECONDS`-style trimming in the estimators remov
 from __future__ import annotations
 
 import functools
+from typing import Sequence
 import math
 
 import numpy as np
@@ -357,3 +358,44 @@ def hold_images(force: np.ndarray, fs: float, order: int) -> np.ndarray:
     out = np.stack([np.convolve(f[:, i], taps[::-1], mode="valid")
                     for i in range(f.shape[1])], axis=1)
     return out * fs ** (order - 2)
+
+
+def remove_hold_images(samples: np.ndarray, force: np.ndarray, fs: float, kind: str,
+                       image_gains: Sequence[np.ndarray]) -> np.ndarray:
+    """Anti-aliased response of a whole record from the plant's instantaneous samples.
+
+    Subtracts the folded hold images of the drive (`analysis.plant` module docstring, Sensor sampling). The
+    plant is taken at rest with zero force before the record; past its end the force is
+    continued by its mirror image (the last ``HOLD_IMAGE_LOOKAHEAD`` samples depend on that
+    continuation).
+
+    Parameters
+    ----------
+    samples : ndarray, shape (n, n_dof)
+        Instantaneous ``kind`` samples (`PlantOutput` fields, noise-free or not).
+    force : ndarray, shape (n, n_in)
+        The drive that produced them, from rest.
+    fs : float
+    kind : {"displacement", "velocity", "acceleration"}
+    image_gains : sequence of ndarray, shape (n_dof, n_in)
+        `Plant.image_gains`.
+
+    Returns
+    -------
+    ndarray, shape (n, n_dof)
+    """
+    f = np.asarray(force, dtype=float).reshape(len(samples), -1)
+    lag = HOLD_IMAGE_LOOKAHEAD
+    tail = f[::-1][:lag]
+    if tail.shape[0] < lag:
+        tail = np.concatenate([tail, np.zeros((lag - tail.shape[0], f.shape[1]))])
+    ext = np.concatenate([np.zeros((lag, f.shape[1])), f, tail])
+    return samples - hold_image_response(ext, fs, kind, image_gains)
+
+
+def hold_image_response(force: np.ndarray, fs: float, kind: str,
+                        image_gains: Sequence[np.ndarray]) -> np.ndarray:
+    """Folded hold images in a ``kind`` response, (n, n_dof), from a force record with
+    ``HOLD_IMAGE_LOOKAHEAD`` samples of context at each end (`analysis.signals.hold_images`)."""
+    k = KIND_ORDER[kind]
+    return sum(hold_images(force, fs, k - j) @ g.T for j, g in enumerate(image_gains))

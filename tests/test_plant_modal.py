@@ -103,7 +103,7 @@ def test_block_and_dense_propagation_agree(monkeypatch):
     blocks = Plant(model, 4096.0, [0], oversample=3)
     assert blocks._kernel(3)["phi"].size == 0
     out_b = blocks.run(force)
-    monkeypatch.setattr(plant_module, "_is_diagonal", lambda a: False)
+    monkeypatch.setattr(Model, "decoupled", property(lambda self: False))
     dense = Plant(model, 4096.0, [0], oversample=3)
     assert dense._kernel(3)["phi"].size > 0
     out_d = dense.run(force)
