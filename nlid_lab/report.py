@@ -124,7 +124,8 @@ def level_change_section(run: RunData) -> Section | None:
 def distortion_section(frfs: list[LevelFRF]) -> Section | None:
     """Periodic-random levels: BLA with noise and nonlinear-distortion levels, and the
     detection verdict per level and response."""
-    shown = [f for f in frfs if f.bla is not None]
+    # the distortion needs two or more realizations; one gives the period average only
+    shown = [f for f in frfs if f.bla is not None and f.bla.realizations >= 2]
     if not shown:
         return None
     from analysis.detect import bla_summary

@@ -82,6 +82,9 @@ def test_cli_writes_a_model_the_other_commands_load(beam, tmp_path, capsys):
     assert [round(m["freq_hz"], 1) for m in result["modes"]] == \
         [round(f, 1) for f in model.natural_frequencies()[:4]]
     assert png.stat().st_size > 10_000
+    pseudo = result["residual_pseudo_modes_hz"]
+    assert len(pseudo) == model.n_residual
+    assert all(f < 3.0 or f > 200.0 for f in pseudo)      # outside the band, as written
     # never overwritten without --force; a bad --modes is one line, exit 2
     assert main(["fit-linear", str(rec), "--out", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err

@@ -25,7 +25,8 @@ def summary(fit: LinearFit) -> dict[str, Any]:
     mac = m.mac - np.eye(m.mac.shape[0])
     model = fit.model
     nr = model.n_residual
-    freqs = model.natural_frequencies() if nr else np.array([])
+    # the pseudo-modes are the trailing modal coordinates (below and above the band)
+    pseudo = np.sqrt(np.diag(model.stiffness)[model.n_q - nr:]) / (2 * np.pi)
     return {
         "method": fit.data.method,
         "band_hz": list(m.band_hz),
@@ -35,7 +36,7 @@ def summary(fit: LinearFit) -> dict[str, Any]:
                    "max_mac_other": float(mac[i].max(initial=0.0)),
                    "shape": [float(v) for v in m.shapes[i]]}
                   for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support))],
-        "residual_pseudo_modes_hz": [float(f) for f in freqs[len(freqs) - nr:]],
+        "residual_pseudo_modes_hz": [float(f) for f in pseudo],
         "frf_error": {p: float(e) for p, e in zip(model.points, fit.frf_error)},
     }
 

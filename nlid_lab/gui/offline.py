@@ -151,6 +151,8 @@ class OfflineView(QtWidgets.QWidget):
             if frf.bla is not None:           # periodic random: noise and total std of G
                 for var, dash in ((frf.bla.var_total, QtCore.Qt.PenStyle.DashLine),
                                   (frf.bla.var_noise, QtCore.Qt.PenStyle.DotLine)):
+                    if np.all(np.isnan(var)):     # total: one realization does not give it
+                        continue
                     curve = self.mag.plot(pen=pg.mkPen(colour, width=1, style=dash))
                     std = convert_frf(np.sqrt(var[:, q]), frf.bla.freqs, frf.response_kind,
                                       self.kind)
