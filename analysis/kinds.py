@@ -78,11 +78,21 @@ class Param:
 
 class Grid(NamedTuple):
     """Values tried for a parameter besides the coefficient: ``fractions`` times the rms of
-    the deformation (``variable`` ``"x"``) or of its rate (``"v"``)."""
+    the deformation (``variable`` ``"x"``) or of its rate (``"v"``).
+
+    With ``per`` the grid value is the ratio ``param / per`` and ``per`` is the coefficient:
+    a slider's force ``kd J(u; fd / kd)`` is linear in ``kd`` for a fixed slip displacement
+    ``fd / kd``, so memory kinds are screened like memoryless ones. ``fixed`` parameters keep
+    one value while screening (a hysteresis loop's sharpness).
+    """
 
     param: str
     variable: str
     fractions: tuple[float, ...]
+    per: str | None = None
+    fixed: tuple[tuple[str, float], ...] = ()
+    level: str = "low"
+    """Whose rms the fractions scale: the lowest (``"low"``) or highest (``"high"``) level."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +102,8 @@ class Search:
     Attributes
     ----------
     grid : Grid, optional
-        Memoryless kinds with a parameter besides the coefficient: the values tried.
+        Kinds with a parameter besides the coefficient (or, with ``Grid.per``, memory kinds
+        linear in one parameter at a fixed ratio of two): the values tried.
     starts : callable, optional
         Memory kinds: ``starts(k_w, u_amp)`` -> physical start points (in `Kind.params`
         order) from the linear stiffness at the location and the median deformation
@@ -135,6 +146,10 @@ class Kind:
         ``damping(params, v_max)``: largest tangent damping (N s/m) over rates up to
         ``v_max``, likewise.
     search : Search
+    initial_stiffness : str, optional
+        Parameter that is the element's stiffness before it slips: a linear model fitted at
+        a low level already holds it, so the diagnosis also offers the element with that
+        stiffness taken out of the linear part.
     plant_restart : callable, optional
         ``plant_restart(state, params, g, v)``: sets the plant's extra state slots of an
         element restarted from a measured force ``g`` and rate ``v`` (in place).
@@ -153,6 +168,7 @@ class Kind:
     stiffness: Callable[[dict[str, float]], float] | None = None
     damping: Callable[[dict[str, float]], float] | None = None
     search: Search = Search()
+    initial_stiffness: str | None = None
     plant_restart: Callable[[np.ndarray, dict[str, float], float, float], None] | None = None
     law: Any = None
     tangent: Any = None
@@ -217,6 +233,10 @@ def _stick_slip_restart(state: np.ndarray, p: dict[str, float], g: float, v: flo
     state[1] = np.sign(v) if slipping else 0.0
 
 
+_SLIP_FRACTIONS = (0.5, 1.0, 2.0, 4.0, 8.0)
+"""Slip displacements ``fd / kd`` screened, in rms deformations at the lowest level (a
+joint that sticks there and slips at the higher levels)."""
+
 _KD = Param("kd", "stiffness", "N/m", _stiffness_scale, positive=True)
 _FD = Param("fd", "slip force", "N", _force_scale, positive=True)
 
@@ -243,19 +263,22 @@ KINDS: dict[str, Kind] = {
         search=Search(grid=Grid("v_reg", "v", (0.01,)))),
     "stick_slip": Kind(
         5, (_KD, _FD), memory=True, stiffness=lambda p, u: p["kd"],
-        search=Search(starts=_slider_starts(), inactive=_slips_below(1.0)),
-        plant_restart=_stick_slip_restart),
+        search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd"),
+                      starts=_slider_starts(), inactive=_slips_below(1.0)),
+        initial_stiffness="kd", plant_restart=_stick_slip_restart),
     "hysteresis": Kind(
         6, (_KD, _FD, Param("n", "sharpness exponent", "-", lambda r: 2.0, positive=True,
                             bounds=(0.5, 1000.0), smallest=0.01)),
         memory=True, stiffness=lambda p, u: p["kd"],
-        search=Search(starts=_slider_starts(2.0), inactive=_slips_below(0.5))),
+        search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd", fixed=(("n", 2.0),)),
+                      starts=_slider_starts(2.0), inactive=_slips_below(0.5)),
+        initial_stiffness="kd"),
     "gap": Kind(
         7, (Param("k", "contact stiffness", "N/m", _stiffness_scale, positive=True),
             Param("g", "width", "m", lambda r: 0.5 * r.u, positive=True)),
         coef="k", basis="gap", basis_arg="g", basis_label="gap({g:g})",
         stiffness=lambda p, u: max(p["k"], 0.0),
-        search=Search(grid=Grid("g", "x", (0.25, 0.5, 1.0, 1.5)))),
+        search=Search(grid=Grid("g", "x", (0.25, 0.5, 1.0, 2.0, 3.0), level="high"))),
 }
 """Every element kind (the built-in ones are the branches of the numba law)."""
 

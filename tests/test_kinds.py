@@ -59,8 +59,12 @@ def test_every_descriptor_is_complete():
             assert element_basis(Element(name, np.ones(1), _params(spec)))[0] == spec.coef
         if spec.basis_arg is not None:
             assert spec.basis_arg in spec.all_params
-        if spec.search.grid is not None:
-            assert spec.search.grid.param == spec.basis_arg and spec.search.grid.variable in "xv"
+        grid = spec.search.grid
+        if grid is not None and grid.per is None:
+            assert grid.param == spec.basis_arg and grid.variable in "xv"
+        if grid is not None and grid.per is not None:   # a memory kind linear in ``per``
+            assert spec.memory and {grid.param, grid.per} <= set(spec.params)
+            assert grid.variable in "xv" and all(n in spec.all_params for n, _ in grid.fixed)
     assert set(search_order()) == set(KINDS)
     assert {c.kind for c in library(2)} >= set(KINDS)
 

@@ -4,7 +4,8 @@ A *location* is a position vector ``w``: ``e_i`` (element from DOF i to ground) 
 ``e_j - e_i`` (element between DOFs i < j). A *kind* is either an element kind of
 `analysis.kinds.KINDS` (every one, in `analysis.kinds.search_order`) or a linear error
 (``mass_error``, ``stiffness_error``, ``damping_error``). The library is the full cross
-product (mass errors only at single DOFs); nothing in it depends on the data or on the
+product (mass errors only at single DOFs; kinds with a stuck stiffness also with that
+stiffness taken out of the linear part, as a model fitted at a low level holds it); nothing in it depends on the data or on the
 scenario being diagnosed.
 """
 
@@ -31,6 +32,9 @@ class Candidate:
     kind: str
     dofs: tuple[int, ...]
     n_dof: int
+    compensated: bool = False
+    """The element's stuck stiffness (`analysis.kinds.Kind.initial_stiffness`) is taken out
+    of the linear part: the starting model, fitted where the element sticks, holds it."""
 
     @property
     def w(self) -> np.ndarray:
@@ -63,7 +67,8 @@ class Candidate:
 
     @property
     def label(self) -> str:
-        return f"{self.kind} {self.where}"
+        stuck = " (its stuck stiffness taken from the linear part)" if self.compensated else ""
+        return f"{self.kind} {self.where}{stuck}"
 
 
 def locations(n_dof: int) -> list[tuple[int, ...]]:
@@ -79,4 +84,6 @@ def library(n_dof: int) -> list[Candidate]:
             if kind == "mass_error" and len(loc) != 1:
                 continue
             out.append(Candidate(kind, loc, n_dof))
+            if kind in KINDS and KINDS[kind].initial_stiffness is not None:
+                out.append(Candidate(kind, loc, n_dof, compensated=True))
     return out

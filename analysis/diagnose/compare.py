@@ -12,8 +12,11 @@ for nonlinear models under random drive even when the model is exact.
 
 Metric (`weighted_error`): coherence-weighted relative FRF error over the analysis band,
 ``sqrt(sum g2 |H_meas - H_model|^2 / sum g2 |H_meas|^2)`` summed over frequencies, outputs and
-inputs, ``g2`` the coherence of each measured FRF. Statistics (`chi2`) use the H1 random-error
-variance ``(1 - g2) / (g2 n_eff) |H|^2`` (Bendat & Piersol) plus a model-precision floor.
+inputs, ``g2`` the coherence of each measured FRF, the FRFs taken in the recorded response
+kind (an accelerance for accelerometers: integrated sensor noise would otherwise swamp the
+lowest mode and hide the others). Statistics (`chi2`) use the H1 random-error
+variance ``(1 - g2) / (g2 n_eff) |H|^2`` (Bendat & Piersol) -- or, for a one-input periodic
+record, the spread of its periods -- plus a model-precision floor.
 """
 
 from __future__ import annotations
@@ -24,8 +27,10 @@ from typing import Hashable
 import numpy as np
 
 from ..elements import restoring_force
+from ..kinds import KINDS
 from ..modal import welch_smoothing
-from ..model import Model
+from ..model import Element, Model
+from ..signals import KIND_ORDER
 from ..sine_fit import hold_gain
 from ..spectral import h1, multiple_coherence, spectral_matrix
 from .prepare import Prepared
@@ -68,6 +73,12 @@ class LevelFRF:
     leakage : ndarray, optional
         Welch leakage of the model FRF at this level (`.leakage.leakage_bias`), added by
         `model_frf` so that the model is compared as the estimator sees it.
+    noise_dof : float, optional
+        Degrees of freedom of the random part of ``var`` when it comes from the spread of
+        the periods (periodic records); None for the coherence formula.
+    kind_order : int
+        Differentiations from displacement to the recorded response kind (acceleration 2):
+        the error metric weighs the FRF as it was recorded.
     """
 
     label: str
@@ -82,6 +93,15 @@ class LevelFRF:
     n_eff: float = 1.0
     smoothing: tuple[np.ndarray, np.ndarray] | None = None
     leakage: np.ndarray | None = None
+    noise_dof: float | None = None
+    kind_order: int = 0
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Weights of the error metric: coherence times ``|2 pi f|^(2 k)`` (the FRF in the
+        recorded kind), shape like ``H``."""
+        scale = (self.freqs / self.freqs.max()) ** (2 * self.kind_order)
+        return self.coh * scale[:, None, None]
 
     @property
     def n_values(self) -> float:
@@ -107,10 +127,77 @@ def choose_nperseg(model: Model, fs: float, n: int, *, min_avg: int = 24) -> int
     return int(max(64, min(want, cap)))
 
 
+def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Deformation ``u = w.x`` and its rate along the measured motion.
+
+    A periodic record's deformation is its period average, Wiener-filtered line by line
+    with the noise variance from the spread of the periods, repeated over the record: a
+    relative displacement of two accelerometer channels is a small difference of large
+    doubly integrated signals, and the integrated sensor noise in it would otherwise shift
+    the peaks a clearance or slider acts at (errors in the basis variables bias the fit).
+    """
+    u, v = p.x @ w, p.v @ w
+    n_per = u.size // p.period if p.period else 0
+    if n_per < 2:
+        return u, v
+    spec = np.fft.rfft(u[:n_per * p.period].reshape(n_per, p.period), axis=1)
+    mean = spec.mean(axis=0)
+    noise = (np.abs(spec - mean) ** 2).sum(axis=0) / ((n_per - 1) * n_per)
+    mean *= np.clip(1 - noise / np.maximum(np.abs(mean) ** 2, 1e-300), 0.0, 1.0)
+    om = 2j * np.pi * np.fft.rfftfreq(p.period, 1 / p.fs)
+    if p.period % 2 == 0:
+        om[-1] = 0.0   # Nyquist line of a derivative is not real
+    one_u, one_v = np.fft.irfft(mean, p.period), np.fft.irfft(om * mean, p.period)
+    return np.tile(one_u, n_per), np.tile(one_v, n_per)
+
+
+def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
+              period: int | None) -> np.ndarray:
+    """Force of an element along ``u``, ``v``; a periodic memory element is first run
+    through one period so that the record sees its settled loop, not the virgin start."""
+    if period and KINDS[kind].memory and u.size >= period:
+        g = restoring_force(kind, params, np.concatenate([u[-period:], u]),
+                            np.concatenate([v[-period:], v]))[0]
+        return g[period:]
+    return restoring_force(kind, params, u, v)[0]
+
+
 def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) -> np.ndarray:
     """Restoring force of one element (given parameters) along the measured motion."""
-    u, v = p.x @ w, p.v @ w
-    return restoring_force(kind, params, u, v)[0]
+    u, v = deformation(p, w)
+    return law_force(kind, params, u, v, p.period)
+
+
+def stuck_stiffness(el: Element) -> float:
+    """The element's stiffness before it slips (`analysis.kinds.Kind.initial_stiffness`),
+    0 for kinds without one."""
+    name = KINDS[el.kind].initial_stiffness
+    return 0.0 if name is None else float(el.params[name])
+
+
+def element_force(el: Element, p: Prepared) -> np.ndarray:
+    """A model element's force along the measured motion, in the *stuck form*: less its
+    stuck stiffness times the deformation, which `stuck_linear` holds instead."""
+    u, v = deformation(p, el.w)
+    return law_force(el.kind, el.params, u, v, p.period) - stuck_stiffness(el) * u
+
+
+def stuck_linear(model: Model) -> Model:
+    """The model with each element's stuck stiffness (sliders) added to its linear part.
+
+    Predicting a level as ``H_L (B - sum w p T)`` is exact for either split of the
+    stiffness, but with the stuck stiffness outside ``H_L`` the linear part resonates where
+    the structure does not and amplifies the sensor noise in the measured basis forces; with
+    it inside, ``H_L`` is the structure at low level and the terms carry only the slip.
+    """
+    stuck = [(el.w, stuck_stiffness(el)) for el in model.elements if stuck_stiffness(el)]
+    if not stuck:
+        return model
+    K = model.stiffness.copy()
+    for w, kd in stuck:
+        wq = model.to_q(w)
+        K += kd * np.outer(wq, wq)
+    return model.with_linear(model.mass, model.damping, K, model.elements, model.name)
 
 
 def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
@@ -120,16 +207,8 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
     Both are per unit of the force that acted: a first-order-hold force (``force_hold =
     "linear"``) acted with ``sinc^2(f / fs)`` of its samples (`analysis.sine_fit.hold_gain`).
     """
-    keys = list(bases)
     n_dof, n_in = p.x.shape[1], p.force.shape[1]
-
-    def spectra(data: np.ndarray):
-        if p.period is not None:
-            return spectral_matrix(data, p.fs, nperseg=p.period, window="boxcar",
-                                   overlap=0.0, band=band)
-        return spectral_matrix(data, p.fs, nperseg=nperseg, band=band)
-
-    sp = spectra(np.concatenate([p.x, p.force], axis=1))
+    sp = _spectra(p, band, nperseg, np.concatenate([p.x, p.force], axis=1))
     xi, fi = list(range(n_dof)), list(range(n_dof, n_dof + n_in))
     # Unexcited bins (between multisine lines, outside the drive band) carry no FRF.
     fpsd = np.einsum("fii->f", sp.block(fi, fi)).real
@@ -143,9 +222,35 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
     coh = np.clip(multiple_coherence(S_xx, S_xf, S_ff), 1e-6, 1 - 1e-12)
     coh = np.repeat(coh[:, :, None], n_in, axis=2)
     n_eff = max(sp.n_eff, 1.0)
-    var = ((1 - coh) / (coh * n_eff) + floor**2) * np.abs(H) ** 2
+    noise, dof = _period_noise(p, sp.freqs, H * gain[:, None, None]) if p.period else (None, None)
+    if noise is None:
+        var = ((1 - coh) / (coh * n_eff) + floor**2) * np.abs(H) ** 2
+    else:
+        var = noise / np.abs(gain[:, None, None]) ** 2 + floor**2 * np.abs(H) ** 2
     var = np.maximum(var, 1e-30 * np.abs(H).max() ** 2)
+    T = _transfers(p, band, nperseg, bases, sp.freqs, gain)
+    B = np.zeros((n_dof, n_in))
+    B[p.force_dofs, np.arange(n_in)] = 1.0
+    smoothing = None if p.period is not None else welch_smoothing(
+        "hann", nperseg, p.fs, input_spectrum=(sp.freqs, fpsd[keep]))
+    return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor, n_eff,
+                    smoothing, noise_dof=dof, kind_order=KIND_ORDER[p.response_kind])
+
+
+def _spectra(p: Prepared, band: tuple[float, float], nperseg: int, data: np.ndarray):
+    if p.period is not None:
+        return spectral_matrix(data, p.fs, nperseg=p.period, window="boxcar", overlap=0.0,
+                               band=band)
+    return spectral_matrix(data, p.fs, nperseg=nperseg, band=band)
+
+
+def _transfers(p: Prepared, band: tuple[float, float], nperseg: int,
+               bases: dict[Hashable, np.ndarray], freqs: np.ndarray, gain: np.ndarray
+               ) -> dict[Hashable, np.ndarray]:
+    """``S_gf S_ff^-1`` of each basis force at ``freqs`` (excited bins of the estimate)."""
     T = {}
+    keys = list(bases)
+    n_in = p.force.shape[1]
     # Only basis-versus-force cross spectra are needed: small groups keep the spectral
     # matrices small (their cost grows with the square of the channel count).
     fcols = list(range(n_in))
@@ -153,17 +258,54 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
         group = keys[g0:g0 + GROUP]
         data = np.concatenate([p.force] + [np.asarray(bases[k])[:, None] for k in group],
                               axis=1)
-        sg = spectra(data)
-        sg.S = sg.S[keep]
+        sg = _spectra(p, band, nperseg, data)
+        sg.S = sg.S[np.isin(sg.freqs, freqs)]
         for j, k in enumerate(group):
             T[k] = h1(sg.block([n_in + j], fcols), sg.block(fcols, fcols))[:, 0, :] \
                 / gain[:, None]
-    B = np.zeros((n_dof, n_in))
-    B[p.force_dofs, np.arange(n_in)] = 1.0
-    smoothing = None if p.period is not None else welch_smoothing(
-        "hann", nperseg, p.fs, input_spectrum=(sp.freqs, fpsd[keep]))
-    return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor, n_eff,
-                    smoothing)
+    return T
+
+
+def add_basis(lf: LevelFRF, p: Prepared, band: tuple[float, float], nperseg: int,
+              key: Hashable, basis: np.ndarray) -> None:
+    """Add the transfer of one more basis force to ``lf`` (as `level_frf` forms it)."""
+    gain = hold_gain(lf.freqs, p.fs, p.force_hold)
+    lf.T.update(_transfers(p, band, nperseg, {key: basis}, lf.freqs, gain))
+
+
+NOISE_LINES = 9
+"""Lines over which a periodic record's noise variance is averaged: sensor noise over the
+force spectrum varies slowly with frequency, and a variance from a few periods alone has so
+few degrees of freedom that its inverse (the misfit weight) would be biased high."""
+
+
+def _period_noise(p: Prepared, freqs: np.ndarray, H: np.ndarray
+                  ) -> tuple[np.ndarray | None, float | None]:
+    """Noise variance of the period-averaged FRF of a one-input periodic record, from the
+    spread of its periods (Pintelon & Schoukens' nonparametric estimate), averaged over
+    `NOISE_LINES` neighbouring excited lines; and its degrees of freedom.
+
+    Returns ``(None, None)`` with several inputs or fewer than two periods (the coherence
+    formula is used then).
+    """
+    n_per = p.x.shape[0] // p.period
+    if p.force.shape[1] != 1 or n_per < 2:
+        return None, None
+    idx = np.rint(freqs * p.period / p.fs).astype(int)     # the DFT lines of ``freqs``
+
+    def lines(a: np.ndarray) -> np.ndarray:
+        per = a[:n_per * p.period].reshape(n_per, p.period, a.shape[1])
+        return np.fft.rfft(per, axis=1)[:, idx]
+    X, F = lines(p.x), lines(p.force)[:, :, 0]
+    resid = X - H[None, :, :, 0] * F[:, :, None]        # the periods' spread about H F
+    f_mean = np.abs(F.mean(axis=0)) ** 2
+    var = (np.abs(resid) ** 2).sum(axis=0) / ((n_per - 1) * n_per) / f_mean[:, None]
+    kernel = np.ones(NOISE_LINES) / NOISE_LINES
+    pad = NOISE_LINES // 2
+    padded = np.pad(var, ((pad, pad), (0, 0)), mode="edge")
+    smooth = np.stack([np.convolve(padded[:, j], kernel, mode="valid")
+                       for j in range(var.shape[1])], axis=1)
+    return smooth[:, :, None], float(2 * (n_per - 1) * NOISE_LINES)
 
 
 def model_frf(H_lin: np.ndarray, lf: LevelFRF,
@@ -189,9 +331,10 @@ def chi2(lf: LevelFRF, H_model: np.ndarray) -> float:
 
 
 def weighted_error(lf: LevelFRF, H_model: np.ndarray) -> float:
-    """Coherence-weighted relative FRF error (rms over the band; 0 = perfect)."""
-    num = np.sum(lf.coh * np.abs(lf.H - H_model) ** 2)
-    den = np.sum(lf.coh * np.abs(lf.H) ** 2)
+    """Coherence-weighted relative FRF error in the recorded kind (rms over the band; 0 =
+    perfect)."""
+    num = np.sum(lf.weight * np.abs(lf.H - H_model) ** 2)
+    den = np.sum(lf.weight * np.abs(lf.H) ** 2)
     return float(np.sqrt(num / den))
 
 

@@ -23,7 +23,7 @@ from ..model import Model
 from .candidates import LINEAR_PARAM
 from .compare import chi2, model_frf
 from .linear_update import Z95
-from .select import Fit, Search, coef_name, grid_value
+from .select import Fit, Search, coef_name
 
 
 def _name(fit: Fit) -> str:
@@ -31,8 +31,7 @@ def _name(fit: Fit) -> str:
 
 
 def _key(fit: Fit) -> tuple:
-    c = fit.cand
-    return (c.kind, c.dofs, grid_value(c.kind, fit.params))
+    return (fit.cand, fit.extra)
 
 
 def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
@@ -48,7 +47,7 @@ def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
 def _valid(search: Search, fit: Fit, value: float) -> bool:
     if fit.cand.linear:
         return search.linear_ok(fit.cand, value)
-    lo, hi = search.bounds(fit.cand, grid_value(fit.cand.kind, fit.params))
+    lo, hi = search.bounds(fit.cand, fit.extra)
     return (value >= 0 or not KINDS[fit.cand.kind].dissipative) and lo <= value <= hi
 
 
@@ -91,5 +90,5 @@ def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
         params = dict(f.params, **{n: float(t)})
         ci = dict(f.ci95, **{n: [float(t - Z95 * s), float(t + Z95 * s)]})
         ev = dict(f.evidence, estimator="joint FRF fit", sequential_estimate=f.params[n])
-        out.append(Fit(f.cand, params, ci, float(x2), f.delta_bic, ev))
+        out.append(Fit(f.cand, params, ci, float(x2), f.delta_bic, ev, extra=f.extra))
     return out

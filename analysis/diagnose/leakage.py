@@ -130,9 +130,10 @@ def level_floor(lf: LevelFRF, precision: float = FLOOR) -> Floor:
     """The `Floor` of one level, from its measured variance (``lf.var`` less the precision
     part it holds)."""
     h2 = np.abs(lf.H) ** 2
-    den = float(np.sum(lf.coh * h2))
+    wt = lf.weight
+    den = float(np.sum(wt * h2))
     rand = np.clip(lf.var - precision**2 * h2, 0.0, None)
-    mean = float(np.sum(lf.coh * rand)) / den
-    sd = float(np.sqrt(lf.bin_factor * np.sum((lf.coh * rand) ** 2))) / den
+    mean = float(np.sum(wt * rand)) / den
+    sd = float(np.sqrt(lf.bin_factor * np.sum((wt * rand) ** 2))) / den
     return Floor(float(np.sqrt(mean)), precision,
                  float(np.sqrt(precision**2 + mean + Z_FLOOR * sd)))

@@ -2,7 +2,9 @@
 
 Level dependence (homogeneity): the FRFs of two levels are compared bin by bin against
 their combined H1 random error; ``q = sum 2 |H_a - H_b|^2 / (var_a + var_b)`` / bin factor is
-chi-square with ``N`` effective degrees of freedom when the structure is linear. A p-value
+chi-square with ``N`` effective degrees of freedom when the structure is linear (variances
+estimated from ``nu`` degrees of freedom, as a periodic record's period spread, are
+corrected for the mean of their inverse). A p-value
 below `ALPHA` for the lowest-versus-highest level pair means the structure is nonlinear.
 The per-DOF share of ``q`` tells which FRFs move with level (paper chapter 2).
 """
@@ -44,6 +46,9 @@ def level_dependence(levels: list[LevelFRF]) -> LevelDependence | None:
     hi = max(levels, key=lambda lf: lf.level)
     z = 2 * np.abs(lo.H - hi.H) ** 2 / (lo.var + hi.var)
     bf = 0.5 * (lo.bin_factor + hi.bin_factor)
+    nu = min(lf.noise_dof or np.inf for lf in (lo, hi))
+    if np.isfinite(nu) and nu > 2:
+        z = z * (nu - 2) / nu   # variances estimated with nu dof: E[1/var] = nu/(nu-2)/var
     q = float(z.sum() / bf)
     dof = 2 * z.size / bf
     p = float(chi2_dist.sf(q, dof))

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..recording import Recording
-from ..signals import excitation_band, remove_dc, to_kinematics
+from ..signals import excitation_band, periodic_kinematics, remove_dc, to_kinematics
 from ..spectral import spectral_matrix
 
 EDGE_FRACTION = 0.02
@@ -43,6 +43,9 @@ class Prepared:
     label : str
     force_hold : {"none", "linear"}
         How the recorded force samples acted (`analysis.recording.Recording.force_hold`).
+    response_kind : str
+        The kind the response was recorded as (displacement and velocity were formed
+        from it).
     """
 
     x: np.ndarray
@@ -54,6 +57,7 @@ class Prepared:
     period: int | None
     label: str
     force_hold: str = "none"
+    response_kind: str = "displacement"
 
 
 def record_level(rec: Recording) -> float:
@@ -110,14 +114,30 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
         force, resp = remove_dc(force[keep]), remove_dc(resp[keep])
     # Low-pass well above the band: keeps the harmonics the nonlinear forces need while
     # cutting the sensor noise that differentiation would amplify near Nyquist.
-    x, v = to_kinematics(resp, rec.fs, rec.response_kind,
-                         highpass=band[0] if rec.response_kind != "displacement" else 0.0,
-                         lowpass=min(0.9 * rec.fs / 2, 2 * band[1]))
-    if rec.response_kind != "displacement" and period is None:
+    highpass, lowpass = kinematic_band(rec.fs, rec.response_kind, band)
+    if period is not None:   # whole periods: exact DFT lines, no extension or end effect
+        x, v = (a.reshape(resp.shape) for a in periodic_kinematics(
+            resp.reshape(-1, period, resp.shape[1]), rec.fs, rec.response_kind,
+            highpass=highpass, lowpass=lowpass))
+        return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
+                        rec.force_hold, rec.response_kind)
+    x, v = to_kinematics(resp, rec.fs, rec.response_kind, highpass=highpass, lowpass=lowpass)
+    if rec.response_kind != "displacement":
         edge = int(EDGE_FRACTION * x.shape[0])
         x, v, force = x[edge:-edge], v[edge:-edge], force[edge:-edge]
     return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
-                    rec.force_hold)
+                    rec.force_hold, rec.response_kind)
+
+
+def kinematic_band(fs: float, kind: str, band: tuple[float, float]) -> tuple[float, float]:
+    """High- and low-pass (Hz) with which a record of response ``kind`` is made displacement
+    and velocity."""
+    return (band[0] if kind != "displacement" else 0.0), min(0.9 * fs / 2, 2 * band[1])
+
+
+def prepared_band(p: Prepared, band: tuple[float, float]) -> tuple[float, float]:
+    """The band `prepare_random` limited ``p``'s motion to."""
+    return kinematic_band(p.fs, p.response_kind, band)
 
 
 def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepared]:
@@ -126,5 +146,5 @@ def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepare
     cut = int(fraction * n) if p.period is None else int(fraction * n / p.period) * p.period
     def part(s: slice, tag: str) -> Prepared:
         return Prepared(p.x[s], p.v[s], p.force[s], p.force_dofs, p.fs, p.level, p.period,
-                        f"{p.label} ({tag})", p.force_hold)
+                        f"{p.label} ({tag})", p.force_hold, p.response_kind)
     return part(slice(0, cut), "fit segment"), part(slice(cut, n), "held-back segment")

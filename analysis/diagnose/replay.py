@@ -25,12 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
-from scipy.signal import resample_poly
+from scipy.signal import resample, resample_poly
 
 from ..elements import restoring_force
 from ..kinds import KINDS
 from ..model import Model
 from ..plant import HOLD_DEGREE, Plant
+from ..signals import periodic_kinematics
 from .prepare import Prepared
 
 UPSAMPLE = 4
@@ -120,6 +121,43 @@ class _Restarter:
         self.plant.set_state(dict(self.template, x=p.x[k], v=p.v[k], element_state=es,
                                   force_history=gh, deformation_history=uh,
                                   force_prev=force_prev))
+
+
+SETTLE = 1e-3
+"""Decay of the slowest mode before a steady-state replay is compared (periodic drives)."""
+
+
+def steady_replay(model: Model, p: Prepared, highpass: float, lowpass: float) -> Replay:
+    """Steady-state replay of a periodic (multisine) recording through ``model``.
+
+    The measured force period, repeated until the slowest mode has decayed to `SETTLE` and
+    then for every recorded period, drives the model; its steady displacement is compared
+    with the measured one over all recorded periods (both band-limited to
+    ``highpass``..``lowpass``, as the measured one was formed). A periodic drive has one
+    steady state, so this is a prediction of the whole record with no restart: it works for
+    any model, including modal ones with more modes than measured points and memory
+    elements.
+    """
+    period, n_dof = int(p.period), p.x.shape[1]
+    n_per = p.x.shape[0] // period
+    nq = model.n_q
+    minv = np.linalg.inv(model.mass)
+    lam = np.linalg.eigvals(np.block([[np.zeros((nq, nq)), np.eye(nq)],
+                                      [-minv @ model.stiffness, -minv @ model.damping]]))
+    decay = max(float(np.abs(lam.real).min()), 2 * np.pi * p.fs / period * 1e-3)
+    settle = int(np.ceil(-np.log(SETTLE) / decay * p.fs / period))
+    # Band-limited resampling of one exact period (FFT) for the plant's linear hold.
+    one = resample(p.force[:period], period * UPSAMPLE, axis=0)
+    force = np.tile(one, (settle + n_per, 1))
+    plant = Plant(model, p.fs * UPSAMPLE, p.force_dofs)
+    out = plant.run(force).displacement[settle * period * UPSAMPLE::UPSAMPLE]
+    pred = periodic_kinematics(out.reshape(n_per, period, n_dof), p.fs, "displacement",
+                               highpass=highpass, lowpass=lowpass)[0].reshape(-1, n_dof)
+    meas = p.x[:n_per * period]
+    res = np.sqrt(np.sum((meas - pred) ** 2, axis=0) / np.maximum(np.sum(meas**2, axis=0),
+                                                                    1e-300))
+    show = slice(0, min(2 * period, meas.shape[0]))
+    return Replay(res, np.arange(show.stop) / p.fs, meas[show], pred[show])
 
 
 def replay(model: Model, p: Prepared, horizon: int, *,

@@ -12,16 +12,18 @@ from .candidates import Candidate
 from .leakage import Floor
 from .replay import Replay
 
-METRIC = ("coherence-weighted relative FRF error (rms over the analysis band) on the "
-          "held-back recording")
+METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
+          "analysis band) on the held-back recording")
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
                 "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
-                "coherence and number of Welch averages (Bendat & Piersol), sd = the standard "
+                "coherence and number of Welch averages (Bendat & Piersol), or for a one-input "
+                "periodic record from the spread of its periods (Pintelon & Schoukens), sd = the standard "
                 "deviation of its square (bin correlation included; 3.72 = one-sided p 1e-4), "
                 "precision = the 1 % model-precision floor; the model FRF is compared through "
                 "the Welch window's leakage kernel (analysis.diagnose.leakage)")
-TIME_METRIC = ("relative rms of the displacement residual of short-horizon replays of the "
-               "measured force (restarted from the measured state), mean over DOFs, on the "
+TIME_METRIC = ("relative rms of the displacement residual of replays of the measured force "
+               "through the model (the steady state of a periodic drive; short horizons "
+               "restarted from the measured state otherwise), mean over DOFs, on the "
                "held-back recording")
 
 
@@ -271,7 +273,7 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     second = (" A second search on the corrected model found the further effect."
               if len(cands) > 1 else "")
     tres = fit.get("time_residual")
-    time_txt = (f" (short-horizon time residual {change(tres['before'], tres['after'])})"
+    time_txt = (f" (time residual of the replays {change(tres['before'], tres['after'])})"
                 if tres else "")
     where = " and ".join(dict.fromkeys(c.where for c in cands))
     rest = ""

@@ -11,14 +11,16 @@ from ..model import Model
 from ..plant import PlantError
 from ..recording import Recording
 from .candidates import Candidate
-from .compare import FLOOR, choose_nperseg, level_frf, model_frf, unit_force, weighted_error
+from .compare import (FLOOR, choose_nperseg, element_force, level_frf, model_frf,
+                      stuck_linear, weighted_error)
 from .leakage import leakage_bias, level_floor
 from .locate import level_dependence, mismatch_band
-from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random, record_level,
-                      split_segment)
-from .replay import Replay, horizon_samples, replay
+from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random, prepared_band,
+                      record_level, split_segment)
+from .replay import Replay, horizon_samples, replay, steady_replay
 from .report import METRIC, Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import SHORTLIST, Fit, RandomSearch
+from .joint import joint_refit
 from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout,
                      _pruned, decide, joint_veto, linear_only, misfit_summary, model_change,
                      pruned_labels)
@@ -113,15 +115,25 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
 
     passes: list[SearchPass] = []
     current = model
+    settled = False
     for k in range(MAX_EFFECTS):
         tick(f"search pass {k + 1}")
         found = [s.best for s in passes if s.found]
         step = _search_pass(current, fit_preps, band, nps, floor, [f.cand for f in found],
-                            joint_veto(model, lambda: passes[0].search, found, judge))
+                            joint_veto(model, lambda: passes[0].search, found, judge),
+                            memoryless=settled)
         passes.append(step)
         if not step.found:
             break
         current = step.fixed
+        # With every fitting level within its floor (the effects so far refitted jointly, as
+        # the final correction will be), a further effect must be one the joint refit can
+        # re-estimate with the others: a memory element would only absorb their sequential
+        # estimation error.
+        joint = _apply(model, joint_refit(model, passes[0].search,
+                                          [s.best for s in passes if s.found]))
+        settled = all(_curves(model, joint, p, band, nps, floor, False).error_after <= fl.limit
+                      for p, fl in zip(fit_preps, floors))
     first = passes[0]
 
     def change(without: Model, fits: list[Fit]) -> float:
@@ -132,7 +144,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     rejected = [dict(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes)
                 for r in s.rejected]
     horizon = horizon_samples(model, recs[0].fs)
-    start_replays = _replays(model, all_preps, horizon, warnings, tick)
+    start_replays = _replays(model, all_preps, horizon, band, warnings, tick)
     while True:   # the final correction must not worsen a level, and its replay must run
         current = _apply(model, chosen)
         curves = [_curves(model, current, p, band, nps, floor, i >= len(fit_preps))
@@ -143,7 +155,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
                 after_replays = []
                 for p in all_preps:
                     tick(f"replay of {p.label} (corrected model)")
-                    after_replays.append(replay(current, p, horizon))
+                    after_replays.append(_replay(current, p, horizon, band))
             except PlantError as exc:
                 reason = f"the corrected model's replay fails ({exc})"
         if reason is None:
@@ -207,14 +219,22 @@ def _ticker(progress: Progress | None, total: int) -> Callable[..., None]:
     return tick
 
 
-def _replays(model: Model, preps: list[Prepared], horizon: int, warnings: list[str],
-             tick: Callable[[str], None]) -> list[Replay | None]:
+def _replay(model: Model, p: Prepared, horizon: int, band: tuple[float, float]) -> Replay:
+    """Steady-state replay of a periodic record, short-horizon replays of a random one."""
+    if p.period is not None:
+        hp, lp = prepared_band(p, band)
+        return steady_replay(model, p, hp, lp)
+    return replay(model, p, horizon)
+
+
+def _replays(model: Model, preps: list[Prepared], horizon: int, band: tuple[float, float],
+             warnings: list[str], tick: Callable[[str], None]) -> list[Replay | None]:
     """Replays of the starting model (None, with a warning, where its simulation fails)."""
     out: list[Replay | None] = []
     for p in preps:
         tick(f"replay of {p.label}")
         try:
-            out.append(replay(model, p, horizon))
+            out.append(_replay(model, p, horizon, band))
         except PlantError as exc:
             warnings.append(f"the starting model's replay of {p.label} fails ({exc}): no "
                             "time residual for it")
@@ -224,10 +244,11 @@ def _replays(model: Model, preps: list[Prepared], horizon: int, warnings: list[s
 
 def _search_pass(model: Model, fit_preps: list[Prepared], band, nps: int,
                  floor: float, accepted: list[Candidate],
-                 veto: Callable[[Fit], str | None]) -> SearchPass:
-    """Screen the library, refine the best nonlinear ones by reverse path, decide."""
+                 veto: Callable[[Fit], str | None], memoryless: bool = False) -> SearchPass:
+    """Screen the library, refine the best nonlinear ones by reverse path, decide
+    (``memoryless``: memory kinds are not offered)."""
     search = RandomSearch(model, fit_preps, band, nps, floor)
-    fits = search.screen()
+    fits = [f for f in search.screen() if not (memoryless and f.cand.memory)]
     if linear_only(search):
         fits = [f for f in fits if f.cand.linear]
     nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0][:SHORTLIST]
@@ -253,16 +274,16 @@ def _share(search: RandomSearch) -> list[float]:
 
 
 def _level(model: Model, p: Prepared, band, nps: int, floor: float):
-    bases = {("model", i): unit_force(el.kind, el.params, el.w, p)
-             for i, el in enumerate(model.elements)}
+    bases = {("model", i): element_force(el, p) for i, el in enumerate(model.elements)}
     return level_frf(p, band, nps, bases, floor=floor)
 
 
 def _predicted(model: Model, p: Prepared, band, nps: int, floor: float):
     lf = _level(model, p, band, nps, floor)
     terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
-    lf.leakage = leakage_bias(model, lf, terms)
-    return lf, model_frf(model.linear_frf(lf.freqs), lf, terms)
+    linear = stuck_linear(model)
+    lf.leakage = leakage_bias(linear, lf, terms)
+    return lf, model_frf(linear.linear_frf(lf.freqs), lf, terms)
 
 
 def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,
@@ -271,4 +292,4 @@ def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: floa
     lf, h_before = _predicted(start, p, band, nps, floor)
     _, h_after = _predicted(fixed, p, band, nps, floor) if fixed is not start else (lf, h_before)
     return LevelCurves(p.label, p.level, held, lf.freqs, lf.H, h_before, h_after,
-                       weighted_error(lf, h_before), weighted_error(lf, h_after), lf.coh)
+                       weighted_error(lf, h_before), weighted_error(lf, h_after), lf.weight)

@@ -6,13 +6,16 @@ Every candidate of the library is fitted to the level FRFs of the fitting record
   ``H_meas - H0 = -p H_L w T_g`` (screening), then the shortlisted ones are re-estimated
   from the data alone by the reverse path (`analysis.reverse_path`), which also gives the
   coefficient's frequency dependence and the multiple-coherence gain;
-* kinds with a second parameter (gap width, friction regularisation): the same for each
-  value of a small grid (the kind's `analysis.kinds.Search.grid`), the best one kept;
+* kinds with a second parameter (gap width, friction regularisation) and memory kinds at a
+  fixed slip displacement ``fd / kd`` (their force is then linear in ``kd``): the same for
+  each value of a small grid (the kind's `analysis.kinds.Search.grid`), the best one kept
+  and, once shortlisted, its grid value refined continuously (`RandomSearch.refine`);
 * linear errors: `linear_update.fit_linear_error`.
 
 Selection: Bayesian information criterion on the variance-weighted misfit ``chi2``:
 ``dBIC = chi2_0 - chi2_c - k ln N`` (``N`` effective values). Memory kinds are not linear
-in their parameters and are searched on stepped-sine data.
+in their parameters but linear in ``kd`` at a fixed slip displacement: they are screened on
+that grid here and fitted by harmonic balance on stepped-sine data (`.stepped`).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any, Hashable
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ..elements import restoring_force
 from ..errors import EstimationError, InputError, ModelError
@@ -29,7 +33,8 @@ from ..model import Element, Model
 from ..recording import Recording
 from ..reverse_path import reverse_path
 from .candidates import LINEAR_PARAM, Candidate, library
-from .compare import LevelFRF, chi2, level_frf, model_frf, unit_force
+from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
+                      level_frf, model_frf, stuck_linear)
 from .leakage import leakage_bias
 from .linear_update import Z95, fit_linear_error, updated_frf
 from .prepare import Prepared
@@ -53,66 +58,98 @@ class Fit:
     chi2: float
     delta_bic: float
     evidence: dict[str, Any] = field(default_factory=dict)
+    extra: float | None = None
+    """Grid value of the basis the fit used (its key in ``LevelFRF.T`` is ``(cand, extra)``)."""
 
     def to_json(self) -> dict[str, Any]:
-        return {"kind": self.cand.kind, "w": self.cand.w.tolist(), "dofs": list(self.cand.dofs),
-                "params": self.params, "ci95": self.ci95, "chi2": self.chi2,
-                "delta_bic": self.delta_bic, "evidence": self.evidence}
+        out = {"kind": self.cand.kind, "w": self.cand.w.tolist(), "dofs": list(self.cand.dofs),
+               "params": self.params, "ci95": self.ci95, "chi2": self.chi2,
+               "delta_bic": self.delta_bic, "evidence": self.evidence}
+        if self.cand.compensated:
+            out["stuck_stiffness_from_linear_part"] = True
+        return out
 
 
 def unit_params(kind: str, extra: float | None) -> dict[str, float]:
-    """Parameters of the unit-coefficient basis of a linear-in-parameter kind."""
-    spec = KINDS[kind]
-    params = {spec.coef: 1.0}
-    if spec.search.grid is not None:
-        params[spec.search.grid.param] = float(extra)
+    """Parameters of the unit-coefficient basis of a kind screened as linear in one
+    parameter (``extra``: its grid value)."""
+    return scaled_params(kind, 1.0, extra)
+
+
+def scaled_params(kind: str, coef: float, extra: float | None) -> dict[str, float]:
+    """Parameters at coefficient ``coef`` and grid value ``extra`` (a ``Grid.per`` ratio
+    scales with the coefficient)."""
+    grid = KINDS[kind].search.grid
+    params = {coef_name(kind): float(coef)}
+    if grid is not None:
+        params[grid.param] = float(extra) * (float(coef) if grid.per else 1.0)
+        params.update(grid.fixed)
     return params
 
 
 def coef_name(kind: str) -> str:
-    return KINDS[kind].coef
-
-
-def grid_value(kind: str, params: dict[str, float]) -> float | None:
-    """The value of ``kind``'s grid parameter in ``params`` (None for kinds without one)."""
+    """The parameter a candidate's force is linear in while screening."""
     grid = KINDS[kind].search.grid
-    return None if grid is None else params.get(grid.param)
+    return grid.per if grid is not None and grid.per else KINDS[kind].coef
 
 
-def candidate_extras(model: Model, low_x: np.ndarray, low_v: np.ndarray
-                     ) -> dict[tuple, list[float | None]]:
-    """Grid of the non-coefficient parameter of each memoryless nonlinear candidate.
+def candidate_force(c: Candidate, extra: float | None, p: Prepared) -> np.ndarray:
+    """Unit-coefficient force of candidate ``c`` along the measured motion of ``p`` (a
+    compensated candidate less its stuck stiffness, which the linear part holds)."""
+    params = unit_params(c.kind, extra)
+    u, v = deformation(p, c.w)
+    g = law_force(c.kind, params, u, v, p.period)
+    if c.compensated:
+        g = g - params[KINDS[c.kind].initial_stiffness] * u
+    return g
+
+
+def screened(c: Candidate) -> bool:
+    """Whether the random-data screening fits ``c`` (memory kinds only with a grid)."""
+    return not c.memory or KINDS[c.kind].search.grid is not None
+
+
+def candidate_extras(model: Model, low: tuple[np.ndarray, np.ndarray],
+                     high: tuple[np.ndarray, np.ndarray], *, memory: bool = False
+                     ) -> dict[Candidate, list[float | None]]:
+    """Grid of the non-coefficient parameter of each nonlinear candidate screened.
 
     A kind's `analysis.kinds.Search.grid` gives the fractions of the rms deformation or rate
-    at the lowest fitting level (``coulomb_friction``: ``v_reg`` = 1 % of the rms rate;
-    ``gap``: widths of 0.25 to 1.5 rms deformations).
+    (``x``, ``v`` of ``low`` or ``high``: the lowest or highest fitting level) that are
+    tried: ``coulomb_friction``: ``v_reg`` = 1 % of the rms rate at the lowest level;
+    ``gap``: widths of 0.25 to 3 rms deformations at the highest level (contact at its
+    peaks is the common case); sliders: slip displacements of 0.5 to 8 rms deformations at
+    the lowest level. Memory kinds only with ``memory`` (random data; stepped sine fits
+    them by harmonic balance).
     """
-    extra: dict[tuple, list[float | None]] = {}
+    extra: dict[Candidate, list[float | None]] = {}
     for c in library(model.n_dof):
-        if c.linear or c.memory:
+        if c.linear or (c.memory and not (memory and screened(c))):
             continue
         grid = KINDS[c.kind].search.grid
         if grid is None:
-            extra[(c.kind, c.dofs)] = [None]
+            extra[c] = [None]
         else:
-            s = float(np.std((low_x if grid.variable == "x" else low_v) @ c.w))
-            extra[(c.kind, c.dofs)] = [f * s for f in grid.fractions]
+            x, v = low if grid.level == "low" else high
+            s = float(np.std((x if grid.variable == "x" else v) @ c.w))
+            extra[c] = [f * s for f in grid.fractions]
     return extra
 
 
 class Search:
     """Candidate fits on level FRFs (random or stepped sine) of the fitting recordings.
 
-    ``levels[i].T`` must hold, for every ``(kind, dofs, extra)`` of ``extra`` and every
-    ``("model", m)``, the force-to-restoring-force transfer of that unit basis.
+    ``levels[i].T`` must hold, for every candidate ``c`` and grid value ``e`` of ``extra``
+    (key ``(c, e)``) and every ``("model", m)``, the force-to-restoring-force transfer of
+    that unit basis.
     """
 
     def __init__(self, model: Model, levels: list[LevelFRF],
-                 extra: dict[tuple, list[float | None]]) -> None:
+                 extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
         self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
-        self.cands = [c for c in library(model.n_dof) if not c.memory]
-        self.H_lins = [model.linear_frf(lf.freqs) for lf in self.levels]
+        self.cands = [c for c in library(model.n_dof) if c.linear or c in extra]
+        self.H_lins = [stuck_linear(model).linear_frf(lf.freqs) for lf in self.levels]
         self.terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         self.H0s = [model_frf(hl, lf, self.terms) for hl, lf in zip(self.H_lins, self.levels)]
         self.chi2_0 = sum(chi2(lf, h) for lf, h in zip(self.levels, self.H0s))
@@ -154,13 +191,14 @@ class Search:
         num = den = 0.0
         ds = []
         for lf, hl, h0 in zip(self.levels, self.H_lins, self.H0s):
-            d = (hl @ c.w)[:, :, None] * lf.T[(c.kind, c.dofs, extra)][:, None, :]
+            d = (hl @ c.w)[:, :, None] * lf.T[(c, extra)][:, None, :]
             ds.append(d)
             num += np.sum((np.conj(d) * (lf.H - h0) / lf.var).real)
             den += np.sum(np.abs(d) ** 2 / lf.var)
         p = -num / den if den > 0 else 0.0
-        if KINDS[c.kind].dissipative:
-            p = max(p, 0.0)   # negative dissipation is not physical
+        spec = KINDS[c.kind]
+        if spec.dissipative or spec.param(coef_name(c.kind)).positive:
+            p = max(p, 0.0)   # negative dissipation (or slider stiffness) is not physical
         p = float(np.clip(p, *self.bounds(c, extra)))
         bf = np.mean([lf.bin_factor for lf in self.levels])
         se = float(np.sqrt(bf / (2 * den))) if den > 0 else float("inf")
@@ -182,16 +220,17 @@ class Search:
                                 x2, self.bic_gain(x2, c.n_params), {"estimator": "frf-fit"}))
                 continue
             best = None
-            for e in self.extra[(c.kind, c.dofs)]:
+            for e in self.extra[c]:
                 p, se, x2 = self._fit_coefficient(c, e)
                 if best is None or x2 < best[2]:
                     best = (p, se, x2, e)
             p, se, x2, e = best
-            params = unit_params(c.kind, e)
+            if p <= 0 and KINDS[c.kind].param(coef_name(c.kind)).positive:
+                continue   # no admissible element (a slider needs a positive stiffness)
             name = coef_name(c.kind)
-            params[name] = p
-            fits.append(Fit(c, params, {name: [p - Z95 * se, p + Z95 * se]}, x2,
-                            self.bic_gain(x2, c.n_params), {"estimator": "frf-screen"}))
+            fits.append(Fit(c, scaled_params(c.kind, p, e), {name: [p - Z95 * se, p + Z95 * se]},
+                            x2, self.bic_gain(x2, c.n_params), {"estimator": "frf-screen"},
+                            extra=e))
         return sorted(fits, key=lambda f: -f.delta_bic)
 
     def linear_ok(self, c: Candidate, delta: float) -> bool:
@@ -210,34 +249,68 @@ class RandomSearch(Search):
                  nperseg: int, floor: float) -> None:
         self.preps, self.band, self.nperseg = preps, band, nperseg
         low = min(preps, key=lambda p: p.level)
-        extra = candidate_extras(model, low.x, low.v)
+        high = max(preps, key=lambda p: p.level)
+        extra = candidate_extras(model, (low.x, low.v), (high.x, high.v), memory=True)
         levels = [self._level(model, extra, p, floor) for p in preps]
         reach = {c.dofs: REACH * max(float(np.abs(p.x @ c.w).max()) for p in preps)
                  for c in library(model.n_dof)}
         terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         for lf in levels:   # the starting model as the Welch estimate sees it
-            lf.leakage = leakage_bias(model, lf, terms)
+            lf.leakage = leakage_bias(stuck_linear(model), lf, terms)
         super().__init__(model, levels, extra)
         self.reach = reach
+        self._refined: dict[Candidate, float] = {}
 
     def _level(self, model: Model, extra: dict, p: Prepared, floor: float) -> LevelFRF:
         bases: dict[Hashable, np.ndarray] = {}
         for i, el in enumerate(model.elements):
-            bases[("model", i)] = unit_force(el.kind, el.params, el.w, p)
-        for (kind, dofs), extras in extra.items():
-            w = Candidate(kind, dofs, model.n_dof).w
+            bases[("model", i)] = element_force(el, p)
+        for c, extras in extra.items():
             for e in extras:
-                bases[(kind, dofs, e)] = unit_force(kind, unit_params(kind, e), w, p)
+                bases[(c, e)] = candidate_force(c, e, p)
         return level_frf(p, self.band, self.nperseg, bases, floor=floor)
 
+    def refine_grid(self, fit: Fit) -> Fit:
+        """The grid value (gap width, slip displacement) of a shortlisted candidate refined
+        continuously: bounded 1-D minimisation of the misfit over a factor of 2 either side
+        of the best grid point (the coefficient re-solved in closed form at each value)."""
+        c, e0 = fit.cand, fit.extra
+        grid = KINDS[c.kind].search.grid
+        if grid is None or len(grid.fractions) < 2 or not e0:
+            return fit
+        if c not in self._refined:
+            def cost(z: float) -> float:
+                e = float(np.exp(z))
+                for p, lf in zip(self.preps, self.levels):
+                    if (c, e) not in lf.T:
+                        add_basis(lf, p, self.band, self.nperseg, (c, e),
+                                  candidate_force(c, e, p))
+                return self._fit_coefficient(c, e)[2]
+            z0 = float(np.log(e0))
+            sol = minimize_scalar(cost, bounds=(z0 - np.log(2), z0 + np.log(2)),
+                                  method="bounded", options={"xatol": 0.01})
+            self._refined[c] = float(np.exp(sol.x)) if sol.fun < fit.chi2 else e0
+        e = self._refined[c]
+        if e == e0:
+            return fit
+        p, se, x2 = self._fit_coefficient(c, e)
+        name = coef_name(c.kind)
+        ev = dict(fit.evidence, grid_refined=f"{grid.param} refined from {fit.params[grid.param]:.4g}")
+        return Fit(c, scaled_params(c.kind, p, e), {name: [p - Z95 * se, p + Z95 * se]}, x2,
+                   self.bic_gain(x2, c.n_params), ev, extra=e)
+
     def refine(self, fit: Fit, noise: str = "none") -> Fit:
-        """Re-estimate a nonlinear candidate's coefficient from the data by reverse path.
+        """Refine a shortlisted candidate: its grid value (`refine_grid`), then its
+        coefficient re-estimated from the data by reverse path (memoryless kinds).
 
         ``noise`` is passed to `analysis.reverse_path.reverse_path`: "none" (H1) ranks the
         shortlist quickly; "auto" (noise-debiased when the records are noisy) gives the
         final estimate of the chosen candidate.
         """
+        fit = self.refine_grid(fit)
         c = fit.cand
+        if c.memory:
+            return fit   # no reverse-path basis for a memory kind: the FRF fit stands
         name = coef_name(c.kind)
         known = {k: v for k, v in fit.params.items() if k != name}
         trial = self.model.with_elements(self.model.elements + [Element(c.kind, c.w, known)])
@@ -255,7 +328,7 @@ class RandomSearch(Search):
         if KINDS[c.kind].dissipative and p <= 0:
             fit.evidence["reverse_path"] = "negative dissipative coefficient"
             return fit
-        lo, hi = self.bounds(c, grid_value(c.kind, fit.params))
+        lo, hi = self.bounds(c, fit.extra)
         bounded = not lo <= p <= hi
         if bounded:
             p = float(np.clip(p, lo, hi))
@@ -275,13 +348,19 @@ class RandomSearch(Search):
                                    "deformation range")
         params = dict(fit.params)
         params[name] = p
-        extra = grid_value(c.kind, params)
         x2 = 0.0
         for lf, hl in zip(self.levels, self.H_lins):
-            terms = self.terms + [(c.w, p, (c.kind, c.dofs, extra))]
+            terms = self.terms + [(c.w, p, (c, fit.extra))]
             x2 += chi2(lf, model_frf(hl, lf, terms))
+        if x2 > fit.chi2:
+            # The level FRFs are the criterion: an estimate that explains them worse than
+            # the FRF fit (sensor noise in the basis, a law only near the truth) is reported,
+            # not used.
+            fit.evidence.update(evidence, reverse_path_estimate=p, reverse_path_chi2=x2,
+                                estimator=fit.evidence.get("estimator", "frf-screen"))
+            return fit
         return Fit(c, params, {name: [float(coef.ci95[0]), float(coef.ci95[1])]}, x2,
-                   self.bic_gain(x2, c.n_params), evidence)
+                   self.bic_gain(x2, c.n_params), evidence, extra=fit.extra)
 
 
 def corrected_model(model: Model, fit: Fit) -> Model:
@@ -298,8 +377,14 @@ def _corrected_model(model: Model, fit: Fit) -> Model:
     c = fit.cand
     if not c.linear:
         params = {k: v for k, v in fit.params.items() if k in KINDS[c.kind].all_params}
-        return model.with_elements(model.elements + [Element(c.kind, c.w, params)],
-                                   name=f"{model.name} + {c.kind}")
+        elements = model.elements + [Element(c.kind, c.w, params)]
+        if not c.compensated:
+            return model.with_elements(elements, name=f"{model.name} + {c.kind}")
+        wq = model.to_q(c.w)   # the stuck stiffness moves from the linear part to the element
+        kd = params[KINDS[c.kind].initial_stiffness]
+        return model.with_linear(model.mass, model.damping,
+                                 model.stiffness - kd * np.outer(wq, wq), elements,
+                                 f"{model.name} + {c.kind}")
     delta = next(iter(fit.params.values()))
     wq = model.to_q(c.w)
     mats = {"mass": model.mass.copy(), "damping": model.damping.copy(),

@@ -30,7 +30,7 @@ from ..model import Element, Model
 from ..recording import Recording
 from ..sine_fit import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
-from .compare import LevelFRF, chi2
+from .compare import LevelFRF, chi2, stuck_stiffness
 from .locate import level_dependence, mismatch_band
 from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, _apply, _pick_holdout, _pruned,
                      joint_veto, misfit_summary,
@@ -105,12 +105,13 @@ def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor
     var = _noise_var(rec, frf)[:, :, None] + floor**2 * np.abs(H) ** 2
     B = np.zeros((model.n_dof, 1))
     B[frf.force_dof, 0] = 1.0
-    T = {("model", i): _transfer(frf, el.kind, el.params, el.w)
-         for i, el in enumerate(model.elements)}
-    for (kind, dofs), extras in extra.items():
-        w = Candidate(kind, dofs, model.n_dof).w
+    # model elements in the stuck form (`.compare.stuck_linear`): less the stuck stiffness
+    x1 = frf.X[:, list(frf.harmonics).index(1)]                 # fundamental, (n_s, n_dof)
+    T = {("model", i): _transfer(frf, el.kind, el.params, el.w) - stuck_stiffness(el)
+         * (x1 @ el.w / frf.force)[:, None] for i, el in enumerate(model.elements)}
+    for c, extras in extra.items():
         for e in extras:
-            T[(kind, dofs, e)] = _transfer(frf, kind, unit_params(kind, e), w)
+            T[(c, e)] = _transfer(frf, c.kind, unit_params(c.kind, e), c.w)
     return LevelFRF(label, frf.level, frf.freqs, H, np.ones(H.shape), var, B, T, 1.0)
 
 
@@ -127,7 +128,7 @@ class SteppedSearch(Search):
         v = np.array([m[1] for m in motion]).reshape(-1, model.n_dof, N_TIME)
         x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
         v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
-        extra = candidate_extras(model, x, v)
+        extra = candidate_extras(model, (x, v), (x, v))
         levels = [_level(model, r, f, extra, floor, f"level {f.level:g}")
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
@@ -181,7 +182,8 @@ class SteppedSearch(Search):
                    {"estimator": "measured-motion harmonic balance"})
 
     def memory_fits(self) -> list[Fit]:
-        fits = [self.fit_memory(c) for c in library(self.model.n_dof) if c.memory]
+        fits = [self.fit_memory(c) for c in library(self.model.n_dof)
+                if c.memory and not c.compensated]
         return [f for f in fits if f is not None]
 
 
