@@ -115,8 +115,15 @@ class Diagnosis:
     explanation: str = ""
 
     def missing_physics(self) -> list[dict[str, Any]]:
-        return [{"kind": c["kind"], "w": c["w"], "dofs": c["dofs"], "params": c["params"],
-                 "ci95": c.get("ci95", {})} for c in self.chosen]
+        out = []
+        for c in self.chosen:
+            m = {"kind": c["kind"], "w": c["w"], "dofs": c["dofs"], "params": c["params"],
+                 "ci95": c.get("ci95", {})}
+            if c.get("stuck_stiffness_from_linear_part"):
+                # the corrected model's linear part lost the slider's stuck stiffness
+                m["stuck_stiffness_from_linear_part"] = True
+            out.append(m)
+        return out
 
     def to_json(self) -> dict[str, Any]:
         """Contracts section 4 dictionary (plus ranking, evidence and per-level errors)."""
