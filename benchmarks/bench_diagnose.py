@@ -1,4 +1,7 @@
-"""Benchmark: ``nlid-lab diagnose`` on a 3-DOF, 3-level random case (issue 6: under a minute).
+"""Benchmark: ``nlid-lab diagnose`` on a 3-DOF, 3-level random case (issue 6: under a minute)
+and on the jointed GVT-like case (``--case jointed``: fit-linear on the lowest of five
+multisine levels, then the diagnosis of a friction joint between two accelerometers; issue 15:
+under a minute).
 
 Prints the wall time of the whole command (NPZ loading, search of the full candidate library,
 reverse-path refinement, second search pass on the corrected model, held-back comparison,
@@ -62,5 +65,46 @@ def run() -> None:
           f"{len(res['evidence']['passes'])} search passes")
 
 
+def run_jointed() -> None:
+    """fit-linear + diagnose on `gvt_scenarios.friction_joint`; baseline: fit-linear alone."""
+    from analysis.linear_fit import fit_linear
+    from gvt_scenarios import BAND, NAMES, runs, fe_w, JOINT_K
+    from structures import beam_with_payload
+    beam = beam_with_payload()
+    recs = runs(beam, [Element("stick_slip", fe_w(beam, "joint", "payload"),
+                               {"kd": 0.5 * JOINT_K, "fd": 2.0})])
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        paths = []
+        for i, rec in enumerate(recs):
+            write_npz(root / f"level{i}.npz", rec)
+            paths.append(str(root / f"level{i}.npz"))
+        fit_linear(recs[0], BAND, points=NAMES)              # warm caches
+        t0 = time.perf_counter()
+        fit_linear(recs[0], BAND, points=NAMES)
+        base = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rc1 = main(["fit-linear", paths[0], "--out", str(root / "gvt.toml"), "--band",
+                    *map(str, BAND), "--points", ",".join(NAMES), "--quiet"])
+        rc2 = main(["diagnose", str(root / "gvt.toml"), *paths, "--band", *map(str, BAND),
+                    "--json", str(root / "out.json"), "--model-out", str(root / "fixed.toml"),
+                    "--quiet"])
+        total = time.perf_counter() - t0
+        res = json.loads((root / "out.json").read_text())
+    m = res["missing_physics"][0] if res["missing_physics"] else {}
+    print(f"case: 21-DOF FE beam + jointed payload, 4 accelerometers, 5 multisine levels; "
+          f"exit codes {rc1}, {rc2}")
+    print(f"baseline  fit-linear on the lowest level:       {base:8.2f} s")
+    print(f"commands  fit-linear + diagnose:                {total:8.2f} s")
+    print(f"ratio     commands / fit-linear:                {total / base:8.1f}")
+    print(f"budget    {BUDGET_S:.0f} s: {'met' if total < BUDGET_S else 'MISSED'} "
+          f"({total / BUDGET_S:.2f} of it)")
+    print(f"result    {res['verdict']}: {m.get('kind')} at {m.get('dofs')} {m.get('params')}, "
+          f"held-back FRF error {res['fit']['before']:.3g} -> {res['fit']['after']:.3g}")
+
+
 if __name__ == "__main__":
-    run()
+    if "--case" in sys.argv and sys.argv[sys.argv.index("--case") + 1] == "jointed":
+        run_jointed()
+    else:
+        run()
