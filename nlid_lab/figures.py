@@ -386,7 +386,9 @@ def _time_residual_panel(ax, curve, dof: int) -> None:
             label=f"residual before ({rb.residual[dof]:.3g})")
     ax.plot(ra.t, ra.measured[:, dof] - ra.predicted[:, dof], "C0", lw=1,
             label=f"residual after ({ra.residual[dof]:.3g})")
-    ax.set_ylabel(f"x DOF {dof} [m]")
+    symbol, unit = {"displacement": ("x", "m"), "velocity": ("v", "m/s"),
+                    "acceleration": ("a", "m/s²")}[rb.kind]
+    ax.set_ylabel(f"{symbol} DOF {dof} [{unit}]")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
 

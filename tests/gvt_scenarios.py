@@ -94,3 +94,24 @@ def stiffness_error() -> GVTCase:
     start = nominal.model.modal_form([nominal.points[k] for k in NAMES], NAMES)
     return GVTCase(start, runs(stiffer), {"kind": "stiffness_error", "dofs": [1, 3],
                                           "params": {"delta_stiffness": 0.3 * JOINT_K}})
+
+
+def loose_part() -> GVTCase:
+    """Physics outside the library: a loose 50 g part rattling in the payload (an unmodelled
+    DOF on a soft 2 Hz centring spring, striking the payload across a 0.3 mm clearance).
+    No element between measured points can stand for an unmeasured mass that impacts."""
+    beam = beam_with_payload()
+    m, n, pay = beam.model, beam.model.n_dof, beam.points["payload"]
+    M, C, K = (np.zeros((n + 1, n + 1)) for _ in range(3))
+    M[:n, :n], C[:n, :n], K[:n, :n] = m.mass, m.damping, m.stiffness
+    ml = 0.05
+    k0 = ml * (2 * np.pi * 2.0) ** 2
+    c0 = 2 * 0.05 * np.sqrt(k0 * ml)
+    M[n, n] = ml
+    for a, b, s in ((pay, pay, 1), (n, n, 1), (pay, n, -1), (n, pay, -1)):
+        K[a, b] += s * k0
+        C[a, b] += s * c0
+    w = np.zeros(n + 1)
+    w[n], w[pay] = 1.0, -1.0
+    loose = FEStructure(Model(M, C, K, [], "beam + loose part"), dict(beam.points))
+    return _from_lowest(loose, [Element("gap", w, {"k": 2 * JOINT_K, "g": 3e-4})], {})

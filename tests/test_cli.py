@@ -216,7 +216,12 @@ def test_diagnose_prints_its_verdict_unless_quiet(tmp_path, capsys):
     assert main([*base, "--json", str(tmp_path / "d.json")]) == 0
     result = json.loads((tmp_path / "d.json").read_text())
     shown = f"{result['verdict']}: {result['explanation']}"
-    assert capsys.readouterr().out.strip() == shown
+    out = capsys.readouterr().out
+    assert out.startswith(shown)
+    # then the ranked locations, the best first, with the numbers behind the rank
+    best = result["evidence"]["locations"][0]
+    assert "where (best candidate per location" in out
+    assert f"{' - '.join(best['points'])}" in out.split("where (")[1].splitlines()[1]
     assert main([*base, "--json", "-"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["verdict"] == result["verdict"]

@@ -11,7 +11,7 @@ scenario being diagnosed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
@@ -35,6 +35,8 @@ class Candidate:
     compensated: bool = False
     """The element's stuck stiffness (`analysis.kinds.Kind.initial_stiffness`) is taken out
     of the linear part: the starting model, fitted where the element sticks, holds it."""
+    names: tuple[str, ...] | None = field(default=None, compare=False, repr=False)
+    """The model's point names (None: points are numbered), for messages only."""
 
     @property
     def w(self) -> np.ndarray:
@@ -60,10 +62,16 @@ class Candidate:
         return len(KINDS[self.kind].params)
 
     @property
+    def points(self) -> list[str]:
+        """Names of the points the candidate acts on (numbers when the model has none)."""
+        return [self.names[d] if self.names else str(d) for d in self.dofs]
+
+    @property
     def where(self) -> str:
+        a = self.points
         if len(self.dofs) == 1:
-            return f"DOF {self.dofs[0]} to ground"
-        return f"between DOFs {self.dofs[0]} and {self.dofs[1]}"
+            return f"{a[0]} to ground" if self.names else f"DOF {a[0]} to ground"
+        return f"between {a[0]} and {a[1]}" if self.names else f"between DOFs {a[0]} and {a[1]}"
 
     @property
     def label(self) -> str:
@@ -76,14 +84,16 @@ def locations(n_dof: int) -> list[tuple[int, ...]]:
     return [(i,) for i in range(n_dof)] + list(combinations(range(n_dof), 2))
 
 
-def library(n_dof: int) -> list[Candidate]:
-    """The complete candidate library of an ``n_dof`` model."""
+def library(n_dof: int, names: list[str] | None = None) -> list[Candidate]:
+    """The complete candidate library of an ``n_dof`` model (``names``: its point names, used
+    in messages when they are not just the point numbers)."""
+    named = tuple(names) if names and list(names) != [str(i) for i in range(n_dof)] else None
     out = []
     for loc in locations(n_dof):
         for kind in search_order() + LINEAR_KINDS:
             if kind == "mass_error" and len(loc) != 1:
                 continue
-            out.append(Candidate(kind, loc, n_dof))
+            out.append(Candidate(kind, loc, n_dof, names=named))
             if kind in KINDS and KINDS[kind].initial_stiffness is not None:
-                out.append(Candidate(kind, loc, n_dof, compensated=True))
+                out.append(Candidate(kind, loc, n_dof, compensated=True, names=named))
     return out

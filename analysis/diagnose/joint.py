@@ -59,6 +59,9 @@ def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
     """
     if len(fits) < 2 or any(f.cand.memory for f in fits):
         return fits
+    for f in fits:
+        if not f.cand.linear:
+            search.ensure_basis(f.cand, f.extra)
     names = [_name(f) for f in fits]
     theta0 = np.array([f.params[n] for f, n in zip(fits, names)])
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)

@@ -157,6 +157,30 @@ def decide(model: Model, search: Search, pool: list[Fit],
     return SearchPass(search, pool, first, False, model, first_effect, rejected)
 
 
+def location_table(search: Search, pool: list[Fit], top: int = 8) -> list[dict]:
+    """Locations ranked by the best candidate at each (points and point pairs), with the
+    numbers behind each rank: its kind, misfit reduction and BIC gain; for a pair, the best
+    grounded candidate at either end, so that a joint (pair) is told from a grounded
+    element by how much more the pair explains."""
+    best: dict[tuple[int, ...], Fit] = {}
+    for f in pool:
+        if f.cand.dofs not in best or f.delta_bic > best[f.cand.dofs].delta_bic:
+            best[f.cand.dofs] = f
+    rows = []
+    for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic)[:top]:
+        row = {"points": f.cand.points, "dofs": list(dofs), "kind": f.cand.kind,
+               "chi2_reduction": float((search.chi2_0 - f.chi2) / search.chi2_0),
+               "delta_bic": float(f.delta_bic)}
+        ends = [best[(d,)] for d in dofs if len(dofs) == 2 and (d,) in best]
+        if ends:
+            g = max(ends, key=lambda e: e.delta_bic)
+            row["best_grounded_end"] = {"points": g.cand.points, "kind": g.cand.kind,
+                                        "chi2_reduction": float((search.chi2_0 - g.chi2)
+                                                                / search.chi2_0)}
+        rows.append(row)
+    return rows
+
+
 def linear_only(search: Search) -> bool:
     """True when the fitting levels' FRFs are the same within their random error: then no
     nonlinear candidate is supported by the data (homogeneity, paper chapter 2)."""

@@ -31,7 +31,7 @@ from ..elements import restoring_force
 from ..kinds import KINDS
 from ..model import Model
 from ..plant import HOLD_DEGREE, Plant
-from ..signals import periodic_kinematics
+from ..signals import KIND_ORDER, periodic_kinematics
 from .prepare import Prepared
 
 UPSAMPLE = 4
@@ -61,6 +61,8 @@ class Replay:
     t: np.ndarray
     measured: np.ndarray
     predicted: np.ndarray
+    kind: str = "displacement"
+    """Response kind compared (steady-state replays: the recorded one)."""
 
 
 def horizon_samples(model: Model, fs: float) -> int:
@@ -136,7 +138,8 @@ def steady_replay(model: Model, p: Prepared, highpass: float, lowpass: float) ->
     ``highpass``..``lowpass``, as the measured one was formed). A periodic drive has one
     steady state, so this is a prediction of the whole record with no restart: it works for
     any model, including modal ones with more modes than measured points and memory
-    elements.
+    elements. The comparison is in the recorded response kind (an accelerometer's doubly
+    integrated noise would otherwise dominate a displacement residual).
     """
     period, n_dof = int(p.period), p.x.shape[1]
     n_per = p.x.shape[0] // period
@@ -153,11 +156,23 @@ def steady_replay(model: Model, p: Prepared, highpass: float, lowpass: float) ->
     out = plant.run(force).displacement[settle * period * UPSAMPLE::UPSAMPLE]
     pred = periodic_kinematics(out.reshape(n_per, period, n_dof), p.fs, "displacement",
                                highpass=highpass, lowpass=lowpass)[0].reshape(-1, n_dof)
-    meas = p.x[:n_per * period]
+    k = KIND_ORDER[p.response_kind]
+    meas, pred = (_differentiated(a, p.fs, period, k) for a in (p.x[:n_per * period], pred))
     res = np.sqrt(np.sum((meas - pred) ** 2, axis=0) / np.maximum(np.sum(meas**2, axis=0),
                                                                     1e-300))
     show = slice(0, min(2 * period, meas.shape[0]))
-    return Replay(res, np.arange(show.stop) / p.fs, meas[show], pred[show])
+    return Replay(res, np.arange(show.stop) / p.fs, meas[show], pred[show], p.response_kind)
+
+
+def _differentiated(x: np.ndarray, fs: float, period: int, order: int) -> np.ndarray:
+    """``order`` time derivatives of whole periods of ``x`` on their exact DFT lines."""
+    if order == 0:
+        return x
+    per = x.reshape(-1, period, x.shape[1])
+    gain = (2j * np.pi * np.fft.rfftfreq(period, 1 / fs)) ** order
+    if period % 2 == 0 and order % 2:
+        gain[-1] = 0.0
+    return np.fft.irfft(np.fft.rfft(per, axis=1) * gain[:, None], period, axis=1).reshape(x.shape)
 
 
 def replay(model: Model, p: Prepared, horizon: int, *,

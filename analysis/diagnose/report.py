@@ -21,10 +21,10 @@ FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqr
                 "deviation of its square (bin correlation included; 3.72 = one-sided p 1e-4), "
                 "precision = the 1 % model-precision floor; the model FRF is compared through "
                 "the Welch window's leakage kernel (analysis.diagnose.leakage)")
-TIME_METRIC = ("relative rms of the displacement residual of replays of the measured force "
-               "through the model (the steady state of a periodic drive; short horizons "
-               "restarted from the measured state otherwise), mean over DOFs, on the "
-               "held-back recording")
+TIME_METRIC = ("relative rms of the response residual of replays of the measured force "
+               "through the model (the steady state of a periodic drive, in the recorded "
+               "response kind; short horizons restarted from the measured state otherwise, "
+               "in displacement), mean over DOFs, on the held-back recording")
 
 
 @dataclass
@@ -119,6 +119,8 @@ class Diagnosis:
         for c in self.chosen:
             m = {"kind": c["kind"], "w": c["w"], "dofs": c["dofs"], "params": c["params"],
                  "ci95": c.get("ci95", {})}
+            if "points" in c:
+                m["points"] = c["points"]
             if c.get("stuck_stiffness_from_linear_part"):
                 # the corrected model's linear part lost the slider's stuck stiffness
                 m["stuck_stiffness_from_linear_part"] = True
@@ -270,13 +272,18 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
     what = " and ".join(dict.fromkeys("a linear model error" if c.linear else
                                       "missing nonlinear physics" for c in cands))
     band_txt = f" between {band[0]:.3g} and {band[1]:.3g} Hz" if band else ""
-    found = "; ".join(f"{c.kind.replace('_', ' ')} {c.where} ({_fmt(ch['params'])})"
+    found = "; ".join(f"{c.kind.replace('_', ' ')} {c.where} ({_fmt(ch['params'])}"
+                      + ("; its stuck stiffness moved out of the linear part)"
+                         if c.compensated else ")")
                       for c, ch in zip(cands, d.chosen))
     runner = ""
-    if len(d.ranking) > 1:
-        r = d.ranking[1]
-        runner = (f" The next-best explanation ({r['kind']} at DOFs {r['dofs']}) gains "
-                  f"{r['delta_bic']:.3g} BIC points against {d.ranking[0]['delta_bic']:.3g}.")
+    chosen = d.chosen[0]
+    others = [r for r in d.ranking if (r["kind"], r["dofs"]) != (chosen["kind"], chosen["dofs"])]
+    if others:
+        r = others[0]
+        at = ", ".join(r.get("points", map(str, r["dofs"])))
+        runner = (f" The next-best explanation ({r['kind']} at {at}) gains "
+                  f"{r['delta_bic']:.3g} BIC points against {chosen['delta_bic']:.3g}.")
     second = (" A second search on the corrected model found the further effect."
               if len(cands) > 1 else "")
     tres = fit.get("time_residual")

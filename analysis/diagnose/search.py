@@ -21,7 +21,7 @@ from .replay import Replay, horizon_samples, replay, steady_replay
 from .report import METRIC, Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import SHORTLIST, Fit, RandomSearch
 from .joint import joint_refit
-from .policy import (BIC_MIN, MAX_EFFECTS, SearchPass, _apply, _pick_holdout,
+from .policy import (BIC_MIN, location_table, MAX_EFFECTS, SearchPass, _apply, _pick_holdout,
                      _pruned, decide, joint_veto, linear_only, misfit_summary, model_change,
                      pruned_labels)
 
@@ -198,6 +198,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
          "chi2_reduction": first.reduction, "band_hz": list(band), "nperseg": nps,
          "model_change": first.effect, "replay_horizon_samples": horizon,
          "passes": [s.to_json() for s in passes],
+         "locations": location_table(first.search, first.pool),
          "pruned_after_joint_refit": pruned_labels(passes, chosen),
          "rejected": rejected, "misfit": misfit,
          "level_dependence": dep.to_json() if dep else None,

@@ -63,7 +63,7 @@ class Fit:
 
     def to_json(self) -> dict[str, Any]:
         out = {"kind": self.cand.kind, "w": self.cand.w.tolist(), "dofs": list(self.cand.dofs),
-               "params": self.params, "ci95": self.ci95, "chi2": self.chi2,
+               "points": self.cand.points, "params": self.params, "ci95": self.ci95, "chi2": self.chi2,
                "delta_bic": self.delta_bic, "evidence": self.evidence}
         if self.cand.compensated:
             out["stuck_stiffness_from_linear_part"] = True
@@ -123,7 +123,7 @@ def candidate_extras(model: Model, low: tuple[np.ndarray, np.ndarray],
     them by harmonic balance).
     """
     extra: dict[Candidate, list[float | None]] = {}
-    for c in library(model.n_dof):
+    for c in library(model.n_dof, model.points):
         if c.linear or (c.memory and not (memory and screened(c))):
             continue
         grid = KINDS[c.kind].search.grid
@@ -148,12 +148,16 @@ class Search:
                  extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
         self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
-        self.cands = [c for c in library(model.n_dof) if c.linear or c in extra]
+        self.cands = [c for c in library(model.n_dof, model.points) if c.linear or c in extra]
         self.H_lins = [stuck_linear(model).linear_frf(lf.freqs) for lf in self.levels]
         self.terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         self.H0s = [model_frf(hl, lf, self.terms) for hl, lf in zip(self.H_lins, self.levels)]
         self.chi2_0 = sum(chi2(lf, h) for lf, h in zip(self.levels, self.H0s))
         self.n_values = sum(lf.n_values for lf in self.levels)
+
+    def ensure_basis(self, c: Candidate, extra: float | None) -> None:
+        """Make ``(c, extra)`` available in every level's transfers (a grid value refined
+        in another search pass); stepped-sine searches hold every grid value already."""
 
     def bic_gain(self, chi2_c: float, k: int) -> float:
         return self.chi2_0 - chi2_c - k * np.log(self.n_values)
@@ -253,7 +257,7 @@ class RandomSearch(Search):
         extra = candidate_extras(model, (low.x, low.v), (high.x, high.v), memory=True)
         levels = [self._level(model, extra, p, floor) for p in preps]
         reach = {c.dofs: REACH * max(float(np.abs(p.x @ c.w).max()) for p in preps)
-                 for c in library(model.n_dof)}
+                 for c in library(model.n_dof, model.points)}
         terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         for lf in levels:   # the starting model as the Welch estimate sees it
             lf.leakage = leakage_bias(stuck_linear(model), lf, terms)
@@ -270,6 +274,12 @@ class RandomSearch(Search):
                 bases[(c, e)] = candidate_force(c, e, p)
         return level_frf(p, self.band, self.nperseg, bases, floor=floor)
 
+    def ensure_basis(self, c: Candidate, extra: float | None) -> None:
+        for p, lf in zip(self.preps, self.levels):
+            if (c, extra) not in lf.T:
+                add_basis(lf, p, self.band, self.nperseg, (c, extra),
+                          candidate_force(c, extra, p))
+
     def refine_grid(self, fit: Fit) -> Fit:
         """The grid value (gap width, slip displacement) of a shortlisted candidate refined
         continuously: bounded 1-D minimisation of the misfit over a factor of 2 either side
@@ -281,10 +291,7 @@ class RandomSearch(Search):
         if c not in self._refined:
             def cost(z: float) -> float:
                 e = float(np.exp(z))
-                for p, lf in zip(self.preps, self.levels):
-                    if (c, e) not in lf.T:
-                        add_basis(lf, p, self.band, self.nperseg, (c, e),
-                                  candidate_force(c, e, p))
+                self.ensure_basis(c, e)
                 return self._fit_coefficient(c, e)[2]
             z0 = float(np.log(e0))
             sol = minimize_scalar(cost, bounds=(z0 - np.log(2), z0 + np.log(2)),

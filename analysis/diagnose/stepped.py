@@ -182,7 +182,7 @@ class SteppedSearch(Search):
                    {"estimator": "measured-motion harmonic balance"})
 
     def memory_fits(self) -> list[Fit]:
-        fits = [self.fit_memory(c) for c in library(self.model.n_dof)
+        fits = [self.fit_memory(c) for c in library(self.model.n_dof, self.model.points)
                 if c.memory and not c.compensated]
         return [f for f in fits if f is not None]
 

@@ -96,7 +96,17 @@ def run(args: argparse.Namespace) -> int:
     if args.store:
         save_result(args.store, RESULT_NAME, result)
     write_json(result, args.json)
-    print(f"{d.verdict}: {d.explanation}", file=summary_stream(args.json, args.quiet))
+    stream = summary_stream(args.json, args.quiet)
+    print(f"{d.verdict}: {d.explanation}", file=stream)
+    rows = d.evidence.get("locations") or []
+    if rows:
+        print("\nwhere (best candidate per location, first search pass):", file=stream)
+        for r in rows[:5]:
+            end = r.get("best_grounded_end")
+            vs = (f"; grounded at {end['points'][0]} alone: {100 * end['chi2_reduction']:.3g} %"
+                  if end else "")
+            print(f"  {' - '.join(r['points']):<24} {r['kind']:<18} misfit -"
+                  f"{100 * r['chi2_reduction']:.3g} %, BIC +{r['delta_bic']:.3g}{vs}", file=stream)
     return 0
 
 
@@ -129,6 +139,14 @@ def write_report(d: Diagnosis, out: Path) -> None:
         figures.diagnosis_overlay(c, title).savefig(out / name)
         figs += ["", f"![{c.label}]({name})"]
     lines += figs
+    lines += ["", "## Where", "", "| location | best kind | misfit reduction | BIC gain | "
+              "best grounded at an end |", "|---|---|---|---|---|"]
+    for r in d.evidence.get("locations") or []:
+        end = r.get("best_grounded_end")
+        lines.append(f"| {' - '.join(r['points'])} | {r['kind']} | "
+                     f"{100 * r['chi2_reduction']:.3g} % | {r['delta_bic']:.4g} | "
+                     + (f"{end['kind']} at {end['points'][0]}: {100 * end['chi2_reduction']:.3g} %"
+                        if end else "-") + " |")
     lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |",
               "|---|---|---|---|"]
     for r in d.ranking:
