@@ -10,6 +10,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 
+from analysis.diagnose.replay import Replay
 from analysis.frf import LevelFRF
 from analysis.hbm import HBMSystem
 from analysis.model import Model
@@ -187,9 +188,8 @@ def test_diagnosis_overlay_rows_are_readable():
     f = np.linspace(5, 100, n)
     h = (1.0 / (1e5 - (2 * np.pi * f) ** 2))[:, None, None] * np.ones((1, n_dof, 1))
     t = np.linspace(0, 1, 500)
-    rep = SimpleNamespace(t=t, measured=np.sin(40 * t)[:, None] * np.ones(n_dof),
-                          predicted=0.9 * np.sin(40 * t)[:, None] * np.ones(n_dof),
-                          residual=np.full(n_dof, 0.1))
+    rep = Replay(np.full(n_dof, 0.1), t, np.sin(40 * t)[:, None] * np.ones(n_dof),
+                 0.9 * np.sin(40 * t)[:, None] * np.ones(n_dof))
     curve = SimpleNamespace(freqs=f, measured=h, before=1.2 * h, after=1.01 * h,
                             replay_before=rep, replay_after=rep)
     fig = figures.diagnosis_overlay(curve, "10 N rms (held back)")
@@ -206,6 +206,11 @@ def test_diagnosis_overlay_rows_are_readable():
     assert [t.get_text() for t in axes[0, 0].get_legend().get_texts()] == \
         ["measured", "model before", "model after"]
     assert_text_inside(fig)
+    # a steady-state replay of accelerometer data is shown in the recorded kind
+    acc = Replay(rep.residual, t, rep.measured, rep.predicted, "acceleration")
+    fig = figures.diagnosis_overlay(SimpleNamespace(**{**vars(curve), "replay_before": acc,
+                                                        "replay_after": acc}), "4 N rms")
+    assert np.array(fig.axes).reshape(n_dof, 2)[0, 1].get_ylabel() == "a DOF 0 [m/s²]"
 
 
 @pytest.mark.parametrize("n_levels", [2, 8])
