@@ -22,7 +22,7 @@ from . import __version__, commands
 
 
 #: Commands that run no numba kernel (no "compiling" notice for them).
-NO_KERNELS = frozenset({"import", "repair", "warmup"})
+NO_KERNELS = frozenset({"import", "import-modes", "repair", "warmup"})
 
 
 class _Parser(argparse.ArgumentParser):
