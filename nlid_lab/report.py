@@ -59,6 +59,8 @@ def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
 
 
 def diagnosis_section(run: RunData) -> Section | None:
+    """The stored diagnosis: FRF error per level and time residual, before and after the
+    correction (None without one)."""
     found = find_result(run.results, "verdict", "fit")
     if found is None:
         return None
@@ -231,6 +233,8 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
 
 
 def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
+    """The report page: the run's levels, stored estimates and every section with its
+    figures."""
     esc = html.escape
     rows = "".join(f"<tr><td>{i + 1}</td><td>{esc(f.label)}</td><td>{esc(f.excitation)}</td>"
                    f"<td>{f.freqs.size}</td><td>{f.n_averages}</td></tr>"

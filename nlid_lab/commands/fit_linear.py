@@ -42,6 +42,8 @@ def summary(fit: LinearFit) -> dict[str, Any]:
 
 
 def format_summary(s: dict[str, Any], kind: str) -> str:
+    """The fit's summary for people: modes table, residual pseudo-modes, in-band FRF error in
+    the measured response ``kind``."""
     lines = [f"{len(s['modes'])} mode(s) in {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz from "
              f"the {s['method']}; shapes mass-normalised at the driving point "
              f"'{s['driving_point']}'",
@@ -58,6 +60,7 @@ def format_summary(s: dict[str, Any], kind: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
     from analysis.diagnose.prepare import record_level
     from analysis.linear_fit import fit_linear
     from ..recordings_io import load_recordings
@@ -99,6 +102,7 @@ def _modes(text: str) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``fit-linear`` sub-command and its options to ``sub``."""
     p = sub.add_parser("fit-linear", help="fit a modal model ([modal] form) to a low level")
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs, NPZ or CSV recordings")
     p.add_argument("--out", required=True, metavar="MODEL.toml", help="model file to write")

@@ -41,6 +41,8 @@ def summary(modes: FEModes, model: Model, index: np.ndarray, damping: float | No
 
 
 def format_summary(s: dict[str, Any]) -> str:
+    """The import's summary for people: points, normalisation, modes with the source of their
+    damping."""
     lines = [f"{len(s['modes'])} {s['analysis_type']} at {len(s['points'])} point(s): "
              + ", ".join(s["points"]),
              "normalisation: " + _NORMALISATION[s["normalisation"]],
@@ -60,6 +62,7 @@ def format_summary(s: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab import-modes`` on the parsed ``args``; returns the exit code."""
     refuse_overwrite(args.force, args.out, args.json)
     points = None if args.points is None else [parse_point(p) for p in args.points]
     modes = read_modes(args.file, args.load_case)
@@ -74,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``import-modes`` sub-command and its options to ``sub``."""
     p = sub.add_parser("import-modes",
                        help="FE modes from a universal file (dataset 55) as a [modal] model")
     p.add_argument("file", metavar="FE.uff", help="universal file holding dataset 55 modes")

@@ -13,6 +13,7 @@ from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab view`` on the parsed ``args``; returns the exit code."""
     refuse_overwrite(args.force, args.snapshot)
     try:
         from ..gui import snapshot
@@ -49,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``view`` sub-command and its options to ``sub``."""
     p = sub.add_parser("view", help="browse runs: FRFs across levels, coherence, estimates")
     p.add_argument("runs", nargs="+", metavar="RUN", help="run files (.h5) or recordings")
     p.add_argument("--snapshot", metavar="FILE.png", help="render offscreen to a PNG and exit")

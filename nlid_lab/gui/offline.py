@@ -140,6 +140,7 @@ class OfflineView(QtWidgets.QWidget):
         return out
 
     def redraw(self, *_: Any) -> None:
+        """Draw the ticked levels at the chosen response DOF, as `kind`."""
         q = max(self.output.currentIndex(), 0)
         for p in (self.mag, self.phase, self.coh, self.dist):
             p.clear()
