@@ -172,6 +172,13 @@ def _mode_sets(path: str | Path, load_case: int | None) -> list[dict[str, Any]]:
         found = sorted({str(s.get("type")) for s in sets}) or ["none"]
         raise UffModesError(f"{path}: no mode shapes (dataset 55 of analysis type 2, normal "
                             f"modes, or 3, complex modes); datasets found: {', '.join(found)}")
+    _check_complete(path)
+    odd = [s for s in modes if s.get("n_data_per_node") not in (3, 6)]
+    if odd:
+        n = odd[0].get("n_data_per_node")
+        raise UffModesError(f"{path}: mode {odd[0].get('mode_n')} has {n} values per node; "
+                            "export the shapes as 3 (X, Y, Z) or 6 (with "
+                            "rotations) values per node")
     types = {s["analysis_type"] for s in modes}
     if len(types) > 1:
         raise UffModesError(f"{path}: holds both normal and complex modes; export one kind")
@@ -185,6 +192,17 @@ def _mode_sets(path: str | Path, load_case: int | None) -> list[dict[str, Any]]:
         raise UffModesError(f"{path}: holds load cases {', '.join(map(str, cases))}; pick one "
                             "with --load-case N")
     return modes
+
+
+def _check_complete(path: Path) -> None:
+    """A universal file is datasets between ``-1`` lines; pyuff skips an unfinished last one
+    silently, which would drop modes from a truncated file."""
+    with open(path, "rb") as fh:
+        lines = [ln.strip() for ln in fh.read().splitlines() if ln.strip()]
+    delimiters = sum(ln == b"-1" for ln in lines)
+    if delimiters % 2 or (lines and lines[-1] != b"-1"):
+        raise UffModesError(f"{path}: the last dataset is not closed by a -1 line (file "
+                            "truncated?); export the file again")
 
 
 def _freq(s: dict[str, Any]) -> float:

@@ -182,6 +182,7 @@ def test_default_points_are_every_moving_translation(tmp_path, beam):
 
 @pytest.mark.parametrize("content, extra, message", [
     ("not a universal file\n", [], "no mode shapes"),
+    ("truncated", [], "not closed by a -1 line"),
     (None, ["--points", "tip=99:z"], "node 99 is not in the file"),
     (None, ["--points", "tip=10:q"], "NODE:DIR"),
     (None, ["--points", "a=10:z", "a=7:z"], "given twice"),
@@ -190,8 +191,11 @@ def test_default_points_are_every_moving_translation(tmp_path, beam):
 ])
 def test_bad_input_is_one_line_exit_2(tmp_path, beam, capsys, content, extra, message):
     path = tmp_path / "fe.uff"
-    if content is None:
+    if content in (None, "truncated"):
         write_normal_modes(path, beam)
+        if content:
+            text = path.read_text()
+            path.write_text(text[:len(text) // 2])
     else:
         path.write_text(content)
     code = main(["import-modes", str(path), "--out", str(tmp_path / "m.toml"), *extra])
