@@ -30,6 +30,10 @@ from .recording import Recording
 from .sine_fit import hold_gain
 from .spectral import h1, spectral_matrix
 
+#: A random level's lines count as excited where the force autospectrum is within this many
+#: dB of its peak (a band-limited drive leaves the lines beyond its band to noise).
+EXCITED_DB = 30.0
+
 
 @dataclass
 class MeasuredReceptance:
@@ -47,6 +51,9 @@ class MeasuredReceptance:
     driving_point : int
         Response channel at the force's DOF.
     method : str
+    excited_hz : (lo, hi), optional
+        Band the force excites (random levels: its autospectrum within `EXCITED_DB` of its
+        peak); periodic levels hold only their excited lines.
     """
 
     freqs: np.ndarray
@@ -55,6 +62,7 @@ class MeasuredReceptance:
     smoothing: tuple[np.ndarray, np.ndarray] | None
     driving_point: int
     method: str
+    excited_hz: tuple[float, float] | None = None
 
 
 @dataclass
@@ -102,10 +110,13 @@ def measured_receptance(rec: Recording, nperseg: int | None = None) -> MeasuredR
                                                             rec.force_hold)[:, None]
     smoothing = welch_smoothing(spec.window, spec.nperseg, spec.fs,
                                 input_spectrum=(freqs, auto[keep, 0]))
+    force_psd = np.abs(auto[keep, 0])
+    excited = freqs[force_psd >= force_psd.max() * 10 ** (-EXCITED_DB / 10)]
     return MeasuredReceptance(freqs, convert_frf(H, freqs, rec.response_kind, "displacement"),
                               None, smoothing, d,
                               f"Welch H1 ({spec.n_avg} averages), fitted through the "
-                              f"{spec.window} window's smoothing kernel")
+                              f"{spec.window} window's smoothing kernel",
+                              (float(excited.min()), float(excited.max())))
 
 
 def fit_linear(rec: Recording, band: tuple[float, float] | None = None, *,
@@ -132,7 +143,9 @@ def fit_linear(rec: Recording, band: tuple[float, float] | None = None, *,
     LinearFit
     """
     data = measured_receptance(rec, nperseg)
-    if band is None:
+    if band is None and data.excited_hz is not None:
+        band = data.excited_hz
+    elif band is None:
         power = np.abs(data.H).max(axis=1)
         band = (float(data.freqs[power > 0].min()), float(data.freqs.max()))
     if points is not None and len(points) != rec.n_dof:

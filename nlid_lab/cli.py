@@ -22,7 +22,7 @@ from . import __version__, commands
 
 
 #: Commands that run no numba kernel (no "compiling" notice for them).
-NO_KERNELS = frozenset({"import", "repair", "warmup"})
+NO_KERNELS = frozenset({"import", "import-modes", "repair", "warmup"})
 
 
 class _Parser(argparse.ArgumentParser):
@@ -31,6 +31,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``nlid-lab`` parser with every sub-command in `nlid_lab.commands`."""
     parser = _Parser(prog="nlid-lab", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"nlid-lab {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -63,6 +64,8 @@ def _held_runtime_warnings(hold: bool) -> Iterator[list[str]]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (0
+    success, 2 bad input, 1 other failure, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = os.environ.get("NLID_DEBUG") == "1"

@@ -427,3 +427,34 @@ def _runs_with_ends(mask: np.ndarray) -> np.ndarray:
     out[1:] |= mask[:-1]
     out[:-1] |= mask[1:]
     return out
+
+
+def stabilisation(fit) -> Figure:
+    """Stabilisation diagram of a modal fit (`analysis.linear_fit.LinearFit`): the poles of
+    every model order (``+`` stable, ``o`` not), the selected modes dashed, over the sum of
+    the measured receptance magnitudes."""
+    stab, m, d = fit.stabilisation, fit.modes, fit.data
+    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    twin = ax.twinx()
+    inb = (d.freqs >= m.band_hz[0]) & (d.freqs <= m.band_hz[1])
+    twin.semilogy(d.freqs[inb], np.abs(d.H[inb]).sum(axis=1), color="0.35", lw=0.8)
+    twin.set_ylabel("Sum of |receptance| [m/N]")
+    ax.set_zorder(twin.get_zorder() + 1)             # poles over the curve
+    ax.patch.set_visible(False)
+    for order, fr, st in zip(stab.orders, stab.freqs_hz, stab.stable):
+        ax.plot(fr[~st], np.full((~st).sum(), order), "o", mfc="none", color="0.6", ms=4)
+        ax.plot(fr[st], np.full(st.sum(), order), "+", color="C0", ms=6)
+    for f in m.freqs_hz:
+        ax.axvline(f, color="C3", lw=0.8, ls="--")
+    ax.set_xlim(*m.band_hz)
+    ax.set_xlabel("Frequency [Hz]")
+    ax.set_ylabel("Model order")
+    ax.set_title(f"Stabilisation diagram: {m.freqs_hz.size} mode(s) selected")
+    ax.legend([Line2D([], [], ls="", marker="+", color="C0", ms=6),
+               Line2D([], [], ls="", marker="o", mfc="none", color="0.6", ms=4),
+               Line2D([], [], ls="--", color="C3", lw=0.8),
+               Line2D([], [], color="0.35", lw=0.8)],
+              ["stable pole", "not stable", "selected mode", "sum of |receptance|"],
+              fontsize="small", loc="lower right")
+    return fig

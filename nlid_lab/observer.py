@@ -64,10 +64,13 @@ class LevelSummary:
                        else ", already stored")
 
     def as_dict(self) -> dict[str, Any]:
+        """The summary as a JSON-ready dict."""
         return asdict(self)
 
 
 class CampaignObserver(Protocol):
+    """What a running campaign tells its watchers (live view, terminal progress); every method
+    is optional to implement."""
     def campaign_started(self, info: dict[str, Any]) -> None:
         """``info``: fs, excitation, force_dofs, n_dof, channel names and units, levels,
         ``planned`` blocks/steps per level, ``stored`` per level already in the run, ``unit``
@@ -95,22 +98,28 @@ class NullObserver:
     """Observer that ignores everything (the default)."""
 
     def campaign_started(self, info: dict[str, Any]) -> None:
+        """Ignore the start."""
         pass
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
+        """Ignore a block."""
         pass
 
     def step(self, level: int, index: int, freq: float, force: np.ndarray,
              response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
+        """Ignore a step."""
         pass
 
     def level_progress(self, status: LevelStatus) -> None:
+        """Ignore a level's progress."""
         pass
 
     def level_finished(self, summary: LevelSummary) -> None:
+        """Ignore a level's end."""
         pass
 
     def campaign_finished(self, status: str) -> None:
+        """Ignore the end."""
         pass
 
 
@@ -127,20 +136,26 @@ class Watchers:
                 method(*args)
 
     def campaign_started(self, info: dict[str, Any]) -> None:
+        """Tell every watcher the campaign started."""
         self._tell("campaign_started", info)
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
+        """Tell every watcher about a block."""
         self._tell("block", level, seq, force, response)
 
     def step(self, level: int, index: int, freq: float, force: np.ndarray,
              response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
+        """Tell every watcher about a step."""
         self._tell("step", level, index, freq, force, response, control_error, harmonics)
 
     def level_progress(self, status: LevelStatus) -> None:
+        """Tell every watcher a level's progress."""
         self._tell("level_progress", status)
 
     def level_finished(self, summary: LevelSummary) -> None:
+        """Tell every watcher a level ended."""
         self._tell("level_finished", summary)
 
     def campaign_finished(self, status: str) -> None:
+        """Tell every watcher the campaign ended."""
         self._tell("campaign_finished", status)

@@ -47,12 +47,14 @@ class CampaignProgress:
         self.t0 = time.monotonic()
 
     def campaign_started(self, info: dict[str, Any]) -> None:
+        """Count the blocks or steps still to store."""
         self.n_levels = len(info["levels"])
         self.remaining = sum(max(info["planned"] - n, 0) for n in info["stored"])
         self.unit = info["unit"]
         self.t0 = time.monotonic()
 
     def level_progress(self, s: LevelStatus) -> None:
+        """Update the level's bar: blocks done, force against the target, drive, time left."""
         if self.bar is None:
             self.bar = tqdm(total=s.planned, initial=s.done, unit=self.unit, leave=False,
                             desc=f"level {s.level + 1}/{self.n_levels} ({s.target:g} N "
@@ -71,10 +73,12 @@ class CampaignProgress:
         self.bar.update(s.done - self.bar.n)
 
     def level_finished(self, summary: LevelSummary) -> None:
+        """Close the bar and print the level's summary line."""
         self._close()
         print(summary.line(self.n_levels), file=self.file, flush=True)
 
     def campaign_finished(self, status: str) -> None:
+        """Close the bar."""
         self._close()
 
     def _close(self) -> None:

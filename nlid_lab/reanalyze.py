@@ -71,10 +71,12 @@ class Reanalysis:
 
     @property
     def n_ok(self) -> int:
+        """Number of rows estimated."""
         return sum(row["status"] == "ok" for row in self.rows)
 
     @property
     def n_failed(self) -> int:
+        """Number of rows that failed."""
         return len(self.rows) - self.n_ok
 
     @property
@@ -107,6 +109,7 @@ class Reanalysis:
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
+        """The reanalysis as JSON: counts, workers, timing and rows."""
         return {"method": self.method, "n_runs": self.n_runs, "n_rows": len(self.rows),
                 "n_ok": self.n_ok, "n_failed": self.n_failed, "n_workers": self.n_workers,
                 "scheduler": self.scheduler, "elapsed_s": self.elapsed_s,

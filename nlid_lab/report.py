@@ -12,6 +12,8 @@ import html
 from pathlib import Path
 from typing import Any, Callable
 
+import numpy as np
+
 from analysis.errors import InputError
 from analysis.frf import LevelFRF
 
@@ -57,6 +59,8 @@ def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
 
 
 def diagnosis_section(run: RunData) -> Section | None:
+    """The stored diagnosis: FRF error per level and time residual, before and after the
+    correction (None without one)."""
     found = find_result(run.results, "verdict", "fit")
     if found is None:
         return None
@@ -151,10 +155,46 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
     return sec
 
 
+def modal_fit_section(run: RunData) -> Section | None:
+    """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
+    one (stabilisation diagram and the modes), or why it cannot be made."""
+    from analysis.diagnose.prepare import record_level
+    from analysis.errors import EstimationError
+    from analysis.linear_fit import fit_linear
+    random = [r for r in run.recordings if r.excitation == "random"]
+    if not random:
+        return None
+    rec = min(random, key=record_level)
+    title = "Modal fit of the lowest level (fit-linear)"
+    try:
+        fit = fit_linear(rec)
+    except (InputError, EstimationError) as exc:
+        return Section(title, f"No modal fit of level {html.escape(level_text(rec.level))}: "
+                       f"{html.escape(str(exc))}.")
+    m, model = fit.modes, fit.model
+    mac = m.mac - np.eye(m.mac.shape[0])
+    rows = "".join(f"<tr><td>{i + 1}</td><td>{f:.3f}</td><td>{100 * z:.3f}</td>"
+                   f"<td>{100 * s:.0f} %</td><td>{mac[i].max(initial=0.0):.3f}</td></tr>"
+                   for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support)))
+    errors = ", ".join(f"DOF {p} {100 * e:.1f} %" for p, e in zip(model.points, fit.frf_error))
+    sec = Section(title,
+                  f"Level {html.escape(level_text(rec.level))}, the closest to linear: "
+                  f"{html.escape(fit.data.method)}, modes in {m.band_hz[0]:.3g}-"
+                  f"{m.band_hz[1]:.3g} Hz chosen where the poles stay stable as the model "
+                  "order grows. In-band FRF error of the modal model "
+                  f"({html.escape(rec.response_kind)}): {errors}. "
+                  "<code>nlid-lab fit-linear RUN --out MODEL.toml</code> writes this model."
+                  "<table><tr><th>mode</th><th>f [Hz]</th><th>&zeta; [%]</th>"
+                  "<th>stable in</th><th>max MAC to another mode</th></tr>"
+                  f"{rows}</table>")
+    sec.figures = [("stabilisation", figures.stabilisation(fit))]
+    return sec
+
+
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
     out = frf_sections(frfs)
-    for extra in (level_change_section(run), distortion_section(frfs)):
+    for extra in (level_change_section(run), distortion_section(frfs), modal_fit_section(run)):
         if extra is not None:
             out.append(extra)
     from .methods import find_stored, methods
@@ -193,6 +233,8 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
 
 
 def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
+    """The report page: the run's levels, stored estimates and every section with its
+    figures."""
     esc = html.escape
     rows = "".join(f"<tr><td>{i + 1}</td><td>{esc(f.label)}</td><td>{esc(f.excitation)}</td>"
                    f"<td>{f.freqs.size}</td><td>{f.n_averages}</td></tr>"

@@ -33,6 +33,7 @@ class RunData:
 
     @property
     def name(self) -> str:
+        """The run's file name without its suffix."""
         return self.path.stem
 
 

@@ -142,6 +142,57 @@ def test_viewer_periodic_std_curves_have_legend_entries(qtbot, runs):
                      "std of G: noise"]
 
 
+def test_viewer_converts_every_kind_onto_the_chosen_axis(qtbot, runs):
+    from nlid_lab.figures import phase_deg
+    view = offline(qtbot, runs["random"], runs["acc"])
+    disp, acc = view.frfs[0][0], view.frfs[1][0]
+
+    def drawn(index):
+        """(f, |H|, phase) of the index-th ticked level as drawn (log axis holds log10)."""
+        f, logmag = data_items(view.mag)[index].getData()
+        return f, 10 ** logmag, data_items(view.phase)[index].getData()[1]
+
+    def expected(frf, k, f):
+        """(i w)^k times the level's own FRF (response DOF 0), at the drawn lines."""
+        h = frf.H[np.searchsorted(frf.freqs, f), 0, 0] * (2j * np.pi * f) ** k
+        return np.abs(h), phase_deg(h)
+
+    view.set_kind("acceleration")
+    assert view.mag.getAxis("left").labelText == "Accelerance |A/F| [(m/s²)/N]"
+    assert view.frf_as.currentData() == "acceleration"
+    assert legend_names(view.mag) == ["r: 0.5 N rms (displacement converted)",
+                                      "r: 20 N rms (displacement converted)", "acc: 3 N rms"]
+    f, mag, ph = drawn(0)
+    want_mag, want_ph = expected(disp, 2, f)
+    np.testing.assert_allclose(mag, want_mag, rtol=1e-12)
+    np.testing.assert_allclose(ph, want_ph, atol=1e-9)
+    f, mag, _ = drawn(2)                                  # measured as acceleration: as is
+    np.testing.assert_allclose(mag, expected(acc, 0, f)[0], rtol=1e-12)
+    assert_view_holds(qtbot, view.mag)
+
+    view.frf_as.setCurrentIndex(1)                        # the box: mobility
+    assert view.kind == "velocity"
+    assert view.mag.getAxis("left").labelText == "Mobility |V/F| [(m/s)/N]"
+    assert legend_names(view.mag)[2] == "acc: 3 N rms (acceleration converted)"
+    f, mag, ph = drawn(2)
+    want_mag, want_ph = expected(acc, -1, f)
+    np.testing.assert_allclose(mag, want_mag, rtol=1e-12)
+    np.testing.assert_allclose(ph, want_ph, atol=1e-9)
+    f, mag, _ = drawn(1)
+    np.testing.assert_allclose(mag, expected(view.frfs[0][1], 1, f)[0], rtol=1e-12)
+
+
+def test_view_command_frf_as(qtbot, tmp_path, monkeypatch):
+    from nlid_lab.cli import main
+    seen = []
+    monkeypatch.setattr(snapshot, "render", lambda view, path, size: seen.append(
+        view.mag.getAxis("left").labelText) or str(path))
+    path = random_run(tmp_path / "r.h5", seconds=4.0)
+    assert main(["view", str(path), "--frf-as", "acceleration", "--snapshot",
+                 str(tmp_path / "v.png")]) == 0
+    assert seen == ["Accelerance |A/F| [(m/s²)/N]"]
+
+
 def stepped_info(n_steps: int = 10) -> dict:
     return {"fs": FS, "excitation": "stepped-sine", "force_dofs": [0], "n_dof": 1,
             "harmonics": [0, 1, 2, 3], "n_steps": n_steps, "levels": [2.0, 8.0]}

@@ -69,9 +69,10 @@ def assert_real_image(path: Path) -> None:
 def test_random_report_sections(tmp_path):
     run = load_run(random_run(tmp_path / "r.h5"))
     out = write_report(run, tmp_path / "rep")
-    assert out["sections"][:4] == ["FRFs per force level",
+    assert out["sections"][:5] == ["FRFs per force level",
                                    "Multiple coherence per level (linear analysis)",
                                    "Level dependence of the FRF (random levels)",
+                                   "Modal fit of the lowest level (fit-linear)",
                                    "Reverse path: underlying linear system and nonlinear "
                                    "coefficients"]
     html = Path(out["html"]).read_text()

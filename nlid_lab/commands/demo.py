@@ -13,6 +13,7 @@ from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab demo`` on the parsed ``args``; returns the exit code."""
     from ..demo import DemoConfig, run_demo  # scipy.signal is slow to import: not at start-up
 
     if args.duration <= 0 or (args.levels and min(args.levels) <= 0):
@@ -31,6 +32,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``demo`` sub-command and its options to ``sub``."""
     p = sub.add_parser("demo", help="random test of the paper's SDOF system at several levels: "
                        "run file, FRF overlay, reverse-path estimate and HTML report")
     p.add_argument("--out", default="demo-out", metavar="DIR",

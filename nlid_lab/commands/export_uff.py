@@ -10,6 +10,7 @@ from ..progress import progress
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab export-uff`` on the parsed ``args``; returns the exit code."""
     from .. import uff
     refuse_overwrite(args.force, args.out, args.json)
     from ..rundata import all_level_frfs, load_run
@@ -29,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``export-uff`` sub-command and its options to ``sub``."""
     p = sub.add_parser("export-uff", help="export FRFs and coherences as UFF58 (pyuff)")
     p.add_argument("run", metavar="RUN", help="run file (.h5) or recording (.npz, .csv)")
     p.add_argument("--out", required=True, metavar="FILE.uff", help="UFF file to write")

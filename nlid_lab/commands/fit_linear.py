@@ -42,6 +42,8 @@ def summary(fit: LinearFit) -> dict[str, Any]:
 
 
 def format_summary(s: dict[str, Any], kind: str) -> str:
+    """The fit's summary for people: modes table, residual pseudo-modes, in-band FRF error in
+    the measured response ``kind``."""
     lines = [f"{len(s['modes'])} mode(s) in {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz from "
              f"the {s['method']}; shapes mass-normalised at the driving point "
              f"'{s['driving_point']}'",
@@ -57,31 +59,8 @@ def format_summary(s: dict[str, Any], kind: str) -> str:
     return "\n".join(lines)
 
 
-def plot_stabilisation(fit: LinearFit, path: str | Path) -> None:
-    """Stabilisation diagram over the measured receptance magnitude (PNG)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    stab, m, d = fit.stabilisation, fit.modes, fit.data
-    fig, ax = plt.subplots(figsize=(9, 5), layout="constrained")
-    for order, fr, st in zip(stab.orders, stab.freqs_hz, stab.stable):
-        ax.plot(fr[~st], np.full((~st).sum(), order), "o", mfc="none", color="0.6", ms=4)
-        ax.plot(fr[st], np.full(st.sum(), order), "+", color="C0", ms=6)
-    for f in m.freqs_hz:
-        ax.axvline(f, color="C3", lw=0.8, ls="--")
-    ax.set_xlim(*m.band_hz)
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("model order")
-    ax.set_title("stabilisation diagram (+ stable, o not stable; dashed: selected modes)")
-    twin = ax.twinx()
-    inb = (d.freqs >= m.band_hz[0]) & (d.freqs <= m.band_hz[1])
-    twin.semilogy(d.freqs[inb], np.abs(d.H[inb]).sum(axis=1), color="k", lw=0.8)
-    twin.set_ylabel("sum of |receptance| [m/N]")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-
-
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
     from analysis.diagnose.prepare import record_level
     from analysis.linear_fit import fit_linear
     from ..recordings_io import load_recordings
@@ -101,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
                      points=points, name=f"fit-linear of {Path(args.runs[0]).name}")
     fit.model.save(args.out)
     if args.plot:
-        plot_stabilisation(fit, args.plot)
+        from ..figures import stabilisation
+        stabilisation(fit).savefig(args.plot)
     result = summary(fit)
     result["level"] = rec.level
     text = (f"level {level_text(rec.level)}\n" + format_summary(result, rec.response_kind)
@@ -122,6 +102,7 @@ def _modes(text: str) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``fit-linear`` sub-command and its options to ``sub``."""
     p = sub.add_parser("fit-linear", help="fit a modal model ([modal] form) to a low level")
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs, NPZ or CSV recordings")
     p.add_argument("--out", required=True, metavar="MODEL.toml", help="model file to write")

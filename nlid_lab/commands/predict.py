@@ -50,6 +50,7 @@ def _summary(curves: list[dict[str, Any]], dof: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab predict`` on the parsed ``args``; returns the exit code."""
     from analysis.continuation import response_curves
     from analysis.hbm import HBMSystem
     from analysis.model import Model
@@ -84,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``predict`` sub-command and its options to ``sub``."""
     p = sub.add_parser("predict", help="model's forced-response curves through folds, with "
                        "stability (harmonic balance + continuation)")
     p.add_argument("model", metavar="MODEL.toml", help="complete model (every parameter given)")

@@ -11,6 +11,7 @@ from pathlib import Path
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab reanalyze`` on the parsed ``args``; returns the exit code."""
     from analysis.model import Model
     from nlid_lab import methods
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
@@ -41,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``reanalyze`` sub-command and its options to ``sub``."""
     from nlid_lab import methods
     from nlid_lab.outputs import add_quiet_option
 

@@ -12,6 +12,7 @@ RUN_SUFFIXES = (".h5", ".hdf5")
 
 
 def repair_option(p: argparse.ArgumentParser) -> None:
+    """The ``--repair`` option of a command that reads runs."""
     p.add_argument("--repair", action="store_true",
                    help="first clear the 'open for write' flag a killed writer left on a run "
                    "(same as `nlid-lab repair`), so that other HDF5 tools can open it")
@@ -44,6 +45,7 @@ def _ask(question: str) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab repair`` on the parsed ``args``; returns the exit code."""
     from ..store import open_run, repair_run
     for path in args.runs:
         blocks = len(open_run(path).segments)
@@ -56,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``repair`` sub-command and its options to ``sub``."""
     p = sub.add_parser("repair", help="make a run left open by a killed writer readable by "
                        "other HDF5 tools (h5py, HDFView, MATLAB)")
     p.add_argument("runs", nargs="+", metavar="RUN.h5", help="run files")

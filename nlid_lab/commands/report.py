@@ -10,6 +10,7 @@ from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab report`` on the parsed ``args``; returns the exit code."""
     from analysis.model import Model
 
     from ..report import write_report
@@ -28,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` sub-command and its options to ``sub``."""
     p = sub.add_parser("report", help="write a run's figures (PNG) and an HTML report")
     p.add_argument("run", metavar="RUN", help="run file (.h5) or recording (.npz, .csv)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")

@@ -65,6 +65,7 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab simulate`` on the parsed ``args``; returns the exit code."""
     from analysis.model import Model
 
     from .. import store
@@ -106,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``simulate`` sub-command and its options to ``sub``."""
     p = sub.add_parser("simulate", help="replay a drive through a model on the simulated plant")
     p.add_argument("model", metavar="MODEL.toml", help="model file (every parameter known)")
     p.add_argument("--drive", required=True, metavar="DRIVE.npz",

@@ -13,6 +13,7 @@ from .repair import check_runs, repair_option
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab view`` on the parsed ``args``; returns the exit code."""
     refuse_overwrite(args.force, args.snapshot)
     try:
         from ..gui import snapshot
@@ -35,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
                   unit="level") as bar:
         frfs = [all_level_frfs(r, bar.update) for r in runs]
     app = snapshot.application()
-    view = OfflineView(runs, frfs)
+    view = OfflineView(runs, frfs, kind=args.frf_as)
     try:
         if args.snapshot:
             print(snapshot.render(view, args.snapshot, tuple(args.size)))
@@ -49,9 +50,13 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``view`` sub-command and its options to ``sub``."""
     p = sub.add_parser("view", help="browse runs: FRFs across levels, coherence, estimates")
     p.add_argument("runs", nargs="+", metavar="RUN", help="run files (.h5) or recordings")
     p.add_argument("--snapshot", metavar="FILE.png", help="render offscreen to a PNG and exit")
+    p.add_argument("--frf-as", choices=("displacement", "velocity", "acceleration"),
+                   help="draw every FRF as this response kind: receptance, mobility or "
+                   "accelerance (default: the first run's kind; other kinds are converted)")
     p.add_argument("--size", type=int, nargs=2, default=(1400, 900), metavar=("W", "H"),
                    help="window / snapshot size in pixels (default 1400 900)")
     add_force_option(p)

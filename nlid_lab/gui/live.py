@@ -43,17 +43,21 @@ class LiveObserver:
         self.events: queue.SimpleQueue = queue.SimpleQueue()
 
     def campaign_started(self, info: dict[str, Any]) -> None:
+        """Queue the campaign's start (`CampaignObserver`)."""
         self.events.put(("started", dict(info)))
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
+        """Queue a copy of a random-excitation block."""
         self.events.put(("block", level, seq, np.array(force), np.array(response)))
 
     def step(self, level: int, index: int, freq: float, force: np.ndarray,
              response: np.ndarray, control_error: float, harmonics: np.ndarray) -> None:
+        """Queue a copy of a measured stepped-sine step."""
         self.events.put(("step", level, index, float(freq), np.array(force),
                          np.array(response), float(control_error), np.array(harmonics)))
 
     def campaign_finished(self, status: str) -> None:
+        """Queue the campaign's end and its status."""
         self.events.put(("finished", status))
 
 
@@ -65,6 +69,8 @@ class RingBuffer:
         self.count = 0
 
     def extend(self, block: np.ndarray) -> None:
+        """Append ``block`` (rows are samples), dropping the oldest rows beyond the
+        capacity."""
         cap = self.data.shape[0]
         block = block[-cap:]
         n = block.shape[0]
@@ -73,6 +79,7 @@ class RingBuffer:
         self.count = min(self.count + n, cap)
 
     def view(self) -> np.ndarray:
+        """The samples held, oldest first (a view, not a copy)."""
         return self.data[self.data.shape[0] - self.count:]
 
 
@@ -86,6 +93,7 @@ class FrfAccumulator:
         self.spectra: spectral.Spectra | None = None
 
     def add(self, force: np.ndarray, response: np.ndarray) -> None:
+        """Pool the cross-spectra of one more block (shorter than a segment: ignored)."""
         data = np.concatenate([force, response], axis=1)
         if data.shape[0] < self.nperseg:
             return
@@ -94,6 +102,8 @@ class FrfAccumulator:
             [self.spectra, spec])
 
     def estimate(self, **labels: Any) -> LevelFRF | None:
+        """H1 and coherences of the blocks pooled so far, or None before the first; ``labels``
+        go to the `LevelFRF`."""
         if self.spectra is None:
             return None
         return frf_from_spectra(self.spectra, self.n_in, **labels)
@@ -108,9 +118,12 @@ class BlaAccumulator:
         self.blocks: list[tuple[np.ndarray, np.ndarray]] = []
 
     def add(self, force: np.ndarray, response: np.ndarray) -> None:
+        """Keep one more realization (force, response)."""
         self.blocks.append((force, response))
 
     def estimate(self, **labels: Any) -> LevelFRF | None:
+        """Best linear approximation over the realizations kept, or None before the second;
+        ``labels`` go to the `LevelFRF`."""
         if len(self.blocks) < 2:
             return None
         b = best_linear_approximation(np.concatenate([f for f, _ in self.blocks]),
@@ -234,6 +247,7 @@ class LiveView(QtWidgets.QWidget):
             self._redraw_frf()
 
     def level_value(self, level: int) -> float | None:
+        """Nominal force of level index ``level`` (N rms or N), or None."""
         levels = self.info.get("levels") or []
         return float(levels[level]) if level is not None and level < len(levels) else None
 
@@ -247,6 +261,7 @@ class LiveView(QtWidgets.QWidget):
 
     @property
     def stepped(self) -> bool:
+        """Whether the campaign is a stepped sine."""
         return self.info.get("excitation") == "stepped-sine"
 
     def orders(self, n_rows: int) -> list[int]:
@@ -263,14 +278,17 @@ class LiveView(QtWidgets.QWidget):
     # --- layout -----------------------------------------------------------------------------
     @property
     def fs(self) -> float:
+        """Sample rate of the campaign, Hz."""
         return float(self.info["fs"])
 
     @property
     def force_dofs(self) -> list[int]:
+        """DOF each force acts on."""
         return [int(d) for d in self.info.get("force_dofs", [0])]
 
     @property
     def response_kind(self) -> str:
+        """Kind of the response channels (displacement, velocity or acceleration)."""
         return self.info.get("response_kind", "displacement")
 
     def channel_names(self) -> list[tuple[str, str]]:
@@ -357,14 +375,17 @@ class LiveView(QtWidgets.QWidget):
 
     @property
     def phase_curves(self) -> list:
+        """Phase curves of the current level."""
         return self._curves(self.level)["phase"] if self.level is not None else []
 
     @property
     def coh_curves(self) -> list:
+        """Coherence curves of the current level."""
         return self._curves(self.level)["coh"] if self.level is not None else []
 
     @property
     def error_curve(self):
+        """Control-error curve of the current stepped level."""
         return self._curves(self.level)["error"][0]
 
     # --- drawing ----------------------------------------------------------------------------

@@ -23,18 +23,23 @@ from . import plots
 class OfflineView(QtWidgets.QWidget):
     """Browse ``runs`` (with their per-level FRFs ``frfs[i]`` for ``runs[i]``).
 
-    FRFs are drawn as the first run's response kind (``kind``; its quantity and unit on the
-    axis): levels of runs that measured another kind are converted (times or divided by
-    ``i 2 pi f``) and marked "converted" in the legend. The lower panels show what each
+    FRFs are drawn as one response kind (``kind``, by default the first run's; chosen in the
+    "FRF as" box; its quantity and unit on the axis): levels of runs that measured another
+    kind are converted (times or divided by ``i 2 pi f``) and marked "converted" in the
+    legend. The lower panels show what each
     ticked level has: multiple coherence (random) and harmonic distortion (stepped sine);
     a panel with nothing to show is hidden.
     """
 
     def __init__(self, runs: list[RunData], frfs: list[list[LevelFRF]],
-                 parent: QtWidgets.QWidget | None = None) -> None:
+                 parent: QtWidgets.QWidget | None = None, kind: str | None = None) -> None:
         super().__init__(parent)
         self.runs, self.frfs = runs, frfs
-        self.kind = frfs[0][0].response_kind
+        self.kind = kind or frfs[0][0].response_kind
+        self.frf_as = QtWidgets.QComboBox()
+        for k, quantity in plots.FRF_QUANTITY.items():
+            self.frf_as.addItem(f"FRF as {quantity.split()[0].lower()} ({k})", k)
+        self.frf_as.setCurrentIndex(list(plots.FRF_QUANTITY).index(self.kind))
         self.setWindowTitle("nlid-lab view: " + ", ".join(r.name for r in runs))
         self.tree = QtWidgets.QTreeWidget()
         self.tree.setHeaderLabels(["run / level", "excitation", "averages"])
@@ -58,6 +63,7 @@ class OfflineView(QtWidgets.QWidget):
         lbox.addWidget(QtWidgets.QLabel("Runs and levels (tick to overlay)"))
         lbox.addWidget(self.tree, 3)
         lbox.addWidget(self.output)
+        lbox.addWidget(self.frf_as)
         lbox.addWidget(QtWidgets.QLabel("Stored estimates"))
         lbox.addWidget(self.table, 2)
         split = QtWidgets.QSplitter()
@@ -69,6 +75,17 @@ class OfflineView(QtWidgets.QWidget):
         split.setSizes([self._left_width(), 1020])
         self.tree.itemChanged.connect(self.redraw)
         self.output.currentIndexChanged.connect(self.redraw)
+        self.frf_as.currentIndexChanged.connect(
+            lambda i: self.set_kind(self.frf_as.itemData(i)))
+        self.redraw()
+
+    def set_kind(self, kind: str) -> None:
+        """Draw every FRF as response ``kind`` (displacement, velocity or acceleration):
+        the axis names its quantity and unit, other kinds are converted."""
+        self.kind = kind
+        with QtCore.QSignalBlocker(self.frf_as):
+            self.frf_as.setCurrentIndex(list(plots.FRF_QUANTITY).index(kind))
+        self.mag.setLabel("left", f"{plots.FRF_QUANTITY[kind]} [{FRF_UNITS[kind]}]")
         self.redraw()
 
     def _fill_tree(self) -> None:
@@ -123,6 +140,7 @@ class OfflineView(QtWidgets.QWidget):
         return out
 
     def redraw(self, *_: Any) -> None:
+        """Draw the ticked levels at the chosen response DOF, as `kind`."""
         q = max(self.output.currentIndex(), 0)
         for p in (self.mag, self.phase, self.coh, self.dist):
             p.clear()

@@ -23,6 +23,7 @@ FRF_QUANTITY = {"displacement": "Receptance |X/F|", "velocity": "Mobility |V/F|"
 
 
 def channel_colour(i: int) -> str:
+    """Colour of channel ``i`` (the same in every panel)."""
     return CHANNEL_COLOURS[i % len(CHANNEL_COLOURS)]
 
 
@@ -33,11 +34,14 @@ def level_colours(n: int, levels=None) -> list[str]:
 
 
 def pen(colour: str, width: float = 1.5) -> pg.mkPen:
+    """A solid pen of ``colour`` and ``width`` pixels."""
     return pg.mkPen(colour, width=width)
 
 
 def style(plot: pg.PlotItem, left: str, unit: str, bottom: str | None = "Frequency",
            bottom_unit: str = "Hz", grid: bool = True) -> pg.PlotItem:
+    """Grid and axis labels ``left [unit]`` and ``bottom [bottom_unit]`` (no SI prefixing);
+    returns ``plot``."""
     if grid:
         plot.showGrid(x=True, y=True, alpha=0.3)
     # units as text: pyqtgraph's SI prefixing would print "kHz" or "mm/N" inconsistently
@@ -54,6 +58,7 @@ class LogAxis(pg.AxisItem):
     label every 1..9 x 10^n, and over a decade or two those labels pile up."""
 
     def logTickValues(self, minVal, maxVal, size, stdTicks):  # noqa: N802 (pyqtgraph API)
+        """Ticks at the decades and their 2x and 5x (decades only over more than three)."""
         lo, hi = int(np.floor(minVal)), int(np.ceil(maxVal))
         decades = [float(d) for d in range(lo, hi + 1) if minVal <= d <= maxVal]
         if hi - lo > 3:           # wide range: decades only, thinned to about six labels
@@ -82,6 +87,7 @@ def frf_plots(layout: pg.GraphicsLayout, units: str, row: int = 0, col: int = 0,
 
 def coherence_plot(layout: pg.GraphicsLayout, row: int, col: int = 0,
                    title: str = "Multiple coherence") -> pg.PlotItem:
+    """A coherence panel (0 to 1) at ``row``, ``col`` of ``layout``."""
     p = layout.addPlot(row=row, col=col, title=title)
     style(p, "γ²", "-")
     p.setYRange(0, 1.05)

@@ -90,6 +90,8 @@ def linear_from_run(path: str, model: Model, harmonics: np.ndarray,
 
 
 def element_json(model: Model, result: FitResult) -> list[dict]:
+    """The fitted elements of ``result`` as JSON (kind, w, params, ci95), those of ``model``
+    without unknowns included."""
     out = []
     for e, el in enumerate(result.model.elements):
         ci = {name: list(result.ci95[(e, name)]) for (i, name) in result.ci95 if i == e}
@@ -111,6 +113,7 @@ class HbmEstimate:
     recordings: list[Recording]
 
     def to_json(self) -> dict[str, Any]:
+        """The stored and printed JSON of the fit."""
         fit = self.fit
         return {ESTIMATOR_KEY: NAME, "elements": element_json(self.model, fit),
                 "warnings": fit.warnings, "cost": fit.cost, "method": fit.method,
@@ -121,6 +124,7 @@ class HbmEstimate:
                 "starts": fit.starts, "n_evaluations": fit.n_evaluations}
 
     def table(self) -> str:
+        """The fit as a table for people."""
         fit = self.fit
         lines = [f"harmonic balance fit ({fit.method}, harmonics {self.harmonics.tolist()}): "
                  f"{len(self.levels)} level(s), cost (eq 33) {fit.cost:.4g}, "
@@ -135,6 +139,7 @@ class HbmEstimate:
         return "\n".join(lines)
 
     def write_files(self) -> list[str]:
+        """Write the ``--figure`` PNG if asked; returns the paths written."""
         if not self.options.figure:
             return []
         from analysis.model import Model

@@ -108,6 +108,8 @@ class Method:
         return f"analyze-{self.name}"
 
     def option_fields(self, batch_only: bool = False) -> list[dataclasses.Field]:
+        """The options fields that are command-line flags (with ``batch_only``, those
+        ``reanalyze`` takes too)."""
         return [f for f in dataclasses.fields(self.options)
                 if "flags" in f.metadata and (f.metadata["batch"] or not batch_only)]
 

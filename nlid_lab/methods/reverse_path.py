@@ -135,6 +135,7 @@ class ReversePathEstimate:
                 + (f" ({self.candidate_out} not written)" if self.candidate_out else "")]
 
     def table(self) -> str:
+        """The estimate as a table for people."""
         lines = [f"{self.n_records} record(s), force hold '{self.force_hold}'"]
         if self.result is not None:
             lines.append(format_table(self.result, self.modal))
