@@ -31,6 +31,7 @@ def _holdout(text: str) -> float | str:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``diagnose`` subcommand and its options."""
     from nlid_lab.outputs import add_quiet_option
 
     p = sub.add_parser("diagnose", help="find what a model lacks to explain recordings")
@@ -60,6 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Diagnose the runs against the model; write JSON, corrected model and report."""
     from analysis.diagnose import DiagnoseInputError, diagnose
     from analysis.model import Model
 
