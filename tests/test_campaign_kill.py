@@ -65,14 +65,26 @@ def _spawn(campaign: Path, out: Path) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
+def _stored(out: Path) -> int:
+    """Blocks or steps a running campaign has stored so far (0 while unreadable)."""
+    try:
+        return sum(lv.n_segments for lv in open_run(out).levels)
+    except Exception:  # noqa: BLE001 - the writer may be between its first flushes
+        return 0
+
+
 def _kill_and_resume(campaign: Path, out: Path, delay: float, per_level: int,
-                     n_levels: int) -> tuple[int, list]:
-    """Kill a campaign ``delay`` s after its run file appears; check it; resume it.
+                     n_levels: int, after_first: bool = False) -> tuple[int, list]:
+    """Kill a campaign ``delay`` s after its run file appears (``after_first``: after its
+    first block or step is stored); check it; resume it.
     Returns the segment count found after the kill and the recordings before resuming."""
     proc = _spawn(campaign, out)
     try:
         deadline = time.monotonic() + 60
         while not out.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        while after_first and not _stored(out) and proc.poll() is None \
+                and time.monotonic() < deadline:
             time.sleep(0.02)
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
@@ -121,8 +133,10 @@ def test_stepped_sigkill_then_resume(tmp_path):
         d = tmp_path / f"t{trial}"
         d.mkdir()
         out = d / "run.h5"
-        before, kept = _kill_and_resume(campaign, out, rng.uniform(0.0, duration), STEPS,
-                                        STEPPED_LEVELS)
+        # the first kill may land anywhere, even before the first step (a loaded machine
+        # starts the process slowly); the others land after it, so some hit mid-run
+        before, kept = _kill_and_resume(campaign, out, rng.uniform(0.0, duration / (1 + trial)),
+                                        STEPS, STEPPED_LEVELS, after_first=trial > 0)
         cut.append(before)
         run = open_run(out)
         for index, rec in kept:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shlex
 import signal
@@ -90,6 +91,32 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
     return outcome["result"]
 
 
+@contextlib.contextmanager
+def _ctrl_c_stops():
+    """An event that Ctrl-C sets, for `run_campaign`'s ``stop``.
+
+    A plain `KeyboardInterrupt` is raised wherever Python happens to be, and Python swallows
+    one raised inside a finaliser or weakref callback ("Exception ignored in ..."): the
+    campaign would then run to its end. The event is checked at every DAQ chunk instead, so
+    Ctrl-C always ends the campaign there; a second Ctrl-C interrupts at once.
+    """
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def handler(signum, frame) -> None:
+        if stop.is_set():
+            raise KeyboardInterrupt
+        stop.set()
+
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 class _Started:
     """Observer noting that the campaign got as far as its run file."""
 
@@ -156,8 +183,9 @@ def _run(args: argparse.Namespace) -> int:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
                               close_when_done=args.live_close, observers=observers)
         else:
-            result = run_campaign(campaign, args.out, resume=args.resume,
-                                  overwrite=overwrite, observer=observers)
+            with _ctrl_c_stops() as stop:
+                result = run_campaign(campaign, args.out, resume=args.resume,
+                                      overwrite=overwrite, observer=observers, stop=stop)
     except KeyboardInterrupt:
         _say_interrupted(args, unit, planned, started.started)
         raise
