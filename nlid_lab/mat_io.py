@@ -30,6 +30,7 @@ from .units import lookup
 
 MAT73_SIGNATURE = b"MATLAB 7.3 MAT-file"
 MAX_MAP_BYTES = 1 << 16
+_COMMA = re.compile(r",(?![^\[]*\])")  # commas between names, not inside NAME[0,2]
 _SELECT = re.compile(r"^(?P<key>[A-Za-z_][\w.]*)(?:\[(?P<cols>[^\]]*)\])?(?::(?P<unit>.+))?$")
 
 
@@ -95,6 +96,14 @@ class ChannelMap:
         return cls.from_dict({k: v if k in ("force", "response") else v[-1]
                               for k, v in data.items()}, "--map")
 
+    def with_units(self, units: dict[str, str]) -> "ChannelMap":
+        """This map with ``units`` (name -> unit, e.g. from a CSV header) on the selections
+        that give none."""
+        def fill(sels: list[Selection]) -> list[Selection]:
+            return [Selection(s.key, s.cols, s.unit or units.get(s.key)) for s in sels]
+        return ChannelMap(fill(self.force), fill(self.response), self.fs, self.response_kind,
+                          self.extra)
+
     @classmethod
     def from_toml(cls, path: str | os.PathLike) -> "ChannelMap":
         path = Path(path)
@@ -114,7 +123,7 @@ class ChannelMap:
                 raise MatFileError(f"{source}: the channel map needs '{role}' (e.g. "
                                    f"{role}=Force)")
         extra = {k: v for k, v in data.items() if k not in known}
-        sels = {role: [Selection.parse(str(v), role) for v in np.atleast_1d(data[role])]
+        sels = {role: [s for v in np.atleast_1d(data[role]) for s in _selections(str(v), role)]
                 for role in ("force", "response")}
         fs = data.get("fs", "Fs")
         try:
@@ -122,6 +131,15 @@ class ChannelMap:
         except (TypeError, ValueError):
             fs = str(fs)
         return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra)
+
+
+def _selections(text: str, role: str) -> list[Selection]:
+    """``A,B,C:g`` -> three selections, the closing unit applying to all three."""
+    sels = [Selection.parse(part, role) for part in _COMMA.split(text)]
+    unit = sels[-1].unit
+    if unit and all(s.unit is None for s in sels[:-1]):
+        sels = [Selection(s.key, s.cols, unit) for s in sels]
+    return sels
 
 
 def _literal(text: str) -> Any:

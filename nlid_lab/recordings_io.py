@@ -366,6 +366,36 @@ def _csv_force_dofs(keys: dict, forces: list[_Column], responses: list[_Column],
     return dofs.astype(int).tolist()
 
 
+def read_csv_columns(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, str]]:
+    """Every column of a CSV export by its header name, for a channel map (`nlid_lab.mat_io`).
+
+    For exports that do not follow this module's header (``Force,Voltage,Acceleration1,...``,
+    no time column): the names lose their unit (``Acc1 [m/s^2]`` -> ``Acc1``), which is
+    returned beside them; ``# key = value`` lines come as leaves too (``fs``, ``period``...).
+
+    Returns
+    -------
+    tree : dict
+        Column name -> samples (as written), and the file's keys.
+    units : dict
+        Column name -> the unit its header gave.
+    """
+    path = Path(path)
+    text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
+    tree: dict[str, Any] = dict(_csv_keys(text, path))
+    names, data = _csv_table(text, path)
+    units = {}
+    for j, raw in enumerate(names):
+        name, unit = split_label(raw)
+        if name in tree:
+            raise RecordingFileError(f"{path}: column '{name}' appears twice (or also as a "
+                                     "'# key = value' line); rename one")
+        tree[name] = data[:, j]
+        if unit:
+            units[name] = unit
+    return tree, units
+
+
 _CSV_KEY = re.compile(r"^\s*#\s*([A-Za-z_]\w*)\s*=\s*(.*?)\s*$")
 
 

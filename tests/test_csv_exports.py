@@ -67,3 +67,37 @@ def test_export_errors_name_the_column_or_key(tmp_path, channels, header, extra,
     with pytest.raises(InputError) as info:
         rio.read_csv(tmp_path / "bad.csv")
     assert words in str(info.value)
+
+
+def _f16_csv(path, force, voltage, acc):
+    """A CSV laid out like the F-16 GVT exports: no time column, no units, no sample rate."""
+    lines = ["Force,Voltage,Acceleration1,Acceleration2,Acceleration3"]
+    lines += _rows([force, voltage, *acc.T], "%.17g", ",")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_export_without_time_column_through_the_channel_map(tmp_path, channels):
+    """The map picks the force and the accelerations (a unit after a list applies to every
+    name in it), the voltage stays out of the responses, fs and the layout come from the map."""
+    _, f, a = channels
+    acc = np.column_stack([a, a[:, 0] - a[:, 1]])
+    _f16_csv(tmp_path / "L1.csv", f, 0.1 * f, acc / G0)
+    out = tmp_path / "run.h5"
+    assert main(["import", str(tmp_path / "L1.csv"), "--out", str(out), "--map", "force=Force",
+                 "response=Acceleration1,Acceleration2,Acceleration3:g", "fs=400",
+                 "force_dofs=0", "period=128", "transient_periods=1"]) == 0
+    [rec] = rio.load_recordings(out)
+    assert rec.fs == 400 and rec.response_kind == "acceleration" and rec.n_dof == 3
+    np.testing.assert_allclose(rec.force[:, 0], f, rtol=1e-12)
+    np.testing.assert_allclose(rec.response, acc, rtol=1e-12)
+    assert (rec.layout.period, rec.layout.transient_periods, rec.layout.periods) == (128, 1, 3)
+
+
+def test_export_without_time_column_needs_a_sample_rate(tmp_path, channels, capsys):
+    _, f, a = channels
+    _f16_csv(tmp_path / "L1.csv", f, f, np.column_stack([a, a[:, 0]]))
+    assert main(["import", str(tmp_path / "L1.csv"), "--out", str(tmp_path / "run.h5"),
+                 "--map", "force=Force", "response=Acceleration1", "force_dofs=0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no sample rate; add fs=RATE" in err[0]
+    assert not (tmp_path / "run.h5").exists()

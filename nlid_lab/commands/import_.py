@@ -17,6 +17,17 @@ def _read(src: Path, args: argparse.Namespace):
     suffix = src.suffix.lower()
     if suffix == ".npz":
         return recordings_io.read_npz(src)
+    if suffix == ".csv" and args.map:
+        from .. import mat_io
+        tree, units = recordings_io.read_csv_columns(src)
+        cmap = _channel_map(args.map).with_units(units)
+        if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
+            cmap.fs = "fs"                               # a '# fs = ...' line
+        elif cmap.fs == "Fs" and "Fs" not in tree:
+            raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
+                             "(e.g. --map force=Force response=Acceleration1,Acceleration2 "
+                             "fs=400)")
+        return _mapped(mat_io.apply_map(tree, cmap, str(src)), src, args)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
         return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
@@ -28,14 +39,23 @@ def _read(src: Path, args: argparse.Namespace):
             raise InputError(f"{src}: a MAT file needs --map (e.g. --map force=Force "
                              "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
                              + ", ".join(sorted(tree)))
-        cmap = (mat_io.ChannelMap.from_toml(args.map[0])
-                if len(args.map) == 1 and args.map[0].endswith(".toml")
-                else mat_io.ChannelMap.from_items(args.map))
-        keys = mat_io.apply_map(tree, cmap, str(src))
-        if args.response_kind:
-            keys["response_kind"] = args.response_kind
-        return recordings_io.recording_from_keys(keys, src)
+        return _mapped(mat_io.apply_map(tree, _channel_map(args.map), str(src)), src, args)
     raise InputError(f"{src}: unknown recording type '{suffix}'; import .npz, .csv or .mat")
+
+
+def _channel_map(items: list[str]):
+    """The ``--map`` words, or the one MAP.toml they name."""
+    from .. import mat_io
+    if len(items) == 1 and items[0].endswith(".toml"):
+        return mat_io.ChannelMap.from_toml(items[0])
+    return mat_io.ChannelMap.from_items(items)
+
+
+def _mapped(keys: dict, src: Path, args: argparse.Namespace):
+    """The recording of the keys a channel map took from ``src``."""
+    if args.response_kind:
+        keys["response_kind"] = args.response_kind
+    return recordings_io.recording_from_keys(keys, src)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,8 +99,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="CSV whose header names no DOF: the 0-based response column measured "
                    "where each force acts")
     p.add_argument("--map", nargs="+", metavar="KEY=VALUE",
-                   help="MAT: channel map, e.g. force=Force response=Acceleration[0:3]:g "
-                   "fs=Fs force_dofs=0, or one MAP.toml")
+                   help="MAT or CSV export: channel map, e.g. force=Force "
+                   "response=Acceleration[0:3]:g fs=Fs force_dofs=0 (CSV: "
+                   "response=Acc1,Acc2 fs=400), or one MAP.toml")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
