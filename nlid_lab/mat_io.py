@@ -9,7 +9,8 @@ sample rate, with their units::
     fs=Fs  force=Force  response=Acceleration[0:3]:g
 
 (``NAME[cols]`` selects columns — ``[0:3]``, ``[0,2]`` — of a 2-D array, channel-major arrays
-are transposed automatically; ``:UNIT`` scales to SI and names the response kind.) The same
+are transposed automatically; ``:UNIT`` scales to SI and names the response kind of those
+columns; ``@A,B,C`` names the model point of each selected column: the sensor map.) The same
 keys can come from a small TOML file (docs/recording-formats.md).
 """
 
@@ -44,13 +45,20 @@ class Selection:
     key: str
     cols: tuple[int, ...] | slice | None = None
     unit: str | None = None
+    #: model points of the selected columns (``NAME[0:3]@wing,joint,payload``), one each
+    points: tuple[str, ...] | None = None
 
     @classmethod
     def parse(cls, text: str, role: str) -> "Selection":
-        m = _SELECT.match(text.strip())
+        text, at, where = text.strip().partition("@")
+        points = tuple(p.strip() for p in where.split(",")) if at else None
+        if points is not None and not all(points):
+            raise MatFileError(f"channel map {role}={text}@{where}: name a point per column "
+                               "after '@', comma-separated (NAME[0:3]@a,b,c)")
+        m = _SELECT.match(text)
         if not m:
             raise MatFileError(f"channel map {role}={text!r}: write NAME, NAME[0:3], NAME[0,2] "
-                               "or NAME[0]:UNIT")
+                               "or NAME[0]:UNIT, optionally @POINT,... (the model points)")
         cols = m["cols"]
         if cols is None:
             sel = None
@@ -67,7 +75,7 @@ class Selection:
             except ValueError:
                 raise MatFileError(f"channel map {role}={text!r}: columns must be integers "
                                    f"(0-based), got [{cols}]") from None
-        return cls(m["key"], sel, m["unit"])
+        return cls(m["key"], sel, m["unit"], points)
 
 
 @dataclass
@@ -223,7 +231,7 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
         if arr.shape[0] != n:
             raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[0]} samples, the force "
                                f"{n}; channels of one recording have one length")
-    kinds = set()
+    kinds: list[str | None] = []       # per response channel
     for sel, arr in zip(cmap.force, force):
         if sel.unit:
             factor, quantity = lookup(sel.unit, f"{source}: force {sel.key}")
@@ -238,12 +246,15 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
                 raise MatFileError(f"{source}: response {sel.key} is in {sel.unit}, a force "
                                    "unit; map it as force=")
             arr *= factor
-            kinds.add(quantity)
-    if cmap.response_kind:
-        kinds.add(cmap.response_kind)
-    if len(kinds) > 1:
-        raise MatFileError(f"{source}: responses of different kinds ({', '.join(sorted(kinds))})"
-                           "; import them as separate runs")
+        kinds += [quantity if sel.unit else cmap.response_kind] * arr.shape[1]
+    if cmap.response_kind and {k for k in kinds if k} - {cmap.response_kind}:
+        raise MatFileError(f"{source}: response_kind = {cmap.response_kind} but the units say "
+                           f"{', '.join(sorted({k for k in kinds if k}))}; drop one of them")
+    if len({k for k in kinds if k}) > 1 and None in kinds:
+        raise MatFileError(f"{source}: responses of different kinds; give every response "
+                           "selection a unit (NAME[0]:m/s^2) so each channel's kind is known")
+    points = _points(cmap.force, force, "force", source) | _points(cmap.response, response,
+                                                                   "response", source)
     if isinstance(cmap.fs, float):
         fs = cmap.fs
     else:
@@ -257,8 +268,28 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
         if isinstance(value, str) and value not in ("none", "linear") and _known(tree, value):
             value = _leaf(tree, value, source)
         extra[key] = value
+    if len(set(kinds)) > 1:
+        points["response_kinds"] = np.array(kinds)
+    kind = kinds[0] if len(set(kinds)) == 1 and kinds[0] else "displacement"
     return {"fs": fs, "force": np.hstack(force), "response": np.hstack(response),
-            "response_kind": kinds.pop() if kinds else "displacement", **extra}
+            **({"response_kind": kind} if "response_kinds" not in points else {}),
+            **points, **extra}
+
+
+def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,
+            source: str) -> dict[str, np.ndarray]:
+    """``force_points``/``response_points`` from the selections' ``@`` names (all or none)."""
+    if all(s.points is None for s in sels):
+        return {}
+    out = []
+    for sel, arr in zip(sels, arrays):
+        if sel.points is None or len(sel.points) != arr.shape[1]:
+            have = 0 if sel.points is None else len(sel.points)
+            raise MatFileError(f"{source}: {role} {sel.key} selects {arr.shape[1]} column(s) "
+                               f"but names {have} point(s); give one point per column after "
+                               "'@' (on every selection or none)")
+        out += sel.points
+    return {f"{role}_points": np.array(out)}
 
 
 def _known(tree: dict[str, Any], key: str) -> bool:

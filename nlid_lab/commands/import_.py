@@ -47,6 +47,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--level names the level of one recording; with several files each "
                          "level comes from its file (a level key, else the force)")
     recs = [_read(src, args) for src in sources]
+    if args.sensors:
+        keys = recordings_io.read_sensors(args.sensors)
+        recs = [recordings_io.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
     store.save_recording(out, recs, source="import",
@@ -55,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
     result = {"out": str(out), "source": [str(s) for s in sources], "levels": len(recs),
               "excitation": rec.excitation, "fs": rec.fs, "force_dofs": rec.force_dofs,
               "n_dof": rec.n_dof, "n_samples": int(rec.force.shape[-2]),
-              "response_kind": rec.response_kind}
+              "response_kind": rec.response_kind,
+              "sensors": None if rec.sensors is None else {
+                  k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} channel(s), "
@@ -80,7 +85,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "where each force acts")
     p.add_argument("--map", nargs="+", metavar="KEY=VALUE",
                    help="MAT: channel map, e.g. force=Force response=Acceleration[0:3]:g "
-                   "fs=Fs force_dofs=0, or one MAP.toml")
+                   "fs=Fs force_dofs=0 (NAME[cols]@A,B,C names the model point of each "
+                   "column: a sensor map), or one MAP.toml")
+    p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: the model point "
+                   "and kind of each response channel, the point of each force "
+                   "(response_points, response_kinds, force_points; docs/model-format.md"
+                   "#sensor-maps)")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
