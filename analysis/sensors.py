@@ -220,3 +220,20 @@ def model_at_sensors(model: "Model", recs: "Recording | Sequence[Recording]",
         elements.append(Element(el.kind, el.w[idx], dict(el.params)))
     return Model(model.mass, model.damping, model.stiffness, elements, model.name,
                  list(smap.response_points), model.shapes[idx], model.n_residual)
+
+
+def at_points(model: "Model", full: "Model") -> "Model":
+    """A `model_at_sensors` result (possibly refitted: same internal coordinates) back over
+    ``full``'s points: its linear part and elements, with ``full``'s shapes and point names.
+    Returned unchanged when it already has ``full``'s points."""
+    from .model import Element, Model
+    if list(model.points) == list(full.points) or model.n_q != full.n_q:
+        return model
+    idx = [full.points.index(p) for p in model.points]
+    elements = []
+    for el in model.elements:
+        w = np.zeros(full.n_dof)
+        w[idx] = el.w
+        elements.append(Element(el.kind, w, dict(el.params)))
+    return Model(model.mass, model.damping, model.stiffness, elements, model.name,
+                 list(full.points), full.shapes.copy(), model.n_residual)
