@@ -100,10 +100,10 @@ def _at_sensors(model: Model, smap: SensorMap, outs: list, force: np.ndarray, fs
     idx = np.array([model.point_index(p) for p in smap.response_points])
     kinds = np.array(smap.response_kinds)
     response = np.empty((len(force), idx.size))
-    for kind, attr in (("displacement", "x"), ("velocity", "v"), ("acceleration", "a")):
+    for kind in ("displacement", "velocity", "acceleration"):
         cols = np.flatnonzero(kinds == kind)
         if cols.size:
-            samples = np.concatenate([getattr(o, attr)[:, idx[cols]] for o in outs])
+            samples = np.concatenate([getattr(o, kind)[:, idx[cols]] for o in outs])
             response[:, cols] = remove_hold_images(samples, force, fs, kind,
                                                    [g[idx[cols]] for g in gains])
     return response
