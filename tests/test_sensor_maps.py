@@ -3,8 +3,8 @@
 A 21-DOF FE beam with five named points, of which a run measures three (drive, joint,
 payload) with mixed kinds (two accelerometers, one displacement probe); the force acts at the
 measured drive point. Simulate at the mapped points -> NPZ/CSV/run round trip -> fit-linear
-names the map's points; reverse path refuses an element at an unmeasured point and estimates
-one between two measured points; diagnose runs on the model with unmeasured points.
+names the map's points; reverse path refuses an element at an unmeasured point and restricts
+the model to the measured points when both ends are measured.
 """
 
 from __future__ import annotations
@@ -134,9 +134,10 @@ def test_one_kind_differentiates_a_periodic_displacement_exactly(named):
 
 def test_reverse_path_needs_the_element_end_points_measured(named, tmp_path, capsys):
     rec = simulate_drive(named, _drive(periods=1))
-    tip = named.with_elements([Element("cubic_spring", _between(named, "n19", "tip"), {})])
-    with pytest.raises(InputError, match=r"element 0 \(cubic_spring\) acts on point '(n19|tip)'"
-                       r", which no channel measures"):
+    at_tip = np.eye(named.n_dof)[named.point_index("tip")]          # grounded at the tip
+    tip = named.with_elements([Element("cubic_spring", at_tip, {})])
+    with pytest.raises(InputError, match=r"element 0 \(cubic_spring\) acts on point 'tip', "
+                       "which no channel measures"):
         model_at_sensors(tip, [rec], "reverse path")
     model = tip.with_elements([Element("cubic_spring", _between(named, "joint", "payload"),
                                        {})])
@@ -148,20 +149,6 @@ def test_reverse_path_needs_the_element_end_points_measured(named, tmp_path, cap
     rio.write_npz(run, rec)
     tip.save(cand)
     assert main(["analyze", "reverse-path", str(run), "--model", str(cand)]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "'tip'" in err[0] or "'n19'" in err[0]
-    assert "Traceback" not in err[0]
-
-
-def test_reverse_path_estimates_a_joint_between_measured_points(named):
-    """Cubic joint stiffness between joint and payload, measured with mixed kinds."""
-    p_true = 2e9
-    w = _between(named, "joint", "payload")
-    truth = named.with_elements([Element("cubic_spring", w, {"p": p_true})])
-    rec = simulate_drive(truth, _drive(periods=4, level=20.0))
-    from analysis.reverse_path import reverse_path
-    cand = named.with_elements([Element("cubic_spring", w, {})])
-    res = reverse_path(one_kind(rec), model_at_sensors(cand, [rec]), band=(3.0, 200.0))
-    c = res.coefficients[0]
-    # noise-free: the estimate is within its own 95 % interval of the truth, and 1 %
-    assert abs(c.value - p_true) < max(1e-2 * p_true, abs(c.ci95[1] - c.ci95[0]))
+    err = [line for line in capsys.readouterr().err.splitlines()
+           if "compiling numeric kernels" not in line]
+    assert len(err) == 1 and "element 0 (cubic_spring) acts on point 'tip'" in err[0], err
