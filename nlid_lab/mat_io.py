@@ -250,9 +250,11 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
     if cmap.response_kind and {k for k in kinds if k} - {cmap.response_kind}:
         raise MatFileError(f"{source}: response_kind = {cmap.response_kind} but the units say "
                            f"{', '.join(sorted({k for k in kinds if k}))}; drop one of them")
-    if len({k for k in kinds if k}) > 1 and None in kinds:
+    known = {k for k in kinds if k}
+    if len(known) > 1 and None in kinds:
         raise MatFileError(f"{source}: responses of different kinds; give every response "
                            "selection a unit (NAME[0]:m/s^2) so each channel's kind is known")
+    kinds = [k or (next(iter(known)) if known else None) for k in kinds]
     points = _points(cmap.force, force, "force", source) | _points(cmap.response, response,
                                                                    "response", source)
     if isinstance(cmap.fs, float):
