@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from .errors import RecordingError
+from .sensors import MIXED, SensorMap
 
 EXCITATIONS = ("random", "stepped-sine")
 RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
@@ -101,7 +102,9 @@ class Recording:
         Random: (n, n_in); stepped-sine: (n_steps, n, n_in). Newtons.
     response : ndarray
         Random: (n, n_dof); stepped-sine: (n_steps, n, n_dof).
-    response_kind : {"displacement", "velocity", "acceleration"}
+    response_kind : {"displacement", "velocity", "acceleration", "mixed"}
+        What every response channel measures; with a sensor map it follows the map (its
+        channels' common kind, or ``"mixed"``).
     freqs : ndarray, shape (n_steps,), optional
         Stepped-sine drive frequency of each step, Hz.
     level : float, optional
@@ -117,7 +120,10 @@ class Recording:
         verbatim so that they are written back on export.
     meta : dict
         Free-form provenance (run file, block sequence numbers, settings); not part of the
-        recording contract. A sensor map, when added, becomes a typed field like the above.
+        recording contract.
+    sensors : SensorMap, optional
+        Model point and kind of each response channel, point of each force
+        (`analysis.sensors`); None: channel ``j`` is point ``j``, all in ``response_kind``.
     """
 
     fs: float
@@ -132,8 +138,11 @@ class Recording:
     layout: PeriodicLayout | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
+    sensors: SensorMap | None = None
 
     def __post_init__(self) -> None:
+        if self.sensors is not None:
+            self.response_kind = self.sensors.kind
         self.force_dofs = np.atleast_1d(np.asarray(self.force_dofs)).astype(int)
         self.force = np.asarray(self.force, dtype=float)
         self.response = np.asarray(self.response, dtype=float)
@@ -163,7 +172,8 @@ class Recording:
         if self.force_hold not in FORCE_HOLDS:
             raise RecordingError(f"force_hold '{self.force_hold}' is not one of "
                                  f"{', '.join(FORCE_HOLDS)}")
-        if self.response_kind not in RESPONSE_KINDS:
+        if self.response_kind not in RESPONSE_KINDS and not (
+                self.response_kind == MIXED and self.sensors is not None):
             raise RecordingError(f"response_kind '{self.response_kind}' is not one of "
                                  f"{', '.join(RESPONSE_KINDS)}")
         ndim = 2 if self.excitation == "random" else 3
@@ -198,6 +208,13 @@ class Recording:
         if np.any(self.force_dofs < 0) or np.any(self.force_dofs >= self.n_dof):
             raise RecordingError(f"force_dofs {self.force_dofs.tolist()} outside 0..."
                                  f"{self.n_dof - 1} (DOF indices are 0-based)")
+        if self.sensors is not None:
+            self.sensors.validate(self.n_dof, self.n_in)
+            if self.sensors.force_channels != self.force_dofs.tolist():
+                raise RecordingError(f"force_dofs {self.force_dofs.tolist()} are not the "
+                                     "channels measuring force_points "
+                                     f"{list(self.sensors.force_points)}; drop force_dofs or "
+                                     "make them agree")
         if self.excitation == "stepped-sine":
             if self.freqs is None or self.freqs.shape != (self.force.shape[0],):
                 raise RecordingError("stepped-sine data needs freqs with one drive frequency "

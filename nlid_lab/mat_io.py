@@ -9,7 +9,8 @@ sample rate, with their units::
     fs=Fs  force=Force  response=Acceleration[0:3]:g
 
 (``NAME[cols]`` selects columns — ``[0:3]``, ``[0,2]`` — of a 2-D array, channel-major arrays
-are transposed automatically; ``:UNIT`` scales to SI and names the response kind.) The same
+are transposed automatically; ``:UNIT`` scales to SI and names the response kind of those
+columns; ``@A,B,C`` names the model point of each selected column: the sensor map.) The same
 keys can come from a small TOML file (docs/recording-formats.md).
 """
 
@@ -45,13 +46,20 @@ class Selection:
     key: str
     cols: tuple[int, ...] | slice | None = None
     unit: str | None = None
+    #: model points of the selected columns (``NAME[0:3]@wing,joint,payload``), one each
+    points: tuple[str, ...] | None = None
 
     @classmethod
     def parse(cls, text: str, role: str) -> "Selection":
-        m = _SELECT.match(text.strip())
+        text, at, where = text.strip().partition("@")
+        points = tuple(p.strip() for p in where.split(",")) if at else None
+        if points is not None and not all(points):
+            raise MatFileError(f"channel map {role}={text}@{where}: name a point per column "
+                               "after '@', comma-separated (NAME[0:3]@a,b,c)")
+        m = _SELECT.match(text)
         if not m:
             raise MatFileError(f"channel map {role}={text!r}: write NAME, NAME[0:3], NAME[0,2] "
-                               "or NAME[0]:UNIT")
+                               "or NAME[0]:UNIT, optionally @POINT,... (the model points)")
         cols = m["cols"]
         if cols is None:
             sel = None
@@ -68,7 +76,7 @@ class Selection:
             except ValueError:
                 raise MatFileError(f"channel map {role}={text!r}: columns must be integers "
                                    f"(0-based), got [{cols}]") from None
-        return cls(m["key"], sel, m["unit"])
+        return cls(m["key"], sel, m["unit"], points)
 
 
 @dataclass
@@ -100,7 +108,8 @@ class ChannelMap:
         """This map with ``units`` (name -> unit, e.g. from a CSV header) on the selections
         that give none."""
         def fill(sels: list[Selection]) -> list[Selection]:
-            return [Selection(s.key, s.cols, s.unit or units.get(s.key)) for s in sels]
+            return [Selection(s.key, s.cols, s.unit or units.get(s.key), s.points)
+                    for s in sels]
         return ChannelMap(fill(self.force), fill(self.response), self.fs, self.response_kind,
                           self.extra)
 
@@ -134,11 +143,21 @@ class ChannelMap:
 
 
 def _selections(text: str, role: str) -> list[Selection]:
-    """``A,B,C:g`` -> three selections, the closing unit applying to all three."""
-    sels = [Selection.parse(part, role) for part in _COMMA.split(text)]
+    """``A,B,C:g`` -> three selections, the closing unit applying to all three
+    (``A,B,C:g@p,q,r``: one point each)."""
+    names, at, where = text.partition("@")
+    parts = _COMMA.split(names)
+    if len(parts) == 1:
+        return [Selection.parse(text, role)]
+    points = [p.strip() for p in where.split(",")] if at else [None] * len(parts)
+    if len(points) != len(parts):
+        raise MatFileError(f"channel map {role}={text}: {len(parts)} names but {len(points)} "
+                           "point(s) after '@'; give one point per name")
+    sels = [Selection.parse(part if point is None else f"{part}@{point}", role)
+            for part, point in zip(parts, points)]
     unit = sels[-1].unit
     if unit and all(s.unit is None for s in sels[:-1]):
-        sels = [Selection(s.key, s.cols, unit) for s in sels]
+        sels = [Selection(s.key, s.cols, unit, s.points) for s in sels]
     return sels
 
 
@@ -241,7 +260,7 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
         if arr.shape[0] != n:
             raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[0]} samples, the force "
                                f"{n}; channels of one recording have one length")
-    kinds = set()
+    kinds: list[str | None] = []       # per response channel
     for sel, arr in zip(cmap.force, force):
         if sel.unit:
             factor, quantity = lookup(sel.unit, f"{source}: force {sel.key}")
@@ -256,12 +275,18 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
                 raise MatFileError(f"{source}: response {sel.key} is in {sel.unit}, a force "
                                    "unit; map it as force=")
             arr *= factor
-            kinds.add(quantity)
-    if cmap.response_kind:
-        kinds.add(cmap.response_kind)
-    if len(kinds) > 1:
-        raise MatFileError(f"{source}: responses of different kinds ({', '.join(sorted(kinds))})"
-                           "; import them as separate runs")
+        kinds += [quantity if sel.unit else cmap.response_kind or _kind_of_name(sel.key)
+                  ] * arr.shape[1]
+    if cmap.response_kind and {k for k in kinds if k} - {cmap.response_kind}:
+        raise MatFileError(f"{source}: response_kind = {cmap.response_kind} but the units say "
+                           f"{', '.join(sorted({k for k in kinds if k}))}; drop one of them")
+    known = {k for k in kinds if k}
+    if len(known) > 1 and None in kinds:
+        raise MatFileError(f"{source}: responses of different kinds; give every response "
+                           "selection a unit (NAME[0]:m/s^2) so each channel's kind is known")
+    kinds = [k or (next(iter(known)) if known else None) for k in kinds]
+    points = _points(cmap.force, force, "force", source) | _points(cmap.response, response,
+                                                                   "response", source)
     if isinstance(cmap.fs, float):
         fs = cmap.fs
     else:
@@ -275,8 +300,38 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
         if isinstance(value, str) and value not in ("none", "linear") and _known(tree, value):
             value = _leaf(tree, value, source)
         extra[key] = value
+    if len(set(kinds)) > 1:
+        points["response_kinds"] = np.array(kinds)
+    kind = kinds[0] if len(set(kinds)) == 1 and kinds[0] else "displacement"
     return {"fs": fs, "force": np.hstack(force), "response": np.hstack(response),
-            "response_kind": kinds.pop() if kinds else "displacement", **extra}
+            **({"response_kind": kind} if "response_kinds" not in points else {}),
+            **points, **extra}
+
+
+def _kind_of_name(name: str) -> str | None:
+    """The response kind a variable's name states (``Acceleration``, ``acc2``, ``Vel``,
+    ``Disp``), or None: exports name channels so more often than they give a unit."""
+    last = name.rpartition(".")[2].lower()
+    for prefix, kind in (("acc", "acceleration"), ("vel", "velocity"), ("disp", "displacement")):
+        if last.startswith(prefix):
+            return kind
+    return None
+
+
+def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,
+            source: str) -> dict[str, np.ndarray]:
+    """``force_points``/``response_points`` from the selections' ``@`` names (all or none)."""
+    if all(s.points is None for s in sels):
+        return {}
+    out = []
+    for sel, arr in zip(sels, arrays):
+        if sel.points is None or len(sel.points) != arr.shape[1]:
+            have = 0 if sel.points is None else len(sel.points)
+            raise MatFileError(f"{source}: {role} {sel.key} selects {arr.shape[1]} column(s) "
+                               f"but names {have} point(s); give one point per column after "
+                               "'@' (on every selection or none)")
+        out += sel.points
+    return {f"{role}_points": np.array(out)}
 
 
 def _known(tree: dict[str, Any], key: str) -> bool:

@@ -23,6 +23,8 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
                                 Recording)
+from analysis.sensors import KEYS as SENSOR_KEYS
+from analysis.sensors import SensorMap, names, sensor_map
 from analysis.textfile import read_text
 
 from .units import lookup, split_label
@@ -105,26 +107,43 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
     the source in messages and ``meta["source"]``."""
     path = Path(path)
     missing = {"fs", "force", "response", "force_dofs"} - set(data)
+    if missing == {"force_dofs"} and "force_points" in data:
+        missing = set()
     if missing:
         raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; an NPZ "
-                                 "recording needs fs, force_dofs, force and response")
+                                 "recording needs fs, force_dofs (or force_points), force and "
+                                 "response")
     excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
                   else ("stepped-sine" if "freqs" in data else "random"))
     try:
         force = _array(data, "force", path)
+        response = _array(data, "response", path)
         level, level_from = _level(data, path, excitation)
+        kind = _scalar(data, "response_kind", str, path) if "response_kind" in data else None
+        sensors, force_dofs = _sensors(data, response, kind, path)
         return Recording(
             fs=_scalar(data, "fs", float, path), excitation=excitation,
-            force_dofs=_array(data, "force_dofs", path, integer=True),
-            force=force, response=_array(data, "response", path),
-            response_kind=(_scalar(data, "response_kind", str, path)
-                           if "response_kind" in data else "displacement"),
+            force_dofs=force_dofs, force=force, response=response,
+            response_kind=kind or "displacement", sensors=sensors,
             freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=level, force_hold=_force_hold(data, path),
             layout=_layout(data, path, force.shape[0] if force.ndim else 0),
             extra=_extra(data, excitation, level_from), meta={"source": str(path)})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
+
+
+def _sensors(data: dict, response: np.ndarray, kind: str | None, path: Path
+             ) -> tuple[SensorMap | None, np.ndarray]:
+    """The sensor map of a file's keys (`analysis.sensors.KEYS`) and the force DOFs (the
+    channels measuring ``force_points`` when the file gives no ``force_dofs``)."""
+    n = response.shape[-1] if response.ndim else 0
+    dofs = _array(data, "force_dofs", path, integer=True) if "force_dofs" in data else None
+    smap = SensorMap.from_keys(data, n, [] if dofs is None else np.atleast_1d(dofs), kind)
+    if smap is None:
+        return None, dofs
+    smap.validate(n, len(smap.force_points))
+    return smap, np.asarray(smap.force_channels) if dofs is None else dofs
 
 
 def _force_hold(data: dict, path: Path) -> str:
@@ -159,7 +178,7 @@ def _level(data: dict, path: Path, excitation: str) -> tuple[float | None, str |
 def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
     """Keys no field holds. A level read from another key than the excitation's own (say
     ``level``) stays here too, so that the file's own key is written back."""
-    known = set(CORE_KEYS) | set(LAYOUT_KEYS) | {"force_hold"}
+    known = set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | {"force_hold"}
     if level_from == level_key(excitation):
         known.add(level_from)
     return {k: np.asarray(v) for k, v in data.items() if k not in known}
@@ -178,6 +197,8 @@ def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
         out.update({k: np.int64(getattr(rec.layout, k)) for k in LAYOUT_KEYS})
     if rec.level is not None:
         out[level_key(rec.excitation)] = np.float64(rec.level)
+    if rec.sensors is not None:
+        out.update(rec.sensors.to_keys())
     return out
 
 
@@ -313,6 +334,10 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
                                  f"got DOFs {dofs}")
     file_kind = _scalar(keys, "response_kind", str, path) if "response_kind" in keys else None
     unit_kinds = {c.quantity for c in responses if c.quantity is not None}
+    if len(unit_kinds) > 1 and all(c.quantity for c in responses) \
+            and "response_kinds" not in keys:   # units say each column's kind: a sensor map
+        keys["response_kinds"] = np.array([c.quantity for c in responses])
+        unit_kinds = set()
     if len(unit_kinds) > 1 or (unit_kinds and len(unit_kinds) == 1
                                and any(c.quantity is None for c in responses)):
         raise RecordingFileError(f"{path}: the response columns measure different quantities "
@@ -331,11 +356,13 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     keys.pop("force_dofs", None)
     try:
         file_level, level_from = _level(keys, path, "random")
+        response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
+        sensors, _ = _sensors({**keys, "force_dofs": np.asarray(force_dofs)}, response,
+                              response_kind or file_kind, path)
         return Recording(
             fs=fs, excitation="random", force_dofs=force_dofs,
             force=data[:, [c.index for c in forces]] * [c.factor for c in forces],
-            response=data[:, [c.index for c in responses]] * [c.factor for c in responses],
-            response_kind=kind,
+            response=response, response_kind=kind, sensors=sensors,
             level=file_level if level is None else level, force_hold=_force_hold(keys, path),
             layout=_layout(keys, path, data.shape[0]),
             extra=_extra(keys, "random", level_from),
@@ -466,10 +493,12 @@ def write_csv(path: str | os.PathLike, rec: Recording) -> None:
         raise RecordingFileError("CSV holds random recordings only; write stepped sine as NPZ")
     keys = {k: v for k, v in recording_keys(rec).items()
             if k not in ("excitation", "force_dofs", "force", "response")}
+    keys.update({k: np.str_(",".join(v.tolist())) for k, v in keys.items()
+                 if k in SENSOR_KEYS})
     lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
-    prefix = rec.response_kind[0]
+    kinds = sensor_map(rec).response_kinds
     names = (["t"] + [f"f{i}@{d}" for i, d in enumerate(rec.force_dofs)]
-             + [f"{prefix}{j}@{j}" for j in range(rec.n_dof)])
+             + [f"{kinds[j][0]}{j}@{j}" for j in range(rec.n_dof)])
     t = np.arange(rec.force.shape[0]) / rec.fs
     np.savetxt(path, np.column_stack([t, rec.force, rec.response]), delimiter=",",
                header="\n".join(lines + [",".join(names)]), comments="", fmt="%.17g")
@@ -483,18 +512,27 @@ def read_drive(path: str | os.PathLike) -> dict:
     (a `PeriodicLayout` from the drive's ``period``... keys, or None) and ``extra`` (the
     drive's other keys, for the simulated recording). A recording used as a drive gives
     its force: its ``response``, ``response_kind`` and ``force_hold`` are not carried.
+    ``sensors`` holds the drive's sensor-map keys (`analysis.sensors.KEYS`, lists of names;
+    ``force_points`` then name the model points the forces act on).
     """
     path = Path(path)
     data = _load_npz(path, "drive")
     missing = {"fs", "force", "force_dofs"} - set(data)
+    if missing == {"force_dofs"} and "force_points" in data:
+        missing = set()
     if missing:
         raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; a drive NPZ "
-                                 "needs fs, force and force_dofs")
+                                 "needs fs, force and force_dofs (or force_points)")
     try:
+        points = names(data["force_points"], "force_points") if "force_points" in data \
+            else None
         drive = {"fs": _scalar(data, "fs", float, path),
                  "force": _array(data, "force", path),
-                 "force_dofs": _array(data, "force_dofs", path, integer=True),
-                 "freqs": _array(data, "freqs", path) if "freqs" in data else None}
+                 "force_dofs": (_array(data, "force_dofs", path, integer=True)
+                                if "force_dofs" in data else np.arange(len(points))),
+                 "freqs": _array(data, "freqs", path) if "freqs" in data else None,
+                 # sensor-map keys: where the forces act and what the channels measure
+                 "sensors": {k: names(data[k], k) for k in SENSOR_KEYS if k in data}}
         stepped = drive["freqs"] is not None
         drive["excitation"] = "stepped-sine" if stepped else "random"
         drive["level"], level_from = _level(data, path, drive["excitation"])
@@ -547,3 +585,43 @@ def load_recordings(path: str | os.PathLike) -> list[Recording]:
     if suffix == ".csv":
         return [read_csv(path)]
     raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")
+
+
+def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
+    """A sensor-map TOML file (``response_points``, ``response_kinds``, ``force_points``:
+    lists of names; docs/model-format.md#sensor-maps) as recording keys."""
+    import tomllib
+
+    path = Path(path)
+    text = read_text(path, "sensor map", RecordingFileError, max_bytes=1 << 16)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(data) - set(SENSOR_KEYS))
+    if unknown or not data:
+        raise RecordingFileError(f"{path}: a sensor map holds {', '.join(SENSOR_KEYS)}"
+                                 + (f", not {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for key, value in data.items():
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise RecordingFileError(f"{path}: {key} must be a list of names, e.g. "
+                                     f"{key} = [\"wing_tip\", \"payload\"]")
+        out[key] = [v.strip() for v in value]
+    return out
+
+
+def with_sensors(rec: Recording, keys: dict[str, list[str]]) -> Recording:
+    """``rec`` with the sensor map of ``keys`` (`read_sensors`; missing keys from ``rec``'s
+    own map); the force DOFs follow ``force_points``."""
+    import dataclasses
+
+    own = sensor_map(rec).to_keys() if rec.sensors is not None else {}
+    merged = {**own, **{k: np.array(v) for k, v in keys.items()}}
+    try:
+        smap = SensorMap.from_keys(merged, rec.n_dof, rec.force_dofs, None)
+        smap.validate(rec.n_dof, rec.n_in)
+        return dataclasses.replace(rec, force_dofs=np.asarray(smap.force_channels),
+                                   sensors=smap, extra=dict(rec.extra), meta=dict(rec.meta))
+    except ValueError as exc:
+        raise RecordingFileError(f"{rec.meta.get('source', 'recording')}: {exc}") from None

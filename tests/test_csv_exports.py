@@ -52,7 +52,6 @@ def test_tab_export_in_ms_kn_and_mm_through_the_cli(tmp_path, channels):
 
 
 @pytest.mark.parametrize("header, extra, words", [
-    ("Time (s),Force (N),a1 [m/s^2],x2 [mm]", ["# force_dofs = 0"], "different quantities"),
     ("Time (s),Force (N),a1 [m/s^2],a2 [m/s^2]", [], "force_dofs = K"),
     ("Time (s),Force (N),a1 [furlong],a2 [m/s^2]", [], "unknown unit 'furlong'"),
     ("Time (s),Force (N),a1@0,a2 [m/s^2]", [], "of every channel"),
@@ -67,6 +66,17 @@ def test_export_errors_name_the_column_or_key(tmp_path, channels, header, extra,
     with pytest.raises(InputError) as info:
         rio.read_csv(tmp_path / "bad.csv")
     assert words in str(info.value)
+
+
+def test_columns_of_different_kinds_are_a_sensor_map(tmp_path, channels):
+    """Units naming different quantities give each channel its own kind (a sensor map)."""
+    t, f, a = channels
+    lines = ["# force_dofs = 0", "Time (s),Force (N),a1 [m/s^2],x2 [mm]"]
+    lines += _rows([t, f, a[:, 0], 1e3 * a[:, 1]], "%.17g", ",")
+    (tmp_path / "mixed.csv").write_text("\n".join(lines) + "\n")
+    rec = rio.read_csv(tmp_path / "mixed.csv")
+    assert rec.sensors.response_kinds == ("acceleration", "displacement")
+    np.testing.assert_allclose(rec.response, a, rtol=1e-12)
 
 
 def _f16_csv(path, force, voltage, acc):

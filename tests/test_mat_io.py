@@ -74,7 +74,8 @@ def test_v73_hdf5_file_reads_like_v5(tmp_path, channels):
     (["force=Force", "response=Acceleration:N"], "force unit"),
     (["force=Force:g", "response=Acceleration"], "acceleration unit"),
     (["force=Force", "response=Acceleration:furlong"], "unknown unit 'furlong'"),
-    (["force=Force", "response=Acceleration[0]:g", "response=Acceleration[1]:m"], "different"),
+    (["force=Force", "response=Acceleration[0]:g", "response=Acceleration[1]:m",
+      "response=Voltage"], "different"),
     (["force=Force"], "needs 'response'"),
     (["force"], "KEY=VALUE"),
     (["force=Force", "response=Acceleration[a:b]"], "column range"),
@@ -99,3 +100,13 @@ def test_not_a_mat_file(tmp_path):
                                              ("time", ("time", None))])
 def test_split_label(label, expected):
     assert split_label(label) == expected
+
+
+@pytest.mark.parametrize("name, kind", [("Acceleration", "acceleration"),
+                                        ("Voltage", "displacement")])
+def test_a_unitless_channel_takes_its_kind_from_its_name(tmp_path, channels, name, kind):
+    path = tmp_path / "gvt.mat"
+    scipy.io.savemat(path, {"data": channels})
+    keys = apply_map(read_mat_tree(path), ChannelMap.from_items(["force=Force",
+                                                                 f"response={name}"]), str(path))
+    assert keys["response_kind"] == kind

@@ -11,6 +11,7 @@ import argparse
 def run(args: argparse.Namespace) -> int:
     from analysis.errors import InputError
     from analysis.model import Model
+    from analysis.sensors import model_at_sensors, one_kind
 
     from .. import methods
     from ..outputs import refuse_overwrite, summary_stream, write_json
@@ -27,7 +28,10 @@ def run(args: argparse.Namespace) -> int:
     if args.store and all(el.known for el in model.elements):
         raise InputError(f"--store saves estimated parameters but {args.model} has none to "
                          "estimate; drop --store (screening results go to --json)")
-    recs = [rec for path in args.runs for rec in load_recordings(path)]
+    recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
+    # the model at the measured points, in channel order (sensor maps, analysis.sensors)
+    model = model_at_sensors(model, recs, f"analyze {args.method} (it forms each unknown "
+                             "element's basis from the measured responses)")
     estimate = method.estimate(recs, model, options)
     out = estimate.to_json()
     # with --json - the table goes to stderr so stdout stays pure JSON

@@ -34,10 +34,12 @@ def format_tests(result: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from analysis.detect import detect
+    from analysis.sensors import one_kind
+
     from ..recordings_io import load_recordings
     refuse_overwrite(args.force, args.json)
     check_runs(args.runs, args.repair)
-    recs = [rec for path in args.runs for rec in load_recordings(path)]
+    recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=summary_stream(args.json, args.quiet))
     write_json(result, args.json)

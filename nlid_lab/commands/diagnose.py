@@ -64,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
     """Diagnose the runs against the model; write JSON, corrected model and report."""
     from analysis.diagnose import DiagnoseInputError, diagnose
     from analysis.model import Model
+    from analysis.sensors import at_points, model_at_sensors, one_kind
 
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.progress import progress
@@ -77,7 +78,9 @@ def run(args: argparse.Namespace) -> int:
                                      "an HDF5 run (.h5); pass one of the runs")
         open_run(args.store)     # fails early (exit 2) when it is not a run file
     model = Model.load(args.model)
-    recs = [r for path in args.runs for r in load_recordings(path)]
+    recs = [one_kind(r) for path in args.runs for r in load_recordings(path)]
+    full, model = model, model_at_sensors(model, recs, "diagnose (it compares the model with "
+                                          "the data at the measured points)")
     period = None
     if args.period is not None:
         if args.period <= 0:
@@ -91,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
                      period=period, progress=lambda done, total, stage: _show(bar, done, total,
                                                                               stage))
     if args.model_out:
-        d.model.save(args.model_out)
+        at_points(d.model, full).save(args.model_out)
     if args.report:
         write_report(d, Path(args.report))
     result = d.to_json()

@@ -63,10 +63,12 @@ def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
     from analysis.diagnose.prepare import record_level
     from analysis.linear_fit import fit_linear
+    from analysis.sensors import one_kind
+
     from ..recordings_io import load_recordings
     refuse_overwrite(args.force, args.out, args.json, args.plot)
     check_runs(args.runs, args.repair)
-    recs = [rec for path in args.runs for rec in load_recordings(path)]
+    recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     if args.level is None:
         rec = min(recs, key=record_level)
     elif 0 <= args.level < len(recs):
@@ -75,6 +77,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--level {args.level}: the runs hold levels 0..{len(recs) - 1} "
                          "(stored order)")
     points = None if args.points is None else [p.strip() for p in args.points.split(",")]
+    if points is None and rec.sensors is not None:      # the sensor map names the points
+        points = list(rec.sensors.response_points)
     n_modes = None if args.modes == "auto" else _modes(args.modes)
     fit = fit_linear(rec, None if args.band is None else tuple(args.band), n_modes=n_modes,
                      points=points, name=f"fit-linear of {Path(args.runs[0]).name}")
@@ -113,7 +117,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--level", type=int, metavar="INDEX",
                    help="level to fit, 0-based in stored order (default: the lowest)")
     p.add_argument("--points", metavar="NAME,...",
-                   help="names of the response channels (the model's points)")
+                   help="names of the response channels (the model's points; default: "
+                   "the run's sensor map, else 0,1,...)")
     p.add_argument("--plot", metavar="PNG", help="write the stabilisation diagram")
     p.add_argument("--json", metavar="FILE", help="write the modes as JSON ('-' for stdout)")
     add_quiet_option(p)

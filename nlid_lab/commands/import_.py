@@ -67,6 +67,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--level names the level of one recording; with several files each "
                          "level comes from its file (a level key, else the force)")
     recs = [_read(src, args) for src in sources]
+    if args.sensors:
+        keys = recordings_io.read_sensors(args.sensors)
+        recs = [recordings_io.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
     store.save_recording(out, recs, source="import",
@@ -75,10 +78,13 @@ def run(args: argparse.Namespace) -> int:
     result = {"out": str(out), "source": [str(s) for s in sources], "levels": len(recs),
               "excitation": rec.excitation, "fs": rec.fs, "force_dofs": rec.force_dofs,
               "n_dof": rec.n_dof, "n_samples": int(rec.force.shape[-2]),
-              "response_kind": rec.response_kind}
+              "response_kind": rec.response_kind,
+              "sensors": None if rec.sensors is None else {
+                  k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
-        print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} channel(s), "
+        print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "
+              f"{rec.response_kind} channel(s), "
               f"{len(recs)} level(s)) -> {out}")
     write_json(result, args.json)
     return 0
@@ -101,7 +107,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--map", nargs="+", metavar="KEY=VALUE",
                    help="MAT or CSV export: channel map, e.g. force=Force "
                    "response=Acceleration[0:3]:g fs=Fs force_dofs=0 (CSV: "
-                   "response=Acc1,Acc2 fs=400), or one MAP.toml")
+                   "response=Acc1,Acc2 fs=400; NAME[cols]@A,B,C names the model point of "
+                   "each column: a sensor map), or one MAP.toml")
+    p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: the model point "
+                   "and kind of each response channel, the point of each force "
+                   "(response_points, response_kinds, force_points; docs/model-format.md"
+                   "#sensor-maps)")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)

@@ -11,6 +11,7 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recording import RESPONSE_KINDS, Recording
+from analysis.sensors import SensorMap
 
 from .. import recordings_io, sim_budget
 from ..outputs import add_force_option, refuse_overwrite, write_json
@@ -28,14 +29,18 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     """Run a drive (see `recordings_io.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
-    a real shaker; each step's response is recorded in full. The drive's periodic layout
+    a real shaker; each step's response is recorded in full. A drive with sensor-map keys
+    (``drive["sensors"]``) is simulated at its forces' points and recorded at its response
+    points, each channel in its own kind. The drive's periodic layout
     and other keys are carried to the recording. The response is anti-aliased
     (`analysis.plant.remove_hold_images`) like a DAQ's.
     """
     from analysis.plant import Plant, remove_hold_images
 
     model.require_complete("simulation")
-    dofs = drive["force_dofs"]
+    smap = _sensor_map(model, drive, response_kind)
+    dofs = drive["force_dofs"] if smap is None else np.array(
+        [model.point_index(p) for p in smap.force_points])
     if dofs.min() < 0 or dofs.max() >= model.n_dof:
         raise InputError(f"drive force_dofs {dofs.tolist()} outside the model's DOFs "
                          f"0..{model.n_dof - 1} (0-based)")
@@ -43,17 +48,24 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
     if too_much:
         raise InputError(f"{too_much}; shorten the drive, raise its fs, or check the model's "
                          "stiffness and units")
-    plant = Plant(model, drive["fs"], dofs, oversample=oversample, noise_std=noise_std,
+    plant = Plant(model, drive["fs"], dofs, oversample=oversample,
+                  noise_std=noise_std if smap is None else 0.0,
                   response_kind=response_kind, seed=seed)
     force = drive["force"]
     whole = force.reshape(-1, force.shape[-1])      # stepped sine: the steps back to back
     step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
-    response = np.concatenate([plant.run(whole[i:i + step]).response
-                               for i in progress(range(0, len(whole), step), desc="simulate",
-                                                 unit="s")])
-    # the sensors' anti-alias filter (analysis.plant, Sensor sampling), over the whole record
-    response = remove_hold_images(response, whole, drive["fs"], response_kind,
-                                  plant.image_gains).reshape(force.shape[:-1] + (-1,))
+    outs = [plant.run(whole[i:i + step]) for i in progress(range(0, len(whole), step),
+                                                         desc="simulate", unit="s")]
+    if smap is None:
+        # the sensors' anti-alias filter (analysis.plant, Sensor sampling), whole record
+        response = remove_hold_images(np.concatenate([o.response for o in outs]), whole,
+                                      drive["fs"], response_kind, plant.image_gains)
+    else:
+        response = _at_sensors(model, smap, outs, whole, drive["fs"], plant.image_gains)
+        response += np.random.default_rng(seed).standard_normal(response.shape) * noise_std
+    response = response.reshape(force.shape[:-1] + (-1,))
+    if smap is not None:
+        dofs = np.asarray(smap.force_channels)
     return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
@@ -61,7 +73,40 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
                      layout=drive["layout"], extra=drive["extra"],
                      meta={"model": model.name, "noise_std": noise_std, "seed": seed,
                            # substeps per sample at the end, times step doubling raised them
-                           "oversample": plant.oversample, "oversample_raised": plant.raised})
+                           "oversample": plant.oversample, "oversample_raised": plant.raised},
+                     sensors=smap)
+
+
+def _sensor_map(model: Model, drive: dict, response_kind: str) -> SensorMap | None:
+    """The drive's sensor map over ``model``'s points (None: every point, one kind)."""
+    keys = drive.get("sensors") or {}
+    if not keys:
+        return None
+    points = keys.get("response_points", list(model.points))
+    kinds = keys.get("response_kinds", [response_kind] * len(points))
+    forces = keys.get("force_points", [model.points[d] for d in drive["force_dofs"]])
+    smap = SensorMap(tuple(points), tuple(kinds), tuple(forces))
+    smap.validate(len(points), drive["force"].shape[-1])
+    for p in smap.response_points + smap.force_points:
+        model.point_index(p)        # a point the model does not have: exit 2 naming it
+    return smap
+
+
+def _at_sensors(model: Model, smap: SensorMap, outs: list, force: np.ndarray, fs: float,
+                gains: tuple) -> np.ndarray:
+    """Each channel's kind at its point, anti-aliased like a DAQ's (`remove_hold_images`)."""
+    from analysis.plant import remove_hold_images
+
+    idx = np.array([model.point_index(p) for p in smap.response_points])
+    kinds = np.array(smap.response_kinds)
+    response = np.empty((len(force), idx.size))
+    for kind in ("displacement", "velocity", "acceleration"):
+        cols = np.flatnonzero(kinds == kind)
+        if cols.size:
+            samples = np.concatenate([getattr(o, kind)[:, idx[cols]] for o in outs])
+            response[:, cols] = remove_hold_images(samples, force, fs, kind,
+                                                   [g[idx[cols]] for g in gains])
+    return response
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,6 +124,8 @@ def run(args: argparse.Namespace) -> int:
     model_path = Path(args.model)
     model = Model.load(model_path)
     drive = recordings_io.read_drive(args.drive)
+    if args.sensors:
+        drive["sensors"] = recordings_io.read_sensors(args.sensors)
     rec = simulate_drive(model, drive, response_kind=args.response_kind,
                          noise_std=args.noise, seed=args.seed, oversample=args.oversample)
     if out.suffix.lower() == ".npz":
@@ -118,6 +165,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, help="noise seed (for reproducible noise)")
     p.add_argument("--response-kind", choices=RESPONSE_KINDS, default="displacement")
     p.add_argument("--oversample", type=int, help="plant integration steps per sample")
+    p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: response_points, "
+                   "response_kinds, force_points (model point names; docs/model-format.md"
+                   "#sensor-maps); overrides the drive's keys")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
     p.set_defaults(func=run)

@@ -161,10 +161,15 @@ def _crc(force: np.ndarray, response: np.ndarray) -> int:
     return zlib.crc32(response.tobytes(), zlib.crc32(force.tobytes()))
 
 
-def _default_channels(force_dofs: np.ndarray, n_dof: int, response_kind: str) -> list[dict]:
-    chans = [{"name": f"force{i}", "unit": "N", "dof": int(d), "kind": "force"}
-             for i, d in enumerate(force_dofs)]
-    chans += [{"name": f"{response_kind[0]}{j}", "unit": RESPONSE_UNITS[response_kind],
+def _default_channels(force_dofs: np.ndarray, n_dof: int, response_kind: str,
+                      sensors: Any = None) -> list[dict]:
+    """Channel table rows; with a sensor map (`analysis.sensors.SensorMap`) the responses
+    are named after their points and carry their own kinds' units."""
+    chans = [{"name": f"force{i}" if sensors is None else f"force@{sensors.force_points[i]}",
+              "unit": "N", "dof": int(d), "kind": "force"} for i, d in enumerate(force_dofs)]
+    kinds = [response_kind] * n_dof if sensors is None else sensors.response_kinds
+    chans += [{"name": f"{kinds[j][0]}{j}" if sensors is None else
+               sensors.response_points[j], "unit": RESPONSE_UNITS[kinds[j]],
                "dof": j, "kind": "response"} for j in range(n_dof)]
     return chans
 

@@ -11,6 +11,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from analysis.recording import PeriodicLayout, Recording
+from analysis.sensors import SensorMap
 
 from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
                       _open_swmr_write, _read_extra, _read_status, _valid_segments,
@@ -59,6 +60,12 @@ class Run:
     left_open: bool = False
     """The file still carries its writer's "open for write" flag: the writer is running or
     was killed. Plain HDF5 tools cannot open it until `repair_run` rebuilds it."""
+
+    @property
+    def sensors(self) -> SensorMap | None:
+        """The run's sensor map (the ``sensors`` attribute), None for the identity map."""
+        text = self.meta.get("sensors")
+        return SensorMap(**json.loads(text)) if text else None
 
     @property
     def force_hold(self) -> str:
@@ -122,7 +129,8 @@ class Run:
                       force_dofs=self.meta["force_dofs"],
                       response_kind=self.meta["response_kind"],
                       level=None if np.isnan(nominal) else nominal,
-                      force_hold=self.force_hold, extra=dict(self.extra), meta=meta)
+                      force_hold=self.force_hold, extra=dict(self.extra), meta=meta,
+                      sensors=self.sensors)
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
@@ -243,7 +251,7 @@ def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording]
     with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
                    n_dof=first.n_dof, response_kind=first.response_kind, mode="overwrite",
                    force_hold=first.force_hold, layout=first.layout, extra=first.extra,
-                   **meta) as run:
+                   sensors=first.sensors, **meta) as run:
         for index, r in enumerate(recs):
             lv = run.level(index, np.nan if r.level is None else r.level)
             if r.excitation == "random":
@@ -263,7 +271,7 @@ def _check_same_run(a: Recording, b: Recording, index: int) -> None:
         "force_dofs": np.array_equal(a.force_dofs, b.force_dofs),
         "response channels": a.n_dof == b.n_dof, "response_kind": a.response_kind
         == b.response_kind, "force_hold": a.force_hold == b.force_hold,
-        "periodic layout": a.layout == b.layout,
+        "periodic layout": a.layout == b.layout, "sensor map": a.sensors == b.sensors,
         "extra keys": a.extra.keys() == b.extra.keys() and all(
             np.array_equal(np.asarray(a.extra[k]), np.asarray(b.extra[k])) for k in a.extra),
     }

@@ -12,6 +12,8 @@ import h5py
 import numpy as np
 
 from analysis.recording import EXCITATIONS, FORCE_HOLDS, RESPONSE_KINDS, PeriodicLayout
+from analysis.sensors import KEYS as SENSOR_KEYS
+from analysis.sensors import MIXED, SensorMap
 
 from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
                       StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
@@ -127,6 +129,10 @@ class RunWriter:
         ``realizations`` is not stored: a level has as many as it has blocks).
     extra : dict of str to array, optional
         Recording keys no field holds (`Recording.extra`), stored under ``/extra``.
+    sensors : SensorMap, optional
+        Point and kind of each response channel, point of each force
+        (`analysis.sensors.SensorMap`), stored as the ``sensors`` JSON attribute;
+        ``response_kind`` is then its kind (``"mixed"`` when the channels differ).
     mode : {"create", "overwrite", "resume"}
         ``create`` refuses an existing file; ``resume`` continues one (a crashed file is
         rebuilt first) after checking it matches fs, excitation, force_dofs and n_dof.
@@ -137,14 +143,18 @@ class RunWriter:
                  channels: list[dict] | None = None, settings: dict | None = None,
                  model_toml: str | None = None, source: str = "sim",
                  force_hold: str = "none", layout: PeriodicLayout | None = None,
-                 extra: dict[str, np.ndarray] | None = None, mode: str = "create") -> None:
+                 extra: dict[str, np.ndarray] | None = None, mode: str = "create",
+                 sensors: SensorMap | None = None) -> None:
         self.path = Path(path)
         exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
         self.excitation = exc_settings.get("kind")
         self.fs = float(fs)
         self.force_dofs = np.atleast_1d(np.asarray(force_dofs, dtype=int))
         self.n_dof = int(n_dof)
-        self._check_args(response_kind, force_hold, mode)
+        if sensors is not None:
+            response_kind = sensors.kind
+        self._check_args(response_kind if response_kind != MIXED or sensors is None
+                         else sensors.response_kinds[0], force_hold, mode)
         attrs = {
             "format": FORMAT, "schema_version": SCHEMA_VERSION,
             "software": SOFTWARE, "created_utc": utc_now(),
@@ -155,10 +165,13 @@ class RunWriter:
             "response_kind": response_kind, "model_toml": model_toml or "",
             "force_hold": force_hold,
         }
+        if sensors is not None:
+            attrs["sensors"] = json.dumps({k: list(getattr(sensors, k)) for k in SENSOR_KEYS})
         if layout is not None:
             attrs.update(period=layout.period, transient_periods=layout.transient_periods,
                          periods=layout.periods)
-        chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind)
+        chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind,
+                                              sensors)
         table = _channel_table(chans, self.force_dofs, self.n_dof)
         if mode == "resume" and self.path.exists():
             self._file = self._resume(attrs)
