@@ -42,17 +42,17 @@ FORCE_RMS = (12.4, 24.6, 36.8, 61.4, 73.6, 85.7, 97.8)     # N, levels 1..7
 VALIDATION = (2, 4, 6)                                       # held-back levels (1-based)
 MASS = np.array([600, 80, 60, 40, 25, 50, 15, 80, 50, 60, 40.0])   # kg
 #: (a, b, k): springs between DOFs a and b (b = -1: to ground), N/m
-SPRINGS = ((0, -1, 134840.0), (0, 1, 581195.0), (1, 2, 25505.0), (2, 3, 194918.0),
-           (2, 4, 233595.0), (3, 4, 487705.0), (4, 5, 72081.0), (5, 6, 8506.0),
-           (6, 4, 243516.0), (0, 7, 42574.0), (7, 8, 172796.0), (0, 9, 21280.0),
-           (0, 10, 195424.0))
+SPRINGS = ((0, -1, 305819.0), (0, 1, 129505.0), (1, 2, 36855.0), (2, 3, 5279.28),
+           (2, 4, 5659.22), (3, 4, 466281.0), (4, 5, 49577.3), (5, 6, 30490.3),
+           (6, 4, 20478.8), (0, 7, 427142.0), (7, 8, 452455.0), (0, 9, 181008.0),
+           (0, 10, 15402.2), (1, 7, 15799.1), (2, 9, 49756.0))
 DRIVE, WING, PAYLOAD = 2, 4, 5            # structural DOFs of channels 1, 2, 3
 JOINT = 6                                 # index of the interface spring in SPRINGS
 ZETA = 0.015
 #: Iwan-like interface: share of the interface stiffness per Jenkins slider, their slip
 #: displacements (m)
 SLIDER_SHARE = 0.012
-SLIP_M = tuple(2.5e-4 * 1.6 ** i for i in range(5))
+SLIP_M = tuple(8e-5 * 1.6 ** i for i in range(5))
 #: shaker: armature mass, suspension, back-EMF damping, Bl/R (N/V), stinger stiffness
 ARMATURE_KG, SUSPENSION, BACK_EMF, GAIN, STINGER = 3.0, 3.0e3, 1500.0, 10.0, 2.0e6
 ACC_NOISE, FORCE_NOISE = 0.02, 0.01
@@ -204,3 +204,17 @@ def export_csv(t: Twin, folder: Path, levels: tuple[int, ...] = (1, 2, 3, 4, 5, 
                    comments="")
         paths.append(p)
     return paths
+
+
+def recordings(t: Twin) -> list:
+    """The levels as the importer makes them (``--map force=Force
+    response=Acceleration[0:3]:m/s^2 force_dofs=0 force_hold='"none"' period=...
+    transient_periods=1``), for tests of the analysis alone."""
+    from analysis.recording import PeriodicLayout, Recording
+    out = []
+    for data in t.levels:
+        out.append(Recording(fs=FS, excitation="random", force_dofs=np.array([0]),
+                             force=data["Force"].T.copy(), response=data["Acceleration"].T.copy(),
+                             response_kind="acceleration", force_hold="none",
+                             layout=PeriodicLayout(t.period, 1, t.periods, 1)))
+    return out
