@@ -325,7 +325,8 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
               n_modes: int | None = None, driving_point: int | None = None,
               max_order: int = 40, residuals: tuple[bool, bool] = (True, True),
               smoothing: tuple[np.ndarray, np.ndarray] | None = None,
-              std: np.ndarray | None = None) -> tuple[ModalFit, Stabilisation]:
+              std: np.ndarray | None = None, pseudo_modes: bool = False,
+              stab: Stabilisation | None = None) -> tuple[ModalFit, Stabilisation]:
     """Modes of one receptance FRF column in ``band``: diagram, selection, refinement.
 
     Parameters
@@ -345,13 +346,20 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
     std : ndarray, shape (n_f, n_out), optional
         Standard deviation of each receptance value (measured noise): the refinement is then
         a maximum-likelihood fit; equal relative weights when omitted.
+    pseudo_modes : bool
+        Fit the residual terms as pseudo-modes at half the band's lower and twice its upper
+        edge (`refine`'s ``pseudo_hz``): what a ``[modal]`` model holds exactly, where the
+        default ``L / s^2`` and ``U0 + U2 s^2`` terms fit the column more closely but can
+        leave a written model off by their difference.
+    stab : Stabilisation, optional
+        A diagram of the same data already computed (not recomputed).
     """
     f = np.asarray(freqs, dtype=float)
     h = np.asarray(receptance, dtype=complex).reshape(f.size, -1)
     lo, hi = band
     if not 0 <= lo < hi:
         raise InputError(f"band {lo:g}..{hi:g} Hz: give 0 <= lo < hi")
-    stab = stabilisation(f, h, band, max_order=max_order)
+    stab = stab if stab is not None else stabilisation(f, h, band, max_order=max_order)
     fn, zeta, support = select_modes(stab, n_modes=n_modes)
     inb = (f >= lo) & (f <= hi) & (f > 0)
     w = None if std is None else np.abs(h[inb]) / np.maximum(
@@ -359,7 +367,7 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
     if smoothing is not None and np.ndim(smoothing[1]) == 2:     # a kernel per line
         smoothing = (smoothing[0], smoothing[1][inb])
     # residual terms as the pseudo-modes the written model holds (`modal_model`)
-    pseudo = (lo / 2, 2 * hi) if lo > 0 else None
+    pseudo = (lo / 2, 2 * hi) if pseudo_modes and lo > 0 else None
     poles, res, lower, upper = refine(f[inb], h[inb], fn, zeta, residuals=residuals,
                                       smoothing=smoothing, weights=w, pseudo_hz=pseudo)
     order = np.argsort(np.abs(poles))

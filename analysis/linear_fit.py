@@ -151,18 +151,21 @@ def fit_linear(rec: Recording, band: tuple[float, float] | None = None, *,
     if points is not None and len(points) != rec.n_dof:
         raise InputError(f"{len(points)} point names for {rec.n_dof} response channels; "
                          "name each channel once")
-    modes, stab = fit_modes(data.freqs, data.H, band, n_modes=n_modes,
-                            driving_point=data.driving_point, smoothing=data.smoothing,
-                            std=data.std)
-    # the residual pseudo-modes are kept only where they lower the error (measured kind)
+    stab = None
     best = None
-    for residuals in (True, False):
-        model = modal_model(modes, data.driving_point, points=points, name=name,
-                            residuals=residuals)
-        err = model_error(model, data, band, rec.response_kind)
-        if best is None or err.max() < best[1].max():
-            best = (model, err)
-    return LinearFit(best[0], modes, stab, data, best[1])
+    # residual terms fitted freely or as the pseudo-modes the model holds (`fit_modes`), the
+    # pseudo-modes kept or not: the written model with the lowest error (measured kind)
+    for pseudo in (False, True):
+        modes, stab = fit_modes(data.freqs, data.H, band, n_modes=n_modes,
+                                driving_point=data.driving_point, smoothing=data.smoothing,
+                                std=data.std, pseudo_modes=pseudo, stab=stab)
+        for residuals in (True, False):
+            model = modal_model(modes, data.driving_point, points=points, name=name,
+                                residuals=residuals)
+            err = model_error(model, data, band, rec.response_kind)
+            if best is None or err.max() < best[1].max():
+                best = (model, err, modes)
+    return LinearFit(best[0], best[2], stab, data, best[1])
 
 
 def model_error(model: Model, data: MeasuredReceptance, band: tuple[float, float],
