@@ -122,6 +122,9 @@ def excitation_band(freqs: np.ndarray, force_psd: np.ndarray, *,
                     floor_db: float = -20.0) -> tuple[float, float]:
     """Contiguous band around the force spectrum's bulk where it is within ``floor_db`` of it.
 
+    Gaps narrower than the excited runs on both sides (the dips a measured force shows at the
+    structure's resonances) are bridged.
+
     Parameters
     ----------
     freqs : ndarray, shape (n_f,)
@@ -144,14 +147,25 @@ def excitation_band(freqs: np.ndarray, force_psd: np.ndarray, *,
     ref = np.median(p[p >= 1e-3 * p.max()])
     ok = p >= ref * 10 ** (floor_db / 10)
     ok[freqs <= 0] = False
-    best, start, run = (0, 0), None, 0
+    runs, start = [], None
     for i, flag in enumerate(np.append(ok, False)):
         if flag and start is None:
             start = i
         elif not flag and start is not None:
-            if i - start > run:
-                run, best = i - start, (start, i - 1)
+            runs.append([start, i - 1])
             start = None
+    # A measured force dips at the structure's resonances (the shaker cannot push a structure
+    # that moves freely): a gap narrower than the excited runs on both sides is such a dip,
+    # not a band edge.
+    merged: list[list[int]] = []
+    for r in runs:
+        if merged and r[0] - merged[-1][1] - 1 < min(merged[-1][1] - merged[-1][0],
+                                                     r[1] - r[0]) + 1:
+            merged[-1][1] = r[1]
+        else:
+            merged.append(r)
+    best = max(merged, key=lambda r: r[1] - r[0], default=(0, -1))
+    run = best[1] - best[0] + 1
     if run < 3:
         raise InputError("the force spectrum has no excited band of 3 or more bins; use a "
                          "broadband random excitation or give --band")

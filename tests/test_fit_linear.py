@@ -80,7 +80,7 @@ def test_cli_writes_a_model_the_other_commands_load(beam, tmp_path, capsys):
     assert model.points == NAMES and model.n_dof == 4
     result = json.loads(js.read_text())
     assert [round(m["freq_hz"], 1) for m in result["modes"]] == \
-        [round(f, 1) for f in model.natural_frequencies()[:4]]
+        [round(f, 1) for f in model.natural_frequencies() if 3.0 < f < 200.0]  # no pseudo
     assert png.stat().st_size > 10_000
     pseudo = result["residual_pseudo_modes_hz"]
     assert len(pseudo) == model.n_residual
