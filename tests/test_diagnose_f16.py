@@ -11,6 +11,8 @@ misfit; the best grounded one, a mass at the payload, 30 %), held-back FRF error
 
 import json
 
+import numpy as np
+
 import pytest
 
 import f16_twin as T
@@ -79,3 +81,23 @@ def test_f16_like_linear_twin_is_adequate(tmp_path):
 def test_f16_full_layout_joint(tmp_path):
     """The F-16 layout itself: 8192-sample periods, 9 periods (1 transient) per level."""
     check_joint(chain(tmp_path, True, 8192, 8))
+
+
+def test_f16_like_csv_exports_import_as_the_mat_files_do(tmp_path):
+    """The CSV twins (no time column, no units, no fs) through the channel map give the
+    recordings the MAT files give, to the CSV's 10 printed digits."""
+    from nlid_lab.recordings_io import load_recordings
+    t = T.twin(True, 4096, 4)
+    layout = ["force_dofs=0", 'force_hold="none"', "period=4096", "transient_periods=1"]
+    mat = T.export_mat(t, tmp_path)[:2]
+    csv = T.export_csv(t, tmp_path)[:2]
+    assert main(["import", *map(str, mat), "--out", str(tmp_path / "mat.h5"), "--map",
+                 "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs", *layout]) == 0
+    assert main(["import", *map(str, csv), "--out", str(tmp_path / "csv.h5"), "--map",
+                 "force=Force", "response=Acceleration1,Acceleration2,Acceleration3",
+                 "fs=400", *layout]) == 0
+    for a, b in zip(load_recordings(tmp_path / "mat.h5"), load_recordings(tmp_path / "csv.h5")):
+        assert (b.fs, b.response_kind, b.layout) == (a.fs, a.response_kind, a.layout)
+        np.testing.assert_allclose(b.force, a.force, rtol=1e-9, atol=1e-9 * np.abs(a.force).max())
+        np.testing.assert_allclose(b.response, a.response, rtol=1e-9,
+                                   atol=1e-9 * np.abs(a.response).max())
