@@ -25,8 +25,8 @@ from scipy.stats import f as f_dist
 
 from .errors import RecordingError
 from .sine_fit import SteppedSineFRF, hold_gain
+from .sweep_law import SWEEP_LAWS, Sweep, SweepLaw  # noqa: F401  (re-exported)
 
-SWEEP_LAWS = ("linear", "log")
 NOISE_ORDERS = (1.5, 2.5)
 #: orders are fitted up to this fraction of fs (near Nyquist a sine fit is ill-conditioned
 #: and the anti-alias filter has cut the signal)
@@ -36,71 +36,6 @@ ISO_RATE = 54.0 / 60.0
 #: displacement from each response kind's harmonic at angular frequency w
 CONVERSIONS = {"displacement": lambda w: np.ones_like(w), "velocity": lambda w: 1 / (1j * w),
                "acceleration": lambda w: -1 / w ** 2}
-
-
-@dataclass(frozen=True)
-class SweepLaw:
-    """A linear or logarithmic sweep.
-
-    Attributes
-    ----------
-    start_hz, stop_hz : float
-        First and last frequency; ``stop < start`` is a down-sweep.
-    law : {"linear", "log"}
-    rate : float
-        Hz/s for a linear sweep, octaves per minute for a logarithmic one (positive).
-    """
-
-    start_hz: float
-    stop_hz: float
-    law: str = "log"
-    rate: float = 1.0
-
-    def __post_init__(self) -> None:
-        if self.law not in SWEEP_LAWS:
-            raise RecordingError(f"sweep_law '{self.law}' is not one of {', '.join(SWEEP_LAWS)}")
-        values = (self.start_hz, self.stop_hz, self.rate)
-        if not all(np.isfinite(v) and v > 0 for v in values) or self.start_hz == self.stop_hz:
-            raise RecordingError("a sweep needs two different positive frequencies and a "
-                                 "positive sweep_rate (Hz/s linear, octaves/min log)")
-
-    @property
-    def direction(self) -> int:
-        """+1 for an up-sweep, -1 for a down-sweep."""
-        return 1 if self.stop_hz > self.start_hz else -1
-
-    @property
-    def duration(self) -> float:
-        """Seconds from start to stop."""
-        if self.law == "linear":
-            return abs(self.stop_hz - self.start_hz) / self.rate
-        return abs(np.log2(self.stop_hz / self.start_hz)) / (self.rate / 60.0)
-
-    def _beta(self) -> float:
-        """Signed log rate, 1/s (``f = f0 exp(beta t)``)."""
-        return self.direction * self.rate / 60.0 * np.log(2.0)
-
-    def frequency(self, t: np.ndarray | float) -> np.ndarray:
-        """Instantaneous frequency at time ``t`` (s from the start), Hz."""
-        t = np.asarray(t, dtype=float)
-        if self.law == "linear":
-            return self.start_hz + self.direction * self.rate * t
-        return self.start_hz * np.exp(self._beta() * t)
-
-    def time(self, freq: np.ndarray | float) -> np.ndarray:
-        """Time at which the sweep passes ``freq``, s."""
-        f = np.asarray(freq, dtype=float)
-        if self.law == "linear":
-            return (f - self.start_hz) / (self.direction * self.rate)
-        return np.log(f / self.start_hz) / self._beta()
-
-    def phase(self, t: np.ndarray | float) -> np.ndarray:
-        """Phase ``θ(t) = 2π ∫ f dt``, rad, zero at the start."""
-        t = np.asarray(t, dtype=float)
-        if self.law == "linear":
-            return 2 * np.pi * (self.start_hz * t + 0.5 * self.direction * self.rate * t * t)
-        b = self._beta()
-        return 2 * np.pi * self.start_hz * np.expm1(b * t) / b
 
 
 def sweep_signal(law: SweepLaw, fs: float, amplitude: float) -> np.ndarray:

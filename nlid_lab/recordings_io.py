@@ -23,8 +23,10 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout,
                                 Recording)
+from analysis.sweep_law import SWEEP_KEYS
 from analysis.textfile import read_text
 
+from .sweep_keys import sweep_fields
 from .units import lookup, split_label
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -111,17 +113,22 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
     excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
                   else ("stepped-sine" if "freqs" in data else "random"))
     try:
-        force = _array(data, "force", path)
+        force, response = _array(data, "force", path), _array(data, "response", path)
+        fs = _scalar(data, "fs", float, path)
         level, level_from = _level(data, path, excitation)
+        sweep = None
+        if excitation == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(data, force, response, fs)
+            level = amplitude if level is None else level
         return Recording(
-            fs=_scalar(data, "fs", float, path), excitation=excitation,
+            fs=fs, excitation=excitation,
             force_dofs=_array(data, "force_dofs", path, integer=True),
-            force=force, response=_array(data, "response", path),
+            force=force, response=response,
             response_kind=(_scalar(data, "response_kind", str, path)
                            if "response_kind" in data else "displacement"),
             freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=level, force_hold=_force_hold(data, path),
-            layout=_layout(data, path, force.shape[0] if force.ndim else 0),
+            layout=_layout(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=_extra(data, excitation, level_from), meta={"source": str(path)})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -160,6 +167,8 @@ def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.
     """Keys no field holds. A level read from another key than the excitation's own (say
     ``level``) stays here too, so that the file's own key is written back."""
     known = set(CORE_KEYS) | set(LAYOUT_KEYS) | {"force_hold"}
+    if excitation == "swept-sine":
+        known |= set(SWEEP_KEYS)
     if level_from == level_key(excitation):
         known.add(level_from)
     return {k: np.asarray(v) for k, v in data.items() if k not in known}
@@ -176,6 +185,8 @@ def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
         out["freqs"] = rec.freqs
     if rec.layout is not None:
         out.update({k: np.int64(getattr(rec.layout, k)) for k in LAYOUT_KEYS})
+    if rec.sweep is not None:
+        out.update(rec.sweep.keys())
     if rec.level is not None:
         out[level_key(rec.excitation)] = np.float64(rec.level)
     return out
@@ -278,13 +289,16 @@ def _csv_table(text: str, path: Path) -> tuple[list[str], np.ndarray]:
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
              response_kind: str | None = None, level: float | None = None,
-             force_dofs: list[int] | None = None) -> Recording:
+             force_dofs: list[int] | None = None, excitation: str | None = None
+             ) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header).
 
     ``# key = value`` comment lines before the header carry recording keys (``fs``,
     ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``; ``force_dofs``
     when the header names no DOF, or the ``force_dofs`` argument). ``response_kind`` None
     takes the unit of the response columns, else the file's key, else displacement.
+    ``excitation`` (else a ``# excitation`` line, else random) may be ``"swept-sine"``: the
+    sweep keys, or the law estimated from the force (`sweep_keys.sweep_fields`).
     """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
@@ -327,18 +341,26 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
         raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
                                  f"{response_kind} was asked for; drop one of them")
     kind = response_kind or file_kind or (unit_kinds.pop() if unit_kinds else "displacement")
-    keys["excitation"] = np.str_("random")
+    exc = excitation or (_scalar(keys, "excitation", str, path) if "excitation" in keys
+                         else "random")
+    if exc not in ("random", "swept-sine"):
+        raise RecordingFileError(f"{path}: CSV holds random or swept-sine recordings, not {exc}")
+    keys["excitation"] = np.str_(exc)
     keys.pop("force_dofs", None)
     try:
-        file_level, level_from = _level(keys, path, "random")
+        file_level, level_from = _level(keys, path, exc)
+        force = data[:, [c.index for c in forces]] * [c.factor for c in forces]
+        response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
+        sweep = None
+        if exc == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(keys, force, response, fs)
+            file_level = amplitude if file_level is None else file_level
         return Recording(
-            fs=fs, excitation="random", force_dofs=force_dofs,
-            force=data[:, [c.index for c in forces]] * [c.factor for c in forces],
-            response=data[:, [c.index for c in responses]] * [c.factor for c in responses],
+            fs=fs, excitation=exc, force_dofs=force_dofs, force=force, response=response,
             response_kind=kind,
             level=file_level if level is None else level, force_hold=_force_hold(keys, path),
-            layout=_layout(keys, path, data.shape[0]),
-            extra=_extra(keys, "random", level_from),
+            layout=_layout(keys, path, data.shape[0]), sweep=sweep,
+            extra=_extra(keys, exc, level_from),
             meta={"source": str(path), "channels": [c.name for c in forces + responses]})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -377,7 +399,7 @@ def _csv_keys(text: str, path: Path) -> dict[str, np.ndarray]:
         if not m:
             continue
         key, raw = m.groups()
-        if key in ("excitation", "force", "response", "freqs"):
+        if key in ("force", "response", "freqs"):
             raise RecordingFileError(f"{path}: '{key}' comes from the CSV header and data, not "
                                      "from a '# key = value' line; remove that line")
         if len(raw) >= 2 and raw[0] == raw[-1] == '"':
@@ -432,10 +454,12 @@ def _csv_value(key: str, value: np.ndarray) -> str:
 def write_csv(path: str | os.PathLike, rec: Recording) -> None:
     """Write a random ``rec`` as CSV: ``# key = value`` lines for its keys, then header
     ``t,f0@DOF,...,x0@0,...`` and the samples."""
-    if rec.excitation != "random":
-        raise RecordingFileError("CSV holds random recordings only; write stepped sine as NPZ")
-    keys = {k: v for k, v in recording_keys(rec).items()
-            if k not in ("excitation", "force_dofs", "force", "response")}
+    if rec.excitation == "stepped-sine":
+        raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
+                                 "sine as NPZ")
+    drop = ("force_dofs", "force", "response") + (("excitation",) if rec.excitation == "random"
+                                                   else ())
+    keys = {k: v for k, v in recording_keys(rec).items() if k not in drop}
     lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
     prefix = rec.response_kind[0]
     names = (["t"] + [f"f{i}@{d}" for i, d in enumerate(rec.force_dofs)]
