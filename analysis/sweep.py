@@ -273,3 +273,80 @@ def _independent(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
             keep.append(i)
             end = times[i] + 0.5 * window_s[i]
     return np.sort(np.array(keep, dtype=int))
+
+
+def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwargs) -> SweepFRF:
+    """`sweep_frf` of a swept-sine `Recording` (first force channel), over the part of the
+    record where the force sweeps (`analysis.sweep_estimate.active_span`: trailing zeros and
+    a quiet lead-in are left out; the tracking reads the law's start off the force).
+
+    Parameters
+    ----------
+    rec : Recording
+        ``excitation == "swept-sine"``.
+    harmonics : sequence of int
+        Orders fitted.
+    **kwargs
+        Passed to `sweep_frf` (``cycles``, ``points``).
+    """
+    from .sweep_estimate import active_span
+
+    if rec.excitation != "swept-sine" or rec.sweep is None:
+        raise RecordingError(f"a sweep FRF needs swept-sine data, got {rec.excitation}")
+    a, b = active_span(rec.force[:, 0])
+    return sweep_frf(rec.force[a:b, 0], rec.response[a:b], rec.fs, rec.sweep.law,
+                     harmonics=harmonics, response_kind=rec.response_kind,
+                     force_hold=rec.force_hold, force_dof=int(rec.force_dofs[0]),
+                     level=rec.level, **kwargs)
+
+
+def linear_modes(mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray
+                 ) -> list[tuple[float, float]]:
+    """``(fn Hz, zeta)`` of the underdamped modes of ``M q'' + C q' + K q``, ascending."""
+    from scipy.linalg import eig
+
+    n = mass.shape[0]
+    inv = np.linalg.solve(mass, np.hstack([stiffness, damping]))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-inv[:, :n], -inv[:, n:]]])
+    lam = eig(A, right=False)
+    lam = lam[lam.imag > 0]
+    out = sorted((float(abs(v) / (2 * np.pi)), float(-v.real / abs(v))) for v in lam)
+    return [(f, z) for f, z in out if 0 < z < 1]
+
+
+def quasi_steady(frf: SweepFRF, law: SweepLaw, modes: Sequence[tuple[float, float]],
+                 bandwidths: float = 5.0) -> tuple[SweepFRF, list[str]]:
+    """The analysis points of a sweep that read as stepped-sine points, and the warnings.
+
+    An engineer's check (ISO 7626-2, `sweep_rate_check`): where the sweep passes a mode
+    faster than its quasi-steady limit, the points within ``bandwidths`` half-power
+    half-widths (``zeta fn``) of it are left out (the response there lags the sweep).
+
+    Returns
+    -------
+    SweepFRF
+        The kept points (every array cut alike).
+    warnings : list of str
+        One per mode passed too fast, with the points dropped.
+    """
+    keep = np.ones(frf.freqs.size, bool)
+    warnings = []
+    for (fn, zeta), text in zip(*_too_fast(law, modes)):
+        near = np.abs(frf.freqs - fn) <= bandwidths * zeta * fn
+        keep &= ~near
+        warnings.append(f"{text}; {int(near.sum())} sweep point(s) within "
+                        f"{bandwidths:g} half-power half-widths of it left out of the fit")
+    if not keep.any():
+        raise RecordingError("no quasi-steady point left in the sweep: it passes every mode "
+                             "too fast (ISO 7626-2); sweep slower or record a stepped sine")
+    cut = {name: getattr(frf, name)[keep] for name in
+           ("freqs", "force", "X", "noise", "force_harmonics", "times", "window_s")}
+    return SweepFRF(harmonics=frf.harmonics, level=frf.level, force_dof=frf.force_dof,
+                    direction=frf.direction, **cut), warnings
+
+
+def _too_fast(law: SweepLaw, modes: Sequence[tuple[float, float]]
+              ) -> tuple[list[tuple[float, float]], list[str]]:
+    """The modes a sweep passes too fast and the `sweep_rate_check` warning of each."""
+    pairs = [(m, w) for m in modes for w in sweep_rate_check(law, [m])]
+    return [m for m, _ in pairs], [w for _, w in pairs]

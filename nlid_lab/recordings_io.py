@@ -99,7 +99,12 @@ def level_key(excitation: str) -> str:
 def read_npz(path: str | os.PathLike) -> Recording:
     """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
     path = Path(path)
-    return recording_from_keys(_load_npz(path, "recording"), path)
+    return recording_from_keys(load_npz_keys(path), path)
+
+
+def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Every key of an NPZ recording, unchecked (`recording_from_keys` checks them)."""
+    return _load_npz(Path(path), "recording")
 
 
 def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
@@ -289,8 +294,8 @@ def _csv_table(text: str, path: Path) -> tuple[list[str], np.ndarray]:
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
              response_kind: str | None = None, level: float | None = None,
-             force_dofs: list[int] | None = None, excitation: str | None = None
-             ) -> Recording:
+             force_dofs: list[int] | None = None, excitation: str | None = None,
+             keys: dict[str, Any] | None = None) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header).
 
     ``# key = value`` comment lines before the header carry recording keys (``fs``,
@@ -298,11 +303,12 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     when the header names no DOF, or the ``force_dofs`` argument). ``response_kind`` None
     takes the unit of the response columns, else the file's key, else displacement.
     ``excitation`` (else a ``# excitation`` line, else random) may be ``"swept-sine"``: the
-    sweep keys, or the law estimated from the force (`sweep_keys.sweep_fields`).
+    sweep keys, or the law estimated from the force (`sweep_keys.sweep_fields`). ``keys``
+    add to (override) the file's ``# key`` lines.
     """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
-    keys = _csv_keys(text, path)
+    keys = {**_csv_keys(text, path), **{k: np.asarray(v) for k, v in (keys or {}).items()}}
     if force_dofs is not None:
         keys["force_dofs"] = np.asarray(force_dofs)
     names, data = _csv_table(text, path)

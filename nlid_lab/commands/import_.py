@@ -11,16 +11,35 @@ from analysis.recording import RESPONSE_KINDS
 
 from .. import recordings_io, store
 from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..sweep_keys import describe, parse_sweep_option
+
+
+def _sweep_keys(args: argparse.Namespace) -> dict:
+    """Keys ``--excitation``/``--sweep`` add to (or override in) each file."""
+    keys = {} if args.excitation is None else {"excitation": args.excitation}
+    if args.sweep:
+        if args.excitation not in (None, "swept-sine"):
+            raise InputError(f"--sweep describes a swept sine; drop it or use --excitation "
+                             f"swept-sine (not {args.excitation})")
+        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep)}
+    return keys
 
 
 def _read(src: Path, args: argparse.Namespace):
     suffix = src.suffix.lower()
+    given = _sweep_keys(args)
     if suffix == ".npz":
-        return recordings_io.read_npz(src)
+        if not given:
+            return recordings_io.read_npz(src)
+        return recordings_io.recording_from_keys(
+            {**recordings_io.load_npz_keys(src), **given}, src)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
         return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
-                                      force_dofs=args.force_dofs)
+                                      force_dofs=args.force_dofs,
+                                      excitation=given.get("excitation"),
+                                      keys={k: v for k, v in given.items()
+                                            if k != "excitation"})
     if suffix == ".mat":
         from .. import mat_io
         tree = mat_io.read_mat_tree(src)
@@ -31,7 +50,7 @@ def _read(src: Path, args: argparse.Namespace):
         cmap = (mat_io.ChannelMap.from_toml(args.map[0])
                 if len(args.map) == 1 and args.map[0].endswith(".toml")
                 else mat_io.ChannelMap.from_items(args.map))
-        keys = mat_io.apply_map(tree, cmap, str(src))
+        keys = {**mat_io.apply_map(tree, cmap, str(src)), **given}
         if args.response_kind:
             keys["response_kind"] = args.response_kind
         return recordings_io.recording_from_keys(keys, src)
@@ -56,10 +75,15 @@ def run(args: argparse.Namespace) -> int:
               "excitation": rec.excitation, "fs": rec.fs, "force_dofs": rec.force_dofs,
               "n_dof": rec.n_dof, "n_samples": int(rec.force.shape[-2]),
               "response_kind": rec.response_kind}
+    if rec.sweep is not None:
+        result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} channel(s), "
               f"{len(recs)} level(s)) -> {out}")
+        for src, r in zip(sources, recs):
+            if r.sweep is not None:
+                print(f"  {src.name}: {describe(r.sweep)}")
     write_json(result, args.json)
     return 0
 
@@ -81,6 +105,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--map", nargs="+", metavar="KEY=VALUE",
                    help="MAT: channel map, e.g. force=Force response=Acceleration[0:3]:g "
                    "fs=Fs force_dofs=0, or one MAP.toml")
+    p.add_argument("--excitation", choices=("random", "swept-sine"),
+                   help="what the files hold when they do not say (exports carry no "
+                   "excitation key); swept-sine files without sweep keys get the sweep law "
+                   "estimated from the force, lead-in and trailing zeros trimmed")
+    p.add_argument("--sweep", metavar="START:STOP[:LAW[:RATE]]",
+                   help="swept sine: the sweep as generated (Hz, Hz, linear|log, Hz/s or "
+                   "octaves/min); parts left out are estimated from the force")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
