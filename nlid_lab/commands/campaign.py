@@ -149,8 +149,9 @@ def _run(args: argparse.Namespace) -> int:
     overwrite = args.force and not args.resume
     started = _Started()
     observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
-    unit = "block" if campaign.kind == "random" else "step"
-    planned = campaign.plan.averages if campaign.kind == "random" else len(campaign.plan.freqs)
+    unit = {"random": "block", "swept-sine": "sweep"}.get(campaign.kind, "step")
+    planned = campaign.plan.averages if campaign.kind == "random" else \
+        1 if campaign.kind == "swept-sine" else len(campaign.plan.freqs)
     try:
         if args.live or args.live_close:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,

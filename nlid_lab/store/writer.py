@@ -33,11 +33,13 @@ class LevelWriter:
         self.next_seq = int(mine["seq"].max()) + 1 if len(mine) else 0
 
     def append_block(self, force: np.ndarray, response: np.ndarray, seq: int | None = None,
-                     t: float | None = None, extra: dict | None = None) -> int:
+                     t: float | None = None, extra: dict | None = None,
+                     amplitude: float | None = None) -> int:
         """Append one random or swept-sine block; returns its sequence number. A swept-sine
         level's first block carries the level's sweep keys in ``extra``
-        (`analysis.sweep_law.Sweep.keys`)."""
-        return self._append(force, response, seq, t, np.nan, np.nan, extra)
+        (`analysis.sweep_law.Sweep.keys`) and may carry its force ``amplitude``."""
+        amp = np.nan if amplitude is None else float(amplitude)
+        return self._append(force, response, seq, t, np.nan, amp, extra)
 
     def append_step(self, freq: float, force: np.ndarray, response: np.ndarray,
                     amplitude: float | None = None, extra: dict | None = None,
