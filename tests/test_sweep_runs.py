@@ -1,0 +1,110 @@
+"""Swept sine end to end: F-16-like MAT export import (law estimated), campaigns, detect."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+
+from analysis.model import Element, Model
+from analysis.plant import Plant
+from analysis.sweep_law import SweepLaw
+from nlid_lab import recordings_io as rio
+from nlid_lab.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+FS = 400.0
+
+
+def f16_like(law: SweepLaw, amplitude: float, lead: int, tail: int, p: float):
+    """Force 1xN, Voltage 1xN, Acceleration 3xN (channel-major) of a 3-DOF chain swept by
+    ``law``: a quiet lead-in (sensor noise) before the sweep and trailing zero samples."""
+    m = np.diag([2.0, 1.0, 0.5])
+    k = np.array([[3e4, -1e4, 0], [-1e4, 1.5e4, -5e3], [0, -5e3, 5e3]])
+    model = Model(m, 2e-4 * k + 0.5 * m, k,
+                  [Element("cubic_spring", [0.0, 1.0, -1.0], {"p": p})] if p else [])
+    t = np.arange(int(round(law.duration * FS))) / FS
+    force = amplitude * np.sin(law.phase(t))
+    acc = Plant(model, FS, [0], response_kind="acceleration").run(force[:, None]).response
+    rng = np.random.default_rng(0)
+    pad = lambda x: np.concatenate([1e-3 * amplitude * rng.normal(size=lead), x,  # noqa: E731
+                                    np.zeros(tail)])
+    return {"Force": pad(force)[None], "Voltage": pad(force / 20)[None],
+            "Acceleration": np.stack([pad(a) for a in acc.T]), "Fs": FS}
+
+
+def test_f16_like_sweep_export_imports_with_estimated_law(tmp_path, capsys):
+    law = SweepLaw(15.0, 2.0, "linear", 0.5)          # F-16: 15 -> 2 Hz at 0.05 Hz/s, shortened
+    lead, tail = 137, 800
+    scipy.io.savemat(tmp_path / "F16Data_SineSw_Level1.mat", f16_like(law, 5.0, lead, tail, 0))
+    scipy.io.savemat(tmp_path / "F16Data_SineSw_Level7.mat", f16_like(law, 95.0, lead, tail,
+                                                                       2e7))
+    files = [str(tmp_path / f"F16Data_SineSw_Level{k}.mat") for k in (1, 7)]
+    out = tmp_path / "sweep.h5"
+    assert main(["import", *files, "--out", str(out), "--excitation", "swept-sine", "--map",
+                 "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs", "force_dofs=0",
+                 "--json", str(tmp_path / "import.json")]) == 0
+    said = capsys.readouterr().out
+    assert "estimated from the force" in said
+    recs = rio.load_recordings(out)
+    for rec in recs:
+        s = rec.sweep
+        assert s.estimated and s.law.law == "linear" and s.law.direction == -1
+        # stated tolerance (docs/recording-formats.md): start/stop within 0.01 Hz, rate 0.5 %
+        assert abs(s.law.start_hz - 15.0) < 0.01 and abs(s.law.stop_hz - 2.0) < 0.01
+        assert abs(s.law.rate / 0.5 - 1) < 0.005
+        assert abs(s.trimmed_lead - lead) <= 2 and s.trimmed_tail == tail
+        assert rec.force.shape[0] == pytest.approx(law.duration * FS, abs=3)
+    assert [round(r.level) for r in recs] == [5, 95]      # the force amplitude, estimated
+    # every key survives run -> export -> import
+    assert main(["export", str(out), "--level", "1", "--out", str(tmp_path / "l7.npz")]) == 0
+    back = rio.read_npz(tmp_path / "l7.npz")
+    assert back.sweep == recs[1].sweep and np.array_equal(back.force, recs[1].force)
+    # detect: harmonic distortion at the high level, level dependence between the two
+    assert main(["detect", str(out), "--json", str(tmp_path / "d.json"), "-q"]) == 0
+    result = json.loads((tmp_path / "d.json").read_text())
+    harm = [t for t in result["tests"] if t["method"] == "sweep-harmonics"]
+    assert [t["nonlinear"] for t in harm] == [False, True]
+    assert result["verdict"] == "nonlinear"
+
+
+def test_partial_sweep_option_overrides_the_estimate(tmp_path):
+    law = SweepLaw(3.0, 12.0, "log", 4.0)
+    data = f16_like(law, 2.0, 50, 100, 0)
+    np.savez(tmp_path / "s.npz", fs=FS, force_dofs=[0], force=data["Force"].T,
+             response=data["Acceleration"].T, response_kind="acceleration")
+    assert main(["import", str(tmp_path / "s.npz"), "--out", str(tmp_path / "s.h5"),
+                 "--sweep", "3:12:log"]) == 0
+    (rec,) = rio.load_recordings(tmp_path / "s.h5")
+    assert (rec.sweep.law.start_hz, rec.sweep.law.stop_hz, rec.sweep.law.law) == (3, 12, "log")
+    assert abs(rec.sweep.law.rate / 4.0 - 1) < 0.005 and rec.sweep.estimated
+
+
+def test_bad_sweep_option_is_one_line(tmp_path, capsys):
+    np.savez(tmp_path / "s.npz", fs=FS, force_dofs=[0], force=np.ones((10, 1)),
+             response=np.ones((10, 1)))
+    assert main(["import", str(tmp_path / "s.npz"), "--out", str(tmp_path / "s.h5"),
+                 "--sweep", "fast"]) == 2
+    assert "START:STOP" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("example", ["campaign-sim-sweep.toml", "campaign-serial-sweep.toml"])
+def test_sweep_campaign_examples_run_and_detect(tmp_path, example):
+    out = tmp_path / "run.h5"
+    assert main(["campaign", "run", str(EXAMPLES / example), "--out", str(out), "-q"]) == 0
+    recs = rio.load_recordings(out)
+    assert [r.sweep.law.direction for r in recs] == [1, -1] * (len(recs) // 2)
+    for r in recs:
+        assert r.force.shape[0] == pytest.approx(r.sweep.law.duration * r.fs, abs=2)
+        assert abs(np.abs(r.force).max() / r.level - 1) < 0.05
+    assert main(["detect", str(out), "--json", str(tmp_path / "d.json"), "-q"]) == 0
+    result = json.loads((tmp_path / "d.json").read_text())
+    hyst = [t for t in result["tests"] if t["method"] == "sweep-hysteresis"]
+    top = max(hyst, key=lambda t: t["levels"][0])
+    # 8 N on the hardening SDOF: the up-sweep falls off the resonant branch near 59 Hz, the
+    # down-sweep jumps onto it near 53 Hz
+    assert top["jumps"]["up"]["jump"] and top["jumps"]["up"]["freq_hz"] > 57
+    assert result["verdict"] == "nonlinear"
