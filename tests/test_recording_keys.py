@@ -61,7 +61,8 @@ _array_extra = st.one_of(
 @st.composite
 def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
     """The keys of an NPZ (or CSV-able) recording: every contract key, some unknown ones."""
-    excitation = "random" if csv else draw(st.sampled_from(["random", "stepped-sine"]))
+    excitation = "random" if csv else draw(st.sampled_from(["random", "stepped-sine",
+                                                             "swept-sine"]))
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     n_dof = draw(st.integers(1, 3))
     force_dofs = np.asarray(draw(st.lists(st.integers(0, n_dof - 1), min_size=1, max_size=2)))
@@ -72,7 +73,18 @@ def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
                                        ["displacement", "velocity", "acceleration"]))),
                                    "force_hold": np.str_(draw(st.sampled_from(["none",
                                                                                "linear"])))}
-    if excitation == "random":
+    if excitation == "swept-sine":             # the law given: no estimation, data kept as is
+        lo, hi = sorted(rng.uniform(0.01, 0.45, 2) * fs)
+        up = draw(st.booleans())
+        keys.update(sweep_start_hz=np.float64(lo if up else hi),
+                    sweep_stop_hz=np.float64(hi if up else lo),
+                    sweep_law=np.str_(draw(st.sampled_from(["linear", "log"]))),
+                    sweep_rate=np.float64(draw(st.floats(0.01, 100))))
+        if draw(st.booleans()):
+            keys.update(sweep_estimated=np.int64(1), sweep_trimmed_lead=np.int64(
+                draw(st.integers(0, 99))), sweep_trimmed_tail=np.int64(draw(st.integers(0, 9))))
+        shape = (draw(st.integers(3, 60)),)
+    elif excitation == "random":
         periodic = draw(st.booleans())
         if periodic:
             lay = PeriodicLayout(draw(st.integers(2, 16)), draw(st.integers(0, 2)),
