@@ -79,7 +79,7 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
             notes.append(f"one {name} level: the level-dependence test needs two or more")
     if swept:
         from .detect_sweep import sweep_tests
-        more, said = sweep_tests(swept)
+        more, said = sweep_tests(swept, _summary)
         tests += more
         notes += said
     if not tests:

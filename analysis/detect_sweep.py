@@ -21,7 +21,7 @@ Levels of one direction
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -36,8 +36,12 @@ JUMP_FACTOR = 4.0
 PAIR_TOLERANCE = 0.1
 
 
-def sweep_tests(recordings: Sequence[Recording]) -> tuple[list[dict[str, Any]], list[str]]:
+def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., dict[str, Any]]
+                ) -> tuple[list[dict[str, Any]], list[str]]:
     """Every sweep test the swept-sine ``recordings`` allow, and notes.
+
+    ``summary`` is `analysis.detect._summary` (share of flagged lines against chance), the
+    one summary of every line-by-line test.
 
     Returns
     -------
@@ -64,7 +68,8 @@ def sweep_tests(recordings: Sequence[Recording]) -> tuple[list[dict[str, Any]], 
             tests.append(hysteresis(up[0], up[1], match[0][0], match[0][1]))
     for group in (ups, downs):
         if len(group) >= 2:
-            tests.append(level_dependence([f for _, f in group], group[0][0].response_kind))
+            tests.append(level_dependence([f for _, f in group], group[0][0].response_kind,
+                                          summary))
     if len(frfs) == 1:
         notes.append("one sweep: the up/down hysteresis test needs the other direction at the "
                      "same level, the level test a second level")
@@ -126,11 +131,10 @@ def _rate_at(rec: Recording, freq: float) -> float:
     return law.rate if law.law == "linear" else law.rate / 60 * np.log(2) * freq
 
 
-def level_dependence(frfs: Sequence[SweepFRF], response_kind: str) -> dict[str, Any]:
+def level_dependence(frfs: Sequence[SweepFRF], response_kind: str,
+                     summary: Callable[..., dict[str, Any]]) -> dict[str, Any]:
     """Tracked fundamental FRFs of the lowest and the highest level of one sweep direction
-    compared on independent windows (module docstring)."""
-    from .detect import _summary
-
+    compared on independent windows (module docstring; ``summary`` as in `sweep_tests`)."""
     lo, hi = sorted(frfs, key=lambda f: f.level)[::len(frfs) - 1]
     keep = _independent(lo.times, lo.window_s)
     f = lo.freqs[keep]
@@ -146,7 +150,7 @@ def level_dependence(frfs: Sequence[SweepFRF], response_kind: str) -> dict[str, 
                    for c in range(hi.frf.shape[1])], axis=1)
     z = np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)
     threshold = float(-np.log(1 - DETECT_QUANTILE))
-    out = _summary(f, z > threshold, 1.0, "sweep-level-dependence")
+    out = summary(f, z > threshold, 1.0, "sweep-level-dependence")
     out.update(levels=[lo.level, hi.level], direction=_name(lo.direction),
                median_change_db=[float(10 * np.log10(np.median(z[:, q])))
                                  for q in range(z.shape[1])])

@@ -10,26 +10,23 @@ sweep (its law, as generated, is stored with it).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
+from analysis.sine_fit import sine_fit
 from analysis.sweep_law import Sweep
 from drivers.base import SineOutput, SweepOutput
 
 from .campaign_config import SweepSpec
 
-if TYPE_CHECKING:
-    from .campaign import _Runner
-
 #: the sweep starts where the force first exceeds this fraction of its peak
 ONSET_FRACTION = 0.01
 
 
-def run_sweeps(runner: "_Runner", plan: SweepSpec) -> None:
-    """Measure every (amplitude, direction) level of ``plan`` not stored yet."""
-    from .campaign import harmonics
-
+def run_sweeps(runner: Any, plan: SweepSpec) -> None:
+    """Measure every (amplitude, direction) level of ``plan`` not stored yet (``runner``: the
+    campaign's `nlid_lab.campaign._Runner`)."""
     fs = runner.c.fs
     for i, (amp, law) in enumerate(zip(plan.levels, plan.laws)):
         runner.level = i
@@ -42,7 +39,7 @@ def run_sweeps(runner: "_Runner", plan: SweepSpec) -> None:
         for _ in range(plan.max_control_iterations):
             runner.take(plan.block_size)                   # the transient after a change
             data, _ = runner.take(plan.block_size)
-            famp = abs(harmonics(data, law.start_hz, fs, 1)[1][runner.force_col])
+            famp = abs(sine_fit(data[:, [runner.force_col]], fs, law.start_hz)[0][0])
             if famp <= 0:
                 break
             runner.gain = famp / drive

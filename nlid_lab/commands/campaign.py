@@ -177,8 +177,10 @@ def _check(args: argparse.Namespace) -> int:
 
     c = load_campaign(args.campaign)
     excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
-    n = c.plan.averages if c.kind == "random" else len(c.plan.freqs)
-    unit = "steps" if c.kind != "random" else ("realizations" if c.plan.periodic else "blocks")
+    n = c.plan.averages if c.kind == "random" else \
+        1 if c.kind == "swept-sine" else len(c.plan.freqs)
+    unit = {"stepped-sine": "steps", "swept-sine": "sweeps"}.get(c.kind) or (
+        "realizations" if c.plan.periodic else "blocks")
     kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
     print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
           f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"
