@@ -108,3 +108,72 @@ def test_sweep_campaign_examples_run_and_detect(tmp_path, example):
     # down-sweep jumps onto it near 53 Hz
     assert top["jumps"]["up"]["jump"] and top["jumps"]["up"]["freq_hz"] > 57
     assert result["verdict"] == "nonlinear"
+
+
+CAMPAIGN = """name = "duffing sweep"
+kind = "swept-sine"
+[plant]
+model = "{model}"
+shaker_gain = 20.0
+[shaker]
+url = "sim://"
+gain_guess = 20.0
+[daq]
+url = "sim://"
+fs = 1024.0
+frame_size = 1024
+[[channel]]
+name = "F0"
+quantity = "force"
+dof = 0
+[[channel]]
+name = "x0"
+quantity = "displacement"
+dof = 0
+[sweep]
+levels = [{amp}]
+start = {lo}
+stop = {hi}
+rate = 0.02
+direction = "up-down"
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("p, amp, band", [(6e10, 5.0, (46.0, 62.0)), (-2e10, 4.0, (40.0, 54.0))],
+                         ids=["hardening", "softening"])
+def test_duffing_sweep_campaign_jumps_both_ways_as_harmonic_balance(tmp_path, p, amp, band):
+    """Done-when of the issue through campaign -> run -> detect: the slow sweeps (0.02 Hz/s,
+    a seventh of the ISO limit) of a hardening and a softening Duffing jump in both
+    directions, where harmonic balance says, and their FRF is harmonic balance's within 1 %
+    away from the jumps."""
+    from analysis.hbm import HBMSystem
+    from analysis.sweep import recording_sweep_frf
+
+    model = Model([[2.0]], [[10.0]], [[2e5]], [Element("cubic_spring", [1.0], {"p": p})])
+    model.save(tmp_path / "m.toml")
+    (tmp_path / "c.toml").write_text(CAMPAIGN.format(model=tmp_path / "m.toml", amp=amp,
+                                                     lo=band[0], hi=band[1]))
+    out = tmp_path / "run.h5"
+    assert main(["campaign", "run", str(tmp_path / "c.toml"), "--out", str(out), "-q"]) == 0
+    system = HBMSystem(model, [0], (1, 3, 5))
+    jumps = {}
+    for rec in rio.load_recordings(out):
+        r = recording_sweep_frf(rec, harmonics=(1, 3, 5), points=400)
+        hbm = system.sweep(r.freqs, r.force[:, None])
+        h_hbm = hbm.X[:, 0, 0] / r.force
+        step = np.abs(np.diff(np.log(np.abs(r.frf[:, 0]))))
+        j = int(np.argmax(step))
+        j_hbm = int(np.argmax(np.abs(np.diff(np.log(np.abs(h_hbm))))))
+        assert abs(r.freqs[j] - r.freqs[j_hbm]) < 0.15
+        away = (np.abs(r.freqs - r.freqs[j]) > 1.0) \
+            & (np.abs(r.freqs - rec.sweep.law.start_hz) > 2.0)
+        assert np.abs(r.frf[away, 0] / h_hbm[away] - 1).max() < 0.01
+        jumps[rec.sweep.law.direction] = r.freqs[j]
+    assert jumps[1] - jumps[-1] > 1.0
+    assert main(["detect", str(out), "--json", str(tmp_path / "d.json"), "-q"]) == 0
+    result = json.loads((tmp_path / "d.json").read_text())
+    (hyst,) = [t for t in result["tests"] if t["method"] == "sweep-hysteresis"]
+    assert hyst["nonlinear"] and hyst["jumps"]["up"]["jump"] and hyst["jumps"]["down"]["jump"]
+    assert abs(hyst["jumps"]["up"]["freq_hz"] - jumps[1]) < 0.15
+    assert all(t["nonlinear"] for t in result["tests"] if t["method"] == "sweep-harmonics")
