@@ -315,12 +315,15 @@ def linear_modes(mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray
 
 
 def quasi_steady(frf: SweepFRF, law: SweepLaw, modes: Sequence[tuple[float, float]],
-                 bandwidths: float = 5.0) -> tuple[SweepFRF, list[str]]:
+                 error: float = 0.05, bandwidths: float = 5.0) -> tuple[SweepFRF, list[str]]:
     """The analysis points of a sweep that read as stepped-sine points, and the warnings.
 
-    An engineer's check (ISO 7626-2, `sweep_rate_check`): where the sweep passes a mode
-    faster than its quasi-steady limit, the points within ``bandwidths`` half-power
-    half-widths (``zeta fn``) of it are left out (the response there lags the sweep).
+    An engineer's check (ISO 7626-2, `sweep_rate_check`) for every mode ``(fn, zeta)``; where
+    the sweep passes a mode faster than its quasi-steady limit, the response lags the sweep
+    by about one time constant, i.e. by ``d = r / (2 pi zeta fn)`` Hz at rate ``r`` (Hz/s at
+    ``fn``), and the tracked FRF at ``|f - fn| = delta`` is off by about ``d / delta`` (the
+    mode's ``d ln|H| / df``). Points closer to the mode than ``max(d / error, bandwidths
+    zeta fn)`` are left out.
 
     Returns
     -------
@@ -332,12 +335,15 @@ def quasi_steady(frf: SweepFRF, law: SweepLaw, modes: Sequence[tuple[float, floa
     keep = np.ones(frf.freqs.size, bool)
     warnings = []
     for (fn, zeta), text in zip(*_too_fast(law, modes)):
-        near = np.abs(frf.freqs - fn) <= bandwidths * zeta * fn
+        rate = law.rate if law.law == "linear" else law.rate / 60 * np.log(2.0) * fn
+        radius = max(rate / (2 * np.pi * zeta * fn) / error, bandwidths * zeta * fn)
+        near = np.abs(frf.freqs - fn) <= radius
         keep &= ~near
-        warnings.append(f"{text}; {int(near.sum())} sweep point(s) within "
-                        f"{bandwidths:g} half-power half-widths of it left out of the fit")
+        warnings.append(f"{text}; the {int(near.sum())} sweep point(s) within {radius:.3g} Hz "
+                        f"of it (where the lag reads the FRF more than {100 * error:g} % off) "
+                        "are left out of the fit")
     if not keep.any():
-        raise RecordingError("no quasi-steady point left in the sweep: it passes every mode "
+        raise RecordingError("no quasi-steady point left in the sweep: it passes its modes "
                              "too fast (ISO 7626-2); sweep slower or record a stepped sine")
     cut = {name: getattr(frf, name)[keep] for name in
            ("freqs", "force", "X", "noise", "force_harmonics", "times", "window_s")}
