@@ -480,7 +480,9 @@ def read_drive(path: str | os.PathLike) -> dict:
 
     Returns a dict with ``fs``, ``force`` (random (n, n_in); stepped (n_steps, n, n_in)),
     ``force_dofs``, ``excitation``, ``freqs`` (or None), ``level`` (or None), ``layout``
-    (a `PeriodicLayout` from the drive's ``period``... keys, or None) and ``extra`` (the
+    (a `PeriodicLayout` from the drive's ``period``... keys, or None), ``sweep`` (an
+    ``excitation = "swept-sine"`` drive's `Sweep`, from its keys or estimated from its
+    force; else None) and ``extra`` (the
     drive's other keys, for the simulated recording). A recording used as a drive gives
     its force: its ``response``, ``response_kind`` and ``force_hold`` are not carried.
     """
@@ -496,7 +498,9 @@ def read_drive(path: str | os.PathLike) -> dict:
                  "force_dofs": _array(data, "force_dofs", path, integer=True),
                  "freqs": _array(data, "freqs", path) if "freqs" in data else None}
         stepped = drive["freqs"] is not None
-        drive["excitation"] = "stepped-sine" if stepped else "random"
+        swept = not stepped and "excitation" in data \
+            and _scalar(data, "excitation", str, path) == "swept-sine"
+        drive["excitation"] = "stepped-sine" if stepped else "swept-sine" if swept else "random"
         drive["level"], level_from = _level(data, path, drive["excitation"])
         drive["extra"] = _extra(data, drive["excitation"], level_from)
     except (TypeError, ValueError) as exc:
@@ -529,6 +533,11 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  f"number in (0, {MAX_SAMPLE:g}] N")
     try:
         drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
+        drive["sweep"] = None
+        if drive["excitation"] == "swept-sine":     # a sweep drive plays from its first sample
+            drive["sweep"], drive["force"], _, level = sweep_fields(data, force, force,
+                                                                    drive["fs"])
+            drive["level"] = drive["level"] or level
     except ValueError as exc:
         raise RecordingFileError(f"{path}: {exc}") from None
     return drive

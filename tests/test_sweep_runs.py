@@ -201,3 +201,20 @@ def test_duffing_sweep_campaign_jumps_both_ways_as_harmonic_balance(tmp_path, p,
     assert hyst["nonlinear"] and hyst["jumps"]["up"]["jump"] and hyst["jumps"]["down"]["jump"]
     assert abs(hyst["jumps"]["up"]["freq_hz"] - jumps[1]) < 0.15
     assert all(t["nonlinear"] for t in result["tests"] if t["method"] == "sweep-harmonics")
+
+
+def test_simulate_plays_a_sweep_drive(tmp_path):
+    """A swept-sine drive (its law given) gives a swept-sine recording with the same sweep."""
+    from analysis.sweep import sweep_signal
+
+    law = SweepLaw(40.0, 60.0, "log", 30.0)
+    np.savez(tmp_path / "drive.npz", fs=1024.0, force_dofs=[0], excitation="swept-sine",
+             force=sweep_signal(law, 1024.0, 2.0)[:, None], sweep_start_hz=40.0,
+             sweep_stop_hz=60.0, sweep_law="log", sweep_rate=30.0)
+    model = tmp_path / "m.toml"
+    model.write_text('name = "sdof"\n[linear]\nmass = [[2.0]]\ndamping = [[10.0]]\n'
+                     'stiffness = [[2e5]]\n')
+    assert main(["simulate", str(model), "--drive", str(tmp_path / "drive.npz"), "--out",
+                 str(tmp_path / "sim.h5")]) == 0
+    (rec,) = rio.load_recordings(tmp_path / "sim.h5")
+    assert rec.excitation == "swept-sine" and rec.sweep.law == law and not rec.sweep.estimated
