@@ -67,6 +67,12 @@ def test_f16_like_sweep_export_imports_with_estimated_law(tmp_path, capsys):
     assert main(["export", str(out), "--level", "1", "--out", str(tmp_path / "l7.npz")]) == 0
     back = rio.read_npz(tmp_path / "l7.npz")
     assert back.sweep == recs[1].sweep and np.array_equal(back.force, recs[1].force)
+    # ... and through MAT: export writes variables MATLAB reads, import needs no map for it
+    assert main(["export", str(out), "--level", "1", "--out", str(tmp_path / "l7.mat")]) == 0
+    assert main(["import", str(tmp_path / "l7.mat"), "--out", str(tmp_path / "l7.h5")]) == 0
+    (again,) = rio.load_recordings(tmp_path / "l7.h5")
+    assert again.sweep == recs[1].sweep and np.array_equal(again.response, recs[1].response)
+    assert scipy.io.loadmat(tmp_path / "l7.mat")["sweep_law"][0] == "linear"
     # detect: harmonic distortion at the high level, level dependence between the two
     assert main(["detect", str(out), "--json", str(tmp_path / "d.json"), "-q"]) == 0
     result = json.loads((tmp_path / "d.json").read_text())

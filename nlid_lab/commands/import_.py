@@ -41,8 +41,14 @@ def _read(src: Path, args: argparse.Namespace):
                                       keys={k: v for k, v in given.items()
                                             if k != "excitation"})
     if suffix == ".mat":
-        from .. import mat_io
+        from .. import mat_io, mat_recording
         tree = mat_io.read_mat_tree(src)
+        if not args.map and mat_recording.is_recording(tree):   # written by nlid-lab export
+            rec = mat_recording.read_mat_recording(src)
+            if given:
+                raise InputError(f"{src}: an nlid-lab recording names its excitation and "
+                                 "sweep; drop --excitation/--sweep")
+            return rec
         if not args.map:
             raise InputError(f"{src}: a MAT file needs --map (e.g. --map force=Force "
                              "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
