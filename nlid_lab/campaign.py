@@ -354,6 +354,8 @@ class _Runner:
                 "n_dof": c.n_dof, "response_kind": c.response_kind,
                 "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
                 "block_len": c.plan.block_size, "averages": getattr(c.plan, "averages", None)}
+        if isinstance(c.plan, SweepSpec):    # one block per level: the sweep (H1 live)
+            info.update(averages=1, sweeps=[dict(law.__dict__) for law in c.plan.laws])
         if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
             info["block_len"] *= c.plan.transient_periods + c.plan.periods
             info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
