@@ -10,7 +10,7 @@ import pytest
 import scipy.io
 
 from analysis.model import Element, Model
-from analysis.plant import Plant
+from analysis.plant import Plant, add_relative_noise
 from analysis.sweep_law import SweepLaw
 from nlid_lab import recordings_io as rio
 from nlid_lab.cli import main
@@ -27,13 +27,15 @@ C3 = 6e-4 * K3 + 0.5 * M3             # modes 2.88, 5.66, 7.81 Hz; damping 1.8-2
 def f16_like(law: SweepLaw, amplitude: float, lead: int, tail: int, p: float):
     """Force 1xN, Voltage 1xN, Acceleration 3xN (channel-major) of a 3-DOF chain (three
     modes in 2-15 Hz, a cubic spring between the 'wing' and the 'payload' points 1 and 2)
-    swept by ``law``: a quiet lead-in (sensor noise) before the sweep, trailing zeros."""
+    swept by ``law``, 0.5 % sensor noise: a quiet lead-in (sensor noise) before the sweep,
+    trailing zeros."""
     model = Model(M3, C3, K3,
                   [Element("cubic_spring", [0.0, 1.0, -1.0], {"p": p})] if p else [])
     t = np.arange(int(round(law.duration * FS))) / FS
     force = amplitude * np.sin(law.phase(t))
     acc = Plant(model, FS, [0], response_kind="acceleration").run(force[:, None]).response
     rng = np.random.default_rng(0)
+    acc = add_relative_noise(acc, 0.005, rng)           # 0.5 % sensor noise
     pad = lambda x: np.concatenate([1e-3 * amplitude * rng.normal(size=lead), x,  # noqa: E731
                                     np.zeros(tail)])
     return {"Force": pad(force)[None], "Voltage": pad(force / 20)[None],
@@ -224,3 +226,22 @@ def test_simulate_plays_a_sweep_drive(tmp_path):
                  str(tmp_path / "sim.h5")]) == 0
     (rec,) = rio.load_recordings(tmp_path / "sim.h5")
     assert rec.excitation == "swept-sine" and rec.sweep.law == law and not rec.sweep.estimated
+
+
+def test_sweep_tests_pass_a_linear_structure_at_two_levels(tmp_path):
+    """Two levels of a linear structure (independent sensor noise), estimated laws: no
+    harmonic distortion, no level dependence (the sweep-rate bias is the same at both)."""
+    from analysis.detect import detect
+
+    law = SweepLaw(15.0, 2.0, "linear", 0.5)
+    recs = []
+    for k, amp in enumerate((4.8, 95.6)):
+        data = f16_like(law, amp, 60, 200, 0)
+        noisy = add_relative_noise(data["Acceleration"].T, 0.005, np.random.default_rng(k))
+        np.savez(tmp_path / f"l{k}.npz", fs=FS, force_dofs=[0], excitation="swept-sine",
+                 force=data["Force"].T, response=noisy, response_kind="acceleration")
+        recs.append(rio.read_npz(tmp_path / f"l{k}.npz"))
+    result = detect(recs)
+    assert result["verdict"] == "no evidence", result["tests"]
+    assert {t["method"] for t in result["tests"]} == {"sweep-harmonics",
+                                                      "sweep-level-dependence"}
