@@ -245,3 +245,23 @@ def test_sweep_tests_pass_a_linear_structure_at_two_levels(tmp_path):
     assert result["verdict"] == "no evidence", result["tests"]
     assert {t["method"] for t in result["tests"]} == {"sweep-harmonics",
                                                       "sweep-level-dependence"}
+
+
+def test_log_down_sweep_campaign_plays_its_law(tmp_path):
+    """A log down-sweep on the sim rig: the stored force follows the law the run records
+    (estimated back from the force alone: log, rate within 1 %, ends within 0.1 Hz)."""
+    from analysis.sweep_estimate import estimate_sweep
+
+    text = CAMPAIGN.format(model=EXAMPLES / "models" / "sdof-linear.toml", amp=2.0,
+                           lo=30.0, hi=70.0)
+    text = text.replace('rate = 0.02\ndirection = "up-down"',
+                        'rate = 12.0\nlaw = "log"\ndirection = "down"')
+    (tmp_path / "c.toml").write_text(text)
+    assert main(["campaign", "run", str(tmp_path / "c.toml"), "--out", str(tmp_path / "r.h5"),
+                 "-q"]) == 0
+    (rec,) = rio.load_recordings(tmp_path / "r.h5")
+    assert rec.sweep.law == SweepLaw(70.0, 30.0, "log", 12.0) and not rec.sweep.estimated
+    est, amp = estimate_sweep(rec.force[:, 0], rec.fs)
+    assert est.law.law == "log" and abs(est.law.rate / 12.0 - 1) < 0.01
+    assert abs(est.law.start_hz - 70.0) < 0.1 and abs(est.law.stop_hz - 30.0) < 0.1
+    assert amp == pytest.approx(2.0, rel=0.02)
