@@ -6,8 +6,9 @@ Single sweep
 Up/down pair at one level
     Sweep-direction hysteresis: where each direction jumps (the largest change of ``|H|``
     between neighbouring analysis points: a drop off the resonant branch or a rise onto it)
-    and whether both do jump — a change more than `JUMP_FACTOR` times the steepest a linear mode of the measured half-power
-    bandwidth allows between the points — and their jump frequencies differ by more than
+    and whether both do jump — a change more than `JUMP_FACTOR` times the steepest a
+    linear mode of the measured half-power bandwidth allows between the points — and their
+    jump frequencies differ by more than
     the sweep's own delay explains (a mode answers a sweep one time constant ``tau = 1 /
     (2 pi zeta fn)`` late, so a linear mode's peaks sit ``2 r tau`` apart, plus two point
     spacings).
@@ -102,7 +103,8 @@ def hysteresis(rec_up: Recording, up: SweepFRF, rec_down: Recording, down: Sweep
                + jumps["up"]["spacing_hz"] + jumps["down"]["spacing_hz"])
     both = jumps["up"]["jump"] and jumps["down"]["jump"]
     nonlinear = bool(both and abs(sep) > allowed)
-    return {"method": "sweep-hysteresis", "nonlinear": nonlinear, "separation_hz": float(sep), "allowed_hz": float(allowed), "jumps": jumps,
+    return {"method": "sweep-hysteresis", "nonlinear": nonlinear, "separation_hz": float(sep),
+            "allowed_hz": float(allowed), "jumps": jumps,
             "band_hz": sorted([jumps["up"]["freq_hz"], jumps["down"]["freq_hz"]])
             if nonlinear else None, "levels": [up.level, down.level],
             "directions": ["up", "down"], "by_output": None}

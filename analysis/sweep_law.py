@@ -125,7 +125,8 @@ class Sweep:
         try:
             law = SweepLaw(float(np.asarray(keys["sweep_start_hz"])),
                            float(np.asarray(keys["sweep_stop_hz"])),
-                           str(np.asarray(keys["sweep_law"])), float(np.asarray(keys["sweep_rate"])))
+                           str(np.asarray(keys["sweep_law"])),
+                           float(np.asarray(keys["sweep_rate"])))
             lead, tail = (int(np.asarray(keys.get(k, 0))) for k in SWEEP_KEYS[5:])
         except (TypeError, ValueError) as exc:
             raise RecordingError(f"swept-sine keys: {exc}") from None

@@ -99,7 +99,8 @@ class SerialShaker(SignalGenerator):
             cmds += [f"SOUR:MSIN:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
                      f"SOUR:MSIN:PER {output.period}", "SOUR:FUNC MSIN"]
         elif isinstance(output, SweepOutput):
-            cmds = [f"SOUR:SWE:STAR {output.start_hz:.12g}", f"SOUR:SWE:STOP {output.stop_hz:.12g}",
+            cmds = [f"SOUR:SWE:STAR {output.start_hz:.12g}",
+                    f"SOUR:SWE:STOP {output.stop_hz:.12g}",
                     f"SOUR:SWE:LAW {output.law.upper()}", f"SOUR:SWE:RATE {output.rate:.12g}",
                     "SOUR:FUNC SWE"]
         else:

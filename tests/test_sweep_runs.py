@@ -265,3 +265,21 @@ def test_log_down_sweep_campaign_plays_its_law(tmp_path):
     assert est.law.law == "log" and abs(est.law.rate / 12.0 - 1) < 0.01
     assert abs(est.law.start_hz - 70.0) < 0.1 and abs(est.law.stop_hz - 30.0) < 0.1
     assert amp == pytest.approx(2.0, rel=0.02)
+
+
+def test_commands_without_a_sweep_route_say_so(tmp_path, capsys):
+    """diagnose, fit-linear and reverse path refuse a swept-sine run in one line (exit 2)."""
+    from analysis.sweep import sweep_signal
+
+    law = SweepLaw(40.0, 60.0, "linear", 4.0)
+    f = sweep_signal(law, 1024.0, 1.0)[:, None]
+    np.savez(tmp_path / "s.npz", fs=1024.0, force_dofs=[0], excitation="swept-sine", force=f,
+             response=1e-5 * f, sweep_start_hz=40.0, sweep_stop_hz=60.0, sweep_law="linear",
+             sweep_rate=4.0)
+    model = EXAMPLES / "models" / "sdof-linear.toml"
+    for argv in (["diagnose", str(model), str(tmp_path / "s.npz"), "--json",
+                  str(tmp_path / "d.json")],
+                 ["fit-linear", str(tmp_path / "s.npz"), "--out", str(tmp_path / "m.toml")],
+                 ["analyze", "reverse-path", str(tmp_path / "s.npz"), "--model", str(model)]):
+        assert main(argv) == 2, argv
+        assert "swept" in capsys.readouterr().err or argv[1] == "reverse-path"
