@@ -8,6 +8,9 @@ Random levels (Welch)
     linear structure, so lines above its 99 % quantile are flagged.
 Periodic-random levels
     The robust BLA's total against its noise variance (`analysis.bla`).
+Swept-sine levels
+    Harmonic distortion of each sweep, sweep-direction hysteresis of an up/down pair, level
+    dependence of one direction (`analysis.detect_sweep`).
 Stepped-sine levels
     The fundamental FRF of the lowest and the highest level at their common frequencies; the
     error of each step's estimate is read off the difference of the fits to the two halves of
@@ -44,7 +47,7 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     Parameters
     ----------
     recordings : sequence of Recording
-        Levels of one structure: random, periodic-random and/or stepped-sine.
+        Levels of one structure: random, periodic-random, stepped-sine and/or swept-sine.
     nperseg : int, optional
         Welch segment length for random levels (default: a power of two <= n/16, <= 8192).
 
@@ -59,6 +62,7 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     periodic = [r for r in recs if r.excitation == "random" and r.layout is not None]
     random = [r for r in recs if r.excitation == "random" and r.layout is None]
     stepped = [r for r in recs if r.excitation == "stepped-sine"]
+    swept = [r for r in recs if r.excitation == "swept-sine"]
     notes = []
     single = [r for r in periodic if r.layout.realizations == 1]
     tests = [_bla_test(r) for r in periodic if r.layout.realizations >= 2]
@@ -73,9 +77,14 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
             tests.append(test(group))
         elif group:
             notes.append(f"one {name} level: the level-dependence test needs two or more")
+    if swept:
+        from .detect_sweep import sweep_tests
+        more, said = sweep_tests(swept, _summary)
+        tests += more
+        notes += said
     if not tests:
         raise InputError("no level to test: give random or stepped-sine runs at two or more "
-                         "levels, or periodic-random runs")
+                         "levels, or periodic-random or swept-sine runs")
     unknown = sum(r.level is None for r in random + stepped)
     if unknown:
         notes.append(f"{unknown} level(s) carry no nominal level (e.g. a CSV imported without "

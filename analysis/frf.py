@@ -36,14 +36,15 @@ class LevelFRF:
     level : float, optional
         Nominal level (force rms or amplitude).
     excitation : str
-        ``"random"`` or ``"stepped-sine"``.
+        ``"random"``, ``"stepped-sine"`` or ``"swept-sine"``.
     response_kind : str
         ``"displacement"``, ``"velocity"`` or ``"acceleration"``.
     force_dofs : ndarray of int
     freqs : ndarray, shape (n_f,)
-        Frequencies, Hz (uneven for stepped sine).
+        Frequencies, Hz (uneven for stepped sine; in sweep order for a swept sine).
     H : ndarray, shape (n_f, n_dof, n_in), complex
-        H1 estimate (random) or fundamental-harmonic ratio X1/F1 (stepped sine).
+        H1 estimate (random) or fundamental-harmonic ratio X1/F1 (stepped sine; swept sine
+        by sine-fit tracking, `analysis.sweep.sweep_frf`).
     coherence : ndarray, shape (n_f, n_dof, n_in), optional
         Ordinary coherence of each output/input pair (random only).
     multiple_coherence : ndarray, shape (n_f, n_dof), optional
@@ -53,6 +54,9 @@ class LevelFRF:
     bla : analysis.bla.BLA, optional
         Periodic-random levels: the robust best linear approximation (``H`` is its ``G``)
         with its noise and total variances.
+    sweep : analysis.sweep.SweepFRF, optional
+        Swept-sine levels: the tracked fundamental and harmonics (``sweep.direction`` +1 up,
+        -1 down).
     """
 
     label: str
@@ -66,6 +70,7 @@ class LevelFRF:
     multiple_coherence: np.ndarray | None = None
     n_averages: int = 1
     bla: Any = None
+    sweep: Any = None
 
     @property
     def units(self) -> str:
@@ -91,11 +96,14 @@ def default_nperseg(n: int) -> int:
 
 
 def level_label(rec: Recording, index: int) -> str:
-    """Legend text of a level: its nominal force, else its position."""
+    """Legend text of a level: its nominal force, else its position (and a swept sine's
+    direction)."""
+    direction = "" if rec.sweep is None else \
+        f", sweep {'up' if rec.sweep.law.direction > 0 else 'down'}"
     if rec.level is None:
-        return f"level {index + 1}"
+        return f"level {index + 1}{direction}"
     unit = "N rms" if rec.excitation == "random" else "N"
-    return f"{rec.level:.3g} {unit}"
+    return f"{rec.level:.3g} {unit}{direction}"
 
 
 def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> LevelFRF:
@@ -113,7 +121,8 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     Returns
     -------
     LevelFRF
-        Stepped sine: X1/F1 per step; periodic random with >= 2 realizations: the BLA;
+        Stepped sine: X1/F1 per step; swept sine: the tracked X1/F1 (first force channel);
+        periodic random with >= 2 realizations: the BLA;
         otherwise H1 with coherences over the excited band.
     """
     common = dict(label=level_label(rec, index), level=rec.level, excitation=rec.excitation,
@@ -121,6 +130,11 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
+    if rec.excitation == "swept-sine":
+        from .sweep import recording_sweep_frf
+        r = recording_sweep_frf(rec)
+        H = convert_frf(r.frf, r.freqs, "displacement", rec.response_kind)
+        return LevelFRF(freqs=r.freqs, H=H[:, :, None], n_averages=1, sweep=r, **common)
     lay = rec.layout
     if lay is not None and rec.n_in == 1 and (lay.realizations >= 2 or lay.periods >= 2):
         b = best_linear_approximation(rec.force, rec.response, rec.fs, lay.period,

@@ -9,8 +9,11 @@ import numpy as np
 
 from .errors import RecordingError
 from .sensors import MIXED, SensorMap
+from .sweep_law import Sweep
 
-EXCITATIONS = ("random", "stepped-sine")
+EXCITATIONS = ("random", "stepped-sine", "swept-sine")
+#: excitations recorded as one (n, channels) record (stepped sine: one record per step)
+CONTINUOUS = ("random", "swept-sine")
 RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
 MIN_FS, MAX_FS = 1e-3, 1e9  # Hz: sample rates of any acquisition
 MAX_SAMPLE = 1e15     # largest |force| or |response| sample: squares and sums stay finite
@@ -95,26 +98,28 @@ class Recording:
     ----------
     fs : float
         Sample rate, Hz.
-    excitation : {"random", "stepped-sine"}
+    excitation : {"random", "stepped-sine", "swept-sine"}
     force_dofs : ndarray of int, shape (n_in,)
         DOF (0-based) each force acts on.
     force : ndarray
-        Random: (n, n_in); stepped-sine: (n_steps, n, n_in). Newtons.
+        Random and swept-sine: (n, n_in); stepped-sine: (n_steps, n, n_in). Newtons.
     response : ndarray
-        Random: (n, n_dof); stepped-sine: (n_steps, n, n_dof).
+        Random and swept-sine: (n, n_dof); stepped-sine: (n_steps, n, n_dof).
     response_kind : {"displacement", "velocity", "acceleration", "mixed"}
         What every response channel measures; with a sensor map it follows the map (its
         channels' common kind, or ``"mixed"``).
     freqs : ndarray, shape (n_steps,), optional
         Stepped-sine drive frequency of each step, Hz.
     level : float, optional
-        Nominal level (force rms for random, force amplitude for stepped-sine).
+        Nominal level (force rms for random, force amplitude for stepped and swept sine).
     force_hold : {"none", "linear"}
         How the recorded force samples acted: as recorded ("none", a transducer behind an
         anti-alias filter) or linearly interpolated between samples ("linear", the
         simulated plant's drive).
     layout : PeriodicLayout, optional
         Periodic (multisine) layout of a random record; None for plain random data.
+    sweep : Sweep, optional
+        The sweep law of swept-sine data (required there, None otherwise).
     extra : dict of str to ndarray
         Keys of the source file that no field holds (e.g. ``sweep_start_hz``), kept
         verbatim so that they are written back on export.
@@ -136,6 +141,7 @@ class Recording:
     level: float | None = None
     force_hold: str = "none"
     layout: PeriodicLayout | None = None
+    sweep: Sweep | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
     sensors: SensorMap | None = None
@@ -176,7 +182,7 @@ class Recording:
                 self.response_kind == MIXED and self.sensors is not None):
             raise RecordingError(f"response_kind '{self.response_kind}' is not one of "
                                  f"{', '.join(RESPONSE_KINDS)}")
-        ndim = 2 if self.excitation == "random" else 3
+        ndim = 2 if self.excitation in CONTINUOUS else 3
         shape_doc = "(n, channels)" if ndim == 2 else "(n_steps, n, channels)"
         for name in ("force", "response"):
             arr = getattr(self, name)
@@ -221,6 +227,13 @@ class Recording:
                                      "per step")
             if not np.all((self.freqs > 0) & (self.freqs < self.fs / 2)):
                 raise RecordingError("stepped-sine freqs must lie between 0 and fs/2")
+        if (self.sweep is not None) != (self.excitation == "swept-sine"):
+            raise RecordingError("swept-sine data need their sweep law (sweep_start_hz, "
+                                 "sweep_stop_hz, sweep_law, sweep_rate) and other data none")
+        top = max(self.sweep.law.start_hz, self.sweep.law.stop_hz) if self.sweep else 0.0
+        if top >= self.fs / 2:
+            raise RecordingError(f"the sweep reaches {top:g} Hz, not below fs/2 = "
+                                 f"{self.fs / 2:g} Hz; check sweep_start_hz/sweep_stop_hz")
         if self.layout is not None:
             if self.excitation != "random":
                 raise RecordingError("a periodic layout (period, ...) belongs to random "

@@ -25,8 +25,8 @@ from scipy.stats import f as f_dist
 
 from .errors import RecordingError
 from .sine_fit import SteppedSineFRF, hold_gain
+from .sweep_law import SWEEP_LAWS, Sweep, SweepLaw  # noqa: F401  (re-exported)
 
-SWEEP_LAWS = ("linear", "log")
 NOISE_ORDERS = (1.5, 2.5)
 #: orders are fitted up to this fraction of fs (near Nyquist a sine fit is ill-conditioned
 #: and the anti-alias filter has cut the signal)
@@ -36,71 +36,6 @@ ISO_RATE = 54.0 / 60.0
 #: displacement from each response kind's harmonic at angular frequency w
 CONVERSIONS = {"displacement": lambda w: np.ones_like(w), "velocity": lambda w: 1 / (1j * w),
                "acceleration": lambda w: -1 / w ** 2}
-
-
-@dataclass(frozen=True)
-class SweepLaw:
-    """A linear or logarithmic sweep.
-
-    Attributes
-    ----------
-    start_hz, stop_hz : float
-        First and last frequency; ``stop < start`` is a down-sweep.
-    law : {"linear", "log"}
-    rate : float
-        Hz/s for a linear sweep, octaves per minute for a logarithmic one (positive).
-    """
-
-    start_hz: float
-    stop_hz: float
-    law: str = "log"
-    rate: float = 1.0
-
-    def __post_init__(self) -> None:
-        if self.law not in SWEEP_LAWS:
-            raise RecordingError(f"sweep_law '{self.law}' is not one of {', '.join(SWEEP_LAWS)}")
-        values = (self.start_hz, self.stop_hz, self.rate)
-        if not all(np.isfinite(v) and v > 0 for v in values) or self.start_hz == self.stop_hz:
-            raise RecordingError("a sweep needs two different positive frequencies and a "
-                                 "positive sweep_rate (Hz/s linear, octaves/min log)")
-
-    @property
-    def direction(self) -> int:
-        """+1 for an up-sweep, -1 for a down-sweep."""
-        return 1 if self.stop_hz > self.start_hz else -1
-
-    @property
-    def duration(self) -> float:
-        """Seconds from start to stop."""
-        if self.law == "linear":
-            return abs(self.stop_hz - self.start_hz) / self.rate
-        return abs(np.log2(self.stop_hz / self.start_hz)) / (self.rate / 60.0)
-
-    def _beta(self) -> float:
-        """Signed log rate, 1/s (``f = f0 exp(beta t)``)."""
-        return self.direction * self.rate / 60.0 * np.log(2.0)
-
-    def frequency(self, t: np.ndarray | float) -> np.ndarray:
-        """Instantaneous frequency at time ``t`` (s from the start), Hz."""
-        t = np.asarray(t, dtype=float)
-        if self.law == "linear":
-            return self.start_hz + self.direction * self.rate * t
-        return self.start_hz * np.exp(self._beta() * t)
-
-    def time(self, freq: np.ndarray | float) -> np.ndarray:
-        """Time at which the sweep passes ``freq``, s."""
-        f = np.asarray(freq, dtype=float)
-        if self.law == "linear":
-            return (f - self.start_hz) / (self.direction * self.rate)
-        return np.log(f / self.start_hz) / self._beta()
-
-    def phase(self, t: np.ndarray | float) -> np.ndarray:
-        """Phase ``θ(t) = 2π ∫ f dt``, rad, zero at the start."""
-        t = np.asarray(t, dtype=float)
-        if self.law == "linear":
-            return 2 * np.pi * (self.start_hz * t + 0.5 * self.direction * self.rate * t * t)
-        b = self._beta()
-        return 2 * np.pi * self.start_hz * np.expm1(b * t) / b
 
 
 def sweep_signal(law: SweepLaw, fs: float, amplitude: float) -> np.ndarray:
@@ -338,3 +273,86 @@ def _independent(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
             keep.append(i)
             end = times[i] + 0.5 * window_s[i]
     return np.sort(np.array(keep, dtype=int))
+
+
+def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwargs) -> SweepFRF:
+    """`sweep_frf` of a swept-sine `Recording` (first force channel), over the part of the
+    record where the force sweeps (`analysis.sweep_estimate.active_span`: trailing zeros and
+    a quiet lead-in are left out; the tracking reads the law's start off the force).
+
+    Parameters
+    ----------
+    rec : Recording
+        ``excitation == "swept-sine"``.
+    harmonics : sequence of int
+        Orders fitted.
+    **kwargs
+        Passed to `sweep_frf` (``cycles``, ``points``).
+    """
+    from .sweep_estimate import active_span
+
+    if rec.excitation != "swept-sine" or rec.sweep is None:
+        raise RecordingError(f"a sweep FRF needs swept-sine data, got {rec.excitation}")
+    a, b = active_span(rec.force[:, 0])
+    return sweep_frf(rec.force[a:b, 0], rec.response[a:b], rec.fs, rec.sweep.law,
+                     harmonics=harmonics, response_kind=rec.response_kind,
+                     force_hold=rec.force_hold, force_dof=int(rec.force_dofs[0]),
+                     level=rec.level, **kwargs)
+
+
+def linear_modes(mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray
+                 ) -> list[tuple[float, float]]:
+    """``(fn Hz, zeta)`` of the underdamped modes of ``M q'' + C q' + K q``, ascending."""
+    from scipy.linalg import eig
+
+    n = mass.shape[0]
+    inv = np.linalg.solve(mass, np.hstack([stiffness, damping]))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-inv[:, :n], -inv[:, n:]]])
+    lam = eig(A, right=False)
+    lam = lam[lam.imag > 0]
+    out = sorted((float(abs(v) / (2 * np.pi)), float(-v.real / abs(v))) for v in lam)
+    return [(f, z) for f, z in out if 0 < z < 1]
+
+
+def quasi_steady(frf: SweepFRF, law: SweepLaw, modes: Sequence[tuple[float, float]],
+                 error: float = 0.05, bandwidths: float = 5.0) -> tuple[SweepFRF, list[str]]:
+    """The analysis points of a sweep that read as stepped-sine points, and the warnings.
+
+    An engineer's check (ISO 7626-2, `sweep_rate_check`) for every mode ``(fn, zeta)``; where
+    the sweep passes a mode faster than its quasi-steady limit, the response lags the sweep
+    by about one time constant, i.e. by ``d = r / (2 pi zeta fn)`` Hz at rate ``r`` (Hz/s at
+    ``fn``), and the tracked FRF at ``|f - fn| = delta`` is off by about ``d / delta`` (the
+    mode's ``d ln|H| / df``). Points closer to the mode than ``max(d / error, bandwidths
+    zeta fn)`` are left out.
+
+    Returns
+    -------
+    SweepFRF
+        The kept points (every array cut alike).
+    warnings : list of str
+        One per mode passed too fast, with the points dropped.
+    """
+    keep = np.ones(frf.freqs.size, bool)
+    warnings = []
+    for (fn, zeta), text in zip(*_too_fast(law, modes)):
+        rate = law.rate if law.law == "linear" else law.rate / 60 * np.log(2.0) * fn
+        radius = max(rate / (2 * np.pi * zeta * fn) / error, bandwidths * zeta * fn)
+        near = np.abs(frf.freqs - fn) <= radius
+        keep &= ~near
+        warnings.append(f"{text}; the {int(near.sum())} sweep point(s) within {radius:.3g} Hz "
+                        f"of it (where the lag reads the FRF more than {100 * error:g} % off) "
+                        "are left out of the fit")
+    if not keep.any():
+        raise RecordingError("no quasi-steady point left in the sweep: it passes its modes "
+                             "too fast (ISO 7626-2); sweep slower or record a stepped sine")
+    cut = {name: getattr(frf, name)[keep] for name in
+           ("freqs", "force", "X", "noise", "force_harmonics", "times", "window_s")}
+    return SweepFRF(harmonics=frf.harmonics, level=frf.level, force_dof=frf.force_dof,
+                    direction=frf.direction, **cut), warnings
+
+
+def _too_fast(law: SweepLaw, modes: Sequence[tuple[float, float]]
+              ) -> tuple[list[tuple[float, float]], list[str]]:
+    """The modes a sweep passes too fast and the `sweep_rate_check` warning of each."""
+    pairs = [(m, w) for m in modes for w in sweep_rate_check(law, [m])]
+    return [m for m, _ in pairs], [w for _, w in pairs]

@@ -152,7 +152,19 @@ class SineOutput:
     freq: float
 
 
-Output = RandomOutput | MultisineOutput | SineOutput
+@dataclass(frozen=True)
+class SweepOutput:
+    """Swept sine (`analysis.sweep_law.SweepLaw`: ``start_hz`` -> ``stop_hz``, ``law``
+    linear or log, ``rate`` Hz/s or octaves/min), starting when the output turns on and
+    silent once the sweep is over; ``level`` is the drive amplitude in volts."""
+
+    start_hz: float
+    stop_hz: float
+    law: str = "linear"
+    rate: float = 1.0
+
+
+Output = RandomOutput | MultisineOutput | SineOutput | SweepOutput
 
 
 def check_output(output: Output, fs: float | None = None) -> None:
@@ -169,6 +181,13 @@ def check_output(output: Output, fs: float | None = None) -> None:
     elif isinstance(output, SineOutput):
         if not output.freq > 0 or (fs is not None and output.freq >= fs / 2):
             raise DriverConfigError(f"sine frequency {output.freq} Hz must lie in (0, fs/2)")
+    elif isinstance(output, SweepOutput):
+        top = max(output.start_hz, output.stop_hz)
+        if output.law not in ("linear", "log") or not (
+                min(output.start_hz, output.stop_hz) > 0 and output.rate > 0
+                and output.start_hz != output.stop_hz) or (fs is not None and top >= fs / 2):
+            raise DriverConfigError(f"sweep {output} must go between two different "
+                                    "frequencies in (0, fs/2), linear or log, at a rate > 0")
     else:
         raise DriverConfigError(f"unknown output type {type(output).__name__}")
 

@@ -23,8 +23,10 @@ from analysis.excitation import ExcitationError, multisine, random_gaussian, sin
 from analysis.model import Model
 from analysis.plant import Plant, hold_image_response
 from analysis.signals import HOLD_IMAGE_LOOKAHEAD
+from analysis.sweep_law import SweepLaw
 
-from .base import Channel, MultisineOutput, Output, RandomOutput, SineOutput, check_output
+from .base import (Channel, MultisineOutput, Output, RandomOutput, SineOutput, SweepOutput,
+                   check_output)
 from .errors import DriverConfigError
 
 # Random drive is generated in chunks of this many samples, independent of the DAQ frame
@@ -115,6 +117,8 @@ class SimRig:
         self._chunk_pos = 0
         self._period: np.ndarray | None = None     # one multisine period
         self._period_pos = 0
+        self._sweep: SweepLaw | None = None
+        self._sweep_pos = 0                         # samples of the sweep played so far
         self.sample_index = 0
         self.zero_commanded_at: float | None = None
         self._past_force = np.zeros((HOLD_IMAGE_LOOKAHEAD, 1))   # before the start: at rest
@@ -134,6 +138,9 @@ class SimRig:
                 self._chunk, self._chunk_index, self._chunk_pos = None, -1, 0
             if period is not None:
                 self._period, self._period_pos = period, 0
+            if isinstance(output, SweepOutput):
+                self._sweep = SweepLaw(output.start_hz, output.stop_hz, output.law, output.rate)
+                self._sweep_pos = 0
 
     def set_level(self, level: float) -> None:
         with self.lock:
@@ -189,7 +196,8 @@ class SimRig:
 
     def _peek(self, n: int) -> np.ndarray:
         """The next ``n`` drive samples if no command changes them; the drive state is kept."""
-        keys = ("_envelope", "_phase", "_chunk", "_chunk_index", "_chunk_pos", "_period_pos")
+        keys = ("_envelope", "_phase", "_chunk", "_chunk_index", "_chunk_pos", "_period_pos",
+                "_sweep_pos")
         saved = {k: getattr(self, k) for k in keys}
         wave = self._drive(n)
         for k, v in saved.items():
@@ -213,6 +221,10 @@ class SimRig:
             idx = (self._period_pos + np.arange(n)) % self._period.size
             wave = self._period[idx]
             self._period_pos = int(idx[-1] + 1) % self._period.size
+        elif isinstance(self._output, SweepOutput):
+            t = (self._sweep_pos + np.arange(n)) / self.fs
+            wave = np.where(t <= self._sweep.duration, np.sin(self._sweep.phase(t)), 0.0)
+            self._sweep_pos += n
         else:
             wave = self._random(n)
         return self._level * env * wave

@@ -13,6 +13,7 @@ import threading
 import time
 
 from .base import (MultisineOutput, Output, RandomOutput, SignalGenerator, SineOutput,
+                   SweepOutput,
                    check_output)
 from .errors import CommsError, DeviceError, DriverConfigError
 from .serial_link import SerialLink
@@ -97,6 +98,11 @@ class SerialShaker(SignalGenerator):
             cmds = [f"SOUR:MSIN:SEED {int(output.seed)}"] if output.seed is not None else []
             cmds += [f"SOUR:MSIN:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
                      f"SOUR:MSIN:PER {output.period}", "SOUR:FUNC MSIN"]
+        elif isinstance(output, SweepOutput):
+            cmds = [f"SOUR:SWE:STAR {output.start_hz:.12g}",
+                    f"SOUR:SWE:STOP {output.stop_hz:.12g}",
+                    f"SOUR:SWE:LAW {output.law.upper()}", f"SOUR:SWE:RATE {output.rate:.12g}",
+                    "SOUR:FUNC SWE"]
         else:
             assert isinstance(output, SineOutput)
             cmds = ["SOUR:FUNC SIN", f"SOUR:FREQ {output.freq:.12g}"]

@@ -25,7 +25,7 @@ from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutpu
 from drivers.errors import CommsError
 
 from .campaign_bench import Bench, open_bench
-from .campaign_config import Campaign, RandomSpec, SteppedSpec
+from .campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from .observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
 from .store import LevelWriter, RunWriter
 
@@ -329,7 +329,7 @@ class _Runner:
             x = block[self._skip:, 0]
             n, total, squares = n + x.size, total + x.sum(), squares + x @ x
             amplitudes.append(amplitude)
-        stepped = isinstance(self.c.plan, SteppedSpec)
+        stepped = isinstance(self.c.plan, (SteppedSpec, SweepSpec))
         force = error = None
         if amplitudes and stepped:
             force = float(np.mean(amplitudes))
@@ -338,7 +338,8 @@ class _Runner:
         elif amplitudes:
             force = float(np.sqrt(max(squares / n - (total / n) ** 2, 0.0)))
             error = force / target - 1
-        unit = "step" if stepped else "realization" if self._skip else "block"
+        unit = "sweep" if isinstance(self.c.plan, SweepSpec) else \
+            "step" if stepped else "realization" if self._skip else "block"
         summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,
                                lw.n_segments, planned, force, error, self._drive,
                                time.monotonic() - self._level_t0)
@@ -347,17 +348,21 @@ class _Runner:
 
     def run(self) -> None:
         c = self.c
-        per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else len(c.plan.freqs)
+        per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else \
+            1 if isinstance(c.plan, SweepSpec) else len(c.plan.freqs)
         info = {"fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof],
                 "n_dof": c.n_dof, "response_kind": c.response_kind,
                 "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
                 "block_len": c.plan.block_size, "averages": getattr(c.plan, "averages", None)}
+        if isinstance(c.plan, SweepSpec):    # one block per level: the sweep (H1 live)
+            info.update(averages=1, sweeps=[dict(law.__dict__) for law in c.plan.laws])
         if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
             info["block_len"] *= c.plan.transient_periods + c.plan.periods
             info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
         if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
             info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
         info.update(planned=per_level, unit="step" if isinstance(c.plan, SteppedSpec) else
+                    "sweep" if isinstance(c.plan, SweepSpec) else
                     "realization" if self._skip else "block",
                     stored=[self.writer.level(i, x).n_segments
                             for i, x in enumerate(c.levels)])
@@ -365,6 +370,9 @@ class _Runner:
         try:
             if isinstance(c.plan, RandomSpec):
                 self.random(c.plan)
+            elif isinstance(c.plan, SweepSpec):
+                from .campaign_sweep import run_sweeps
+                run_sweeps(self, c.plan)
             else:
                 self.stepped(c.plan)
         except BaseException:
@@ -392,6 +400,8 @@ def _store_channels(c: Campaign) -> list[dict[str, Any]]:
 
 def _excitation(c: Campaign) -> dict[str, Any]:
     plan = dict(c.plan.__dict__)
+    if isinstance(c.plan, SweepSpec):
+        plan["laws"] = [dict(law.__dict__) for law in c.plan.laws]
     return {"kind": c.kind, **plan}
 
 

@@ -20,12 +20,12 @@ from drivers.base import Channel
 from drivers.errors import DriverConfigError
 from drivers.faults import FaultSpec
 
-KINDS = ("random", "stepped-sine")
+KINDS = ("random", "stepped-sine", "swept-sine")
 DIRECTIONS = ("up", "down", "up-down")
 SIMULATED = ("sim", "serial-emu", "can-emu")
 SCHEMES = SIMULATED + ("serial", "can")
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
-            "safety", "emulator"}
+            "sweep", "safety", "emulator"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
 MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
 
@@ -70,6 +70,18 @@ class SteppedSpec:
 
 
 @dataclass
+class SweepSpec:
+    """Swept-sine plan: one level per (force amplitude, direction), amplitudes in order."""
+
+    levels: list[float]           # force amplitude of each level, N
+    laws: list                    # analysis.sweep_law.SweepLaw of each level
+    block_size: int               # samples per level-control block (a sine at the start)
+    tolerance: float = 0.02
+    max_control_iterations: int = 8
+    lead_s: float = 0.5           # recorded before the sweep starts (trimmed when stored)
+
+
+@dataclass
 class Campaign:
     """A validated campaign."""
 
@@ -80,7 +92,7 @@ class Campaign:
     fs: float
     channels: list[Channel]
     response_kind: str
-    plan: RandomSpec | SteppedSpec
+    plan: RandomSpec | SteppedSpec | SweepSpec
     plant: PlantSpec | None = None
     frame_size: int = 32
     comms_timeout: float = 0.25
@@ -103,6 +115,10 @@ class Campaign:
         at once, every step settled at the first check) and at most (every control and
         settling allowance used); drive ramps and transport latency come on top."""
         p = self.plan
+        if isinstance(p, SweepSpec):     # control: skip + measure per try; the sweep itself
+            sweep = math.ceil((max(lw.duration for lw in p.laws) + 2 * p.lead_s) * self.fs
+                              / p.block_size)
+            return 2 + sweep, 2 * p.max_control_iterations + sweep
         if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
             return 4 * len(p.freqs), (p.max_settle_blocks + 1) * len(p.freqs)
         control = p.settle_blocks + 1
@@ -318,7 +334,43 @@ def _periodic(t: dict, spec: RandomSpec, fs: float) -> RandomSpec:
     return spec
 
 
-def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec:
+def _sweep(data: dict, fs: float) -> SweepSpec:
+    """The [sweep] table: levels (force amplitudes), start, stop, law, rate, direction."""
+    from analysis.errors import RecordingError
+    from analysis.sweep_law import SweepLaw
+
+    t = _table(data, "sweep")
+    _unknown(t, {"levels", "start", "stop", "law", "rate", "direction", "block_size",
+                 "tolerance", "max_control_iterations", "lead"}, "sweep")
+    start = _num(t, "start", "sweep", lo=0.0, open_lo=True)
+    stop = _num(t, "stop", "sweep", lo=0.0, open_lo=True)
+    if not start < stop < fs / 2:
+        raise CampaignError(f"[sweep] need 0 < start < stop < fs/2 = {fs / 2:g} Hz (direction "
+                            f"says which way), got {start:g}, {stop:g}")
+    law = t.get("law", "linear")
+    direction = t.get("direction", "up")
+    if direction not in DIRECTIONS:
+        raise CampaignError(f"[sweep] direction must be one of {', '.join(DIRECTIONS)}, "
+                            f"got {direction!r}")
+    try:
+        up = SweepLaw(start, stop, law, _num(t, "rate", "sweep", lo=0.0, open_lo=True))
+    except RecordingError as exc:
+        raise CampaignError(f"[sweep] {exc}") from None
+    down = SweepLaw(stop, start, up.law, up.rate)
+    ways = {"up": [up], "down": [down], "up-down": [up, down]}[direction]
+    amps = _levels(t, "sweep")
+    return SweepSpec([a for a in amps for _ in ways], [w for _ in amps for w in ways],
+                     _num(t, "block_size", "sweep", default=1024, lo=16, hi=2**22,
+                          integer=True),
+                     _num(t, "tolerance", "sweep", default=0.02, lo=0, open_lo=True, hi=1),
+                     _num(t, "max_control_iterations", "sweep", default=8, lo=1, integer=True,
+                          hi=100),
+                     _num(t, "lead", "sweep", default=0.5, lo=0.0, hi=60))
+
+
+def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepSpec:
+    if kind == "swept-sine":
+        return _sweep(data, fs)
     if kind == "random":
         t = _table(data, "random")
         _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",

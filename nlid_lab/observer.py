@@ -54,8 +54,10 @@ class LevelSummary:
         text = (f"level {self.level + 1}/{n_levels} ({self.target:g} N {self.measure}): "
                 f"{self.done}/{self.planned} {self.unit}s")
         if self.force is not None:
-            what = "mean amplitude" if self.measure == "amplitude" else "rms"
-            err = "worst step " if self.measure == "amplitude" else ""
+            sweep = self.unit == "sweep"
+            what = "amplitude" if sweep else "mean amplitude" if self.measure == "amplitude" \
+                else "rms"
+            err = "worst step " if self.measure == "amplitude" and not sweep else ""
             text += (f", force {what} {self.force:.4g} N (target {self.target:g} N, "
                      f"{err}{self.control_error:+.2%})")
         if self.drive is not None:

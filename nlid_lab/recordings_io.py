@@ -25,8 +25,10 @@ from analysis.recording import (FORCE_HOLDS, MAX_FS, MAX_SAMPLE, MIN_FS, Periodi
                                 Recording)
 from analysis.sensors import KEYS as SENSOR_KEYS
 from analysis.sensors import SensorMap, names, sensor_map
+from analysis.sweep_law import SWEEP_KEYS
 from analysis.textfile import read_text
 
+from .sweep_keys import sweep_fields
 from .units import lookup, split_label
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -99,7 +101,12 @@ def level_key(excitation: str) -> str:
 def read_npz(path: str | os.PathLike) -> Recording:
     """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
     path = Path(path)
-    return recording_from_keys(_load_npz(path, "recording"), path)
+    return recording_from_keys(load_npz_keys(path), path)
+
+
+def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Every key of an NPZ recording, unchecked (`recording_from_keys` checks them)."""
+    return _load_npz(Path(path), "recording")
 
 
 def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
@@ -116,18 +123,21 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
     excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
                   else ("stepped-sine" if "freqs" in data else "random"))
     try:
-        force = _array(data, "force", path)
-        response = _array(data, "response", path)
+        force, response = _array(data, "force", path), _array(data, "response", path)
+        fs = _scalar(data, "fs", float, path)
         level, level_from = _level(data, path, excitation)
         kind = _scalar(data, "response_kind", str, path) if "response_kind" in data else None
+        sweep = None
+        if excitation == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(data, force, response, fs)
+            level = amplitude if level is None else level
         sensors, force_dofs = _sensors(data, response, kind, path)
         return Recording(
-            fs=_scalar(data, "fs", float, path), excitation=excitation,
-            force_dofs=force_dofs, force=force, response=response,
-            response_kind=kind or "displacement", sensors=sensors,
+            fs=fs, excitation=excitation, force_dofs=force_dofs, force=force,
+            response=response, response_kind=kind or "displacement", sensors=sensors,
             freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=level, force_hold=_force_hold(data, path),
-            layout=_layout(data, path, force.shape[0] if force.ndim else 0),
+            layout=_layout(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=_extra(data, excitation, level_from), meta={"source": str(path)})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -179,6 +189,8 @@ def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.
     """Keys no field holds. A level read from another key than the excitation's own (say
     ``level``) stays here too, so that the file's own key is written back."""
     known = set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | {"force_hold"}
+    if excitation == "swept-sine":
+        known |= set(SWEEP_KEYS)
     if level_from == level_key(excitation):
         known.add(level_from)
     return {k: np.asarray(v) for k, v in data.items() if k not in known}
@@ -195,6 +207,8 @@ def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
         out["freqs"] = rec.freqs
     if rec.layout is not None:
         out.update({k: np.int64(getattr(rec.layout, k)) for k in LAYOUT_KEYS})
+    if rec.sweep is not None:
+        out.update(rec.sweep.keys())
     if rec.level is not None:
         out[level_key(rec.excitation)] = np.float64(rec.level)
     if rec.sensors is not None:
@@ -299,17 +313,21 @@ def _csv_table(text: str, path: Path) -> tuple[list[str], np.ndarray]:
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
              response_kind: str | None = None, level: float | None = None,
-             force_dofs: list[int] | None = None) -> Recording:
+             force_dofs: list[int] | None = None, excitation: str | None = None,
+             keys: dict[str, Any] | None = None) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header).
 
     ``# key = value`` comment lines before the header carry recording keys (``fs``,
     ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``; ``force_dofs``
     when the header names no DOF, or the ``force_dofs`` argument). ``response_kind`` None
     takes the unit of the response columns, else the file's key, else displacement.
+    ``excitation`` (else a ``# excitation`` line, else random) may be ``"swept-sine"``: the
+    sweep keys, or the law estimated from the force (`sweep_keys.sweep_fields`). ``keys``
+    add to (override) the file's ``# key`` lines.
     """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
-    keys = _csv_keys(text, path)
+    keys = {**_csv_keys(text, path), **{k: np.asarray(v) for k, v in (keys or {}).items()}}
     if force_dofs is not None:
         keys["force_dofs"] = np.asarray(force_dofs)
     names, data = _csv_table(text, path)
@@ -352,20 +370,28 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
         raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
                                  f"{response_kind} was asked for; drop one of them")
     kind = response_kind or file_kind or (unit_kinds.pop() if unit_kinds else "displacement")
-    keys["excitation"] = np.str_("random")
+    exc = excitation or (_scalar(keys, "excitation", str, path) if "excitation" in keys
+                         else "random")
+    if exc not in ("random", "swept-sine"):
+        raise RecordingFileError(f"{path}: CSV holds random or swept-sine recordings, not {exc}")
+    keys["excitation"] = np.str_(exc)
     keys.pop("force_dofs", None)
     try:
-        file_level, level_from = _level(keys, path, "random")
+        file_level, level_from = _level(keys, path, exc)
+        force = data[:, [c.index for c in forces]] * [c.factor for c in forces]
         response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
+        sweep = None
+        if exc == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(keys, force, response, fs)
+            file_level = amplitude if file_level is None else file_level
         sensors, _ = _sensors({**keys, "force_dofs": np.asarray(force_dofs)}, response,
                               response_kind or file_kind, path)
         return Recording(
-            fs=fs, excitation="random", force_dofs=force_dofs,
-            force=data[:, [c.index for c in forces]] * [c.factor for c in forces],
-            response=response, response_kind=kind, sensors=sensors,
+            fs=fs, excitation=exc, force_dofs=force_dofs, force=force, response=response,
+            response_kind=kind, sensors=sensors,
             level=file_level if level is None else level, force_hold=_force_hold(keys, path),
-            layout=_layout(keys, path, data.shape[0]),
-            extra=_extra(keys, "random", level_from),
+            layout=_layout(keys, path, data.shape[0]), sweep=sweep,
+            extra=_extra(keys, exc, level_from),
             meta={"source": str(path), "channels": [c.name for c in forces + responses]})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -434,7 +460,7 @@ def _csv_keys(text: str, path: Path) -> dict[str, np.ndarray]:
         if not m:
             continue
         key, raw = m.groups()
-        if key in ("excitation", "force", "response", "freqs"):
+        if key in ("force", "response", "freqs"):
             raise RecordingFileError(f"{path}: '{key}' comes from the CSV header and data, not "
                                      "from a '# key = value' line; remove that line")
         if len(raw) >= 2 and raw[0] == raw[-1] == '"':
@@ -489,10 +515,12 @@ def _csv_value(key: str, value: np.ndarray) -> str:
 def write_csv(path: str | os.PathLike, rec: Recording) -> None:
     """Write a random ``rec`` as CSV: ``# key = value`` lines for its keys, then header
     ``t,f0@DOF,...,x0@0,...`` and the samples."""
-    if rec.excitation != "random":
-        raise RecordingFileError("CSV holds random recordings only; write stepped sine as NPZ")
-    keys = {k: v for k, v in recording_keys(rec).items()
-            if k not in ("excitation", "force_dofs", "force", "response")}
+    if rec.excitation == "stepped-sine":
+        raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
+                                 "sine as NPZ")
+    drop = ("force_dofs", "force", "response") + (("excitation",) if rec.excitation == "random"
+                                                   else ())
+    keys = {k: v for k, v in recording_keys(rec).items() if k not in drop}
     keys.update({k: np.str_(",".join(v.tolist())) for k, v in keys.items()
                  if k in SENSOR_KEYS})
     lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
@@ -509,7 +537,9 @@ def read_drive(path: str | os.PathLike) -> dict:
 
     Returns a dict with ``fs``, ``force`` (random (n, n_in); stepped (n_steps, n, n_in)),
     ``force_dofs``, ``excitation``, ``freqs`` (or None), ``level`` (or None), ``layout``
-    (a `PeriodicLayout` from the drive's ``period``... keys, or None) and ``extra`` (the
+    (a `PeriodicLayout` from the drive's ``period``... keys, or None), ``sweep`` (an
+    ``excitation = "swept-sine"`` drive's `Sweep`, from its keys or estimated from its
+    force; else None) and ``extra`` (the
     drive's other keys, for the simulated recording). A recording used as a drive gives
     its force: its ``response``, ``response_kind`` and ``force_hold`` are not carried.
     ``sensors`` holds the drive's sensor-map keys (`analysis.sensors.KEYS`, lists of names;
@@ -534,7 +564,9 @@ def read_drive(path: str | os.PathLike) -> dict:
                  # sensor-map keys: where the forces act and what the channels measure
                  "sensors": {k: names(data[k], k) for k in SENSOR_KEYS if k in data}}
         stepped = drive["freqs"] is not None
-        drive["excitation"] = "stepped-sine" if stepped else "random"
+        swept = not stepped and "excitation" in data \
+            and _scalar(data, "excitation", str, path) == "swept-sine"
+        drive["excitation"] = "stepped-sine" if stepped else "swept-sine" if swept else "random"
         drive["level"], level_from = _level(data, path, drive["excitation"])
         drive["extra"] = _extra(data, drive["excitation"], level_from)
     except (TypeError, ValueError) as exc:
@@ -567,6 +599,11 @@ def read_drive(path: str | os.PathLike) -> dict:
                                  f"number in (0, {MAX_SAMPLE:g}] N")
     try:
         drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
+        drive["sweep"] = None
+        if drive["excitation"] == "swept-sine":     # a sweep drive plays from its first sample
+            drive["sweep"], drive["force"], _, level = sweep_fields(data, force, force,
+                                                                    drive["fs"])
+            drive["level"] = drive["level"] or level
     except ValueError as exc:
         raise RecordingFileError(f"{path}: {exc}") from None
     return drive

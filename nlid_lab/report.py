@@ -191,10 +191,27 @@ def modal_fit_section(run: RunData) -> Section | None:
     return sec
 
 
+def sweep_section(run: RunData) -> Section | None:
+    """Swept-sine levels: each level's sweep (direction, law, whether estimated on import)."""
+    from analysis.frf import level_label
+
+    from .sweep_keys import describe
+    swept = [(i, r) for i, r in enumerate(run.recordings) if r.sweep is not None]
+    if not swept:
+        return None
+    said = "; ".join(f"{level_label(r, i)}: {describe(r.sweep)}" for i, r in swept)
+    return Section("Swept-sine levels",
+                   "The FRF of a swept-sine level is its fundamental tracked by sine fits on "
+                   "the sweep's own phase (docs/hbm.md); read it with the sweep direction in "
+                   "mind: a lightly damped mode answers a fast sweep late, and a nonlinear "
+                   f"one jumps at different frequencies up and down. {said}.")
+
+
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
     out = frf_sections(frfs)
-    for extra in (level_change_section(run), distortion_section(frfs), modal_fit_section(run)):
+    for extra in (sweep_section(run), level_change_section(run), distortion_section(frfs),
+                  modal_fit_section(run)):
         if extra is not None:
             out.append(extra)
     from .methods import find_stored, methods

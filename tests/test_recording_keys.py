@@ -61,7 +61,8 @@ _array_extra = st.one_of(
 @st.composite
 def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
     """The keys of an NPZ (or CSV-able) recording: every contract key, some unknown ones."""
-    excitation = "random" if csv else draw(st.sampled_from(["random", "stepped-sine"]))
+    excitation = "random" if csv else draw(st.sampled_from(["random", "stepped-sine",
+                                                             "swept-sine"]))
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     n_dof = draw(st.integers(1, 3))
     force_dofs = np.asarray(draw(st.lists(st.integers(0, n_dof - 1), min_size=1, max_size=2)))
@@ -72,7 +73,18 @@ def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
                                        ["displacement", "velocity", "acceleration"]))),
                                    "force_hold": np.str_(draw(st.sampled_from(["none",
                                                                                "linear"])))}
-    if excitation == "random":
+    if excitation == "swept-sine":             # the law given: no estimation, data kept as is
+        lo, hi = sorted(rng.uniform(0.01, 0.45, 2) * fs)
+        up = draw(st.booleans())
+        keys.update(sweep_start_hz=np.float64(lo if up else hi),
+                    sweep_stop_hz=np.float64(hi if up else lo),
+                    sweep_law=np.str_(draw(st.sampled_from(["linear", "log"]))),
+                    sweep_rate=np.float64(draw(st.floats(0.01, 100))))
+        if draw(st.booleans()):
+            keys.update(sweep_estimated=np.int64(1), sweep_trimmed_lead=np.int64(
+                draw(st.integers(0, 99))), sweep_trimmed_tail=np.int64(draw(st.integers(0, 9))))
+        shape = (draw(st.integers(3, 60)),)
+    elif excitation == "random":
         periodic = draw(st.booleans())
         if periodic:
             lay = PeriodicLayout(draw(st.integers(2, 16)), draw(st.integers(0, 2)),
@@ -124,6 +136,23 @@ def test_every_npz_key_survives_import_run_export(keys):
         else:
             assert rec.layout is None
         rio.write_npz(d / "out.npz", rec)
+        _check_keys(d / "out.npz", keys)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(npz_keys())
+def test_every_mat_key_survives_export_import_run(keys):
+    """`export --out X.mat` writes every key MATLAB can hold (numbers and text: not
+    datetimes) as a variable; importing the file gives every key back, as NPZ would."""
+    from nlid_lab.mat_recording import read_mat_recording, write_mat
+
+    keys = {k: v for k, v in keys.items() if np.asarray(v).dtype.kind != "M"}
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        write_mat(d / "in.mat", _from_keys(keys))
+        store.save_recording(d / "run.h5", read_mat_recording(d / "in.mat"), source="import")
+        write_mat(d / "out.mat", store.open_run(d / "run.h5").recording())
+        rio.write_npz(d / "out.npz", read_mat_recording(d / "out.mat"))
         _check_keys(d / "out.npz", keys)
 
 

@@ -130,3 +130,24 @@ def test_sweep_rate_check():
     log_limit = max_sweep_rate(fn, zeta, "log")
     assert sweep_rate_check(SweepLaw(80, 20, "log", 0.9 * log_limit), [(fn, zeta)]) == []
     assert sweep_rate_check(SweepLaw(80, 20, "log", 1.1 * log_limit), [(fn, zeta)])
+
+
+def test_quasi_steady_drops_the_lagging_points_and_says_so():
+    """Points read more than 5 % off by the sweep's lag (``d / |f - fn|``, ``d = r tau``) are
+    left out: the kept ones are within 5 % of the receptance; a slow sweep keeps them all."""
+    from analysis.sweep import linear_modes, quasi_steady
+
+    model = sdof()
+    modes = linear_modes(model.mass, model.damping, model.stiffness)
+    (fn, zeta), = modes
+    assert fn == pytest.approx(50.3, abs=0.05) and zeta == pytest.approx(0.0079, abs=1e-4)
+    law = SweepLaw(40, 60, "linear", 3 * max_sweep_rate(fn, zeta))
+    force, x = run(model, law, 1.0)
+    r = sweep_frf(force, x, FS, law, force_hold="linear")
+    kept, [warning] = quasi_steady(r, law, modes)
+    assert "ISO 7626-2" in warning and 0 < kept.freqs.size < r.freqs.size
+    settled = np.abs(kept.freqs - law.start_hz) > 2.0
+    err = np.abs(kept.frf[:, 0] / model.linear_frf(kept.freqs, [0])[:, 0, 0] - 1)[settled]
+    assert err.max() < 0.05
+    slow = SweepLaw(40, 60, "linear", 0.5 * max_sweep_rate(fn, zeta))
+    assert quasi_steady(r, slow, modes)[0].freqs.size == r.freqs.size

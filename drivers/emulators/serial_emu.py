@@ -11,7 +11,7 @@ from collections import deque
 
 import numpy as np
 
-from ..base import Channel, MultisineOutput, RandomOutput, SineOutput
+from ..base import Channel, MultisineOutput, RandomOutput, SineOutput, SweepOutput
 from ..errors import DriverConfigError
 from ..frame import MAX_SAMPLES, encode_frame
 from ..rig import SimRig
@@ -37,13 +37,18 @@ def _band(arg: str) -> tuple[float, float]:
     return lo, hi
 
 
-#: Waveform settings of the shaker: header -> (attribute, parser, waveform it belongs to).
+#: Waveform settings of the shaker: header -> (attribute, parser, waveform it belongs to;
+#: sweep settings, "", take effect together at ``SOUR:FUNC SWE``).
 _WAVE_SETTINGS = {"SOUR:FREQ": ("_freq", float, "SIN"),
                   "SOUR:RAND:BAND": ("_band", _band, "RAND"),
                   "SOUR:RAND:SEED": ("_seed", int, "RAND"),
                   "SOUR:MSIN:BAND": ("_ms_band", _band, "MSIN"),
                   "SOUR:MSIN:SEED": ("_ms_seed", int, "MSIN"),
-                  "SOUR:MSIN:PER": ("_ms_period", int, "MSIN")}
+                  "SOUR:MSIN:PER": ("_ms_period", int, "MSIN"),
+                  "SOUR:SWE:STAR": ("_sw_start", float, ""),
+                  "SOUR:SWE:STOP": ("_sw_stop", float, ""),
+                  "SOUR:SWE:LAW": ("_sw_law", str.lower, ""),
+                  "SOUR:SWE:RATE": ("_sw_rate", float, "")}
 
 
 class SerialShakerEmulator(PtyServer):
@@ -74,6 +79,7 @@ class SerialShakerEmulator(PtyServer):
         self._ms_band = (0.0, rig.fs / 2)
         self._ms_seed: int | None = None
         self._ms_period = 1024
+        self._sw_start, self._sw_stop, self._sw_law, self._sw_rate = 10.0, 20.0, "linear", 1.0
         self._ramp = 0.05
         self.log: deque[tuple[float, str]] = deque(maxlen=10000)
 
@@ -122,7 +128,7 @@ class SerialShakerEmulator(PtyServer):
             rig.set_on(False, self._ramp)
             return "OK"
         if head == "SOUR:FUNC":
-            funcs = {"RAN": "RAND", "SIN": "SIN", "MSI": "MSIN"}
+            funcs = {"RAN": "RAND", "SIN": "SIN", "MSI": "MSIN", "SWE": "SWE"}
             if arg.upper()[:3] not in funcs:
                 return BAD_DATA
             self._func = funcs[arg.upper()[:3]]
@@ -170,6 +176,9 @@ class SerialShakerEmulator(PtyServer):
             self.rig.set_output(SineOutput(self._freq))
         elif self._func == "MSIN":
             self.rig.set_output(MultisineOutput(self._ms_band, self._ms_period, self._ms_seed))
+        elif self._func == "SWE":
+            self.rig.set_output(SweepOutput(self._sw_start, self._sw_stop, self._sw_law,
+                                            self._sw_rate))
         else:
             self.rig.set_output(RandomOutput(self._band, self._seed))
 

@@ -176,8 +176,9 @@ def _run(args: argparse.Namespace) -> int:
     overwrite = args.force and not args.resume
     started = _Started()
     observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
-    unit = "block" if campaign.kind == "random" else "step"
-    planned = campaign.plan.averages if campaign.kind == "random" else len(campaign.plan.freqs)
+    unit = {"random": "block", "swept-sine": "sweep"}.get(campaign.kind, "step")
+    planned = campaign.plan.averages if campaign.kind == "random" else \
+        1 if campaign.kind == "swept-sine" else len(campaign.plan.freqs)
     try:
         if args.live or args.live_close:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
@@ -204,8 +205,10 @@ def _check(args: argparse.Namespace) -> int:
 
     c = load_campaign(args.campaign)
     excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
-    n = c.plan.averages if c.kind == "random" else len(c.plan.freqs)
-    unit = "steps" if c.kind != "random" else ("realizations" if c.plan.periodic else "blocks")
+    n = c.plan.averages if c.kind == "random" else \
+        1 if c.kind == "swept-sine" else len(c.plan.freqs)
+    unit = {"stepped-sine": "steps", "swept-sine": "sweeps"}.get(c.kind) or (
+        "realizations" if c.plan.periodic else "blocks")
     kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
     print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
           f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"

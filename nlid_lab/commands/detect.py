@@ -21,6 +21,19 @@ def format_tests(result: dict[str, Any]) -> str:
         elif t["method"] == "level-dependence":
             what = (f"level dependence (random, {lo} vs {hi}, "
                     f"{t['resolution_hz']:.3g} Hz lines)")
+        elif t["method"] == "sweep-harmonics":
+            what = f"harmonic distortion (swept sine {t['direction']}, level {lo})"
+        elif t["method"] == "sweep-hysteresis":
+            j = t["jumps"]
+            lines.append(f"sweep-direction hysteresis (level {lo} up, {hi} down): jumps at "
+                         f"{j['up']['freq_hz']:.3f} Hz up{'' if j['up']['jump'] else ' (none)'}"
+                         f" and {j['down']['freq_hz']:.3f} Hz down"
+                         f"{'' if j['down']['jump'] else ' (none)'}, {t['separation_hz']:+.3f} Hz "
+                         f"apart (sweep delay and resolution explain {t['allowed_hz']:.3f} Hz): "
+                         f"{'NONLINEAR' if t['nonlinear'] else 'no evidence'}")
+            continue
+        elif t["method"] == "sweep-level-dependence":
+            what = f"level dependence (swept sine {t['direction']}, {lo} vs {hi}, fundamental)"
         else:
             what = f"level dependence (stepped sine, {lo} vs {hi}, fundamental)"
         band = (f", {t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz" if t["nonlinear"] else "")

@@ -79,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
         open_run(args.store)     # fails early (exit 2) when it is not a run file
     model = Model.load(args.model)
     recs = [one_kind(r) for path in args.runs for r in load_recordings(path)]
+    if any(r.excitation == "swept-sine" for r in recs):
+        raise DiagnoseInputError("diagnose takes random, multisine or stepped-sine runs, "
+                                 "not swept sine; test a sweep with `nlid-lab detect` and "
+                                 "fit it with `nlid-lab analyze hbm`")
     full, model = model, model_at_sensors(model, recs, "diagnose (it compares the model with "
                                           "the data at the measured points)")
     period = None

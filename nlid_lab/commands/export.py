@@ -1,4 +1,5 @@
-"""``nlid-lab export RUN.h5 --out REC.npz|REC.csv``: one level of a run as a recording file."""
+"""``nlid-lab export RUN.h5 --out REC.npz|REC.csv|REC.mat``: one level of a run as a recording
+file."""
 
 from __future__ import annotations
 
@@ -16,11 +17,15 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     suffix = out.suffix.lower()
-    if suffix not in (".npz", ".csv"):
-        raise InputError(f"--out {out}: export to a .npz or .csv recording")
+    if suffix not in (".npz", ".csv", ".mat"):
+        raise InputError(f"--out {out}: export to a .npz, .csv or .mat recording")
     refuse_overwrite(args.force, out, args.json)
     rec = open_run(args.run).recording(args.level)
-    (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)
+    if suffix == ".mat":
+        from ..mat_recording import write_mat
+        write_mat(out, rec)
+    else:
+        (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)
     if args.json != "-":
         print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
               f"-> {out}")
@@ -30,10 +35,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("export", help="write one level of a run as an NPZ or CSV recording")
+    p = sub.add_parser("export", help="write one level of a run as an NPZ, CSV or MAT recording")
     p.add_argument("run", metavar="RUN.h5", help="run file")
-    p.add_argument("--out", required=True, metavar="REC", help="recording .npz or .csv "
-                   "(docs/recording-formats.md; CSV for random data)")
+    p.add_argument("--out", required=True, metavar="REC", help="recording .npz, .csv or .mat "
+                   "(docs/recording-formats.md; CSV for random and swept-sine data)")
     p.add_argument("--level", type=int, help="level index (default: the only level with data)")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)

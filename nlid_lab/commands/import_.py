@@ -11,12 +11,28 @@ from analysis.recording import RESPONSE_KINDS
 
 from .. import recordings_io, store
 from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..sweep_keys import describe, parse_sweep_option
+
+
+def _sweep_keys(args: argparse.Namespace) -> dict:
+    """Keys ``--excitation``/``--sweep`` add to (or override in) each file."""
+    keys = {} if args.excitation is None else {"excitation": args.excitation}
+    if args.sweep:
+        if args.excitation not in (None, "swept-sine"):
+            raise InputError(f"--sweep describes a swept sine; drop it or use --excitation "
+                             f"swept-sine (not {args.excitation})")
+        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep)}
+    return keys
 
 
 def _read(src: Path, args: argparse.Namespace):
     suffix = src.suffix.lower()
+    given = _sweep_keys(args)
     if suffix == ".npz":
-        return recordings_io.read_npz(src)
+        if not given:
+            return recordings_io.read_npz(src)
+        return recordings_io.recording_from_keys(
+            {**recordings_io.load_npz_keys(src), **given}, src)
     if suffix == ".csv" and args.map:
         from .. import mat_io
         tree, units = recordings_io.read_csv_columns(src)
@@ -27,19 +43,29 @@ def _read(src: Path, args: argparse.Namespace):
             raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
                              "(e.g. --map force=Force response=Acceleration1,Acceleration2 "
                              "fs=400)")
-        return _mapped(mat_io.apply_map(tree, cmap, str(src)), src, args)
+        return _mapped({**mat_io.apply_map(tree, cmap, str(src)), **given}, src, args)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
         return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
-                                      force_dofs=args.force_dofs)
+                                      force_dofs=args.force_dofs,
+                                      excitation=given.get("excitation"),
+                                      keys={k: v for k, v in given.items()
+                                            if k != "excitation"})
     if suffix == ".mat":
-        from .. import mat_io
+        from .. import mat_io, mat_recording
         tree = mat_io.read_mat_tree(src)
+        if not args.map and mat_recording.is_recording(tree):   # written by nlid-lab export
+            rec = mat_recording.read_mat_recording(src)
+            if given:
+                raise InputError(f"{src}: an nlid-lab recording names its excitation and "
+                                 "sweep; drop --excitation/--sweep")
+            return rec
         if not args.map:
             raise InputError(f"{src}: a MAT file needs --map (e.g. --map force=Force "
                              "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
                              + ", ".join(sorted(tree)))
-        return _mapped(mat_io.apply_map(tree, _channel_map(args.map), str(src)), src, args)
+        return _mapped({**mat_io.apply_map(tree, _channel_map(args.map), str(src)), **given},
+                       src, args)
     raise InputError(f"{src}: unknown recording type '{suffix}'; import .npz, .csv or .mat")
 
 
@@ -81,11 +107,16 @@ def run(args: argparse.Namespace) -> int:
               "response_kind": rec.response_kind,
               "sensors": None if rec.sensors is None else {
                   k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
+    if rec.sweep is not None:
+        result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "
               f"{rec.response_kind} channel(s), "
               f"{len(recs)} level(s)) -> {out}")
+        for src, r in zip(sources, recs):
+            if r.sweep is not None:
+                print(f"  {src.name}: {describe(r.sweep)}")
     write_json(result, args.json)
     return 0
 
@@ -113,6 +144,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "and kind of each response channel, the point of each force "
                    "(response_points, response_kinds, force_points; docs/model-format.md"
                    "#sensor-maps)")
+    p.add_argument("--excitation", choices=("random", "swept-sine"),
+                   help="what the files hold when they do not say (exports carry no "
+                   "excitation key); swept-sine files without sweep keys get the sweep law "
+                   "estimated from the force, lead-in and trailing zeros trimmed")
+    p.add_argument("--sweep", metavar="START:STOP[:LAW[:RATE]]",
+                   help="swept sine: the sweep as generated (Hz, Hz, linear|log, Hz/s or "
+                   "octaves/min); parts left out are estimated from the force")
     p.add_argument("--level", type=float, help="nominal level (force rms or amplitude), N")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)

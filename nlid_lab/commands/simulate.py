@@ -70,7 +70,7 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
                      force=force, response=response, response_kind=response_kind,
                      freqs=drive["freqs"], level=drive["level"],
                      force_hold="linear",  # the plant's drive definition
-                     layout=drive["layout"], extra=drive["extra"],
+                     layout=drive["layout"], sweep=drive.get("sweep"), extra=drive["extra"],
                      meta={"model": model.name, "noise_std": noise_std, "seed": seed,
                            # substeps per sample at the end, times step doubling raised them
                            "oversample": plant.oversample, "oversample_raised": plant.raised},

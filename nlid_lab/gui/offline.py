@@ -224,10 +224,14 @@ def harmonic_distortion(rec: Recording, max_order: int = 7) -> np.ndarray:
 
 
 def _excitation(frf: LevelFRF) -> str:
+    if frf.sweep is not None:
+        return f"swept sine {'up' if frf.sweep.direction > 0 else 'down'}"
     return "periodic random" if frf.bla is not None else frf.excitation
 
 
 def _averages(frf: LevelFRF) -> str:
     if frf.excitation == "stepped-sine":
         return f"{frf.freqs.size} steps"
+    if frf.excitation == "swept-sine":
+        return f"{frf.freqs.size} tracked points"
     return f"{frf.n_averages} {'realizations' if frf.bla is not None else 'averages'}"

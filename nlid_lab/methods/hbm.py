@@ -60,14 +60,28 @@ class HbmOptions:
 
 def _stepped(recs: Sequence[Recording], force_hold: str | None = None) -> list[Recording]:
     """The stepped-sine ``recs``; ``force_hold`` overrides what they declare."""
-    bad = [rec.excitation for rec in recs if rec.excitation != "stepped-sine"]
+    bad = [rec.excitation for rec in recs if rec.excitation not in ("stepped-sine",
+                                                                     "swept-sine")]
     if bad:
-        raise InputError(f"analyze hbm needs stepped-sine runs, got {bad[0]} data; use "
-                         "analyze reverse-path for random excitation")
+        raise InputError(f"analyze hbm needs stepped- or swept-sine runs, got {bad[0]} data; "
+                         "use analyze reverse-path for random excitation")
     if force_hold is not None:
         for rec in recs:
             rec.force_hold = force_hold
     return list(recs)
+
+
+def _sweep_points(rec: Recording, model: Model, harmonics: np.ndarray):
+    """A swept-sine level as stepped-sine points: the tracked harmonics where the sweep is
+    quasi-steady for the model's modes (`analysis.sweep.quasi_steady`), and the warnings of
+    the sweep-rate check."""
+    from analysis.sweep import linear_modes, quasi_steady, recording_sweep_frf
+
+    frf = recording_sweep_frf(rec, harmonics=[int(h) for h in harmonics])
+    modes = linear_modes(model.mass, model.damping, model.stiffness)
+    direction = "up" if rec.sweep.law.direction > 0 else "down"
+    points, said = quasi_steady(frf, rec.sweep.law, modes)
+    return points, [f"level {rec.level:.3g} N sweep {direction}: {w}" for w in said]
 
 
 def linear_from_run(path: str, model: Model, harmonics: np.ndarray,
@@ -158,11 +172,19 @@ def estimate(recs: Sequence[Recording], model: Model, options: HbmOptions | None
     options = options or HbmOptions()
     harmonics = parse_harmonics(options.harmonics)
     recs = _stepped(recs, options.force_hold)
-    levels = [stepped_sine_frf(rec, harmonics[harmonics > 0]) for rec in recs]
+    levels, rate_warnings = [], []
+    for rec in recs:
+        if rec.excitation == "swept-sine":
+            level, said = _sweep_points(rec, model, harmonics[harmonics > 0])
+            levels.append(level)
+            rate_warnings += said
+        else:
+            levels.append(stepped_sine_frf(rec, harmonics[harmonics > 0]))
     receptance = linear_from_run(options.linear_from, model, harmonics, options.force_hold) \
         if options.linear_from else None
     fit = fit_hbm(model, levels, harmonics, receptance=receptance, method=options.optimizer,
                   n_starts=options.starts)
+    fit.warnings = rate_warnings + list(fit.warnings)
     return HbmEstimate(model, fit, levels, harmonics, receptance, options, recs)
 
 

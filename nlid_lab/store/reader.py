@@ -12,6 +12,7 @@ import numpy as np
 
 from analysis.recording import PeriodicLayout, Recording
 from analysis.sensors import SensorMap
+from analysis.sweep_law import Sweep
 
 from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
                       _open_swmr_write, _read_extra, _read_status, _valid_segments,
@@ -131,6 +132,15 @@ class Run:
                       level=None if np.isnan(nominal) else nominal,
                       force_hold=self.force_hold, extra=dict(self.extra), meta=meta,
                       sensors=self.sensors)
+        if self.meta["excitation"] == "swept-sine":
+            keys = next((e for e in extra if e), None)
+            if keys is None:
+                raise StoreError(f"{self.path} level {index}: a swept-sine level without its "
+                                 "sweep keys")
+            meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+            return Recording(force=np.concatenate([p[0] for p in parts]),
+                             response=np.concatenate([p[1] for p in parts]),
+                             sweep=Sweep.from_keys(keys), **common)
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
@@ -254,7 +264,9 @@ def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording]
                    sensors=first.sensors, **meta) as run:
         for index, r in enumerate(recs):
             lv = run.level(index, np.nan if r.level is None else r.level)
-            if r.excitation == "random":
+            if r.excitation == "swept-sine":
+                lv.append_block(r.force, r.response, extra=r.sweep.keys())
+            elif r.excitation == "random":
                 n = r.layout.realization_samples if r.layout else len(r.force)
                 for i in range(0, len(r.force), n):
                     lv.append_block(r.force[i:i + n], r.response[i:i + n])

@@ -35,9 +35,13 @@ class LevelWriter:
         self.next_seq = int(mine["seq"].max()) + 1 if len(mine) else 0
 
     def append_block(self, force: np.ndarray, response: np.ndarray, seq: int | None = None,
-                     t: float | None = None) -> int:
-        """Append one random-excitation block; returns its sequence number."""
-        return self._append(force, response, seq, t, np.nan, np.nan, None)
+                     t: float | None = None, extra: dict | None = None,
+                     amplitude: float | None = None) -> int:
+        """Append one random or swept-sine block; returns its sequence number. A swept-sine
+        level's first block carries the level's sweep keys in ``extra``
+        (`analysis.sweep_law.Sweep.keys`) and may carry its force ``amplitude``."""
+        amp = np.nan if amplitude is None else float(amplitude)
+        return self._append(force, response, seq, t, np.nan, amp, extra)
 
     def append_step(self, freq: float, force: np.ndarray, response: np.ndarray,
                     amplitude: float | None = None, extra: dict | None = None,
@@ -106,7 +110,8 @@ class RunWriter:
     fs : float
         Sample rate, Hz.
     excitation : str or dict
-        ``"random"`` or ``"stepped-sine"``, or a settings dict whose ``"kind"`` is one of them
+        ``"random"``, ``"stepped-sine"`` or ``"swept-sine"``, or a settings dict whose
+        ``"kind"`` is one of them
         (stored whole as the ``excitation_settings`` JSON attribute).
     force_dofs : sequence of int
         DOF (0-based) each force channel acts on.
