@@ -92,14 +92,19 @@ def _frf_axes(title: str) -> tuple[Figure, object, object]:
     return fig, mag, ph
 
 
-def _pair_name(frf: "LevelFRF", out: int, inp: int) -> str:
+def _pair_name(frf: "LevelFRF", out: int, inp: int,
+               names: tuple[Sequence[str], Sequence[str]] | None = None) -> str:
+    if names is not None:            # a sensor map: "point (kind)" / force point
+        return f"response {names[0][out]} / force at {names[1][inp]}"
     return f"response DOF {out} / force at DOF {int(frf.force_dofs[inp])}"
 
 
-def frf_levels(frfs: Sequence["LevelFRF"], out: int, inp: int = 0) -> Figure:
-    """FRF magnitude and phase at every level overlaid (paper figs 2.1, 3.5, 4.5)."""
+def frf_levels(frfs: Sequence["LevelFRF"], out: int, inp: int = 0,
+               names: tuple[Sequence[str], Sequence[str]] | None = None) -> Figure:
+    """FRF magnitude and phase at every level overlaid (paper figs 2.1, 3.5, 4.5);
+    ``names``: response and force channel names of a run with a sensor map."""
     ref = frfs[0]
-    fig, mag, ph = _frf_axes(f"FRF per level: {_pair_name(ref, out, inp)}")
+    fig, mag, ph = _frf_axes(f"FRF per level: {_pair_name(ref, out, inp, names)}")
     for frf, colour in zip(frfs, _colours_of(frfs)):
         h = frf.H[:, out, inp]
         style = "o-" if frf.excitation == "stepped-sine" else "-"

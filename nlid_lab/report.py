@@ -25,6 +25,16 @@ from .rundata import RunData, Section, all_level_frfs
 # --- report sections ----------------------------------------------------------------------
 
 
+def channel_names(run: RunData) -> tuple[list[str], list[str]] | None:
+    """(``"point (kind)"`` per response channel, force points) of a run with a sensor map,
+    else None (the figures say ``DOF q``)."""
+    from analysis.sensors import channel_labels
+    rec = run.recordings[0] if run.recordings else None
+    if rec is None or rec.sensors is None:
+        return None
+    return channel_labels(rec), list(rec.sensors.force_points)
+
+
 def find_result(results: dict[str, Any], *keys: str) -> tuple[str, dict] | None:
     """The last stored result holding all ``keys`` (a diagnosis; estimates are found by their
     ``"estimator"``, `nlid_lab.methods.find_stored`)."""
@@ -35,14 +45,15 @@ def find_result(results: dict[str, Any], *keys: str) -> tuple[str, dict] | None:
     return found
 
 
-def frf_sections(frfs: list[LevelFRF]) -> list[Section]:
-    """FRFs per level (figs 2.1/3.5/4.5) and, for random levels, multiple coherence."""
+def frf_sections(frfs: list[LevelFRF], names=None) -> list[Section]:
+    """FRFs per level (figs 2.1/3.5/4.5) and, for random levels, multiple coherence;
+    ``names``: (response, force) channel names of a run with a sensor map."""
     n_dof, n_in = frfs[0].H.shape[1:]
     sec = Section("FRFs per force level",
                   "Magnitude and phase of the measured FRF at every level, one figure per "
                   "response DOF. A resonance that moves or flattens with level marks a "
                   "nonlinearity (paper figs 2.1, 3.5, 4.5).")
-    sec.figures = [(f"frf_levels_out{q}_in{p}", figures.frf_levels(frfs, q, p))
+    sec.figures = [(f"frf_levels_out{q}_in{p}", figures.frf_levels(frfs, q, p, names))
                    for p in range(n_in) for q in range(n_dof)]
     out = [sec]
     random = [f for f in frfs if f.multiple_coherence is not None]
@@ -209,7 +220,7 @@ def sweep_section(run: RunData) -> Section | None:
 
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
-    out = frf_sections(frfs)
+    out = frf_sections(frfs, channel_names(run))
     for extra in (sweep_section(run), level_change_section(run), distortion_section(frfs),
                   modal_fit_section(run)):
         if extra is not None:

@@ -152,3 +152,18 @@ def test_reverse_path_needs_the_element_end_points_measured(named, tmp_path, cap
     err = [line for line in capsys.readouterr().err.splitlines()
            if "compiling numeric kernels" not in line]
     assert len(err) == 1 and "element 0 (cubic_spring) acts on point 'tip'" in err[0], err
+
+
+def test_report_figures_name_the_mapped_channels(named, tmp_path):
+    """FRF figures of a run with a sensor map are titled by point and kind, not DOF."""
+    from analysis.frf import level_frf
+    from nlid_lab import report
+    from nlid_lab.rundata import RunData
+    rec = simulate_drive(named, _drive(periods=1))
+    run = RunData(tmp_path / "r.h5", [rec])
+    names = report.channel_names(run)
+    assert names == (["drive (acceleration)", "joint (acceleration)",
+                      "payload (displacement)"], ["drive"])
+    (sec, *_) = report.frf_sections([level_frf(one_kind(rec))], names)
+    titles = [fig.get_suptitle() for _, fig in sec.figures]
+    assert titles[2] == "FRF per level: response payload (displacement) / force at drive"
