@@ -121,6 +121,13 @@ class SimRig:
 
     # --- shaker side ---------------------------------------------------------------------
     def set_output(self, output: Output) -> None:
+        """Set the waveform the shaker drives (takes effect at once, state carried).
+
+        Raises
+        ------
+        DriverConfigError
+            An output this sample rate cannot produce.
+        """
         check_output(output, self.fs)
         period = None
         if isinstance(output, MultisineOutput):
@@ -136,6 +143,7 @@ class SimRig:
                 self._period, self._period_pos = period, 0
 
     def set_level(self, level: float) -> None:
+        """Set the drive level, V."""
         with self.lock:
             self._level = float(level)
 
@@ -151,10 +159,12 @@ class SimRig:
 
     @property
     def level(self) -> float:
+        """The drive level, V."""
         return self._level
 
     @property
     def drive_is_zero(self) -> bool:
+        """Whether the output is off and its ramp has reached zero."""
         with self.lock:
             return not self._on and self._envelope == 0.0
 
