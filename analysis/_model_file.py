@@ -16,18 +16,35 @@ PLACEMENT_KEYS = ("w", "at", "between")
 
 
 def toml_num(x: float) -> str:
+    """A float as a TOML number that reads back to the same value."""
     return repr(float(x))
 
 def toml_list(values: Any) -> str:
+    """A sequence of numbers as a TOML array."""
     return "[" + ", ".join(toml_num(x) for x in values) + "]"
 
 def toml_str(text: str) -> str:
+    """``text`` as a quoted TOML string."""
     return json.dumps(text, ensure_ascii=False)  # JSON string escapes are valid TOML
 
 def is_number(value: Any) -> bool:
+    """Whether ``value`` is an int or float (a bool is not)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 def check_keys(table: Any, allowed: tuple[str, ...], where: str, noun: str = "key") -> None:
+    """Raise `ModelError` unless ``table`` is a table whose keys are all in ``allowed``.
+
+    Parameters
+    ----------
+    table : Any
+        The parsed TOML value.
+    allowed : tuple of str
+        Keys the table may hold.
+    where : str
+        Where the table is, for the message (e.g. ``"[[element]] 2"``).
+    noun : str
+        What a key is called in the message.
+    """
     if not isinstance(table, dict):
         raise ModelError(f"{where} must be a table")
     message = unknown_keys(table, allowed, where, noun)
@@ -95,6 +112,26 @@ def placement(key: str, value: Any, points: list[str], where: str) -> np.ndarray
     return w
 
 def point_index(point: Any, points: list[str], where: str) -> int:
+    """Index of a point given by name or index.
+
+    Parameters
+    ----------
+    point : str or int
+        A name in ``points`` or an index into it.
+    points : list of str
+        The model's point names.
+    where : str
+        Where the reference is, for the message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ModelError
+        No such point (the message suggests the nearest name).
+    """
     if isinstance(point, str) and point in points:
         return points.index(point)
     if isinstance(point, int) and not isinstance(point, bool) and 0 <= point < len(points):
@@ -116,8 +153,10 @@ def toml_where(w: np.ndarray, points: list[str]) -> str:
     return f"w = {toml_list(w)}"
 
 def default_points(n: int) -> list[str]:
+    """Point names of a model that names none: ``"0" .. "n-1"``."""
     return [str(i) for i in range(n)]
 
 def short(value: Any) -> str:
+    """``repr(value)`` cut to 40 characters, for messages."""
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."

@@ -172,6 +172,14 @@ class HBMFit:
         return np.where(self.log, np.log(np.abs(p) / self.scale), p / self.scale)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the optimiser variables.
+
+        Returns
+        -------
+        lo, hi : ndarray
+            Log-scaled variables within ``10**±_BOUND`` of their scale (or their parameter's
+            ``bounds``), linear ones within ±10 scales.
+        """
         lo = np.where(self.log, -_BOUND * np.log(10), -10.0)
         hi = np.where(self.log, _BOUND * np.log(10), 10.0)
         for i, spec in enumerate(self.specs):
@@ -231,6 +239,18 @@ class HBMFit:
         return np.concatenate([diff.real, diff.imag])
 
     def jacobian(self, z: np.ndarray) -> np.ndarray:
+        """Jacobian of `residuals` with respect to the optimiser variables.
+
+        Parameters
+        ----------
+        z : ndarray
+            Optimiser variables.
+
+        Returns
+        -------
+        ndarray
+            ``(2 n_residuals, n_params)``: real parts stacked over imaginary parts.
+        """
         p = self.to_params(z)
         out, dout = self.analytic(p, jac=True)
         if self.log_cost:

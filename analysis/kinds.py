@@ -190,9 +190,20 @@ class Kind:
 
     @property
     def positive(self) -> tuple[str, ...]:
+        """Names of the parameters that must be positive."""
         return tuple(p.name for p in self.parameters if p.positive)
 
     def param(self, name: str) -> Param:
+        """The parameter named ``name``.
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        Param
+        """
         return next(p for p in self.parameters if p.name == name)
 
     def value(self, params: dict[str, float], name: str) -> float:

@@ -59,6 +59,7 @@ class ModalResult:
     poles: np.ndarray
 
     def to_json(self) -> list[dict]:
+        """One dict per mode: ``freq_hz``, ``damping_ratio`` and the real part of ``shape``."""
         return [{"freq_hz": float(f), "damping_ratio": float(z),
                  "shape": [float(v) for v in np.real(s)]}
                 for f, z, s in zip(self.freqs_hz, self.damping, self.shapes)]

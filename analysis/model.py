@@ -54,9 +54,11 @@ class Element:
 
     @property
     def known(self) -> bool:
+        """Whether every required parameter has a value."""
         return not self.missing
 
     def to_dict(self) -> dict[str, Any]:
+        """The element as ``{kind, w, <param>: value}`` (floats)."""
         out: dict[str, Any] = {"kind": self.kind, "w": [float(x) for x in self.w]}
         out.update({k: float(v) for k, v in self.params.items()})
         return out
@@ -142,6 +144,7 @@ class Model:
 
     @property
     def is_modal(self) -> bool:
+        """Whether the linear part is given by mode shapes (not the identity over points)."""
         return not (self.shapes.shape[0] == self.shapes.shape[1]
                     and np.array_equal(self.shapes, np.eye(self.n_q)))
 
@@ -161,6 +164,7 @@ class Model:
 
     @property
     def complete(self) -> bool:
+        """Whether every element parameter is known (the model can be simulated)."""
         return all(el.known for el in self.elements)
 
     def require_complete(self, what: str = "simulation") -> None:
@@ -281,6 +285,12 @@ class Model:
         return "\n".join(lines) + "\n"
 
     def save(self, path: str | Path) -> None:
+        """Write the model file (`dumps`) to ``path``.
+
+        Parameters
+        ----------
+        path : str or Path
+        """
         Path(path).write_text(self.dumps())
 
     @classmethod
@@ -345,6 +355,24 @@ class Model:
 
     @classmethod
     def loads(cls, text: str, source: str = "model") -> "Model":
+        """Model from the text of a model file.
+
+        Parameters
+        ----------
+        text : str
+            TOML text.
+        source : str
+            Name used in error messages.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Invalid TOML or schema.
+        """
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -353,6 +381,21 @@ class Model:
 
     @classmethod
     def load(cls, path: str | Path) -> "Model":
+        """Model from a model file (TOML, docs/model-format.md).
+
+        Parameters
+        ----------
+        path : str or Path
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Unreadable file, invalid TOML or schema.
+        """
         return cls.loads(read_text(path, "model file", ModelError), str(path))
 
 

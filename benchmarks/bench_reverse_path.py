@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
 from analysis.model import Element, Model  # noqa: E402
-from analysis.reverse_path import reverse_path  # noqa: E402
+from analysis.reverse_path import ReversePathOptions, reverse_path  # noqa: E402
 from analysis.spectral import spectral_matrix  # noqa: E402
 
 N, FS, NPERSEG, BAND = 2**20, 4096.0, 4096, (5.0, 1500.0)
@@ -42,8 +42,9 @@ def main() -> None:
     def full():
         # plain H1 reverse path: the random stand-in response would look like pure sensor
         # noise to noise="auto", which then runs the (simulation-based) IV estimator
-        reverse_path((force, resp), cand, fs=FS, force_dofs=[0, 1, 2], band=BAND,
-                     nperseg=NPERSEG, antialias="off", noise="none")
+        reverse_path((force, resp), cand, ReversePathOptions(band=BAND, nperseg=NPERSEG,
+                                                             antialias="off", noise="none"),
+                     fs=FS, force_dofs=[0, 1, 2])
 
     def pairwise():
         # outputs x inputs, then the upper triangle of inputs x inputs (scipy's csd(x, y)

@@ -100,6 +100,7 @@ class AcqStats:
     garbage_bytes: int = 0
 
     def as_dict(self) -> dict[str, int]:
+        """The counters as a dict."""
         return dict(self.__dict__)
 
 
@@ -234,6 +235,12 @@ class SignalGenerator(_Lifecycle, ABC):
 
     @staticmethod
     def check_level(level: float) -> float:
+        """``level`` as a float, after checking it is a finite number of volts >= 0.
+
+        Raises
+        ------
+        DriverConfigError
+        """
         if not (isinstance(level, (int, float)) and math.isfinite(level) and level >= 0):
             raise DriverConfigError(f"drive level must be a finite number of volts >= 0, "
                                     f"got {level!r}")
@@ -284,6 +291,21 @@ class Acquirer(_Lifecycle, ABC):
 
     @staticmethod
     def check_config(fs: float, channels: list[Channel], frame_size: int) -> None:
+        """Check a DAQ configuration before sending it.
+
+        Parameters
+        ----------
+        fs : float
+            Sample rate, Hz (positive).
+        channels : list of Channel
+            At least one.
+        frame_size : int
+            Samples per frame.
+
+        Raises
+        ------
+        DriverConfigError
+        """
         if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
             raise DriverConfigError(f"sample rate must be a positive number of Hz, got {fs!r}")
         if not channels:

@@ -61,6 +61,7 @@ class CanDaq(Acquirer):
 
     def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
                   timeout: float = 1.0) -> None:
+        """Set sample rate, channels and frame size on the CAN DAQ (`Acquirer.configure`)."""
         self._require("new", "configured", "stopped", action="configure")
         self.check_config(fs, channels, frame_size)
         if len(channels) > 2 * proto.MAX_GROUPS:
@@ -105,6 +106,7 @@ class CanDaq(Acquirer):
             raise Disconnected(f"CAN bus went away: {exc}") from None
 
     def start(self, *, timeout: float = 1.0) -> None:
+        """Start streaming sample frames (`Acquirer.start`)."""
         self._require("configured", "stopped", action="start")
         self._reset_stream()
         self._cur = np.zeros(2 * self._groups)
@@ -113,6 +115,7 @@ class CanDaq(Acquirer):
         self._state = "running"
 
     def read(self, timeout: float = 1.0) -> Block:
+        """The next block of samples from the bus, gaps counted (`Acquirer.read`)."""
         self._require("running", action="read")
         deadline = time.monotonic() + timeout
         if self._held is not None:
@@ -188,6 +191,7 @@ class CanDaq(Acquirer):
         return Block(first % proto.COUNTER_MOD, first, first / self.fs, data, gap)
 
     def stop(self, *, timeout: float = 1.0) -> None:
+        """Stop streaming; nothing if not running (`Acquirer.stop`)."""
         if self._state != "running":
             return
         self._state = "stopped"

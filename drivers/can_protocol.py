@@ -28,6 +28,7 @@ def database() -> cantools.database.can.Database:
 
 
 def n_groups(n_channels: int) -> int:
+    """Sample messages per scan: two channels per CAN message."""
     return (n_channels + 1) // 2
 
 
@@ -37,5 +38,6 @@ def volt_scale() -> float:
 
 
 def full_scale_counts() -> int:
+    """Largest positive count of a sample signal (from the DBC)."""
     sig = database().get_message_by_frame_id(SAMPLES_ID).get_signal_by_name("Ch0")
     return (1 << (sig.length - 1)) - 1

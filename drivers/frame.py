@@ -53,6 +53,7 @@ def encode_frame(seq: int, first_sample: int, volts: np.ndarray) -> bytes:
 
 
 def frame_length(n_channels: int, n_samples: int) -> int:
+    """Bytes of a frame holding ``n_samples`` samples of ``n_channels`` channels."""
     return HEADER.size + 4 * n_channels * n_samples + 4
 
 
@@ -70,6 +71,16 @@ class FrameParser:
         self.bad_frames = 0
 
     def feed(self, data: bytes) -> list[Frame]:
+        """Add received bytes; return the whole valid frames they complete.
+
+        Parameters
+        ----------
+        data : bytes
+
+        Returns
+        -------
+        list of Frame
+        """
         self._buf += data
         frames: list[Frame] = []
         buf = self._buf

@@ -125,6 +125,13 @@ class SimRig:
 
     # --- shaker side ---------------------------------------------------------------------
     def set_output(self, output: Output) -> None:
+        """Set the waveform the shaker drives (takes effect at once, state carried).
+
+        Raises
+        ------
+        DriverConfigError
+            An output this sample rate cannot produce.
+        """
         check_output(output, self.fs)
         period = None
         if isinstance(output, MultisineOutput):
@@ -143,6 +150,7 @@ class SimRig:
                 self._sweep_pos = 0
 
     def set_level(self, level: float) -> None:
+        """Set the drive level, V."""
         with self.lock:
             self._level = float(level)
 
@@ -158,10 +166,12 @@ class SimRig:
 
     @property
     def level(self) -> float:
+        """The drive level, V."""
         return self._level
 
     @property
     def drive_is_zero(self) -> bool:
+        """Whether the output is off and its ramp has reached zero."""
         with self.lock:
             return not self._on and self._envelope == 0.0
 

@@ -41,6 +41,7 @@ class SerialDaq(Acquirer):
 
     def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
                   timeout: float = 1.0) -> None:
+        """Send sample rate, channel count and frame size to the DAQ (`Acquirer.configure`)."""
         self._require("new", "configured", "stopped", action="configure")
         self.check_config(fs, channels, frame_size)
         for cmd in (f"CONF:RATE {fs:.12g}", f"CONF:CHAN:COUN {len(channels)}",
@@ -51,6 +52,7 @@ class SerialDaq(Acquirer):
         self._state = "configured"
 
     def start(self, *, timeout: float = 1.0) -> None:
+        """Start streaming frames (`Acquirer.start`)."""
         self._require("configured", "stopped", action="start")
         self.link.command("INIT", timeout)
         self._parser = FrameParser()
@@ -59,6 +61,7 @@ class SerialDaq(Acquirer):
         self._state = "running"
 
     def read(self, timeout: float = 1.0) -> Block:
+        """The next block of samples, gaps counted (`Acquirer.read`)."""
         self._require("running", action="read")
         deadline = time.monotonic() + timeout
         while True:
@@ -100,6 +103,7 @@ class SerialDaq(Acquirer):
         return Block(frame.seq, frame.first_sample, frame.first_sample / self.fs, data, gap)
 
     def stop(self, *, timeout: float = 1.0) -> None:
+        """Stop streaming; nothing if not running (`Acquirer.stop`)."""
         if self._state != "running":
             return
         self._state = "stopped"

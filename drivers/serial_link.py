@@ -32,6 +32,13 @@ class SerialLink:
                                     "name and that nothing else holds it") from None
 
     def write(self, data: bytes) -> None:
+        """Write and flush ``data``.
+
+        Raises
+        ------
+        Disconnected
+            The port went away.
+        """
         try:
             self.ser.write(data)
             self.ser.flush()
@@ -102,6 +109,7 @@ class SerialLink:
             tail = (tail + self.read_some(min(left, 0.05)))[-64:]
 
     def close(self) -> None:
+        """Close the port (errors on closing are ignored)."""
         try:
             self.ser.close()
         except (serial.SerialException, OSError):

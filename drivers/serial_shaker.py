@@ -83,10 +83,12 @@ class SerialShaker(SignalGenerator):
                 return
 
     def check_link(self) -> None:
+        """Raise the `CommsError` the watchdog feeder met, if any (`SignalGenerator.check_link`)."""
         if self.feed_error is not None:
             raise type(self.feed_error)(f"shaker watchdog feed failed: {self.feed_error}")
 
     def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
+        """Send the waveform, ramp and level to the shaker (`SignalGenerator.configure`)."""
         self._require("new", "configured", "stopped", action="configure")
         check_output(output)
         level = self.check_level(level)
@@ -112,6 +114,7 @@ class SerialShaker(SignalGenerator):
         self._state = "configured"
 
     def set_level(self, level: float, *, timeout: float = 1.0) -> None:
+        """Change the drive level, V (`SignalGenerator.set_level`)."""
         self._require("configured", "running", "stopped", action="set the level")
         self.link.command(f"SOUR:VOLT {self.check_level(level):.12g}", timeout)
 
@@ -122,21 +125,25 @@ class SerialShaker(SignalGenerator):
         self.link.command(f"SOUR:FREQ {freq:.12g}", timeout)
 
     def start(self, *, timeout: float = 1.0) -> None:
+        """Switch the output on (ramped; `SignalGenerator.start`)."""
         self._require("configured", "stopped", action="start")
         self.link.command("OUTP ON", timeout)
         self._state = "running"
 
     def stop(self, *, timeout: float = 1.0) -> None:
+        """Switch the output off (ramped); nothing if not running."""
         if self._state == "running":
             self.link.command("OUTP OFF", timeout)
             self._state = "stopped"
 
     def emergency_stop(self, *, timeout: float = 0.1) -> None:
+        """Abort the output at once (`SignalGenerator.emergency_stop`)."""
         self.link.command("ABOR", timeout)
         if self._state == "running":
             self._state = "stopped"
 
     def close(self) -> None:
+        """Stop the watchdog feeder, the output and close the port."""
         if self._state == "closed":
             return
         self._halt.set()

@@ -24,6 +24,7 @@ def register_rig(name: str, rig: SimRig) -> None:
 
 
 def unregister_rig(name: str) -> None:
+    """Forget the rig registered as ``sim://name`` (nothing if none)."""
     with _RIGS_LOCK:
         _RIGS.pop(name, None)
 
@@ -47,6 +48,7 @@ class SimShaker(SignalGenerator):
         self.ramp_time = ramp_time
 
     def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
+        """Set the rig's waveform and level (`SignalGenerator.configure`)."""
         self._require("new", "configured", "stopped", action="configure")
         level = self.check_level(level)
         self.rig.set_output(output)
@@ -54,29 +56,35 @@ class SimShaker(SignalGenerator):
         self._state = "configured"
 
     def set_level(self, level: float, *, timeout: float = 1.0) -> None:
+        """Change the drive level, V (`SignalGenerator.set_level`)."""
         self._require("configured", "running", "stopped", action="set the level")
         self.rig.set_level(self.check_level(level))
 
     def set_frequency(self, freq: float, *, timeout: float = 1.0) -> None:
+        """Change the sine frequency (`SignalGenerator.set_frequency`)."""
         self._require("configured", "running", "stopped", action="set the frequency")
         self.rig.set_output(SineOutput(freq))
 
     def start(self, *, timeout: float = 1.0) -> None:
+        """Switch the output on (ramped)."""
         self._require("configured", "stopped", action="start")
         self.rig.set_on(True, self.ramp_time)
         self._state = "running"
 
     def stop(self, *, timeout: float = 1.0) -> None:
+        """Switch the output off (ramped); nothing if not running."""
         if self._state == "running":
             self.rig.set_on(False, self.ramp_time)
             self._state = "stopped"
 
     def emergency_stop(self, *, timeout: float = 0.1) -> None:
+        """Switch the output off with a ramp of at most 10 ms."""
         self.rig.set_on(False, min(self.ramp_time, 0.01))
         if self._state == "running":
             self._state = "stopped"
 
     def close(self) -> None:
+        """Stop and close."""
         if self._state != "closed":
             self.stop()
             self._state = "closed"
@@ -94,6 +102,13 @@ class SimDaq(Acquirer):
 
     def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
                   timeout: float = 1.0) -> None:
+        """Set sample rate, channels and frame size (`Acquirer.configure`).
+
+        Raises
+        ------
+        DriverConfigError
+            A rate other than the rig's, or a channel the rig does not measure.
+        """
         self._require("new", "configured", "stopped", action="configure")
         self.check_config(fs, channels, frame_size)
         if abs(fs - self.rig.fs) > 1e-9 * fs:
@@ -104,11 +119,13 @@ class SimDaq(Acquirer):
         self._state = "configured"
 
     def start(self, *, timeout: float = 1.0) -> None:
+        """Start reading from sample 0 (`Acquirer.start`)."""
         self._require("configured", "stopped", action="start")
         self._seq, self._first = 0, 0
         self._state = "running"
 
     def read(self, timeout: float = 1.0) -> Block:
+        """Advance the rig by one frame and return its samples (`Acquirer.read`)."""
         self._require("running", action="read")
         samples = self.rig.advance(self.frame_size)
         data = samples.values(list(self.channels), self.rig.force_dofs)
@@ -120,8 +137,10 @@ class SimDaq(Acquirer):
         return block
 
     def stop(self, *, timeout: float = 1.0) -> None:
+        """Stop; nothing if not running."""
         if self._state == "running":
             self._state = "stopped"
 
     def close(self) -> None:
+        """Close (the rig stays)."""
         self._state = "closed"

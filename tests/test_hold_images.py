@@ -15,7 +15,7 @@ from analysis.excitation import multisine, random_gaussian
 from analysis.model import Element, Model
 from analysis.plant import Plant, remove_hold_images, simulate
 from analysis.recording import Recording
-from analysis.reverse_path import reverse_path
+from analysis.reverse_path import ReversePathOptions, reverse_path
 from analysis.signals import (HOLD_IMAGE_LOOKAHEAD, hold_image_gain, hold_image_taps,
                               hold_images)
 from drivers.base import RandomOutput
@@ -122,7 +122,7 @@ def test_reverse_path_covers_truth_for_every_kind_and_hold(sdof_runs, kind, hold
         f = force if hold == "linear" else _baseband(force, fs)
         recs.append(Recording(fs, "random", [0], f, noisy, kind, force_hold=hold))
     cand = model.with_elements([Element(e.kind, e.w, {}) for e in model.elements])
-    res = reverse_path(recs, cand, nperseg=8192)
+    res = reverse_path(recs, cand, ReversePathOptions(nperseg=8192))
     for c in res.coefficients:
         truth = model.elements[c.element].params["p"]
         lo, hi = c.ci95
@@ -141,7 +141,8 @@ def test_acceleration_bias_is_the_integration_limit(sdof_runs):
     for kind in ("displacement", "acceleration"):
         recs = [Recording(fs, "random", [0], f, r, kind, force_hold="linear")
                 for f, r in zip(forces, runs[kind])]
-        est[kind] = reverse_path(recs, cand, nperseg=8192).coefficients[0].value
+        est[kind] = reverse_path(recs, cand,
+                                 ReversePathOptions(nperseg=8192)).coefficients[0].value
     x = np.concatenate(runs["displacement"])[:, 0]
     spec = np.abs(np.fft.rfft(x)) ** 2
     low = np.sqrt(spec[np.fft.rfftfreq(x.size, 1 / fs) < 2.5].sum() / spec.sum())
@@ -163,7 +164,7 @@ def test_simulate_command_acceleration_of_a_two_dof_covers_truth():
     cand = truth.with_elements([Element("cubic_spring", [-1.0, 1.0], {})])
     for kind, noise in (("displacement", 7e-6), ("acceleration", 0.05)):
         rec = simulate_drive(truth, drive, response_kind=kind, noise_std=noise, seed=2)
-        (c,) = reverse_path(rec, cand, nperseg=8192).coefficients
+        (c,) = reverse_path(rec, cand, ReversePathOptions(nperseg=8192)).coefficients
         assert c.ci95[0] <= 2e11 <= c.ci95[1], (kind, c.value, c.ci95)
         assert c.ci95[1] - c.ci95[0] < 0.05 * 2e11    # would exclude the old 1.84e11
 

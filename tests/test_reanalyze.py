@@ -19,7 +19,7 @@ from analysis.excitation import random_gaussian, sine_block
 from analysis.model import Element, Model
 from analysis.plant import Plant, simulate
 from analysis.recording import Recording
-from analysis.reverse_path import reverse_path
+from analysis.reverse_path import ReversePathOptions, reverse_path
 from nlid_lab import cli, reanalyze as rea
 from nlid_lab.recordings_io import load_recordings
 from nlid_lab.store import RunWriter, save_recording
@@ -141,7 +141,8 @@ def test_task_matches_direct_reverse_path(campaign):
         assert row["coherence_min"] == direct["multiple_coherence"]["min"]
         assert row["warnings"] == " | ".join(direct["warnings"])
     seq = rea.analyse_run(campaign["good"][1], model, "reverse-path", {"refine": "sequential"})
-    direct = reverse_path(load_recordings(campaign["good"][1])[0], model, refine="sequential")
+    direct = reverse_path(load_recordings(campaign["good"][1])[0], model,
+                          ReversePathOptions(refine="sequential"))
     assert seq[0][P_COL] == direct.to_json()["elements"][0]["params"]["p"]
 
 

@@ -8,7 +8,7 @@ from analysis.excitation import multisine, periodic, random_gaussian
 from analysis.model import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recording import PeriodicLayout, Recording
-from analysis.reverse_path import reverse_path
+from analysis.reverse_path import ReversePathOptions, reverse_path
 from analysis.reverse_path import noise_floor
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"
@@ -48,8 +48,9 @@ def _check(result, model, tol):
 
 def test_sdof_paper_331_noise_free(sdof):
     model, force, out = sdof
-    res = reverse_path((force, out.displacement), _candidate(model), fs=1024.0,
-                       force_dofs=[0], nperseg=65536, force_hold="linear")
+    res = reverse_path((force, out.displacement), _candidate(model),
+                       ReversePathOptions(nperseg=65536), fs=1024.0, force_dofs=[0],
+                       force_hold="linear")
     _check(res, model, 1e-3)
     assert res.coherence_nonlinear.min() >= 0.99
     assert res.coherence_linear.min() < 0.5          # the linear analysis fails (fig 3.9)
@@ -64,25 +65,28 @@ def test_sdof_paper_331_noise_free(sdof):
 
 def test_mdof_paper_332_noise_free(mdof):
     model, force, out = mdof
-    res = reverse_path((force, out.displacement), _candidate(model), fs=4096.0,
-                       force_dofs=[0], nperseg=16384, force_hold="linear")
+    res = reverse_path((force, out.displacement), _candidate(model),
+                       ReversePathOptions(nperseg=16384), fs=4096.0, force_dofs=[0],
+                       force_hold="linear")
     _check(res, model, 1e-3)
     assert res.coherence_nonlinear.min() >= 0.99
     assert res.H_linear.shape == (res.freqs.size, 3, 1)
     # neither element lies on the forced DOF: nothing can be fixed, sequential = joint
-    seq = reverse_path((force, out.displacement), _candidate(model), fs=4096.0,
-                       force_dofs=[0], nperseg=16384, force_hold="linear", refine="sequential")
+    with pytest.warns(UserWarning, match="refine='sequential' changes nothing"):
+        seq = reverse_path((force, out.displacement), _candidate(model),
+                           ReversePathOptions(nperseg=16384, refine="sequential"), fs=4096.0,
+                           force_dofs=[0], force_hold="linear")
     assert [c.value for c in seq.coefficients] == [c.value for c in res.coefficients]
     assert res.to_json()["refine"] == {"method": "joint"}
 
 
 def test_conditioned_equals_correlated_inputs(mdof):
     model, force, out = mdof
-    kw = dict(fs=4096.0, force_dofs=[0], nperseg=4096, force_hold="linear")
+    kw = dict(fs=4096.0, force_dofs=[0], force_hold="linear")
     direct = reverse_path((force[: 2**16], out.displacement[: 2**16]), _candidate(model),
-                          method="direct", **kw)
+                          ReversePathOptions(nperseg=4096, method="direct"), **kw)
     cond = reverse_path((force[: 2**16], out.displacement[: 2**16]), _candidate(model),
-                        method="conditioned", **kw)
+                        ReversePathOptions(nperseg=4096, method="conditioned"), **kw)
     # the inputs are partially correlated: force and x^3 are coherent somewhere
     s = direct.spectra.S
     nd = 3
@@ -98,10 +102,13 @@ def test_conditioned_equals_correlated_inputs(mdof):
 def test_aliasing_warning_and_correction():
     fs = 512.0
     model, force, out = _run(SDOF, fs, 2**17, 20.0, [0], 8)
-    kw = dict(fs=fs, force_dofs=[0], nperseg=16384, force_hold="linear")
-    off = reverse_path((force, out.displacement), _candidate(model), antialias="off", **kw)
-    warn = reverse_path((force, out.displacement), _candidate(model), antialias="warn", **kw)
-    auto = reverse_path((force, out.displacement), _candidate(model), **kw)
+    kw = dict(fs=fs, force_dofs=[0], force_hold="linear")
+    off = reverse_path((force, out.displacement), _candidate(model),
+                       ReversePathOptions(nperseg=16384, antialias="off"), **kw)
+    warn = reverse_path((force, out.displacement), _candidate(model),
+                        ReversePathOptions(nperseg=16384, antialias="warn"), **kw)
+    auto = reverse_path((force, out.displacement), _candidate(model),
+                        ReversePathOptions(nperseg=16384), **kw)
     assert not off.warnings or not any("aliasing" in w for w in off.warnings)
     assert any("aliasing" in w and "v|v|" in w for w in warn.warnings)
     assert any("upsampled" in w for w in auto.warnings)
@@ -125,8 +132,8 @@ def _rec(run, kind):
 
 def test_several_force_inputs(mdof_two_forces):
     model = mdof_two_forces[0]
-    res = reverse_path(_rec(mdof_two_forces, "displacement"), _candidate(model), nperseg=8192,
-                       band=(10, 400))
+    res = reverse_path(_rec(mdof_two_forces, "displacement"), _candidate(model),
+                       ReversePathOptions(nperseg=8192, band=(10, 400)))
     assert res.H_linear.shape[2] == 2
     _check(res, model, 1e-3)
 
@@ -140,8 +147,8 @@ def test_velocity_and_acceleration_records(mdof_two_forces):
     """
     model = mdof_two_forces[0]
     for kind, tol in (("velocity", 5e-3), ("acceleration", 2e-2)):
-        res = reverse_path(_rec(mdof_two_forces, kind), _candidate(model), nperseg=8192,
-                           band=(10, 400))
+        res = reverse_path(_rec(mdof_two_forces, kind), _candidate(model),
+                           ReversePathOptions(nperseg=8192, band=(10, 400)))
         for c in res.coefficients:
             assert c.value == pytest.approx(model.elements[c.element].params["p"], rel=tol)
 
@@ -150,8 +157,9 @@ def test_known_element_is_subtracted(sdof):
     model, force, out = sdof
     cand = model.with_elements([Element("cubic_spring", [1.0], dict(model.elements[0].params)),
                                 Element("quadratic_damping", [1.0], {})])
-    res = reverse_path((force[: 2**17], out.displacement[: 2**17]), cand, fs=1024.0,
-                       force_dofs=[0], nperseg=16384, force_hold="linear")
+    res = reverse_path((force[: 2**17], out.displacement[: 2**17]), cand,
+                       ReversePathOptions(nperseg=16384), fs=1024.0, force_dofs=[0],
+                       force_hold="linear")
     assert [c.kind for c in res.coefficients] == ["quadratic_damping"]
     assert res.coefficients[0].value == pytest.approx(20.0, rel=0.02)
 
@@ -168,15 +176,18 @@ def test_bad_inputs(sdof):
         reverse_path((force, np.c_[out.displacement, out.displacement]), _candidate(model),
                      fs=1024.0, force_dofs=[0])
     with pytest.raises(InputError, match="refine must be joint or sequential"):
-        reverse_path((force, out.displacement), _candidate(model), fs=1024.0, force_dofs=[0],
-                     refine="two-stage")
+        ReversePathOptions(refine="two-stage")
+    with pytest.raises(InputError, match="not both"):
+        reverse_path((force, out.displacement), _candidate(model), ReversePathOptions(),
+                     fs=1024.0, force_dofs=[0], nperseg=4096)
 
 
 def _noisy_estimates(run, fs, fraction, noise, nperseg=8192, n=2**18):
     model, force, out = run
     x = add_relative_noise(out.displacement[:n], fraction, 1)
-    return model, reverse_path((force[:n], x), _candidate(model), fs=fs, force_dofs=[0],
-                               nperseg=nperseg, force_hold="linear", noise=noise)
+    return model, reverse_path((force[:n], x), _candidate(model),
+                               ReversePathOptions(nperseg=nperseg, noise=noise), fs=fs,
+                               force_dofs=[0], force_hold="linear")
 
 
 def _errors(model, res):
@@ -340,7 +351,7 @@ def _damping_two_stage(seed):
     joint estimate (both elements act on the forced DOF), uncertainty propagated."""
     model, rec = _periodic_run(*SDOF_P, **SDOF_DAMPING_5PCT, seed=seed)
     rec = _noisy(rec, 0.05, seed)
-    res = reverse_path(rec, _candidate(model), refine="sequential")
+    res = reverse_path(rec, _candidate(model), ReversePathOptions(refine="sequential"))
     assert res.refine["method"] == "sequential"
     for c, joint in zip(res.coefficients, res.refine["joint"]):
         truth = model.elements[c.element].params[c.param]
@@ -376,7 +387,7 @@ def test_periodic_transient_warning_and_inputs():
     with pytest.raises(InputError, match="some records are periodic"):
         reverse_path([rec, Recording(rec.fs, "random", [0], rec.force, rec.response)], cand)
     with pytest.raises(InputError, match="2 or more steady periods"):
-        reverse_path(rec, cand, transient_periods=2, noise="iv")
+        reverse_path(rec, cand, ReversePathOptions(noise="iv"), transient_periods=2)
 
 
 def test_periodic_basis_upsampling_is_exact():
@@ -405,3 +416,22 @@ def test_aliasing_warnings_merge_per_basis():
     assert out[0] == "noise note" and len(out) == 2
     assert "up to 1200 Hz" in out[1] and "up to 0.15 %" in out[1] and "2 records" in out[1]
     assert "x2-x3" in out[1]
+
+
+def test_options_that_do_not_apply_warn_and_keywords_still_work():
+    """Welch settings on periodic records are named in a warning (period averaging uses no
+    segments); option fields given as keywords still work, with a DeprecationWarning, and give
+    the same estimate as ``options=``."""
+    model, rec = _periodic_run(*SDOF_P[:3], (5, 150), 2, realizations=4, periods=3,
+                               transient=1, n=4096)
+    cand = _candidate(model)
+    plain = reverse_path(rec, cand)
+    with pytest.warns(UserWarning, match="nperseg, window ignored: the records are periodic"):
+        res = reverse_path(rec, cand, ReversePathOptions(nperseg=1024, window="boxcar"))
+    assert [c.value for c in res.coefficients] == [c.value for c in plain.coefficients]
+    with pytest.warns(DeprecationWarning, match="noise=...\\) is deprecated"):
+        old = reverse_path(rec, cand, noise="none")
+    new = reverse_path(rec, cand, ReversePathOptions(noise="none"))
+    assert [c.value for c in old.coefficients] == [c.value for c in new.coefficients]
+    with pytest.raises(TypeError, match="nperseeg"):
+        reverse_path(rec, cand, nperseeg=1024)

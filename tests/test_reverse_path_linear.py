@@ -7,7 +7,7 @@ from analysis.excitation import random_gaussian
 from analysis.model import Element, Model
 from analysis.plant import Plant
 from analysis.recording import Recording
-from analysis.reverse_path import reverse_path
+from analysis.reverse_path import ReversePathOptions, reverse_path
 from analysis.reverse_path import residual_force_frf
 from analysis.modal import modal_summary
 
@@ -37,7 +37,7 @@ def test_residual_force_modes_at_coarse_resolution():
     model = Model.load(SDOF)
     recs = _records(model, 1024.0, 2**15, (5.0, 20.0), seed=11)
     cand = _candidate(model)
-    res = reverse_path(recs, cand, nperseg=2048)
+    res = reverse_path(recs, cand, ReversePathOptions(nperseg=2048))
     linear = residual_force_frf(recs, res.estimated_model(cand), res)
     lam = np.roots([model.mass[0, 0], model.damping[0, 0], model.stiffness[0, 0]])[0]
     zeta, fn = -lam.real / abs(lam), abs(lam) / 2 / np.pi
@@ -53,10 +53,11 @@ def test_residual_force_modes_at_coarse_resolution():
 def test_residual_force_route_declines_where_it_does_not_apply():
     model = Model.load("examples/models/three-dof-paper.toml")     # elements off DOF 0
     recs = _records(model, 2048.0, 2**14, (8.0,), seed=3)
-    res = reverse_path(recs, _candidate(model), nperseg=2048)
+    res = reverse_path(recs, _candidate(model), ReversePathOptions(nperseg=2048))
     assert residual_force_frf(recs, res.estimated_model(_candidate(model)), res) is None
     assert "H_linear" in modal_summary(res, 3)["method"]
     sdof = Model.load(SDOF)
     recs = _records(sdof, 1024.0, 2**14, (20.0,), seed=3)
-    res = reverse_path(recs, _candidate(sdof), nperseg=2048, noise="iv")   # noisy-data route
+    # noisy-data route
+    res = reverse_path(recs, _candidate(sdof), ReversePathOptions(nperseg=2048, noise="iv"))
     assert residual_force_frf(recs, res.estimated_model(_candidate(sdof)), res) is None

@@ -22,7 +22,7 @@ from scipy.signal import firwin, lfilter
 from analysis.model import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recording import Recording
-from analysis.reverse_path import reverse_path
+from analysis.reverse_path import ReversePathOptions, reverse_path
 from analysis.sensors import SensorMap, model_at_sensors, one_kind
 from nlid_lab import recordings_io as rio
 from nlid_lab.cli import main
@@ -77,7 +77,7 @@ def _mapped(run, kinds, noise, seed=2):
 
 
 def _estimate(run, rec):
-    return reverse_path(one_kind(rec), model_at_sensors(run["cand"], [rec]), band=BAND)
+    return reverse_path(one_kind(rec), model_at_sensors(run["cand"], [rec]), ReversePathOptions(band=BAND))
 
 
 @pytest.mark.slow
@@ -90,12 +90,12 @@ def test_three_of_twenty_one_dofs_give_the_all_dof_estimate(beam_run):
     bare = Recording(fs=FS, excitation="random", force_dofs=np.array([0]),
                      force=beam_run["force"], response=rec.response, response_kind=D,
                      force_hold="none", layout=beam_run["layout"])
-    nomap = reverse_path(bare, plain, band=BAND).coefficients[0]
+    nomap = reverse_path(bare, plain, ReversePathOptions(band=BAND)).coefficients[0]
     drive = beam_run["model"].point_index("drive")
     full = Recording(fs=FS, excitation="random", force_dofs=np.array([drive]),
                      force=beam_run["force"], response=beam_run["displacement"],
                      response_kind=D, force_hold="none", layout=beam_run["layout"])
-    every = reverse_path(full, beam_run["cand"], band=BAND).coefficients[0]
+    every = reverse_path(full, beam_run["cand"], ReversePathOptions(band=BAND)).coefficients[0]
     # the unmeasured rows never enter: equal to rounding
     assert nomap.value == pytest.approx(mapped.value, rel=1e-9)
     assert every.value == pytest.approx(mapped.value, rel=1e-9)
@@ -150,7 +150,7 @@ def test_weak_instrument_warning_on_a_lumped_chain():
     for kinds in ([D, D, D], [A, A, A]):
         rec = mapped_recording(truth, MEASURED, kinds, "drive", f, FS, UP, noise=0.03,
                                layout=layout)
-        res = reverse_path(one_kind(rec), model_at_sensors(cand, [rec]), band=BAND)
+        res = reverse_path(one_kind(rec), model_at_sensors(cand, [rec]), ReversePathOptions(band=BAND))
         found[kinds[0]] = (res.coefficients[0], [x for x in res.warnings if WEAK in x])
     coef, weak = found[D]
     assert not weak and coef.ci95[0] <= P_TRUE <= coef.ci95[1], (coef, weak)

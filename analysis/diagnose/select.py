@@ -31,7 +31,7 @@ from ..errors import EstimationError, InputError, ModelError
 from ..kinds import KINDS
 from ..model import Element, Model
 from ..recording import Recording
-from ..reverse_path import reverse_path
+from ..reverse_path import ReversePathOptions, reverse_path
 from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
@@ -326,7 +326,7 @@ class RandomSearch(Search):
         if self.preps[0].period is not None:
             opts.update(nperseg=self.preps[0].period, window="boxcar", overlap=0.0)
         try:
-            rp = reverse_path(recs, trial, **opts)
+            rp = reverse_path(recs, trial, ReversePathOptions(**opts))
         except (InputError, EstimationError) as exc:
             fit.evidence["reverse_path"] = f"not estimable: {exc}"
             return fit

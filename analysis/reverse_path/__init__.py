@@ -9,11 +9,12 @@ period averaging), ``_stages`` (sequential refinement), ``_linear`` (residual-fo
 """
 
 from ._core import Z95, Coefficient, ReversePathResult
-from ._estimator import reverse_path
+from ._estimator import ReversePathOptions, reverse_path
 from ._linear import residual_force_frf
 from ._noise import noise_floor
 from ._screening import ScreeningResult, screen_candidates
 from ._stages import sequential
 
-__all__ = ["Coefficient", "ReversePathResult", "ScreeningResult", "Z95", "noise_floor",
-           "residual_force_frf", "reverse_path", "screen_candidates", "sequential"]
+__all__ = ["Coefficient", "ReversePathOptions", "ReversePathResult", "ScreeningResult", "Z95",
+           "noise_floor", "residual_force_frf", "reverse_path", "screen_candidates",
+           "sequential"]

@@ -2,12 +2,16 @@
 
 It chooses the route (Welch spectra with or without instrumental variables, or period
 averaging for periodic records, `._noise`), runs the estimate (`._core`) and the optional
-sequential refinement (`._stages`).
+sequential refinement (`._stages`). How to estimate is one `ReversePathOptions`; what the
+records are (sample rate, forced DOFs, response kind, force hold, periodic layout) stays in
+the arguments, because a `Recording` already carries it.
 """
 
 from __future__ import annotations
 
 import re
+import warnings as pywarnings
+from dataclasses import dataclass, fields, replace
 from typing import Any, Sequence
 
 from ..errors import InputError
@@ -21,14 +25,86 @@ from ._core import (ReversePathResult, _channels, _elements, _estimate, _Process
 from ._stages import sequential
 
 
-def reverse_path(data: Any, model: Model, *, fs: float | None = None,
-                 force_dofs: Sequence[int] | None = None,
-                 response_kind: str = "displacement", band: tuple[float, float] | None = None,
-                 nperseg: int | None = None, window: str = "hann", overlap: float = 0.5,
-                 antialias: str = "auto", method: str = "direct",
-                 force_hold: str | None = None, noise: str = "auto",
+@dataclass(frozen=True)
+class ReversePathOptions:
+    """How to run the reverse path, independent of the records it is run on.
+
+    Parameters
+    ----------
+    band : (lo, hi), optional
+        Analysis band, Hz; by default the excited band of the force spectrum.
+    nperseg : int, optional
+        Welch segment length (default: a power of two <= n/16, at most 8192). Random records
+        only: periodic records are averaged period by period.
+    window : str
+        Welch window (random records only).
+    overlap : float
+        Welch overlap fraction (random records only).
+    antialias : {"auto", "warn", "off"}
+        When a basis function would alias into the band: upsample before forming it and
+        note it ("auto"), only warn ("warn"), or do nothing ("off").
+    method : {"direct", "conditioned"}
+        Invert ``G_RR`` directly (partially correlated inputs) or go through Bendat's
+        conditioned, uncorrelated inputs (same estimate, paper section 3.2; random records
+        only).
+    noise : {"auto", "iv", "none"}
+        "iv": instrumental variables and debiased bases (`._noise`),
+        "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
+        noise floor exceeds ``NOISE_THRESHOLD`` of its rms (random records) or when there
+        are two or more steady periods (periodic records).
+    refine : {"joint", "sequential"}
+        "sequential": after the joint estimate, re-estimate each coefficient with the
+        elements on forced DOFs fixed at their joint estimates, their uncertainty propagated
+        (`._stages`; for a basis that shares its deformation with another, such as v|v|
+        next to x^3).
+
+    Raises
+    ------
+    InputError
+        A choice outside its allowed values.
+    """
+
+    band: tuple[float, float] | None = None
+    nperseg: int | None = None
+    window: str = "hann"
+    overlap: float = 0.5
+    antialias: str = "auto"
+    method: str = "direct"
+    noise: str = "auto"
+    refine: str = "joint"
+
+    def __post_init__(self) -> None:
+        for name, allowed in _CHOICES.items():
+            if getattr(self, name) not in allowed:
+                raise InputError(f"{name} must be {', '.join(allowed[:-1])} or {allowed[-1]}, "
+                                 f"got '{getattr(self, name)}'")
+
+    def changed(self, *names: str) -> list[str]:
+        """Those of ``names`` whose value differs from the default.
+
+        Parameters
+        ----------
+        *names : str
+            Field names.
+
+        Returns
+        -------
+        list of str
+        """
+        default = ReversePathOptions()
+        return [n for n in names if getattr(self, n) != getattr(default, n)]
+
+
+_CHOICES = {"antialias": ("auto", "warn", "off"), "method": ("direct", "conditioned"),
+            "noise": ("auto", "iv", "none"), "refine": ("joint", "sequential")}
+_WELCH_ONLY = ("nperseg", "window", "overlap", "method")
+
+
+def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = None, *,
+                 fs: float | None = None, force_dofs: Sequence[int] | None = None,
+                 response_kind: str = "displacement", force_hold: str | None = None,
                  period: int | None = None, transient_periods: int | None = None,
-                 realizations: int | None = None, refine: str = "joint") -> ReversePathResult:
+                 realizations: int | None = None, **option_fields: Any) -> ReversePathResult:
     """Estimate the unknown element parameters of ``model`` and the underlying linear FRF.
 
     Parameters
@@ -41,62 +117,58 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     model : Model
         Candidate: elements with omitted parameters are estimated; complete elements are
         included as known nonlinear forces.
+    options : ReversePathOptions, optional
+        How to estimate (band, Welch settings, antialiasing, inversion, noise treatment,
+        refinement); defaults when omitted. An option that does not apply to the data
+        (Welch settings on periodic records, ``refine="sequential"`` with no coefficient to
+        fix) is ignored with a `UserWarning` saying so.
     fs, force_dofs, response_kind
         Needed with plain arrays only.
-    band : (lo, hi), optional
-        Analysis band, Hz; by default the excited band of the force spectrum.
-    nperseg : int, optional
-        Welch segment length (default: a power of two <= n/16, at most 8192).
-    window, overlap
-        Welch window and overlap fraction.
-    antialias : {"auto", "warn", "off"}
-        When a basis function would alias into the band: upsample before forming it and
-        note it ("auto"), only warn ("warn"), or do nothing ("off").
-    method : {"direct", "conditioned"}
-        Invert ``G_RR`` directly (partially correlated inputs) or go through Bendat's
-        conditioned, uncorrelated inputs (same estimate, paper section 3.2).
     force_hold : {"none", "linear"}, optional
         How the applied force behaves between its samples. "linear" (the simulated plant's
         first-order-hold drive) means the structure felt the baseband force
         ``F(f) sinc^2(f/fs)``, which is what enters H1; default: the recording's
         ``force_hold`` ("none": a force transducer behind an anti-alias filter).
-    noise : {"auto", "iv", "none"}
-        "iv": instrumental variables and debiased bases (`._noise`),
-        "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
-        noise floor exceeds ``NOISE_THRESHOLD`` of its rms (random records) or when there
-        are two or more steady periods (periodic records).
     period, transient_periods, realizations : int, optional
         Periodic-random records: samples per period, leading periods of each realization
         dropped as transient (default 1) and realizations (blocks with their own random
         phases) per record (default 1); default: the recording's ``layout`` entries of the
         same names. Each realization holds ``transient_periods + P`` whole periods.
-    refine : {"joint", "sequential"}
-        "sequential": after the joint estimate, re-estimate each coefficient with the
-        elements on forced DOFs fixed at their joint estimates, their uncertainty propagated
-        (`._stages`; for a basis that shares its deformation with
-        another, such as v|v| next to x^3).
+    **option_fields
+        Deprecated: `ReversePathOptions` fields given as keywords (a `DeprecationWarning`);
+        not together with ``options``.
 
     Returns
     -------
     ReversePathResult
+
+    Raises
+    ------
+    InputError
+        Invalid options or force hold, records that do not match the model, a band outside
+        0..fs/2.
     """
-    if antialias not in ("auto", "warn", "off"):
-        raise InputError(f"antialias must be auto, warn or off, got '{antialias}'")
+    if option_fields:
+        unknown_fields = set(option_fields) - {f.name for f in fields(ReversePathOptions)}
+        if unknown_fields:
+            raise TypeError(f"reverse_path() got unexpected keyword arguments "
+                            f"{sorted(unknown_fields)}")
+        if options is not None:
+            raise InputError("give the reverse path options either as options= or as "
+                             "keywords, not both")
+        pywarnings.warn(f"reverse_path(..., {', '.join(sorted(option_fields))}=...) is "
+                        "deprecated: pass options=ReversePathOptions(...)",
+                        DeprecationWarning, stacklevel=2)
+        options = ReversePathOptions(**option_fields)
+    opts = options if options is not None else ReversePathOptions()
     if force_hold not in (None, "none", "linear"):
         raise InputError(f"force_hold must be none or linear, got '{force_hold}'")
-    if method not in ("direct", "conditioned"):
-        raise InputError(f"method must be direct or conditioned, got '{method}'")
-    if noise not in ("auto", "iv", "none"):
-        raise InputError(f"noise must be auto, iv or none, got '{noise}'")
-    if refine not in ("joint", "sequential"):
-        raise InputError(f"refine must be joint or sequential, got '{refine}'")
-    if refine == "sequential":
-        opts = dict(fs=fs, force_dofs=force_dofs, response_kind=response_kind, band=band,
-                    nperseg=nperseg, window=window, overlap=overlap, antialias=antialias,
-                    method=method, force_hold=force_hold, noise=noise, period=period,
-                    transient_periods=transient_periods, realizations=realizations)
-        return sequential(lambda cand: reverse_path(data, cand, **opts), model)
-    # imported here: the noise module builds on this one's channel and estimate helpers
+    facts = dict(fs=fs, force_dofs=force_dofs, response_kind=response_kind,
+                 force_hold=force_hold, period=period, transient_periods=transient_periods,
+                 realizations=realizations)
+    if opts.refine == "sequential":
+        joint = replace(opts, refine="joint")
+        return sequential(lambda cand: reverse_path(data, cand, joint, **facts), model)
     recs = _records(data, fs, force_dofs, response_kind)
     rec0 = recs[0][0]
     if rec0.n_dof != model.n_dof:
@@ -106,9 +178,16 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     warnings: list[str] = []
     layouts = [noise_mod.periodic_layout(r, period, transient_periods, realizations)
                for r, _ in recs]
+    band, nperseg, window, overlap = opts.band, opts.nperseg, opts.window, opts.overlap
     if any(lay is not None for lay in layouts):
+        ignored = opts.changed(*_WELCH_ONLY)
+        if ignored:
+            pywarnings.warn(f"reverse path: {', '.join(ignored)} ignored: the records are "
+                            "periodic, so they are averaged period by period (no Welch "
+                            "segments, one input inversion)", UserWarning, stacklevel=2)
         return noise_mod.periodic_reverse_path(recs, layouts, model, unknown, known, band,
-                                               antialias, force_hold, noise, warnings)
+                                               opts.antialias, force_hold, opts.noise,
+                                               warnings)
     fsr = float(rec0.fs)
     fdofs = rec0.force_dofs
     n_min = min(r.force.shape[0] for r, _ in recs)
@@ -121,12 +200,12 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     if not 0 <= lo < hi <= fsr / 2:
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
                          f"{fsr / 2:g}")
-    info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, noise, warnings)
+    info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
     built = []
     for (rec, kind), floor in zip(recs, floors):
-        proc = _Processing(fsr, kind, (lo, hi), antialias,
+        proc = _Processing(fsr, kind, (lo, hi), opts.antialias,
                            force_hold or rec.force_hold,
                            info["lowpass_hz"])
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
@@ -136,7 +215,8 @@ def reverse_path(data: Any, model: Model, *, fs: float | None = None,
     inputs += labels
     spec = Spectra.pool([spectral_matrix(c, fsr, **welch) for *_, c in built])
     first: list[str] = []
-    result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), method, first)
+    result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), opts.method,
+                       first)
     if info["method"] != "iv":
         warnings.extend(first)
     else:

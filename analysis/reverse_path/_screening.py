@@ -130,6 +130,7 @@ class ScreeningResult:
         return "\n".join(out)
 
     def to_json(self) -> dict[str, Any]:
+        """The ranking, coherence steps, band, significance rule and chosen candidates as JSON."""
         return {"ranking": self.rows, "coherence_steps": self.coherence,
                 "band_hz": list(self.band),
                 "significance": {"min_gain_decades": MIN_GAIN, "z_crit": self.z_crit,

@@ -17,6 +17,7 @@ nuisance input), so they keep their joint estimates and are not fixed for the ot
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from typing import Callable
 
@@ -47,6 +48,10 @@ def sequential(estimate: Callable[[Model], ReversePathResult], model: Model
     coefs = joint.coefficients
     fdofs = joint.force_dofs
     fixable = [_force_span(c.w, fdofs) is not None for c in coefs]
+    if not any(fixable[j] for k in range(len(coefs)) for j in range(len(coefs)) if j != k):
+        warnings.warn("reverse path: refine='sequential' changes nothing here: no other "
+                      "coefficient lies on the forced DOFs to be fixed, so the joint "
+                      "estimate stands", UserWarning, stacklevel=3)
     fitted = joint.estimated_model(model)
     refined: list[Coefficient] = []
     for k, c in enumerate(coefs):

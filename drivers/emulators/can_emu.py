@@ -57,6 +57,7 @@ class CanDaqEmulator(threading.Thread):
         self.sent: deque[tuple[int, int, float, np.ndarray]] = deque(maxlen=200000)
 
     def run(self) -> None:
+        """Thread body: answer control messages and stream samples until closed or disconnected."""
         try:
             while not self._halt.is_set() and self.connected:
                 msg = self.bus.recv(0.0 if self.streaming else 0.01)
@@ -138,6 +139,7 @@ class CanDaqEmulator(threading.Thread):
         return True
 
     def close(self, timeout: float = 2.0) -> None:
+        """Stop the thread (waiting up to ``timeout`` seconds) and release the bus."""
         self._halt.set()
         if self.is_alive():
             self.join(timeout)

@@ -30,17 +30,21 @@ class FaultPlan(FaultSpec):
         return every > 0 and k > 0 and k % every == 0
 
     def garbage(self, k: int) -> bytes:
+        """Garbage bytes to send before frame ``k`` (empty if none)."""
         if self._hit(self.garbage_every, k):
             return self.rng.integers(0, 256, self.garbage_bytes, dtype=np.uint8).tobytes()
         return b""
 
     def drop(self, k: int) -> bool:
+        """Whether frame ``k`` is dropped."""
         return self._hit(self.drop_every, k)
 
     def duplicate(self, k: int) -> bool:
+        """Whether frame ``k`` is sent twice."""
         return self._hit(self.duplicate_every, k)
 
     def corrupt(self, k: int) -> bool:
+        """Whether frame ``k`` is sent with a bad checksum."""
         return self._hit(self.corrupt_every, k)
 
     def stalled(self, k: int) -> float:
@@ -51,11 +55,13 @@ class FaultPlan(FaultSpec):
         return 0.0
 
     def disconnect(self, k: int) -> bool:
+        """Whether the device disconnects at frame ``k`` (marks the fault time)."""
         if self.disconnect_at and k == self.disconnect_at:
             self.mark()
             return True
         return False
 
     def mark(self) -> None:
+        """Record the time of the first fault (``fault_at``)."""
         if self.fault_at is None:
             self.fault_at = time.monotonic()

@@ -43,6 +43,17 @@ class PtyServer(threading.Thread):
 
     # --- for subclasses ----------------------------------------------------------------
     def handle(self, line: str) -> str | None:
+        """Answer one command line; None: no answer (subclasses implement it).
+
+        Parameters
+        ----------
+        line : str
+            The line received, without its terminator.
+
+        Returns
+        -------
+        str or None
+        """
         raise NotImplementedError
 
     def tick(self) -> float:
@@ -52,6 +63,7 @@ class PtyServer(threading.Thread):
 
     # --- loop --------------------------------------------------------------------------
     def run(self) -> None:
+        """Thread body: read lines, answer them (`handle`) and send output (`tick`) until closed."""
         try:
             wait = 0.0
             while not self._halt.is_set() and self.connected:
@@ -111,6 +123,7 @@ class PtyServer(threading.Thread):
                 pass
 
     def close(self, timeout: float = 2.0) -> None:
+        """Stop the thread (waiting up to ``timeout`` seconds) and close the pseudo-terminal."""
         self._halt.set()
         if self.is_alive():
             self.join(timeout)

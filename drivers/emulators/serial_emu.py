@@ -84,6 +84,7 @@ class SerialShakerEmulator(PtyServer):
         self.log: deque[tuple[float, str]] = deque(maxlen=10000)
 
     def handle(self, line: str) -> str | None:
+        """Answer one SCPI command of the shaker (`PtyServer.handle`); None while unplugged."""
         if self.unplugged:
             return None
         now = time.monotonic()
@@ -214,6 +215,7 @@ class SerialDaqEmulator(PtyServer):
         self.sent: deque[tuple[int, int, float, np.ndarray]] = deque(maxlen=200000)
 
     def handle(self, line: str) -> str | None:
+        """Answer one SCPI command of the DAQ (`PtyServer.handle`)."""
         head, arg = _split(line)
         try:
             if head == "*IDN?":
@@ -243,6 +245,7 @@ class SerialDaqEmulator(PtyServer):
         return BAD_HEADER
 
     def tick(self) -> float:
+        """Send the frames that are due while streaming (`PtyServer.tick`)."""
         if not self.streaming:
             return float("inf")
         now = time.monotonic()

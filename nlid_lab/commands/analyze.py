@@ -9,6 +9,7 @@ import argparse
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab analyze`` on the parsed ``args``; returns the exit code."""
     from analysis.errors import InputError
     from analysis.model import Model
     from analysis.sensors import model_at_sensors, one_kind
@@ -44,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``analyze`` sub-command and its options to ``sub``."""
     from .. import methods
     from ..outputs import add_force_option, add_quiet_option
 

@@ -217,6 +217,7 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``campaign`` sub-command and its options to ``sub``."""
     from ..outputs import add_quiet_option
 
     p = sub.add_parser("campaign", help="run a test campaign (shaker + DAQ -> HDF5 run)")

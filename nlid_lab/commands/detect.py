@@ -46,6 +46,7 @@ def format_tests(result: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab detect`` on the parsed ``args``; returns the exit code."""
     from analysis.detect import detect
     from analysis.sensors import one_kind
 
@@ -60,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``detect`` sub-command and its options to ``sub``."""
     p = sub.add_parser("detect", help="test stored runs for nonlinearity (no model needed)")
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs or NPZ recordings")
     p.add_argument("--nperseg", type=int, help="Welch segment length for random levels")

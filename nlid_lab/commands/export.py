@@ -13,6 +13,7 @@ from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab export`` on the parsed ``args``; returns the exit code."""
     from ..store import open_run
 
     out = Path(args.out)
@@ -35,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``export`` sub-command and its options to ``sub``."""
     p = sub.add_parser("export", help="write one level of a run as an NPZ, CSV or MAT recording")
     p.add_argument("run", metavar="RUN.h5", help="run file")
     p.add_argument("--out", required=True, metavar="REC", help="recording .npz, .csv or .mat "

@@ -85,6 +85,7 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``nlid-lab import`` on the parsed ``args``; returns the exit code."""
     sources, out = [Path(p) for p in args.recording], Path(args.out)
     if out.suffix.lower() not in (".h5", ".hdf5"):
         raise InputError(f"--out {out}: a run file must end in .h5")
@@ -122,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``import`` sub-command and its options to ``sub``."""
     p = sub.add_parser("import", help="store NPZ, CSV or MAT recordings as an HDF5 run")
     p.add_argument("recording", metavar="REC", nargs="+",
                    help="recording .npz (contracts section 3), .csv or .mat "

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from analysis.recording import Recording
     from analysis.reverse_path import ReversePathResult
     from analysis.reverse_path import ScreeningResult
+    from analysis.reverse_path import ReversePathOptions as EstimatorOptions
 
     from ..rundata import RunData, Section
 
@@ -62,6 +63,13 @@ class ReversePathOptions:
         help="'sequential': re-estimate each coefficient with the elements on forced DOFs "
         "fixed at their joint estimates (narrower intervals when two bases share a "
         "deformation, e.g. v|v| next to x^3; docs/reverse-path.md)")
+
+    def estimator_options(self) -> EstimatorOptions:
+        """The `analysis.reverse_path.ReversePathOptions` these flags set (band, nperseg,
+        refine; the rest at their defaults)."""
+        from analysis.reverse_path import ReversePathOptions as Options
+        return Options(band=None if self.band is None else tuple(self.band),
+                       nperseg=self.nperseg, refine=self.refine)
 
 
 def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
@@ -191,8 +199,7 @@ def estimate(recs: Sequence[Recording], model: Model,
                                       nperseg=options.nperseg, force_hold=hold)
         return ReversePathEstimate(None, None, hold, len(recs), screening, model,
                                    options.candidate_out)
-    result = reverse_path(recs, model, band=options.band, nperseg=options.nperseg,
-                          force_hold=hold, refine=options.refine)
+    result = reverse_path(recs, model, options.estimator_options(), force_hold=hold)
     try:   # an estimate a model file cannot hold (e.g. negative damping): H_linear instead
         linear = residual_force_frf(recs, result.estimated_model(model), result,
                                     force_hold=hold)
@@ -213,8 +220,8 @@ def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
                    ) -> dict[str, Any]:
     """One level for reanalysis: the coefficients only (no modal summary, no screening)."""
     from analysis.reverse_path import reverse_path
-    result = reverse_path(rec, model, band=options.band, nperseg=options.nperseg,
-                          force_hold=options.force_hold, refine=options.refine)
+    result = reverse_path(rec, model, options.estimator_options(),
+                          force_hold=options.force_hold)
     return {ESTIMATOR_KEY: NAME, **result.to_json()}
 
 
