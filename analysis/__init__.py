@@ -11,16 +11,16 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "KINDS": "elements", "restoring_force": "elements",
+    "KINDS": "models", "restoring_force": "models",
     "EstimationError": "errors", "InputError": "errors", "ModelError": "errors",
     "RecordingError": "errors",
-    "Element": "model", "Model": "model", "Recording": "recording",
+    "Element": "models", "Model": "models", "Recording": "recordings",
     "Plant": "plant", "PlantOutput": "plant", "add_relative_noise": "plant",
     "simulate": "plant",
     "ReversePathResult": "reverse_path", "reverse_path": "reverse_path",
     "ScreeningResult": "reverse_path", "screen_candidates": "reverse_path",
-    "HBMSystem": "hbm", "FitResult": "hbm_fit", "fit_hbm": "hbm_fit",
-    "sine_fit": "sine_fit", "stepped_sine_frf": "sine_fit",
+    "HBMSystem": "hbm", "FitResult": "hbm", "fit_hbm": "hbm",
+    "sine_fit": "spectral", "stepped_sine_frf": "spectral",
     "Diagnosis": "diagnose",
 }
 

@@ -6,7 +6,7 @@ loop of `aft.py`) would keep running the stale compiled copy after that file is 
 `guard` drops a module's cache files whenever one of its dependencies changed since they were
 written. Numba offers no dependency tracking of its own, hence this small hand-written check.
 
-`recompile_law_kernels` serves `analysis.elements.register_kind`: the kernels of
+`recompile_law_kernels` serves `analysis.models.register_kind`: the kernels of
 `LAW_KERNELS` bind the element law when they compile, so a kind added at run time needs them
 compiled afresh in this process, and off the disk cache.
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 from numba.core.caching import NullCache
 from numba.core.registry import CPUDispatcher
 
-LAW_KERNELS = ("elements", "aft", "hbm", "_plant_kernels")
+LAW_KERNELS = ("models._elements", "hbm._aft", "hbm._hbm", "plant._plant_kernels")
 """Modules of this package whose numba functions contain the element law."""
 
 _disk_caches: dict[int, object] = {}
@@ -31,7 +31,7 @@ def guard(module_file: str, *dependencies: str) -> None:
     this package, e.g. ``"elements"``) changed since the cache was written."""
     src = Path(module_file)
     here = src.parent
-    digest = hashlib.sha256(b"".join((here / f"{d}.py").read_bytes()
+    digest = hashlib.sha256(b"".join(_dependency(here, d).read_bytes()
                                      for d in dependencies)).hexdigest()
     cache = here / "__pycache__"
     stamp = cache / f"{src.stem}.deps-sha256"
@@ -47,6 +47,17 @@ def guard(module_file: str, *dependencies: str) -> None:
         stamp.write_text(digest)
     except OSError:
         pass    # read-only install: numba then caches elsewhere or not at all
+
+
+def _dependency(here: Path, name: str) -> Path:
+    """File of a dependency named like a relative import from the folder ``here``: a plain
+    name is a sibling, each leading dot past the first goes one package up
+    (``"..models._elements"``)."""
+    dots = len(name) - len(name.lstrip("."))
+    base = here
+    for _ in range(max(dots - 1, 0)):
+        base = base.parent
+    return base.joinpath(*name.lstrip(".").split(".")).with_suffix(".py")
 
 
 def recompile_law_kernels(disk_cache: bool) -> None:

@@ -22,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from analysis.model import Model  # noqa: E402
+from analysis.models import Model  # noqa: E402
 from drivers.base import Channel, RandomOutput  # noqa: E402
 from drivers.frame import FrameParser, encode_frame  # noqa: E402
 from drivers.rig import SimRig  # noqa: E402

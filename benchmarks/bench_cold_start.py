@@ -38,7 +38,7 @@ def _cli(args: list[str], cache: Path, cwd: Path) -> float:
 
 def _inputs(d: Path, cache: Path) -> None:
     """Random runs at three levels, a stepped-sine run and a candidate model."""
-    from analysis.model import Element, Model
+    from analysis.models import Element, Model
 
     model = Model.load(SDOF)
     model.with_elements([Element(e.kind, e.w.copy(), {}) for e in model.elements]

@@ -19,14 +19,15 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"),
+                *sorted({str(p.parent) for p in (ROOT / "tests").rglob("test_*.py")})]
 
 from analysis.diagnose import library  # noqa: E402
-from analysis.model import Element  # noqa: E402
+from analysis.models import Element  # noqa: E402
 from analysis.reverse_path import reverse_path  # noqa: E402
 from diagnose_scenarios import hidden_cubic  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
-from nlid_lab.recordings_io import write_npz  # noqa: E402
+from nlid_lab.formats import write_npz  # noqa: E402
 
 BUDGET_S = 60.0
 
@@ -67,7 +68,7 @@ def run() -> None:
 
 def run_jointed() -> None:
     """fit-linear + diagnose on `gvt_scenarios.friction_joint`; baseline: fit-linear alone."""
-    from analysis.linear_fit import fit_linear
+    from analysis.modal import fit_linear
     from gvt_scenarios import BAND, NAMES, runs, fe_w, JOINT_K
     from structures import beam_with_payload
     beam = beam_with_payload()

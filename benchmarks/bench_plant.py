@@ -29,10 +29,11 @@ import numpy as np
 from scipy import signal
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"),
+                *sorted({str(p.parent) for p in (ROOT / "tests").rglob("test_*.py")})]
 
-from analysis.excitation import random_gaussian  # noqa: E402
-from analysis.model import Element, Model  # noqa: E402
+from analysis.plant import random_gaussian  # noqa: E402
+from analysis.models import Element, Model  # noqa: E402
 from analysis.plant import Plant, auto_oversample  # noqa: E402
 from test_plant import reference_response  # noqa: E402
 from test_plant_modal import aircraft_model  # noqa: E402

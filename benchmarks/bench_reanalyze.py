@@ -21,10 +21,10 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from analysis.excitation import random_gaussian  # noqa: E402
-from analysis.model import Element, Model  # noqa: E402
+from analysis.plant import random_gaussian  # noqa: E402
+from analysis.models import Element, Model  # noqa: E402
 from analysis.plant import simulate  # noqa: E402
-from analysis.recording import Recording  # noqa: E402
+from analysis.recordings import Recording  # noqa: E402
 from nlid_lab.reanalyze import analyse_run, dask_client, reanalyze  # noqa: E402
 from nlid_lab.store import save_recording  # noqa: E402
 

@@ -20,7 +20,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
-from analysis.model import Element, Model  # noqa: E402
+from analysis.models import Element, Model  # noqa: E402
 from analysis.reverse_path import ReversePathOptions, reverse_path  # noqa: E402
 from analysis.spectral import spectral_matrix  # noqa: E402
 

@@ -155,7 +155,7 @@ class SineOutput:
 
 @dataclass(frozen=True)
 class SweepOutput:
-    """Swept sine (`analysis.sweep_law.SweepLaw`: ``start_hz`` -> ``stop_hz``, ``law``
+    """Swept sine (`analysis.recordings.SweepLaw`: ``start_hz`` -> ``stop_hz``, ``law``
     linear or log, ``rate`` Hz/s or octaves/min), starting when the output turns on and
     silent once the sweep is over; ``level`` is the drive amplitude in volts."""
 

@@ -5,7 +5,7 @@ output state; the DAQ side advances time and reads force and responses. Time adv
 when the DAQ side asks for samples, so a rig driven with the same commands and seed produces
 the same sample stream whatever the frame size or transport (sim, serial, CAN).
 
-The response channels are anti-aliased like a DAQ's (`analysis.plant`, Sensor sampling): the
+The response channels are anti-aliased like a DAQ's (`analysis.plant._plant`, Sensor sampling): the
 folded images of the held drive are removed with the drive's next ``HOLD_IMAGE_LOOKAHEAD``
 samples, generated ahead with the commands in force (exact unless a command changes the drive
 within that lookahead, where the small image term follows the predicted drive).
@@ -19,11 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.excitation import ExcitationError, multisine, random_gaussian, sine_block
-from analysis.model import Model
-from analysis.plant import Plant, hold_image_response
-from analysis.signals import HOLD_IMAGE_LOOKAHEAD
-from analysis.sweep_law import SweepLaw
+from analysis.plant import (ExcitationError, Plant, hold_image_response, multisine, random_gaussian,
+                            sine_block)
+from analysis.models import Model
+from analysis.recordings import HOLD_IMAGE_LOOKAHEAD, SweepLaw
 
 from .base import (Channel, MultisineOutput, Output, RandomOutput, SineOutput, SweepOutput,
                    check_output)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.model import Model
+from analysis.models import Model
 
 from . import store
 from .methods.reverse_path import ReversePathOptions, estimate, format_table
@@ -80,7 +80,7 @@ def campaign_dict(cfg: DemoConfig) -> dict:
 def step_simulate(cfg: DemoConfig, model: Model) -> Path:
     """Run the random campaign on the simulated rig: every level into one HDF5 run file."""
     from .campaign import run_campaign
-    from .campaign_config import parse_campaign
+    from .campaign import parse_campaign
     from .progress import CampaignProgress
 
     cfg.out.mkdir(parents=True, exist_ok=True)
@@ -97,7 +97,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from analysis.frf import level_frf
+    from analysis.spectral import level_frf
 
     run = store.open_run(run_path)
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -126,7 +126,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
 
 def step_detect(run_path: Path) -> dict:
     """Is it nonlinear? The model-free test of ``nlid-lab detect`` on the stored levels."""
-    from analysis.detect import detect
+    from analysis.detection import detect
 
     result = detect(store.open_run(run_path).recordings())
     (t,) = result["tests"]
@@ -142,7 +142,7 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
     The candidate is the demo model with every element parameter omitted. The result is
     written as JSON next to the run and stored in the run as ``analyze-reverse-path``.
     """
-    from analysis.model import Element
+    from analysis.models import Element
 
     candidate = model.with_elements([Element(el.kind, el.w.copy(), {})
                                      for el in model.elements])
@@ -159,8 +159,8 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
 
 def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     """HTML report of the run (FRFs, coherence, reverse-path figures, stored estimates)."""
-    from .report import write_report
-    from .rundata import load_run
+    from .reports import write_report
+    from .reports import load_run
 
     run = load_run(run_path)
     return Path(write_report(run, cfg.out / "report")["html"])

@@ -12,7 +12,7 @@ from typing import Any, Iterable, TextIO, TypeVar
 
 from tqdm.auto import tqdm
 
-from .observer import LevelStatus, LevelSummary
+from .campaign import LevelStatus, LevelSummary
 
 T = TypeVar("T")
 

@@ -23,8 +23,8 @@ from pathlib import Path
 from typing import Any
 
 from analysis.errors import InputError
-from analysis.model import Model
-from analysis.recording import Recording
+from analysis.models import Model
+from analysis.recordings import Recording
 
 from . import methods
 
@@ -177,7 +177,7 @@ def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
 
 def _analyse_levels(path: str, model: Model, method: str,
                     options: dict[str, Any]) -> list[dict[str, Any]]:
-    from nlid_lab.recordings_io import load_recordings  # the worker opens the file itself
+    from nlid_lab.formats import load_recordings  # the worker opens the file itself
     try:
         recordings = load_recordings(path)
     except Exception as exc:  # noqa: BLE001 - any unreadable run is reported, not raised

@@ -8,7 +8,7 @@ plus the elements. A stiff model or a long drive can ask for hours: `simulate` a
 
 from __future__ import annotations
 
-from analysis.model import Model
+from analysis.models import Model
 
 MAX_WORK = 1e9  # substeps x (DOFs + elements): a few minutes of the plant at most
 

@@ -23,10 +23,10 @@ def kernels_cached() -> bool:
     import analysis
 
     here = Path(analysis.__file__).parent
-    modules = ("_plant_kernels", "aft", "hbm", "spectral", "elements")
+    modules = ("_plant_kernels", "_aft", "_hbm", "_spectral", "_elements")
     root = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else None
     for stem in modules:
-        places = [here / "__pycache__"] if root is None else [root]
+        places = [here] if root is None else [root]
         if not any(next(p.rglob(f"{stem}.*.nbi"), None) for p in places if p.is_dir()):
             return False
     return True
@@ -34,10 +34,10 @@ def kernels_cached() -> bool:
 
 def warm_up() -> float:
     """Run tiny problems through every numba kernel; returns the seconds it took."""
-    from analysis.continuation import continue_frf
-    from analysis.elements import KINDS, restoring_force
+    from analysis.hbm import continue_frf
+    from analysis.models import KINDS, restoring_force
     from analysis.hbm import HBMSystem
-    from analysis.model import Model
+    from analysis.models import Model
     from analysis.plant import simulate
     from analysis.spectral import spectral_matrix
 

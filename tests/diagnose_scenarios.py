@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from analysis.excitation import multisine, periodic, random_gaussian, sine_block
-from analysis.model import Element, Model
-from analysis.plant import Plant, add_relative_noise
-from analysis.recording import PeriodicLayout, Recording
+from analysis.plant import (Plant, add_relative_noise, multisine, periodic, random_gaussian,
+                            sine_block)
+from analysis.models import Element, Model
+from analysis.recordings import PeriodicLayout, Recording
 
 
 @dataclass

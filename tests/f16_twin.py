@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg import eigh
 
-from analysis.model import Element, Model
+from analysis.models import Element, Model
 
 FS, UP = 400.0, 8
 BAND = (2.0, 15.0)
@@ -143,7 +143,7 @@ def twin(joint: bool = True, period: int = 8192, periods: int = 8,
     """Simulate the test: ``periods`` steady periods plus one transient per level (cached)."""
     from scipy.signal import decimate
 
-    from analysis.excitation import multisine, periodic
+    from analysis.plant import multisine, periodic
     from analysis.plant import Plant
 
     model = structure(joint)
@@ -210,7 +210,7 @@ def recordings(t: Twin) -> list:
     """The levels as the importer makes them (``--map force=Force
     response=Acceleration[0:3]:m/s^2 force_dofs=0 force_hold='"none"' period=...
     transient_periods=1``), for tests of the analysis alone."""
-    from analysis.recording import PeriodicLayout, Recording
+    from analysis.recordings import PeriodicLayout, Recording
     out = []
     for data in t.levels:
         out.append(Recording(fs=FS, excitation="random", force_dofs=np.array([0]),

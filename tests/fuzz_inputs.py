@@ -1,4 +1,4 @@
-"""Helpers of the malformed-input property tests (tests/test_input_validation.py).
+"""Helpers of the malformed-input property tests (tests/nlid_lab/test_input_validation.py).
 
 A mutation replaces, deletes or misspells one entry of a valid input document. Mutations that
 break a documented rule are tagged *invalid*: the command must refuse them (exit 2). The

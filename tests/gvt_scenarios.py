@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.excitation import multisine, periodic
-from analysis.linear_fit import fit_linear
-from analysis.model import Element, Model
-from analysis.recording import PeriodicLayout, Recording
+from analysis.plant import multisine, periodic
+from analysis.modal import fit_linear
+from analysis.models import Element, Model
+from analysis.recordings import PeriodicLayout, Recording
 from structures import FEStructure, beam_with_payload, gvt_recording
 
 NAMES = ["drive", "joint", "tip", "payload"]

@@ -14,11 +14,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import firwin, lfilter
 
-from analysis.excitation import multisine, periodic
-from analysis.model import Model
-from analysis.plant import Plant, add_relative_noise
-from analysis.recording import PeriodicLayout, Recording
-from analysis.sensors import SensorMap
+from analysis.plant import Plant, add_relative_noise, multisine, periodic
+from analysis.models import Model
+from analysis.recordings import PeriodicLayout, Recording, SensorMap
 
 
 def named_points(model: Model, points: dict[str, int]) -> Model:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import eigh
 
-from analysis.model import Model
+from analysis.models import Model
 
 
 @dataclass
@@ -79,7 +79,7 @@ def gvt_recording(structure: FEStructure, sensors: list[str], drive: str, force_
     from scipy.signal import decimate
 
     from analysis.plant import Plant, add_relative_noise
-    from analysis.recording import Recording
+    from analysis.recordings import Recording
     model = structure.model.with_elements(list(elements)) if elements else structure.model
     cols = [structure.points[s] for s in sensors]
     f = np.asarray(force_fine, dtype=float)

@@ -10,9 +10,9 @@ LAYERS = ("analysis", "drivers", "nlid_lab")
 #: Files other helpers change in this session (recordings, sweeps, FRFs, detection, linear
 #: fit, diagnosis, campaigns, the store, MAT import): their docstrings come after the merge,
 #: to keep it clean. Paths from the repository root.
-PENDING = {"analysis/recording.py", "analysis/sweep.py", "analysis/frf.py", "analysis/detect.py",
-           "analysis/linear_fit.py", "nlid_lab/recordings_io.py", "nlid_lab/mat_io.py",
-           "nlid_lab/campaign.py", "nlid_lab/campaign_bench.py", "nlid_lab/campaign_config.py"}
+PENDING = {"analysis/recordings/_recording.py", "analysis/spectral/_sweep.py", "analysis/spectral/_frf.py", "analysis/detection/_detect.py",
+           "analysis/modal/_linear_fit.py", "nlid_lab/formats/_recordings_io.py", "nlid_lab/formats/_mat_io.py",
+           "nlid_lab/campaign/_campaign.py", "nlid_lab/campaign/_campaign_bench.py", "nlid_lab/campaign/_campaign_config.py"}
 PENDING_DIRS = {"analysis/diagnose", "nlid_lab/store"}
 
 

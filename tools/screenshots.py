@@ -63,7 +63,7 @@ def save_png(data: bytes, dest: Path) -> None:
 def make_runs(work: Path) -> dict[str, Path]:
     """Demo run (random, four levels) with reverse path and a diagnosis stored; stepped run
     with the harmonic-balance fit stored. Reused when present."""
-    from analysis.model import Model
+    from analysis.models import Model
 
     demo = work / "demo" / "sdof-random.h5"
     if not demo.exists():
@@ -149,7 +149,7 @@ def grab(app, widget, dest: Path, size: tuple[int, int]) -> None:
 def view_shots(app, runs: dict[str, Path], out: Path) -> None:
     from nlid_lab.gui.offline import OfflineView
     from nlid_lab.gui.snapshot import dispose
-    from nlid_lab.rundata import all_level_frfs, load_run
+    from nlid_lab.reports import all_level_frfs, load_run
 
     for dest, paths in (("view-demo.png", [runs["demo"]]),
                         ("view-stepped.png", [runs["stepped"]])):
@@ -161,7 +161,7 @@ def view_shots(app, runs: dict[str, Path], out: Path) -> None:
 
 def live_shots(app, work: Path, out: Path) -> None:
     from nlid_lab.campaign import run_campaign
-    from nlid_lab.campaign_config import load_campaign
+    from nlid_lab.campaign import load_campaign
     from nlid_lab.gui.live import LiveView
     from nlid_lab.gui.snapshot import dispose
 

@@ -2,7 +2,7 @@
 
 A *location* is a position vector ``w``: ``e_i`` (element from DOF i to ground) or
 ``e_j - e_i`` (element between DOFs i < j). A *kind* is either an element kind of
-`analysis.kinds.KINDS` (every one, in `analysis.kinds.search_order`) or a linear error
+`analysis.models.KINDS` (every one, in `analysis.models.search_order`) or a linear error
 (``mass_error``, ``stiffness_error``, ``damping_error``). The library is the full cross
 product (mass errors only at single DOFs; kinds with a stuck stiffness also with that
 stiffness taken out of the linear part, as a model fitted at a low level holds it); nothing in it depends on the data or on the
@@ -16,7 +16,7 @@ from itertools import combinations
 
 import numpy as np
 
-from ..kinds import KINDS, search_order
+from ..models import KINDS, search_order
 
 LINEAR_KINDS = ("stiffness_error", "damping_error", "mass_error")
 """Linear model errors: a constant added to K, C (at ``w w^T``) or M (at ``e_i e_i^T``)."""
@@ -33,7 +33,7 @@ class Candidate:
     dofs: tuple[int, ...]
     n_dof: int
     compensated: bool = False
-    """The element's stuck stiffness (`analysis.kinds.Kind.initial_stiffness`) is taken out
+    """The element's stuck stiffness (`analysis.models._kinds.Kind.initial_stiffness`) is taken out
     of the linear part: the starting model, fitted where the element sticks, holds it."""
     names: tuple[str, ...] | None = field(default=None, compare=False, repr=False)
     """The model's point names (None: points are numbered), for messages only."""

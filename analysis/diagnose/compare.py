@@ -26,13 +26,10 @@ from typing import Hashable
 
 import numpy as np
 
-from ..elements import restoring_force
-from ..kinds import KINDS
+from ..models import KINDS, Element, Model, restoring_force
 from ..modal import welch_smoothing
-from ..model import Element, Model
-from ..signals import KIND_ORDER
-from ..sine_fit import hold_gain
-from ..spectral import h1, multiple_coherence, spectral_matrix
+from ..recordings import KIND_ORDER
+from ..spectral import h1, hold_gain, multiple_coherence, spectral_matrix
 from .prepare import Prepared
 
 GROUP = 8
@@ -169,7 +166,7 @@ def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) 
 
 
 def stuck_stiffness(el: Element) -> float:
-    """The element's stiffness before it slips (`analysis.kinds.Kind.initial_stiffness`),
+    """The element's stiffness before it slips (`analysis.models.Kind.initial_stiffness`),
     0 for kinds without one."""
     name = KINDS[el.kind].initial_stiffness
     return 0.0 if name is None else float(el.params[name])
@@ -205,7 +202,7 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
     """Measured FRF of one level plus the force-to-basis transfer of every basis force.
 
     Both are per unit of the force that acted: a first-order-hold force (``force_hold =
-    "linear"``) acted with ``sinc^2(f / fs)`` of its samples (`analysis.sine_fit.hold_gain`).
+    "linear"``) acted with ``sinc^2(f / fs)`` of its samples (`analysis.spectral.hold_gain`).
     """
     n_dof, n_in = p.x.shape[1], p.force.shape[1]
     sp = _spectra(p, band, nperseg, np.concatenate([p.x, p.force], axis=1))

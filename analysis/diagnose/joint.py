@@ -18,8 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..kinds import KINDS
-from ..model import Model
+from ..models import KINDS, Model
 from .candidates import LINEAR_PARAM
 from .compare import chi2, model_frf
 from .linear_update import Z95

@@ -29,7 +29,7 @@ from typing import Hashable
 
 import numpy as np
 
-from ..model import Model
+from ..models import Model
 from .compare import FLOOR, LevelFRF
 
 Z_FLOOR = 3.72

@@ -9,7 +9,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..model import Model
+from ..models import Model
 from .candidates import Candidate
 from .compare import FLOOR
 from .joint import joint_refit

@@ -2,7 +2,7 @@
 
 Real recordings carry DC offsets, responses recorded as velocity or acceleration and, for
 periodic multisine drives, a start-up transient. `prepare_random` removes the offsets,
-integrates or differentiates in the frequency domain (`analysis.signals.to_kinematics`),
+integrates or differentiates in the frequency domain (`analysis.recordings.to_kinematics`),
 drops the transient periods and keeps a whole number of periods, so that a Welch estimate
 with one period per segment and a rectangular window is free of leakage and averages periods.
 """
@@ -14,8 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..recording import Recording
-from ..signals import excitation_band, periodic_kinematics, remove_dc, to_kinematics
+from ..recordings import Recording, excitation_band, periodic_kinematics, remove_dc, to_kinematics
 from ..spectral import spectral_matrix
 
 EDGE_FRACTION = 0.02
@@ -42,7 +41,7 @@ class Prepared:
         Samples per period of a periodic drive (whole periods are kept).
     label : str
     force_hold : {"none", "linear"}
-        How the recorded force samples acted (`analysis.recording.Recording.force_hold`).
+        How the recorded force samples acted (`analysis.recordings.Recording.force_hold`).
     response_kind : str
         The kind the response was recorded as (displacement and velocity were formed
         from it).

@@ -27,11 +27,9 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.signal import resample, resample_poly
 
-from ..elements import restoring_force
-from ..kinds import KINDS
-from ..model import Model
+from ..models import KINDS, Model, restoring_force
 from ..plant import HOLD_DEGREE, Plant
-from ..signals import KIND_ORDER, periodic_kinematics
+from ..recordings import KIND_ORDER, periodic_kinematics
 from .prepare import Prepared
 
 UPSAMPLE = 4

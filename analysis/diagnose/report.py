@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Model
+from ..models import Model
 from .candidates import Candidate
 from .leakage import Floor
 from .replay import Replay

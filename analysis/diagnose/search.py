@@ -7,9 +7,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..model import Model
+from ..models import Model
 from ..plant import PlantError
-from ..recording import Recording
+from ..recordings import Recording
 from .candidates import Candidate
 from .compare import (FLOOR, choose_nperseg, element_force, level_frf, model_frf,
                       stuck_linear, weighted_error)

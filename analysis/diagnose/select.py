@@ -8,7 +8,7 @@ Every candidate of the library is fitted to the level FRFs of the fitting record
   coefficient's frequency dependence and the multiple-coherence gain;
 * kinds with a second parameter (gap width, friction regularisation) and memory kinds at a
   fixed slip displacement ``fd / kd`` (their force is then linear in ``kd``): the same for
-  each value of a small grid (the kind's `analysis.kinds.Search.grid`), the best one kept
+  each value of a small grid (the kind's `analysis.models._kinds.Search.grid`), the best one kept
   and, once shortlisted, its grid value refined continuously (`RandomSearch.refine`);
 * linear errors: `linear_update.fit_linear_error`.
 
@@ -26,11 +26,9 @@ from typing import Any, Hashable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..elements import restoring_force
+from ..models import KINDS, Element, Model, restoring_force
 from ..errors import EstimationError, InputError, ModelError
-from ..kinds import KINDS
-from ..model import Element, Model
-from ..recording import Recording
+from ..recordings import Recording
 from ..reverse_path import ReversePathOptions, reverse_path
 from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
@@ -114,7 +112,7 @@ def candidate_extras(model: Model, low: tuple[np.ndarray, np.ndarray],
                      ) -> dict[Candidate, list[float | None]]:
     """Grid of the non-coefficient parameter of each nonlinear candidate screened.
 
-    A kind's `analysis.kinds.Search.grid` gives the fractions of the rms deformation or rate
+    A kind's `analysis.models._kinds.Search.grid` gives the fractions of the rms deformation or rate
     (``x``, ``v`` of ``low`` or ``high``: the lowest or highest fitting level) that are
     tried: ``coulomb_friction``: ``v_reg`` = 1 % of the rms rate at the lowest level;
     ``gap``: widths of 0.25 to 3 rms deformations at the highest level (contact at its

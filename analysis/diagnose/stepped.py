@@ -1,6 +1,6 @@
 """Diagnosis on stepped-sine recordings: harmonic signatures, friction kinds, HBM refit.
 
-Every step is sine-fitted (`analysis.sine_fit`, harmonics 1, 3, 5, 7). The element
+Every step is sine-fitted (`analysis.spectral._sine_fit`, harmonics 1, 3, 5, 7). The element
 deformation over one period is rebuilt from the fitted harmonics (noise-free by
 construction), each candidate's restoring force is evaluated on it and its fundamental
 ``G_1`` gives the level FRF of the candidate model (measured-motion harmonic balance)::
@@ -9,8 +9,8 @@ construction), each candidate's restoring force is evaluated on it and its funda
 
 With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
 the memoryless kinds and the linear errors; the memory kinds are fitted by nonlinear least
-squares on the same residual (starts from their `analysis.kinds.Search`). The chosen element
-is then refitted by the harmonic-balance FRF fit (`analysis.hbm_fit.fit_hbm`, paper eq 33)
+squares on the same residual (starts from their `analysis.models._kinds.Search`). The chosen element
+is then refitted by the harmonic-balance FRF fit (`analysis.hbm.fit_hbm`, paper eq 33)
 and the held-back level is compared with a harmonic-balance simulation of the corrected model.
 """
 
@@ -21,14 +21,11 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..elements import restoring_force
+from ..models import KINDS, Element, Model, restoring_force
 from ..errors import EstimationError, InputError
-from ..hbm import HBMSystem
-from ..hbm_fit import fit_hbm
-from ..kinds import KINDS
-from ..model import Element, Model
-from ..recording import Recording
-from ..sine_fit import SteppedSineFRF, stepped_sine_frf
+from ..hbm import HBMSystem, fit_hbm
+from ..recordings import Recording
+from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
 from .locate import level_dependence, mismatch_band

@@ -28,12 +28,9 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.stats import t as student_t
 
-from .. import basis as bas
-from ..elements import restoring_force
+from ..models import Element, Model, _basis as bas, restoring_force
 from ..errors import InputError
-from ..model import Element, Model
-from ..recording import Recording
-from ..signals import signal_bandwidth, to_kinematics
+from ..recordings import Recording, signal_bandwidth, to_kinematics
 from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence
 
 Z95 = 1.959963984540054

@@ -15,10 +15,9 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Sequence
 
 from ..errors import InputError
-from ..frf import default_nperseg
-from ..model import Model
-from ..signals import excitation_band
-from ..spectral import Spectra, spectral_matrix
+from ..spectral import Spectra, default_nperseg, spectral_matrix
+from ..models import Model
+from ..recordings import excitation_band
 from . import _noise as noise_mod
 from ._core import (ReversePathResult, _channels, _elements, _estimate, _Processing,
                     _records)

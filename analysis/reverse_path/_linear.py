@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Model
+from ..models import Model
 from ._core import ReversePathResult, _channels, _force_span, _Processing, _records
 from ..spectral import Spectra, h1, spectral_matrix
 

@@ -37,16 +37,13 @@ import scipy.ndimage
 import scipy.signal
 import scipy.stats
 
-from .. import basis as bas
-from ..elements import restoring_force
+from ..models import Model, _basis as bas, restoring_force
 from ..errors import InputError, ModelError
-from ..model import Model
 from ..plant import Plant, PlantError
-from ..recording import DEFAULT_TRANSIENT_PERIODS, Recording
+from ..recordings import (DEFAULT_TRANSIENT_PERIODS, KIND_ORDER, Recording, excitation_band,
+                          period_spectra, periodic_kinematics, steady_periods)
 from ._core import (Z95, ReversePathResult, _alias_upsampling, _channels,
                            _coefficients, _estimate, _force_span, _Processing)
-from ..signals import (KIND_ORDER, excitation_band, period_spectra, periodic_kinematics,
-                      steady_periods)
 from ..spectral import Spectra, spectral_matrix
 
 WEAK_F = 10.0            # first-stage F below which an instrument is weak (Staiger-Stock)

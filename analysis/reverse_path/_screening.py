@@ -35,16 +35,13 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.stats import t as student_t
 
-from .. import basis as bas
+from ..models import KINDS, Element, Model, _basis as bas, search_order
 from ..errors import EstimationError, InputError
-from ..frf import default_nperseg
-from ..kinds import KINDS, search_order
-from ..model import Element, Model
-from ..recording import Recording
+from ..spectral import (Spectra, conditioned_inputs, default_nperseg, h1, multiple_coherence,
+                        spectral_matrix)
+from ..recordings import Recording, excitation_band
 from ._core import (N_BATCHES, _Processing, _average, _channels,
                     _element_estimates, _records)
-from ..signals import excitation_band
-from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
 
 MIN_GAIN = 0.1    # decades of incoherence a term must remove to be selected
 FAMILY_ALPHA = 0.05   # chance that any candidate of a linear structure is called significant
@@ -142,7 +139,7 @@ def screenable_kinds() -> dict[str, bas.Basis]:
     """Every registered kind whose basis screening forms from the data alone, with that basis.
 
     These are the memoryless kinds linear in one coefficient whose other parameters (if any)
-    have defaults, in `analysis.kinds.search_order`. Memory kinds (not linear in their
+    have defaults, in `analysis.models.search_order`. Memory kinds (not linear in their
     parameters) and kinds needing a parameter without a default (``gap`` width) are left out.
     """
     out = {}
@@ -193,7 +190,7 @@ def screen_candidates(data: Any, model: Model,
         (no elements) screens for every nonlinearity.
     candidates : list of (name, w), optional
         ``name`` an element kind of `screenable_kinds` or a basis of
-        `analysis.basis.LIBRARY` (e.g. ``"x^5"``; named after its kind when one has it).
+        `analysis.models.LIBRARY` (e.g. ``"x^5"``; named after its kind when one has it).
         Default: every kind in ``kinds`` at every location in ``locations``.
     locations : list of w, optional
         Default: `default_locations`.

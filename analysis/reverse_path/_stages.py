@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..model import Element, Model
+from ..models import Element, Model
 from ._core import Z95, Coefficient, ReversePathResult, _force_span
 
 

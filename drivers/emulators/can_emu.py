@@ -123,7 +123,7 @@ class CanDaqEmulator(threading.Thread):
             self.connected = False
             return False
         # Hand-packed (little-endian 16 + 24 + 24 bits) for speed: this is the DBC layout
-        # that `tests/test_drivers_can.py` checks against cantools' own encoder.
+        # that `tests/drivers/test_drivers_can.py` checks against cantools' own encoder.
         data = struct.pack("<HI", cnt, (a & 0xFFFFFF) | ((b & 0xFF) << 24)) + \
             struct.pack("<H", (b >> 8) & 0xFFFF)
         msg = can.Message(arbitration_id=proto.SAMPLES_ID + group, data=data,

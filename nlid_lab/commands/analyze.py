@@ -11,12 +11,12 @@ import argparse
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab analyze`` on the parsed ``args``; returns the exit code."""
     from analysis.errors import InputError
-    from analysis.model import Model
-    from analysis.sensors import model_at_sensors, one_kind
+    from analysis.models import Model
+    from analysis.recordings import model_at_sensors, one_kind
 
     from .. import methods
     from ..outputs import refuse_overwrite, summary_stream, write_json
-    from ..recordings_io import load_recordings
+    from ..formats import load_recordings
     from ..store import check_result_target, save_result
 
     method = methods.get(args.method)

@@ -160,7 +160,7 @@ def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
 
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
-    from ..campaign_config import load_campaign, load_plant_model
+    from ..campaign import load_campaign, load_plant_model
     from ..outputs import refuse_overwrite, summary_stream, write_json
     from ..progress import CampaignProgress
 
@@ -201,7 +201,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _check(args: argparse.Namespace) -> int:
-    from ..campaign_config import load_campaign, load_plant_model
+    from ..campaign import load_campaign, load_plant_model
 
     c = load_campaign(args.campaign)
     excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)

@@ -47,10 +47,10 @@ def format_tests(result: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab detect`` on the parsed ``args``; returns the exit code."""
-    from analysis.detect import detect
-    from analysis.sensors import one_kind
+    from analysis.detection import detect
+    from analysis.recordings import one_kind
 
-    from ..recordings_io import load_recordings
+    from ..formats import load_recordings
     refuse_overwrite(args.force, args.json)
     check_runs(args.runs, args.repair)
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]

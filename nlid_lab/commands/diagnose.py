@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
 
 RESULT_NAME = "diagnose"
-"""Name of the stored result (run results are stored by command name; see nlid_lab.report)."""
+"""Name of the stored result (run results are stored by command name; see nlid_lab.reports._report)."""
 
 
 def _holdout(text: str) -> float | str:
@@ -63,12 +63,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Diagnose the runs against the model; write JSON, corrected model and report."""
     from analysis.diagnose import DiagnoseInputError, diagnose
-    from analysis.model import Model
-    from analysis.sensors import at_points, model_at_sensors, one_kind
+    from analysis.models import Model
+    from analysis.recordings import at_points, model_at_sensors, one_kind
 
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.progress import progress
-    from nlid_lab.recordings_io import load_recordings
+    from nlid_lab.formats import load_recordings
     from nlid_lab.store import open_run, save_result
 
     refuse_overwrite(args.force, args.json, args.model_out, directories=(args.report,))
@@ -128,7 +128,7 @@ def _show(bar, done: int, total: int, stage: str) -> None:
 
 def write_report(d: Diagnosis, out: Path) -> None:
     """Before/after FRF overlays and time residuals per level, plus a markdown report."""
-    from .. import figures
+    from ..reports import _figures as figures
 
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",

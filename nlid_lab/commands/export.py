@@ -8,7 +8,7 @@ from pathlib import Path
 
 from analysis.errors import InputError
 
-from .. import recordings_io
+from ..formats import _recordings_io as recordings_io
 from ..outputs import add_force_option, refuse_overwrite, write_json
 
 
@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_overwrite(args.force, out, args.json)
     rec = open_run(args.run).recording(args.level)
     if suffix == ".mat":
-        from ..mat_recording import write_mat
+        from ..formats import write_mat
         write_mat(out, rec)
     else:
         (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)

@@ -11,9 +11,9 @@ from ..progress import progress
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab export-uff`` on the parsed ``args``; returns the exit code."""
-    from .. import uff
+    from ..reports import _uff as uff
     refuse_overwrite(args.force, args.out, args.json)
-    from ..rundata import all_level_frfs, load_run
+    from ..reports import all_level_frfs, load_run
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)

@@ -16,7 +16,7 @@ from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_ov
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
-    from analysis.linear_fit import LinearFit
+    from analysis.modal import LinearFit
 
 
 def summary(fit: LinearFit) -> dict[str, Any]:
@@ -62,10 +62,10 @@ def format_summary(s: dict[str, Any], kind: str) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
     from analysis.diagnose.prepare import record_level
-    from analysis.linear_fit import fit_linear
-    from analysis.sensors import one_kind
+    from analysis.modal import fit_linear
+    from analysis.recordings import one_kind
 
-    from ..recordings_io import load_recordings
+    from ..formats import load_recordings
     refuse_overwrite(args.force, args.out, args.json, args.plot)
     check_runs(args.runs, args.repair)
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                      points=points, name=f"fit-linear of {Path(args.runs[0]).name}")
     fit.model.save(args.out)
     if args.plot:
-        from ..figures import stabilisation
+        from ..reports import stabilisation
         stabilisation(fit).savefig(args.plot)
     result = summary(fit)
     result["level"] = rec.level

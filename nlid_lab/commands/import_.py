@@ -7,11 +7,11 @@ import argparse
 from pathlib import Path
 
 from analysis.errors import InputError
-from analysis.recording import RESPONSE_KINDS
+from analysis.recordings import RESPONSE_KINDS
 
-from .. import recordings_io, store
+from ..formats import _recordings_io as recordings_io, describe, parse_sweep_option
+from .. import store
 from ..outputs import add_force_option, refuse_overwrite, write_json
-from ..sweep_keys import describe, parse_sweep_option
 
 
 def _sweep_keys(args: argparse.Namespace) -> dict:
@@ -34,7 +34,7 @@ def _read(src: Path, args: argparse.Namespace):
         return recordings_io.recording_from_keys(
             {**recordings_io.load_npz_keys(src), **given}, src)
     if suffix == ".csv" and args.map:
-        from .. import mat_io
+        from ..formats import _mat_io as mat_io
         tree, units = recordings_io.read_csv_columns(src)
         cmap = _channel_map(args.map).with_units(units)
         if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
@@ -52,7 +52,7 @@ def _read(src: Path, args: argparse.Namespace):
                                       keys={k: v for k, v in given.items()
                                             if k != "excitation"})
     if suffix == ".mat":
-        from .. import mat_io, mat_recording
+        from ..formats import _mat_io as mat_io, _mat_recording as mat_recording
         tree = mat_io.read_mat_tree(src)
         if not args.map and mat_recording.is_recording(tree):   # written by nlid-lab export
             rec = mat_recording.read_mat_recording(src)
@@ -71,7 +71,7 @@ def _read(src: Path, args: argparse.Namespace):
 
 def _channel_map(items: list[str]):
     """The ``--map`` words, or the one MAP.toml they name."""
-    from .. import mat_io
+    from ..formats import _mat_io as mat_io
     if len(items) == 1 and items[0].endswith(".toml"):
         return mat_io.ChannelMap.from_toml(items[0])
     return mat_io.ChannelMap.from_items(items)

@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from analysis.model import Model
+from analysis.models import Model
 
-from ..fe_modes import FEModes, parse_point, read_modes, to_model
+from ..formats import FEModes, parse_point, read_modes, to_model
 from ..outputs import add_force_option, add_quiet_option, refuse_overwrite, summary_stream, \
     write_json
 

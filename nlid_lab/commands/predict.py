@@ -16,7 +16,7 @@ from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, sum
                        write_json)
 
 if TYPE_CHECKING:
-    from analysis.continuation import Branch
+    from analysis.hbm import Branch
 
 
 def _curve(branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> dict[str, Any]:
@@ -51,9 +51,9 @@ def _summary(curves: list[dict[str, Any]], dof: int) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab predict`` on the parsed ``args``; returns the exit code."""
-    from analysis.continuation import response_curves
+    from analysis.hbm import response_curves
     from analysis.hbm import HBMSystem
-    from analysis.model import Model
+    from analysis.models import Model
 
     lo, hi = args.band
     if not (0 < lo and 0 < hi and lo != hi):
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     out = summary_stream(args.json, args.quiet)
     print(_summary(curves, shown), file=out)
     if args.plot:
-        from ..figures import response_curves as figure
+        from ..reports import response_curves as figure
         figure(branches, args.amplitude, shown, model.name, (lo, hi)).savefig(args.plot)
         print(f"figure: {args.plot}", file=out)
     write_json(result, args.json)

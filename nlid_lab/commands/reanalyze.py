@@ -12,7 +12,7 @@ from pathlib import Path
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab reanalyze`` on the parsed ``args``; returns the exit code."""
-    from analysis.model import Model
+    from analysis.models import Model
     from nlid_lab import methods
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.reanalyze import (ReanalysisError, check_request, dask_client,

@@ -11,10 +11,10 @@ from .repair import check_runs, repair_option
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab report`` on the parsed ``args``; returns the exit code."""
-    from analysis.model import Model
+    from analysis.models import Model
 
-    from ..report import write_report
-    from ..rundata import all_level_frfs, load_run
+    from ..reports import write_report
+    from ..reports import all_level_frfs, load_run
     refuse_overwrite(args.force, args.json, directories=(args.out,))
     check_runs([args.run], args.repair)
     data = load_run(args.run)

@@ -10,15 +10,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recording import RESPONSE_KINDS, Recording
-from analysis.sensors import SensorMap
+from analysis.recordings import RESPONSE_KINDS, Recording, SensorMap
 
-from .. import recordings_io, sim_budget
+from ..formats import _recordings_io as recordings_io
+from .. import sim_budget
 from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
 
 if TYPE_CHECKING:
-    from analysis.model import Model
+    from analysis.models import Model
 
 OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
 
@@ -111,7 +111,7 @@ def _at_sensors(model: Model, smap: SensorMap, outs: list, force: np.ndarray, fs
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab simulate`` on the parsed ``args``; returns the exit code."""
-    from analysis.model import Model
+    from analysis.models import Model
 
     from .. import store
 

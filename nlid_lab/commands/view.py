@@ -22,7 +22,7 @@ def run(args: argparse.Namespace) -> int:
     except ImportError as exc:
         raise InputError(f"the viewer needs the gui extra ({exc.name} is missing): "
                          "pip install 'nlid-lab[gui]'") from None
-    from ..rundata import all_level_frfs, load_run
+    from ..reports import all_level_frfs, load_run
     if not args.snapshot and not (os.environ.get("DISPLAY") or os.environ.get(
             "WAYLAND_DISPLAY") or os.environ.get("QT_QPA_PLATFORM")):
         raise InputError("no display to open the viewer on; use --snapshot FILE.png to "

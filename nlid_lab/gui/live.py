@@ -4,7 +4,7 @@ Every level keeps its curves when the next one starts, so the finished levels st
 in ordered colours (`plots.level_colours`, light = low level); response DOFs differ by line
 style (`DOF_STYLES`).
 
-`LiveObserver` is the `nlid_lab.observer.CampaignObserver` handed to the campaign: its methods
+`LiveObserver` is the `nlid_lab.campaign._observer.CampaignObserver` handed to the campaign: its methods
 run in the acquisition thread and only copy the data onto a queue. `LiveView` (GUI thread)
 drains that queue on a QTimer, folds each random block into a running spectral matrix
 (`FrfAccumulator`) and redraws at most once per tick.
@@ -19,10 +19,8 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from analysis import spectral
-from analysis.bla import best_linear_approximation
-from analysis.frf import FRF_UNITS, LevelFRF, frf_from_bla, frf_from_spectra
-from analysis.sine_fit import sine_fit
+from analysis.spectral import (FRF_UNITS, LevelFRF, _spectral as spectral,
+                               best_linear_approximation, frf_from_bla, frf_from_spectra, sine_fit)
 
 from . import plots
 

@@ -11,12 +11,10 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from analysis.frf import FRF_UNITS, LevelFRF, convert_frf
-from analysis.recording import Recording
-from analysis.sine_fit import sine_fit
+from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
+from analysis.recordings import Recording
 
-from ..report import estimate_rows
-from ..rundata import RunData
+from ..reports import RunData, estimate_rows
 from . import plots
 
 

@@ -7,8 +7,7 @@ import pyqtgraph as pg
 
 from PySide6 import QtGui
 
-from .. import figures
-from ..figures import phase_deg
+from ..reports import _figures as figures, phase_deg
 
 pg.setConfigOptions(background="w", foreground="k", antialias=False)
 
@@ -29,7 +28,7 @@ def channel_colour(i: int) -> str:
 
 def level_colours(n: int, levels=None) -> list[str]:
     """Sequential colours for ``n`` levels, ordered by the values ``levels`` when given
-    (viridis: light = low level, dark = high; as the report, `nlid_lab.figures`)."""
+    (viridis: light = low level, dark = high; as the report, `nlid_lab.reports._figures`)."""
     return [QtGui.QColor.fromRgbF(*c).name() for c in figures.level_colours(n, levels)]
 
 

@@ -17,13 +17,13 @@ from analysis.errors import InputError
 from .registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
-    from analysis.frf import LevelFRF
-    from analysis.hbm_fit import FitResult, MeasuredReceptance
-    from analysis.model import Model
-    from analysis.recording import Recording
-    from analysis.sine_fit import SteppedSineFRF
+    from analysis.spectral import LevelFRF
+    from analysis.hbm import FitResult, MeasuredReceptance
+    from analysis.models import Model
+    from analysis.recordings import Recording
+    from analysis.spectral import SteppedSineFRF
 
-    from ..rundata import RunData, Section
+    from ..reports._rundata import RunData, Section
 
 NAME = "hbm"
 
@@ -73,9 +73,9 @@ def _stepped(recs: Sequence[Recording], force_hold: str | None = None) -> list[R
 
 def _sweep_points(rec: Recording, model: Model, harmonics: np.ndarray):
     """A swept-sine level as stepped-sine points: the tracked harmonics where the sweep is
-    quasi-steady for the model's modes (`analysis.sweep.quasi_steady`), and the warnings of
+    quasi-steady for the model's modes (`analysis.spectral.quasi_steady`), and the warnings of
     the sweep-rate check."""
-    from analysis.sweep import linear_modes, quasi_steady, recording_sweep_frf
+    from analysis.spectral import linear_modes, quasi_steady, recording_sweep_frf
 
     frf = recording_sweep_frf(rec, harmonics=[int(h) for h in harmonics])
     modes = linear_modes(model.mass, model.damping, model.stiffness)
@@ -88,10 +88,10 @@ def linear_from_run(path: str, model: Model, harmonics: np.ndarray,
                     force_hold: str | None = None) -> MeasuredReceptance:
     """Underlying receptance from the highest-level stepped-sine run in ``path`` (paper 4.2:
     at high level a stick-slip joint slips throughout and the FRF is the linear one)."""
-    from analysis.hbm_fit import MeasuredReceptance
-    from analysis.sine_fit import stepped_sine_frf
+    from analysis.hbm import MeasuredReceptance
+    from analysis.spectral import stepped_sine_frf
 
-    from ..recordings_io import load_recordings
+    from ..formats import load_recordings
 
     if model.n_dof != 1:
         raise InputError("--linear-from needs the full FRF matrix for more than one DOF; "
@@ -156,7 +156,7 @@ class HbmEstimate:
         """Write the ``--figure`` PNG if asked; returns the paths written."""
         if not self.options.figure:
             return []
-        from analysis.model import Model
+        from analysis.models import Model
         reference = Model.load(self.options.reference) if self.options.reference else None
         return [str(p) for p in figures(self.fit, self.levels, self.harmonics,
                                         self.receptance, reference, Path(self.options.figure))]
@@ -166,8 +166,8 @@ def estimate(recs: Sequence[Recording], model: Model, options: HbmOptions | None
              ) -> HbmEstimate:
     """Fit the candidate's unknown parameters to all stepped-sine ``recs`` together."""
     from analysis.hbm import parse_harmonics
-    from analysis.hbm_fit import fit_hbm
-    from analysis.sine_fit import stepped_sine_frf
+    from analysis.hbm import fit_hbm
+    from analysis.spectral import stepped_sine_frf
 
     options = options or HbmOptions()
     harmonics = parse_harmonics(options.harmonics)
@@ -193,10 +193,10 @@ def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarr
     """Measured vs fitted FRFs per level (paper fig 4.8; the model's curves continued through
     their folds) to ``dest``; hysteresis loops of the estimated (and reference) elements
     (fig 4.7) to ``<dest stem>-loop.png``."""
-    from analysis.frf import LevelFRF
+    from analysis.spectral import LevelFRF
     from analysis.hbm import HBMSystem, loop
 
-    from .. import figures as report_figures
+    import nlid_lab.reports._figures as report_figures
 
     dof = levels[0].force_dof
     system = HBMSystem(result.model, [dof], harmonics, receptance=receptance)
@@ -226,13 +226,13 @@ def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarr
 
 def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
     """The model's fundamental FRF at force amplitude ``amp`` over the measured band,
-    continued through its folds (`analysis.continuation.response_curves`), in the measured
+    continued through its folds (`analysis.hbm.response_curves`), in the measured
     response kind; a plain sweep at ``freqs`` (all marked stable) if continuation fails."""
-    from analysis.continuation import response_curves
+    from analysis.hbm import response_curves
     from analysis.errors import EstimationError
     from analysis.hbm import HBMError
 
-    from ..figures import ModelCurve
+    from ..reports._figures import ModelCurve
 
     i1 = int(np.flatnonzero(system.harmonics == 1)[0])
     try:
@@ -249,7 +249,7 @@ def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
 
 # --- report --------------------------------------------------------------------------------
 def _estimated_elements(res: dict) -> list:
-    from analysis.model import Element
+    from analysis.models import Element
     return [Element(e["kind"], np.asarray(e["w"], float), dict(e["params"]))
             for e in res.get("elements", []) if e.get("params")]
 
@@ -259,11 +259,11 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
     """Hysteresis loops (fig 4.7) and measured vs estimated-model FRFs (fig 4.8) from the
     stored harmonic-balance result ``found``; the reference model of a simulated run is drawn
     for comparison."""
-    from analysis.elements import KINDS
+    from analysis.models import KINDS
     from analysis.hbm import loop
 
-    from .. import figures as report_figures
-    from ..rundata import Section, reference_model
+    import nlid_lab.reports._figures as report_figures
+    from ..reports._rundata import Section, reference_model
 
     if found is None:
         return []
@@ -321,7 +321,7 @@ def _same_position(el, ref):
 def _hbm_frf(model, rec: Recording):
     """The model's response curve at the level's drive amplitude (same response kind)."""
     from analysis.hbm import HBMSystem
-    from analysis.sine_fit import sine_fit
+    from analysis.spectral import sine_fit
 
     amp = rec.level if rec.level else float(np.median(np.abs(
         [sine_fit(rec.force[i, :, 0], rec.fs, f)[0]

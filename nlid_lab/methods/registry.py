@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 from analysis.errors import InputError
 
 if TYPE_CHECKING:
-    from analysis.model import Model
-    from analysis.recording import Recording
+    from analysis.models import Model
+    from analysis.recordings import Recording
 
 #: Key naming the estimator in a method's JSON and stored result.
 ESTIMATOR_KEY = "estimator"
@@ -83,7 +83,7 @@ class Method:
         `reanalyze`; default ``estimate([recording], model, options).to_json()``.
     sections : callable, optional
         ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
-        run (`nlid_lab.rundata.RunData`), its level FRFs, the method's latest stored result
+        run (`nlid_lab.reports.RunData`), its level FRFs, the method's latest stored result
         (or None) and the candidate model asked for (or None).
     legacy_keys : tuple of str
         A stored result without ``"estimator"`` holding all these keys is this method's.

@@ -21,13 +21,13 @@ from analysis.errors import EstimationError, InputError
 from .registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
-    from analysis.model import Model
-    from analysis.recording import Recording
+    from analysis.models import Model
+    from analysis.recordings import Recording
     from analysis.reverse_path import ReversePathResult
     from analysis.reverse_path import ScreeningResult
     from analysis.reverse_path import ReversePathOptions as EstimatorOptions
 
-    from ..rundata import RunData, Section
+    from ..reports._rundata import RunData, Section
 
 NAME = "reverse-path"
 
@@ -231,11 +231,11 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     """Underlying linear FRF, coefficients vs frequency and multiple coherence linear vs
     nonlinear (figs 3.6, 3.8, 3.9), computed from the random levels (pooled) when a
     candidate model is known (``candidate``, or the reference model of a simulated run)."""
-    from analysis.frf import FRF_UNITS
+    from analysis.spectral import FRF_UNITS
     from analysis.reverse_path import reverse_path
 
-    from .. import figures
-    from ..rundata import PARAM_UNITS, Section, candidate_model, reference_model
+    import nlid_lab.reports._figures as figures
+    from ..reports._rundata import PARAM_UNITS, Section, candidate_model, reference_model
 
     model = candidate_model(run, candidate)
     recs = [r for r in run.recordings if r.excitation == "random"]

@@ -163,7 +163,7 @@ def _crc(force: np.ndarray, response: np.ndarray) -> int:
 
 def _default_channels(force_dofs: np.ndarray, n_dof: int, response_kind: str,
                       sensors: Any = None) -> list[dict]:
-    """Channel table rows; with a sensor map (`analysis.sensors.SensorMap`) the responses
+    """Channel table rows; with a sensor map (`analysis.recordings.SensorMap`) the responses
     are named after their points and carry their own kinds' units."""
     chans = [{"name": f"force{i}" if sensors is None else f"force@{sensors.force_points[i]}",
               "unit": "N", "dof": int(d), "kind": "force"} for i, d in enumerate(force_dofs)]

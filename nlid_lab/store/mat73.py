@@ -1,4 +1,4 @@
-"""MATLAB v7.3 files (HDF5 inside) read into the flat tree `nlid_lab.mat_io` uses.
+"""MATLAB v7.3 files (HDF5 inside) read into the flat tree `nlid_lab.formats._mat_io` uses.
 
 MATLAB stores arrays column-major, so a dataset's axes come reversed; structs are groups;
 text is ``uint16`` with ``MATLAB_class = "char"``.

@@ -10,9 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from analysis.recording import PeriodicLayout, Recording
-from analysis.sensors import SensorMap
-from analysis.sweep_law import Sweep
+from analysis.recordings import PeriodicLayout, Recording, SensorMap, Sweep
 
 from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
                       _open_swmr_write, _read_extra, _read_status, _valid_segments,

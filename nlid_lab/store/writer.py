@@ -11,9 +11,8 @@ from typing import Callable, Iterator
 import h5py
 import numpy as np
 
-from analysis.recording import EXCITATIONS, FORCE_HOLDS, RESPONSE_KINDS, PeriodicLayout
-from analysis.sensors import KEYS as SENSOR_KEYS
-from analysis.sensors import MIXED, SensorMap
+from analysis.recordings import (EXCITATIONS, FORCE_HOLDS, KEYS as SENSOR_KEYS, MIXED,
+                                 RESPONSE_KINDS, PeriodicLayout, SensorMap)
 
 from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
                       StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
@@ -39,7 +38,7 @@ class LevelWriter:
                      amplitude: float | None = None) -> int:
         """Append one random or swept-sine block; returns its sequence number. A swept-sine
         level's first block carries the level's sweep keys in ``extra``
-        (`analysis.sweep_law.Sweep.keys`) and may carry its force ``amplitude``."""
+        (`analysis.recordings.Sweep.keys`) and may carry its force ``amplitude``."""
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, np.nan, amp, extra)
 
@@ -128,7 +127,7 @@ class RunWriter:
     source : str
         Where the data come from (``"sim"``, ``"serial"``, ``"can"``, ``"import"``...).
     force_hold : {"none", "linear"}
-        How the recorded force samples acted (`analysis.recording.Recording.force_hold`).
+        How the recorded force samples acted (`analysis.recordings.Recording.force_hold`).
     layout : PeriodicLayout, optional
         Periodic (multisine) layout of random data; write one block per realization (its
         ``realizations`` is not stored: a level has as many as it has blocks).
@@ -136,7 +135,7 @@ class RunWriter:
         Recording keys no field holds (`Recording.extra`), stored under ``/extra``.
     sensors : SensorMap, optional
         Point and kind of each response channel, point of each force
-        (`analysis.sensors.SensorMap`), stored as the ``sensors`` JSON attribute;
+        (`analysis.recordings.SensorMap`), stored as the ``sensors`` JSON attribute;
         ``response_kind`` is then its kind (``"mixed"`` when the channels differ).
     mode : {"create", "overwrite", "resume"}
         ``create`` refuses an existing file; ``resume`` continues one (a crashed file is

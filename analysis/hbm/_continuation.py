@@ -1,0 +1,173 @@
+"""Frequency-response curves by pseudo-arclength continuation of the harmonic balance.
+
+Natural continuation (step the frequency, reuse the last solution) jumps at a fold, as a
+stepped-sine test does; arc-length continuation follows the curve around the fold through the
+unstable branch. Each step predicts along the unit tangent of ``R(y, ω) = 0`` and corrects with
+Newton's method on ``R = 0`` plus the arc-length constraint (Keller's pseudo-arclength), in
+scaled variables (``y`` by the linear response amplitude, frequency by the start frequency).
+
+Stability: along a forced-response curve without secondary (Neimark–Sacker) bifurcations, the
+periodic solution changes stability exactly at the folds, where the determinant of the balance
+Jacobian ``dR/dy`` changes sign; a point is marked stable when that sign equals the sign at the
+start of the curve, which must lie on a stable branch (e.g. far below resonance).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import EstimationError
+from ._hbm import HBMError, HBMSystem
+
+
+@dataclass
+class Branch:
+    """A continued response curve.
+
+    Attributes
+    ----------
+    freqs : ndarray, shape (n,)
+        Frequency at each point (not monotonic across folds), Hz.
+    X : ndarray, complex, shape (n, n_h, n_dof)
+        Displacement harmonics.
+    stable : ndarray of bool, shape (n,)
+    folds : ndarray of int
+        Indices where stability changes (turning points).
+    """
+
+    freqs: np.ndarray
+    X: np.ndarray
+    stable: np.ndarray
+    folds: np.ndarray
+
+    def amplitude(self, dof: int, harmonic_index: int = 0) -> np.ndarray:
+        """Amplitude ``|X_k|`` of one DOF along the branch."""
+        return np.abs(self.X[:, harmonic_index, dof])
+
+
+def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float | np.ndarray,
+                 *, step: float = 0.02, min_step: float = 1e-5, max_step: float = 0.1,
+                 max_points: int = 2000, tol: float = 1e-9, max_iter: int = 12) -> Branch:
+    """Trace the response curve from ``f_start`` to ``f_end`` by arc-length continuation.
+
+    Parameters
+    ----------
+    system : HBMSystem
+        Prepared balance (all element parameters known).
+    f_start, f_end : float
+        Sweep range, Hz (either direction).
+    force : float or ndarray, shape (n_in,)
+        Force amplitudes.
+    step : float
+        Initial arc-length step in scaled units (relative amplitude and frequency).
+    min_step, max_step : float
+        Step-size limits; the step adapts to the corrector's iteration count.
+    """
+    if f_start <= 0 or f_end <= 0 or f_start == f_end:
+        raise HBMError("continuation needs two different positive frequencies")
+    force = np.atleast_1d(np.asarray(force, dtype=float))
+    first = system.sweep([f_start], force)
+    if not first.converged[0]:
+        raise EstimationError(f"no periodic solution found at the start {f_start} Hz")
+    y = np.concatenate([first.U[0].real.T, first.U[0].imag.T], axis=1).ravel()
+    ylin = system.linear_state(f_start, force)
+    ys = max(float(np.abs(ylin).max()), 1e-300)     # amplitude scale
+    ws = f_start                                      # frequency scale
+    direction = np.sign(f_end - f_start)
+
+    def aug(z):
+        """Residual and Jacobian in scaled variables z = (y / ys, f / ws)."""
+        f = z[-1] * ws
+        r, J = system.residual(z[:-1] * ys, f, force)
+        h = 1e-7 * f
+        r2, _ = system.residual(z[:-1] * ys, f + h, force, jac=False)
+        return r / ys, np.column_stack([J, (r2 - r) / h * ws / ys])
+
+    z = np.append(y / ys, f_start / ws)
+    r, A = aug(z)
+    tangent = _tangent(A, None, direction)
+    points, signs = [z.copy()], [np.sign(np.linalg.det(A[:, :-1]))]
+    h = step
+    while len(points) < max_points:
+        zp = z + h * tangent
+        zc, ok, iters = _correct(aug, zp, tangent, tol, max_iter)
+        if not ok:
+            h *= 0.5
+            if h < min_step:
+                break
+            continue
+        r, A = aug(zc)
+        new_t = _tangent(A, tangent, None)
+        z, tangent = zc, new_t
+        points.append(z.copy())
+        signs.append(np.sign(np.linalg.det(A[:, :-1])))
+        h = min(max_step, h * (1.5 if iters <= 3 else 0.7 if iters >= 6 else 1.0))
+        if (z[-1] * ws - f_end) * direction >= 0:
+            break
+    Z = np.array(points)
+    freqs = Z[:, -1] * ws
+    X = np.array([system.response(zz[:-1] * ys, f, force) for zz, f in zip(Z, freqs)])
+    signs = np.array(signs)
+    stable = signs == signs[0]
+    folds = np.flatnonzero(np.diff(stable.astype(int)) != 0) + 1
+    return Branch(freqs, X, stable, folds)
+
+
+def _tangent(A: np.ndarray, previous: np.ndarray | None, direction: float | None) -> np.ndarray:
+    """Unit null vector of the augmented Jacobian, oriented along ``previous`` (or so that
+    the frequency moves in ``direction``)."""
+    _, _, vt = np.linalg.svd(A)
+    t = vt[-1]
+    if previous is not None:
+        return t if t @ previous >= 0 else -t
+    return t if np.sign(t[-1]) == direction or t[-1] == 0 else -t
+
+
+def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
+    """Newton on ``R(z) = 0`` and ``t.(z - zp) = 0``."""
+    z = zp.copy()
+    for it in range(1, max_iter + 1):
+        r, A = aug(z)
+        F = np.append(r, t @ (z - zp))
+        K = np.vstack([A, t])
+        try:
+            dz = np.linalg.solve(K, -F)
+        except np.linalg.LinAlgError:
+            return z, False, it
+        z = z + dz
+        if np.linalg.norm(dz) <= tol * max(1.0, np.linalg.norm(z)):
+            return z, True, it
+    return z, False, max_iter
+
+
+
+def response_curves(system: HBMSystem, f_start: float, f_end: float,
+                    amplitudes: Sequence[float], **options) -> list[Branch]:
+    """Forced-response curves at several force amplitudes through their folds.
+
+    Parameters
+    ----------
+    system : HBMSystem
+        Prepared balance with one force input (all element parameters known).
+    f_start, f_end : float
+        Sweep range, Hz; start where the response is on a stable branch (off resonance).
+    amplitudes : sequence of float
+        Force amplitudes, N, one curve each.
+    **options
+        Passed to `continue_frf` (step sizes, point budget, tolerance).
+
+    Returns
+    -------
+    list of Branch
+        One branch per amplitude, in the given order.
+    """
+    if system.force_dofs.size != 1:
+        raise HBMError("response curves take one force input; give a single force DOF")
+    values = np.asarray(amplitudes, dtype=float)
+    if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)) \
+            or np.any(values <= 0):
+        raise HBMError("force amplitudes must be positive numbers (N)")
+    return [continue_frf(system, f_start, f_end, a, **options) for a in values]

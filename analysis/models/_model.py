@@ -1,0 +1,629 @@
+"""Structural models and their TOML form (contracts section 2).
+
+A `Model` holds the underlying linear system and a list of nonlinear `Element`s. The linear
+system is ``M q'' + C q' + K q`` over internal coordinates ``q`` seen at named *points* through
+``x = T q``: for the ``[linear]`` form ``q`` are the points themselves (``T = I``); for the
+``[modal]`` form ``q`` are modal coordinates (``M = I``, ``C = diag(2 ζ ω)``, ``K = diag(ω^2)``,
+``T`` the mass-normalised mode shapes at the points). Elements, forces and recordings act on
+points; only the simulated plant and the matrix-level diagnosis see ``q``.
+An element whose parameters are omitted is *unknown*: it marks what an estimator is to find.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._elements import KINDS
+from ..errors import ModelError
+from ._model_file import (check_keys, check_toml_matrix, default_points, is_number, point_index,
+                          short, toml_element, toml_list, toml_num, toml_str, toml_where)
+from ._textfile import read_text
+
+TOP_KEYS = ("name", "points", "linear", "modal", "element")
+LINEAR_KEYS = ("mass", "damping", "stiffness")
+MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
+              "residual_damping_ratios", "residual_shapes")
+MAX_DOF = 100             # points, and DOFs of the [linear] form
+MAX_MODES = 500
+MAX_ELEMENTS = 100
+MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
+MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
+MAX_PARAM = 1e30          # largest |element parameter|
+MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2 pi)
+
+
+@dataclass
+class Element:
+    """One nonlinear element acting on ``u = w.x`` (``w`` over the model's points)."""
+
+    kind: str
+    w: np.ndarray
+    params: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def missing(self) -> list[str]:
+        """Required parameters that have no value (to be estimated)."""
+        return [name for name in KINDS[self.kind].params if name not in self.params]
+
+    @property
+    def known(self) -> bool:
+        """Whether every required parameter has a value."""
+        return not self.missing
+
+    def to_dict(self) -> dict[str, Any]:
+        """The element as ``{kind, w, <param>: value}`` (floats)."""
+        out: dict[str, Any] = {"kind": self.kind, "w": [float(x) for x in self.w]}
+        out.update({k: float(v) for k, v in self.params.items()})
+        return out
+
+
+@dataclass
+class Model:
+    """Linear system plus nonlinear elements: ``M q'' + C q' + K q + sum T'w g = T'B f``,
+    ``x = T q`` at the points (module docstring).
+
+    Parameters
+    ----------
+    mass, damping, stiffness : ndarray, shape (n_q, n_q)
+        Linear system over the internal coordinates (SI).
+    elements : list of Element
+        Each ``w`` has one entry per point.
+    name : str
+    points : list of str, optional
+        Point names; default ``"0", "1", ...``.
+    shapes : ndarray, shape (n_points, n_q), optional
+        ``T``; default the identity (the ``[linear]`` form).
+    n_residual : int
+        Trailing modal coordinates that are residual pseudo-modes (``[modal]`` form).
+    """
+
+    mass: np.ndarray
+    damping: np.ndarray
+    stiffness: np.ndarray
+    elements: list[Element] = field(default_factory=list)
+    name: str = "model"
+    points: list[str] | None = None
+    shapes: np.ndarray | None = None
+    n_residual: int = 0
+
+    def __post_init__(self) -> None:
+        self.mass = _matrix(self.mass, "linear.mass", max_size=MAX_MODES)
+        n = self.mass.shape[0]
+        self.damping = _matrix(self.damping, "linear.damping", n, max_size=MAX_MODES)
+        self.stiffness = _matrix(self.stiffness, "linear.stiffness", n, max_size=MAX_MODES)
+        if self.shapes is None:
+            if n > MAX_DOF:
+                raise ModelError(f"linear.mass is {n} x {n}: more than {MAX_DOF} DOFs; reduce "
+                                 "the model (e.g. to the measured DOFs) or give it in modal form")
+            self.shapes = np.eye(n)
+        self.shapes = _shapes(self.shapes, n)
+        self.points = _points(self.points, self.shapes.shape[0])
+        _check_physics(self)
+        if len(self.elements) > MAX_ELEMENTS:
+            raise ModelError(f"{len(self.elements)} elements, more than {MAX_ELEMENTS}")
+        for i, el in enumerate(self.elements):
+            _check_element(el, i, self.n_dof)
+        _check_rates(self)
+
+    @classmethod
+    def modal(cls, freqs_hz: Any, damping_ratios: Any, shapes: Any, *,
+              elements: list[Element] | None = None, name: str = "model",
+              points: list[str] | None = None, residual_freqs_hz: Any = (),
+              residual_damping: Any = (), residual_shapes: Any = None) -> "Model":
+        """Model of the ``[modal]`` form: modes (and residual pseudo-modes) at the points.
+
+        ``shapes`` is (n_modes, n_points), mass-normalised (1/sqrt(kg)); the residual
+        pseudo-modes, outside the band, stand for the modes the table leaves out.
+        """
+        f, z, phi = _modes(freqs_hz, damping_ratios, shapes, "modal")
+        nr = len(residual_freqs_hz)
+        if nr:
+            fr, zr, phr = _modes(residual_freqs_hz, residual_damping, residual_shapes,
+                                 "modal.residual", n_points=phi.shape[1])
+            f, z, phi = np.r_[f, fr], np.r_[z, zr], np.vstack([phi, phr])
+        w = 2 * np.pi * f
+        return cls(np.eye(f.size), np.diag(2 * z * w), np.diag(w ** 2), list(elements or []),
+                   name, points, phi.T, nr)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of points (the DOFs forces, elements and recordings refer to)."""
+        return self.shapes.shape[0]
+
+    @property
+    def n_q(self) -> int:
+        """Number of internal coordinates (DOFs of the [linear] form, or modes)."""
+        return self.mass.shape[0]
+
+    @property
+    def is_modal(self) -> bool:
+        """Whether the linear part is given by mode shapes (not the identity over points)."""
+        return not (self.shapes.shape[0] == self.shapes.shape[1]
+                    and np.array_equal(self.shapes, np.eye(self.n_q)))
+
+    @property
+    def decoupled(self) -> bool:
+        """Whether ``M``, ``C`` and ``K`` are all diagonal (uncoupled modal coordinates)."""
+        return all(np.array_equal(a, np.diag(np.diag(a)))
+                   for a in (self.mass, self.damping, self.stiffness))
+
+    def to_q(self, w: np.ndarray) -> np.ndarray:
+        """A vector over points (an element's ``w``, a force direction) in internal coordinates."""
+        return self.shapes.T @ np.asarray(w, dtype=float)
+
+    def point_index(self, point: str | int) -> int:
+        """Index of a point given by name or index."""
+        return point_index(point, self.points, "point")
+
+    @property
+    def complete(self) -> bool:
+        """Whether every element parameter is known (the model can be simulated)."""
+        return all(el.known for el in self.elements)
+
+    def require_complete(self, what: str = "simulation") -> None:
+        """Raise `ModelError` if any element parameter is unknown."""
+        for i, el in enumerate(self.elements):
+            if el.missing:
+                raise ModelError(
+                    f"element {i} ({el.kind}) has no value for {', '.join(el.missing)}; "
+                    f"{what} needs every parameter: give it in the model file")
+
+    def linear_frf(self, freqs: np.ndarray, force_dofs: list[int] | None = None) -> np.ndarray:
+        """Receptance of the underlying linear system at the points, (n_f, n_dof, n_in)."""
+        w = 2 * np.pi * np.asarray(freqs, dtype=float)
+        cols = self.shapes if force_dofs is None else self.shapes[list(force_dofs)]
+        if self.decoupled:
+            hq = 1.0 / (-w[:, None] ** 2 * np.diag(self.mass)
+                        + 1j * w[:, None] * np.diag(self.damping) + np.diag(self.stiffness))
+            return np.einsum("pq,fq,iq->fpi", self.shapes, hq, cols, optimize=True)
+        z = (-w[:, None, None] ** 2 * self.mass + 1j * w[:, None, None] * self.damping
+             + self.stiffness)
+        h = np.linalg.solve(z, np.broadcast_to(cols.T, z.shape[:1] + cols.T.shape))
+        return h if not self.is_modal else np.einsum("pq,fqi->fpi", self.shapes, h)
+
+    def natural_frequencies(self) -> np.ndarray:
+        """Undamped natural frequencies of the linear system, Hz, ascending (pseudo-modes
+        included)."""
+        from scipy.linalg import eigh
+        lam = eigh(self.stiffness, self.mass, eigvals_only=True)
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+    def stiffness_along(self, w: np.ndarray) -> float:
+        """Stiffness the linear system shows along ``w`` (over points): ``w' K w`` of the
+        ``[linear]`` form, ``1 / (w' T K^-1 T' w)`` (static) of the ``[modal]`` form."""
+        w = np.asarray(w, dtype=float)
+        if not self.is_modal:
+            return float(w @ self.stiffness @ w)
+        return float(1.0 / max(w @ self.point_flexibility() @ w, 1e-300))
+
+    def point_flexibility(self) -> np.ndarray:
+        """Static flexibility ``T K^-1 T'`` at the points (m/N; pseudo-inverse if ``K`` is
+        singular)."""
+        return self.shapes @ np.linalg.pinv(self.stiffness) @ self.shapes.T
+
+    def modal_form(self, points: list[str | int], names: list[str] | None = None,
+                   n_modes: int | None = None) -> "Model":
+        """This model in ``[modal]`` form at some of its points (an FE model seen at its
+        sensors): the lowest ``n_modes`` modes (all by default), mass-normalised; damping
+        ratios from the diagonal of the modal damping (exact for modal damping). Elements
+        move along when they act on the kept points only."""
+        from scipy.linalg import eigh
+        idx = [self.point_index(p) for p in points]
+        names = list(names) if names is not None else [self.points[i] for i in idx]
+        lam, vec = eigh(self.stiffness, self.mass)
+        keep = slice(0, n_modes)
+        lam, vec = lam[keep], vec[:, keep]
+        w = np.sqrt(np.clip(lam, 0.0, None))
+        zeta = np.einsum("qi,qr,ri->i", vec, self.damping, vec) / (2 * w)
+        shapes = (self.shapes @ vec)[idx]
+        elements = []
+        for i, el in enumerate(self.elements):
+            if np.any(np.delete(el.w, idx)):
+                raise ModelError(f"element {i} ({el.kind}) acts on a point not kept; keep "
+                                 "its end points")
+            elements.append(Element(el.kind, el.w[idx], dict(el.params)))
+        return Model.modal(w / (2 * np.pi), zeta, shapes.T, elements=elements,
+                           name=self.name, points=names)
+
+    def with_elements(self, elements: list[Element], name: str | None = None) -> "Model":
+        """Copy of this model with another element list."""
+        return self.with_linear(self.mass, self.damping, self.stiffness, elements,
+                                name or self.name)
+
+    def with_linear(self, mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray,
+                    elements: list[Element] | None = None, name: str | None = None
+                    ) -> "Model":
+        """Copy with other internal-coordinate matrices (same points and shapes)."""
+        return Model(np.array(mass, dtype=float), np.array(damping, dtype=float),
+                     np.array(stiffness, dtype=float),
+                     list(self.elements if elements is None else elements), name or self.name,
+                     list(self.points), self.shapes.copy(), self.n_residual)
+
+    # --- TOML -----------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """The tables of this model's file (what `from_dict` reads back)."""
+        return tomllib.loads(self.dumps())
+
+    def dumps(self) -> str:
+        """TOML text of this model (matrices one row per line; loads back exactly)."""
+        # Written by hand: tomli-w puts every matrix entry on its own line, which makes model
+        # files unreadable to the engineers who edit them. The schema is small and fixed.
+        lines = [f"name = {toml_str(self.name)}"]
+        named = self.points != default_points(self.n_dof)
+        if named:
+            lines.append(f"points = [{', '.join(toml_str(p) for p in self.points)}]")
+        if self.is_modal:
+            lines += ["", "[modal]                  # mass-normalised shapes: one row per mode, "
+                      "one value per point (1/sqrt(kg))"]
+            freqs, zeta, shapes, nr = _modal_tables(self)
+            for key, f, z, phi in (("", freqs[:-nr or None], zeta[:-nr or None],
+                                    shapes[:-nr or None]),
+                                   ("residual_", freqs[len(freqs) - nr:],
+                                    zeta[len(freqs) - nr:], shapes[len(freqs) - nr:])):
+                if not len(f):
+                    continue
+                rows = ",\n    ".join(toml_list(row) for row in phi)
+                lines += [f"{key}frequencies_hz = {toml_list(f)}",
+                          f"{key}damping_ratios = {toml_list(z)}",
+                          f"{key}shapes = [\n    {rows},\n]"]
+        else:
+            lines += ["", "[linear]"]
+            for key in ("mass", "damping", "stiffness"):
+                rows = ",\n    ".join(toml_list(row) for row in getattr(self, key))
+                lines.append(f"{key} = [\n    {rows},\n]")
+        for el in self.elements:
+            lines += ["", "[[element]]", f"kind = {toml_str(el.kind)}",
+                      toml_where(el.w, self.points) if named else f"w = {toml_list(el.w)}"]
+            lines += [f"{name} = {toml_num(value)}" for name, value in el.params.items()]
+        return "\n".join(lines) + "\n"
+
+    def save(self, path: str | Path) -> None:
+        """Write the model file (`dumps`) to ``path``.
+
+        Parameters
+        ----------
+        path : str or Path
+        """
+        Path(path).write_text(self.dumps())
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "model") -> "Model":
+        """Model from the tables of a model file (strict schema: see docs/model-format.md)."""
+        try:
+            return cls._from_dict(data)
+        except ModelError as exc:
+            raise ModelError(f"{source}: {exc}") from None
+
+    @classmethod
+    def _from_dict(cls, data: dict[str, Any]) -> "Model":
+        check_keys(data, TOP_KEYS, "top level")
+        name = data.get("name", "model")
+        if not isinstance(name, str):
+            raise ModelError(f"name must be a string, got {name!r}")
+        points = data.get("points")
+        if points is not None and (not isinstance(points, list) or not points):
+            raise ModelError(f"points = {short(points)} must be a list of point names, e.g. "
+                             '["drive", "tip"]')
+        raw_elements = data.get("element", [])
+        if not isinstance(raw_elements, list):
+            raise ModelError("element must be an array of tables ([[element]])")
+        if len(raw_elements) > MAX_ELEMENTS:
+            raise ModelError(f"{len(raw_elements)} elements, more than {MAX_ELEMENTS}; "
+                             "split the model or merge elements acting on the same w")
+        linear, modal = data.get("linear"), data.get("modal")
+        if linear is None and modal is None:
+            raise ModelError("no [linear] table; give mass, damping and stiffness matrices "
+                             "under [linear] (or modes under [modal], docs/model-format.md)")
+        if linear is not None and modal is not None:
+            raise ModelError("both [linear] and [modal]: give the linear system in one form")
+        if linear is not None:
+            check_keys(linear, LINEAR_KEYS, "[linear]")
+            for key in LINEAR_KEYS:
+                if key not in linear:
+                    raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
+                check_toml_matrix(linear[key], f"linear.{key}")
+            n_points = len(linear["mass"])
+        else:
+            check_keys(modal, MODAL_KEYS, "[modal]")
+            for key in MODAL_KEYS[:3]:
+                if key not in modal:
+                    raise ModelError(f"[modal] lacks '{key}'; see docs/model-format.md")
+            check_toml_matrix(modal["shapes"], "modal.shapes")
+            if points is None:
+                raise ModelError("a [modal] model needs top-level points = [...] naming the "
+                                 "point of each shape column")
+            n_points = len(points)
+        names = _points(points, n_points)
+        elements = [Element(*toml_element(raw, i, names)) for i, raw in enumerate(raw_elements)]
+        if linear is not None:
+            return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
+                       names)
+        if "residual_shapes" in modal:
+            check_toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
+        return cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
+                         elements=elements, name=name, points=names,
+                         residual_freqs_hz=modal.get("residual_frequencies_hz", []),
+                         residual_damping=modal.get("residual_damping_ratios", []),
+                         residual_shapes=modal.get("residual_shapes"))
+
+    @classmethod
+    def loads(cls, text: str, source: str = "model") -> "Model":
+        """Model from the text of a model file.
+
+        Parameters
+        ----------
+        text : str
+            TOML text.
+        source : str
+            Name used in error messages.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Invalid TOML or schema.
+        """
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ModelError(f"{source}: not valid TOML ({exc}); fix the syntax") from None
+        return cls.from_dict(data, source)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Model":
+        """Model from a model file (TOML, docs/model-format.md).
+
+        Parameters
+        ----------
+        path : str or Path
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            Unreadable file, invalid TOML or schema.
+        """
+        return cls.loads(read_text(path, "model file", ModelError), str(path))
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+def _points(points: Any, n: int) -> list[str]:
+    """Validated point names (default ``"0", "1", ...``)."""
+    if points is None:
+        return default_points(n)
+    points = list(points)
+    if len(points) != n:
+        raise ModelError(f"points names {len(points)} points but the linear system has {n}; "
+                         "give one name per DOF or shape column")
+    for p in points:
+        if not isinstance(p, str) or not p.strip():
+            raise ModelError(f"points: {short(p)} is not a point name (a non-empty string)")
+    dup = sorted({p for p in points if points.count(p) > 1})
+    if dup:
+        raise ModelError(f"points: {', '.join(map(repr, dup))} named twice; point names must "
+                         "be unique")
+    return points
+
+
+def _shapes(value: Any, n_q: int) -> np.ndarray:
+    arr = np.array(value, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != n_q or arr.shape[0] == 0:
+        raise ModelError(f"shapes must be n_points x {n_q}, got shape {arr.shape}")
+    if arr.shape[0] > MAX_DOF:
+        raise ModelError(f"{arr.shape[0]} points, more than {MAX_DOF}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError("shapes hold NaN or infinite values")
+    return arr
+
+
+def _modes(freqs: Any, zeta: Any, shapes: Any, where: str, n_points: int | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validated modal table: frequencies (Hz), damping ratios, shapes (n_modes, n_points)."""
+    residual = where.endswith("residual")
+    pre = "residual_" if residual else ""
+    f = _vector(freqs, f"{where.split('.')[0]}.{pre}frequencies_hz")
+    z = _vector(zeta, f"{where.split('.')[0]}.{pre}damping_ratios")
+    if f.size != z.size:
+        raise ModelError(f"{where}: {f.size} frequencies but {z.size} damping ratios; give one "
+                         "per mode")
+    if f.size > MAX_MODES:
+        raise ModelError(f"{where}: {f.size} modes, more than {MAX_MODES}")
+    if not np.all(f > 0) or f.max(initial=0) > MAX_RATE_HZ:
+        raise ModelError(f"{where}: frequencies must be > 0 Hz and <= {MAX_RATE_HZ:g} Hz, got "
+                         f"{f.min():g}..{f.max():g}")
+    lo_ok = (z >= 0) if residual else (z > 0)
+    if not np.all(lo_ok & (z < 1)):
+        raise ModelError(f"{where}: damping ratios must lie in {'[0' if residual else '(0'}, 1) "
+                         f"(fractions of critical, not %), got {z.min():g}..{z.max():g}")
+    try:
+        phi = np.array(shapes, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: {pre}shapes must be a list of equal-length rows of "
+                         "numbers, one row per mode and one value per point") from None
+    if phi.ndim != 2 or phi.shape[0] != f.size or (n_points is not None
+                                                   and phi.shape[1] != n_points):
+        want = f"{f.size} x {n_points if n_points is not None else 'n_points'}"
+        raise ModelError(f"{where}: {pre}shapes must be {want} (one row per mode, one value "
+                         f"per point), got shape {phi.shape}")
+    if not np.all(np.isfinite(phi)) or np.abs(phi).max(initial=0) > MAX_ENTRY:
+        raise ModelError(f"{where}: {pre}shapes must be finite numbers below {MAX_ENTRY:g}")
+    if np.any(np.all(phi == 0, axis=1)):
+        raise ModelError(f"{where}: mode {int(np.flatnonzero(np.all(phi == 0, axis=1))[0])} "
+                         "has a zero shape at every point; drop it or give its shape")
+    return f, z, phi
+
+
+def _vector(value: Any, name: str) -> np.ndarray:
+    if not isinstance(value, (list, tuple, np.ndarray)) or not all(
+            is_number(x) or isinstance(x, np.number) for x in np.ravel(value)):
+        raise ModelError(f"{name} = {short(value)} must be a list of numbers")
+    arr = np.array(value, dtype=float).ravel()
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{name} holds NaN or infinite values")
+    return arr
+
+
+def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Frequencies, damping ratios, shapes (n_modes, n_points) and the number of trailing
+    pseudo-modes of a modal model; matrices changed by a correction are diagonalised again
+    (undamped modes of ``K, M``; damping ratios from the diagonal of the modal damping)."""
+    m, c, k = model.mass, model.damping, model.stiffness
+    if model.decoupled and np.all(np.diag(m) == 1):
+        w = np.sqrt(np.diag(k))
+        return w / (2 * np.pi), np.diag(c) / (2 * w), model.shapes.T, model.n_residual
+    from scipy.linalg import eigh
+    lam, vec = eigh(k, m)
+    w = np.sqrt(np.clip(lam, 0.0, None))
+    zeta = np.einsum("qi,qr,ri->i", vec, c, vec) / (2 * np.maximum(w, 1e-300))
+    return w / (2 * np.pi), zeta, (model.shapes @ vec).T, 0
+
+
+
+
+def _matrix(value: Any, name: str, n: int | None = None, max_size: int = MAX_DOF
+            ) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{name} must be a square matrix of numbers (a list of equal-length "
+                         "rows)") from None
+    if arr.ndim == 0:
+        arr = arr.reshape(1, 1)
+    if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or arr.shape[0] == 0:
+        raise ModelError(f"{name} must be a square n x n matrix, got shape {arr.shape}")
+    if n is not None and arr.shape[0] != n:
+        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]} but mass is {n} x {n}; "
+                         "all linear matrices must have the same size")
+    if arr.shape[0] > max_size:
+        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]}: more than {max_size} "
+                         "DOFs; reduce the model (e.g. to the measured DOFs)")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{name} holds NaN or infinite values")
+    big = np.abs(arr).max()
+    if big > MAX_ENTRY:
+        raise ModelError(f"{name} has an entry of magnitude {big:.3g}, above {MAX_ENTRY:g}; "
+                         "give SI units (kg, N s/m, N/m)")
+    return arr
+
+
+def _check_physics(model: Model) -> None:
+    for key, positive in (("mass", True), ("damping", False), ("stiffness", False)):
+        a = getattr(model, key)
+        scale = max(np.abs(a).max(), 1e-300)
+        if np.abs(a - a.T).max() > 1e-9 * scale:
+            raise ModelError(f"linear.{key} is not symmetric; a passive structure has "
+                             f"symmetric {key} (check the off-diagonal terms)")
+        eig = np.linalg.eigvalsh(0.5 * (a + a.T))
+        if positive and eig.min() <= 0:
+            raise ModelError("linear.mass is not positive definite; every DOF needs mass > 0")
+        if positive and eig.min() < MIN_MASS:
+            raise ModelError(f"linear.mass has an eigenvalue of {eig.min():.3g} kg, below "
+                             f"{MIN_MASS:g} kg; give SI units (kg)")
+        if not positive and eig.min() < -1e-9 * scale:
+            raise ModelError(f"linear.{key} has a negative eigenvalue ({eig.min():.3g}); "
+                             f"{key} must be positive semi-definite")
+
+
+def _rates(model: Model, elements: list[Element]) -> tuple[float, float]:
+    """Highest natural frequency and viscous decay rate, Hz, of the linear system stiffened
+    and damped by ``elements`` at rest (their kinds' slopes at zero amplitude: the
+    piecewise-linear and Coulomb kinds' steepest)."""
+    from scipy.linalg import eigh
+    stiff, visc = model.stiffness.copy(), model.damping.copy()
+    for el in elements:
+        wq = model.to_q(el.w)
+        spec, ww = KINDS[el.kind], np.outer(wq, wq)
+        if el.missing:                      # a candidate's unknown element: no slope yet
+            continue
+        if spec.stiffness is not None:
+            stiff += abs(spec.stiffness(el.params, 0.0)) * ww
+        if spec.damping is not None:
+            visc += abs(spec.damping(el.params, 0.0)) * ww
+    lam = eigh(stiff, model.mass, eigvals_only=True).max()
+    rate = eigh(visc, model.mass, eigvals_only=True).max()
+    return math.sqrt(max(lam, 0.0)) / (2 * np.pi), max(rate, 0.0) / (2 * np.pi)
+
+
+def _check_rates(model: Model) -> None:
+    """Refuse time scales no supported sample rate resolves (they stall the simulated plant
+    and overflow the estimators): name the matrix or the first element that makes them."""
+    if max(_rates(model, [])) > MAX_RATE_HZ:
+        raise ModelError(f"linear.stiffness/damping over mass give a natural frequency or decay "
+                         f"rate above {MAX_RATE_HZ:g} Hz; check the units (kg, N s/m, N/m)")
+    if not model.elements or max(_rates(model, model.elements)) <= MAX_RATE_HZ:
+        return
+    for i, el in enumerate(model.elements):
+        if max(_rates(model, model.elements[:i + 1])) > MAX_RATE_HZ:
+            raise ModelError(f"element {i} ({el.kind}) makes a natural frequency or decay "
+                             f"rate above {MAX_RATE_HZ:g} Hz; check its parameter values")
+
+
+def _check_element(el: Element, i: int, n: int) -> None:
+    where = f"element {i} ({el.kind})"
+    if el.kind not in KINDS:
+        raise ModelError(f"element {i}: unknown kind '{el.kind}'; "
+                         f"use one of {', '.join(KINDS)}")
+    spec = KINDS[el.kind]
+    try:
+        el.w = np.array(el.w, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: w must be a list of numbers") from None
+    if el.w.ndim != 1:
+        raise ModelError(f"{where}: w must be a flat list of numbers, got shape {el.w.shape}")
+    if el.w.size != n:
+        raise ModelError(f"{where}: w has {el.w.size} entries but the model has {n} points")
+    if not np.all(np.isfinite(el.w)) or not np.any(el.w):
+        raise ModelError(f"{where}: w must be finite and not all zero")
+    if np.abs(el.w).max() > MAX_ENTRY:
+        raise ModelError(f"{where}: w has an entry above {MAX_ENTRY:g}; w is a position "
+                         "vector of order 1 (e.g. e_j - e_i)")
+    params = {}
+    for name, value in el.params.items():
+        if name not in spec.all_params:
+            raise ModelError(f"{where}: unknown parameter '{name}'; "
+                             f"{el.kind} takes {', '.join(spec.all_params)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
+                or not math.isfinite(value):
+            raise ModelError(f"{where}: parameter {name} = {value!r} is not a finite number")
+        if name in spec.positive and value <= 0:
+            raise ModelError(f"{where}: parameter {name} must be > 0, got {value}")
+        smallest = spec.param(name).smallest
+        lo, hi = (-MAX_PARAM if smallest is None else smallest), MAX_PARAM
+        if not lo <= value <= hi:
+            raise ModelError(f"{where}: parameter {name} = {value:g} is outside "
+                             f"{lo:g}..{hi:g}")
+        params[name] = float(value)
+    el.params = params

@@ -1,0 +1,435 @@
+"""Numba hot loop of the simulated plant; the method is described in `analysis.plant._plant`.
+
+The plant keeps the stick_slip slip direction (+1/-1, 0 sticking) in element state slot 1
+next to the slider position in slot 0 (`element_force` ignores slot 1).
+
+Notation: ``y = [x, v]`` (2n), ``q`` = hold degree, hold nodes at ``s/h = 1-q .. 0, 1``
+(the last ``q`` are history, the last one is the end of the substep). ``gh``/``uh`` hold each
+element's force and deformation at the history nodes (column ``q-1`` = start of the substep).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..models import element_force
+from .._numba_cache import guard
+
+guard(__file__, "..models._elements")
+
+# The same force law compiled for inlining into the hot loop (a call with array arguments
+# costs more than the law itself); `_virgin` is re-jitted alongside since it is called inside.
+_element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
+
+STICK_SLIP = 5
+MAX_ITER = 30
+# reassociation lets LLVM vectorise the dot products (deterministic all the same)
+FASTMATH = {"reassoc", "contract"}
+RTOL = 1e-12
+# stats slots
+S_SUBSTEPS, S_ITER, S_EVENTS, S_NOCONV = 0, 1, 2, 3
+
+
+@numba.njit(cache=True)
+def _poly(coef: np.ndarray, x: float) -> float:
+    out = 0.0
+    for i in range(coef.shape[0] - 1, -1, -1):
+        out = out * x + coef[i]
+    return out
+
+
+@numba.njit(cache=True)
+def _hermite(u0: float, v0: float, u1: float, v1: float, h: float,
+             t: float) -> tuple[float, float]:
+    """Cubic Hermite interpolant of ``u`` and its time derivative at ``s = t h``."""
+    t2 = t * t
+    t3 = t2 * t
+    u = ((2 * t3 - 3 * t2 + 1) * u0 + (t3 - 2 * t2 + t) * h * v0 + (-2 * t3 + 3 * t2) * u1
+         + (t3 - t2) * h * v1)
+    du = ((6 * t2 - 6 * t) * u0 / h + (3 * t2 - 4 * t + 1) * v0 + (-6 * t2 + 6 * t) * u1 / h
+          + (3 * t2 - 2 * t) * v1)
+    return u, du
+
+
+@numba.njit(cache=True)
+def _root_poly(coef: np.ndarray, target: float) -> float:
+    """Root of ``poly(t) = target`` on [0, 1] given a sign change (bisection + secant)."""
+    lo, hi = 0.0, 1.0
+    flo = _poly(coef, lo) - target
+    fhi = _poly(coef, hi) - target
+    if flo * fhi > 0.0:
+        return 0.0 if abs(flo) < abs(fhi) else 1.0
+    for _ in range(200):
+        t = lo - flo * (hi - lo) / (fhi - flo) if fhi != flo else lo
+        if not (lo < t < hi) or hi - lo > 0.25:
+            t = 0.5 * (lo + hi)
+        f = _poly(coef, t) - target
+        if f == 0.0 or hi - lo < 1e-15:
+            return t
+        if f * flo < 0.0:
+            hi, fhi = t, f
+        else:
+            lo, flo = t, f
+    return 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True)
+def _root_velocity(u0: float, v0: float, u1: float, v1: float, h: float) -> float:
+    """Time fraction where the Hermite interpolant's velocity changes sign: the root in
+    [0, 1] of the quadratic ``a t^2 + b t + v0`` (`_hermite`'s ``du``)."""
+    if v0 * v1 > 0.0 or v0 == 0.0:
+        return 0.0
+    a = 6.0 * (u0 - u1) / h + 3.0 * (v0 + v1)
+    b = 6.0 * (u1 - u0) / h - 4.0 * v0 - 2.0 * v1
+    c = v0
+    if abs(a) <= 1e-12 * (abs(b) + abs(c)):
+        return min(max(-c / b, 0.0), 1.0)
+    disc = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+    qq = -0.5 * (b + math.copysign(disc, b))      # the stable pair of roots: qq/a, c/qq
+    for t in (qq / a, c / qq if qq != 0.0 else -1.0):
+        if 0.0 <= t <= 1.0:
+            return t
+    return min(max(qq / a, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def _jump_coeffs(dnodes: np.ndarray, theta: float, vinv: np.ndarray, h: float,
+                 inv_fact: np.ndarray, out: np.ndarray) -> None:
+    """Taylor weights ``c_i`` of the end-state effect of a force jump ``D(s) H(s - theta h)``.
+
+    ``D`` is the hold polynomial through ``dnodes``; the effect is
+    ``sum_i c_i A^i b`` with ``c_i = sum_k d_k h k! r^(k+1) delta^i / (i+k+1)!``, where
+    ``d_k`` are the coefficients of ``D`` in powers of ``(s - theta h)/h``, ``r = 1 - theta``
+    and ``delta = r h`` (phi-function series of the exponential integrator).
+    """
+    nq = dnodes.shape[0]
+    dmono = vinv @ dnodes
+    dsh = np.zeros(nq)
+    for m in range(nq):  # shift the monomials to the jump time: x = theta + rho
+        binom = 1.0
+        for k in range(m + 1):
+            dsh[k] += dmono[m] * binom * theta ** (m - k)
+            binom = binom * (m - k) / (k + 1)
+    r = 1.0 - theta
+    delta = r * h
+    kfact, rk = 1.0, r
+    for k in range(nq):        # d_k h k! r^(k+1)
+        if k > 0:
+            kfact *= k
+            rk *= r
+        dsh[k] *= h * kfact * rk
+    dpow = 1.0
+    for i in range(out.shape[0]):
+        acc = 0.0
+        for k in range(nq):
+            acc += dsh[k] * inv_fact[i + k + 1]
+        out[i] = acc * dpow
+        dpow *= delta
+
+
+@numba.njit(cache=True, inline="always")
+def _axpy(a: float, x: np.ndarray, out: np.ndarray) -> None:
+    """``out += a x``."""
+    for r in range(out.shape[0]):
+        out[r] += a * x[r]
+
+
+@numba.njit(cache=True, inline="always")
+def _dot(a: np.ndarray, b: np.ndarray, lo: int) -> float:
+    """``a . b[lo:lo + len(a)]``."""
+    s = 0.0
+    for c in range(a.shape[0]):
+        s += a[c] * b[lo + c]
+    return s
+
+
+@numba.njit(cache=True, inline="always")
+def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
+    """``z = [f, g at age 0, ..., g at age q-1]`` (ages in nodes back from the last)."""
+    nin, ne, q = f.shape[0], gh.shape[0], gh.shape[1]
+    for i in range(nin):
+        z[i] = f[i]
+    for b in range(q):
+        for e in range(ne):
+            z[nin + b * ne + e] = gh[e, q - 1 - b]
+
+
+@numba.njit(cache=True, inline="always")
+def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    """``out = Phi s``: ``phi`` dense, or (when ``phi`` is empty) per-mode 2 x 2 blocks given
+    by the four diagonals ``phi_d`` of ``[[P11, P12], [P21, P22]]``."""
+    if phi.shape[0] == 0:
+        n = phi_d.shape[1]
+        for i in range(n):
+            x, v = s[i], s[n + i]
+            out[i] = phi_d[0, i] * x + phi_d[1, i] * v
+            out[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
+    else:
+        for r in range(phi.shape[0]):
+            out[r] = _dot(phi[r], s, 0)
+
+
+MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "corr", "pwe",
+            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "prm", "h", "shapes",
+            "identity", "tax", "tav", "out_z")
+"""The discretisation arguments of `integrate`, in order (`analysis.plant._plant.Plant._discretise`)."""
+
+
+def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
+              inj_f: np.ndarray, inj_g: np.ndarray, u_g: np.ndarray, we: np.ndarray,
+              r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
+              pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
+              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray,
+              h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
+              out_z: np.ndarray, s: np.ndarray, gh: np.ndarray, uh: np.ndarray,
+              es: np.ndarray, fprev: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
+              out_a: np.ndarray, out_el: np.ndarray, out_uv: np.ndarray,
+              stats: np.ndarray) -> None:
+    """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
+
+    ``s, gh, uh, es, fprev`` are updated in place (they are the plant state; ``s`` the
+    accumulated state of `analysis.plant._plant`, Method). ``out_x, out_v, out_a`` receive
+    displacement, velocity and acceleration at the points, ``out_el`` the element forces and
+    ``out_uv`` the element deformations and rates at each output sample.
+    """
+    ny = s.shape[0]
+    n = ny // 2
+    ne = codes.shape[0]
+    q = gh.shape[1]
+    nin = force.shape[1]
+    nt = ab.shape[1]
+    npt = out_x.shape[1]
+    kn = np.empty(ny)
+    pk = np.empty(2 * ne)
+    uv = np.empty(2 * ne)
+    acc = np.empty(2 * ne)
+    g = np.zeros(ne)       # force at the end node (the branch the element is on at the end)
+    gc = np.zeros(ne)      # force the hold polynomial uses at the end node (old branch)
+    gold = np.empty(q)
+    sigma0 = np.zeros(ne)
+    st = es.copy()
+    pscr = np.empty(prm.shape[1])
+    sin = np.empty(es.shape[1])
+    sout = np.empty(es.shape[1])
+    event = np.zeros(ne, dtype=np.int64)   # 0 none, 1 stick->slip, 2 slip->stick
+    ev_prev = np.zeros(ne, dtype=np.int64)
+    ev_theta = np.zeros(ne)
+    ev_ut = np.zeros(ne)
+    ev_c = np.zeros((ne, nt))
+    dnodes = np.empty(q + 1)
+    fa = np.empty(nin)
+    fb = np.empty(nin)
+    z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
+    vh = np.empty(ne)            # element deformation rates at the last node
+    state = s              # s and kn swap roles every substep; the result goes to state
+    n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
+    _history(fprev, gh, z)
+    for e in range(ne):
+        g[e] = gh[e, q - 1]
+        vh[e] = _dot(wq[e], s, n) - _dot(r_v[e], z, 0)
+    for k in range(force.shape[0]):
+        for j in range(m):
+            for i in range(nin):
+                df = (force[k, i] - fprev[i]) / m
+                fa[i] = fprev[i] + j * df
+                fb[i] = fa[i] + df
+            # known part of the end state: free response, drive, injected history
+            _propagate(phi, phi_d, s, kn)
+            for i in range(nin):
+                _axpy(fb[i], inj_f[0, i], kn)
+                if inj_f.shape[0] > 1:
+                    _axpy(fa[i], inj_f[1, i], kn)
+            for a in range(inj_g.shape[0]):
+                for e in range(ne):
+                    _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
+            if ne == 0:
+                s, kn = kn, s
+                continue
+            # element deformations and rates of the known part (less the pending history)
+            for e in range(ne):
+                pk[e] = _dot(wq[e], kn, 0)
+                pk[ne + e] = _dot(wq[e], kn, n)
+            for i in range(nin):
+                z[i] = fb[i]
+            for a in range(1, q):
+                for e in range(ne):
+                    z[nin + (a - 1) * ne + e] = gh[e, q - a]
+            for r in range(2 * ne):
+                pk[r] += _dot(corr[r], z, 0)
+            for e in range(ne):
+                sigma0[e] = 0.0
+                if codes[e] == STICK_SLIP:
+                    sigma0[e] = es[e, 1]
+                gp = 0.0  # predictor: extrapolate the history to the end node
+                for nd in range(q):
+                    gp += xpred[nd] * gh[e, nd]
+                gc[e] = gp
+            for e in range(ne):
+                if codes[e] == STICK_SLIP and sigma0[e] == 0.0:
+                    # sticking, the law is linear: solve its own deformation exactly
+                    kd, z0 = prm[e, 0], es[e, 0]
+                    t = pk[e] - pwe[e, e] * gc[e]
+                    for f in range(ne):
+                        t += pwe[e, f] * gc[f]
+                    a = pwe[e, e] * kd
+                    gc[e] = kd * ((t - a * z0) / (1.0 - a) - z0)
+            for r in range(2 * ne):
+                t = pk[r]
+                for e in range(ne):
+                    t += pwe[r, e] * gc[e]
+                uv[r] = t
+            converged = False
+            dprev = 0.0
+            for e in range(ne):
+                ev_prev[e] = 0
+            for it in range(MAX_ITER):
+                n_iter += 1
+                for r in range(2 * ne):
+                    acc[r] = pk[r]
+                for e in range(ne):
+                    u1 = uv[e]
+                    v1 = uv[ne + e]
+                    event[e] = 0
+                    if codes[e] == STICK_SLIP:
+                        kd, fd = prm[e, 0], prm[e, 1]
+                        z0 = es[e, 0]
+                        if sigma0[e] == 0.0:
+                            r1 = kd * (u1 - z0)
+                            gc[e] = r1
+                            if abs(r1) <= fd:
+                                g[e] = r1
+                                st[e, 0] = z0
+                                st[e, 1] = 0.0
+                            else:  # stick -> slip where the stick branch reaches +-fd
+                                sg = np.sign(r1)
+                                for nd in range(q):
+                                    dnodes[nd] = gh[e, nd]
+                                dnodes[q] = r1
+                                ev_theta[e] = _root_poly(vinv @ dnodes, sg * fd)
+                                for nd in range(q + 1):
+                                    dnodes[nd] = sg * fd - dnodes[nd]
+                                g[e] = sg * fd
+                                st[e, 0] = u1 - sg * fd / kd
+                                st[e, 1] = sg
+                                event[e] = 1
+                        else:
+                            sg = sigma0[e]
+                            gc[e] = sg * fd
+                            if sg * v1 >= 0.0:  # still slipping
+                                g[e] = sg * fd
+                                st[e, 0] = u1 - sg * fd / kd
+                                st[e, 1] = sg
+                            else:  # slip -> stick where the velocity reverses
+                                u0 = uh[e, q - 1]
+                                th = _root_velocity(u0, vh[e], u1, v1, h)
+                                ut = _hermite(u0, vh[e], u1, v1, h, th)[0]
+                                ev_theta[e] = th
+                                ev_ut[e] = ut
+                                for nd in range(q):
+                                    dnodes[nd] = kd * (uh[e, nd] - ut)
+                                dnodes[q] = kd * (u1 - ut)
+                                g[e] = min(max(sg * fd + kd * (u1 - ut), -fd), fd)
+                                st[e, 0] = ut - sg * fd / kd
+                                st[e, 1] = 0.0
+                                event[e] = 2
+                        if event[e] != 0:
+                            _jump_coeffs(dnodes, ev_theta[e], vinv, h, inv_fact, ev_c[e])
+                            for r in range(2 * ne):
+                                t = 0.0
+                                for i in range(nt):
+                                    t += pab[e, i, r] * ev_c[e, i]
+                                acc[r] += t
+                    else:
+                        # scratch copies: passing row views costs more than the force law
+                        for i in range(pscr.shape[0]):
+                            pscr[i] = prm[e, i]
+                        for i in range(sin.shape[0]):
+                            sin[i] = es[e, i]
+                        g[e] = _element_force(codes[e], pscr, u1, v1, sin, sout)
+                        for i in range(sin.shape[0]):
+                            st[e, i] = sout[i]
+                        gc[e] = g[e]
+                    for r in range(2 * ne):
+                        acc[r] += pwe[r, e] * gc[e]
+                # change relative to the tolerance; the iteration contracts linearly, so stop
+                # when the change or the next one (ratio estimated from the last two) is below
+                dmax = 0.0
+                for r in range(2 * ne):
+                    d = abs(acc[r] - uv[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
+                    dmax = max(dmax, d)
+                    uv[r] = acc[r]
+                same = True   # the branch choice must be settled before stopping
+                for e in range(ne):
+                    if event[e] != ev_prev[e]:
+                        same = False
+                    ev_prev[e] = event[e]
+                if same and (dmax <= 1.0 or (it > 0 and dmax * dmax <= dprev)):
+                    converged = True
+                    break
+                dprev = dmax
+            if not converged:
+                n_noconv += 1
+            # end state: the hold used gc at the end node, the history keeps g
+            for e in range(ne):
+                _axpy(g[e], u_g[e], kn)
+                if event[e] != 0:
+                    _axpy(gc[e] - g[e], we[e], kn)
+                    for i in range(nt):
+                        _axpy(ev_c[e, i], ab[e, i], kn)
+            for e in range(ne):
+                for i in range(es.shape[1]):
+                    es[e, i] = st[e, i]
+                for nd in range(q - 1):
+                    gh[e, nd] = gh[e, nd + 1]
+                    uh[e, nd] = uh[e, nd + 1]
+                gh[e, q - 1] = g[e]
+                uh[e, q - 1] = uv[e]
+                vh[e] = uv[ne + e]
+                if event[e] == 0:
+                    continue
+                n_events += 1
+                for nd in range(q - 1):
+                    gold[nd] = gh[e, nd]
+                if event[e] == 1:      # history continues on the slip branch
+                    for nd in range(q - 1):
+                        gh[e, nd] = g[e]
+                else:                  # history continues on the new stick branch
+                    for nd in range(q - 1):
+                        gh[e, nd] = sigma0[e] * prm[e, 1] + prm[e, 0] * (uh[e, nd]
+                                                                         - ev_ut[e])
+                for nd in range(q - 1):  # the accumulated state holds the old history
+                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
+            s, kn = kn, s
+        stats[S_SUBSTEPS] += m
+        for i in range(nin):
+            fprev[i] = force[k, i]
+        for e in range(ne):
+            out_el[k, e] = g[e]
+            out_uv[k, e] = uv[e]
+            out_uv[k, ne + e] = uv[ne + e]
+        _history(fprev, gh, z)
+        for p in range(npt):
+            if identity:
+                x, v = s[p], s[n + p]
+            else:
+                x, v = _dot(shapes[p], s, 0), _dot(shapes[p], s, n)
+            out_x[k, p] = x + _dot(out_z[0, p], z, 0)
+            out_v[k, p] = v + _dot(out_z[1, p], z, 0)
+            out_a[k, p] = _dot(tax[p], s, 0) + _dot(tav[p], s, n) + _dot(out_z[2, p], z, 0)
+    stats[S_ITER] += n_iter
+    stats[S_NOCONV] += n_noconv
+    stats[S_EVENTS] += n_events
+    for r in range(ny):
+        state[r] = s[r]
+
+
+integrate = numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)(_integrate)
+# The same loop without fast-math, for runs with kinds registered at run time: the fast-math
+# flags reach the built-in laws inlined here but not a registered law (a call), which would
+# then differ from an identical built-in law in the last bits (tests/analysis/models/test_kinds.py). Not
+# cached on disk: its cache entries would share `integrate`'s index (same function), and
+# registered kinds are compiled off the disk cache anyway (`_numba_cache`).
+integrate_strict = numba.njit(error_model="numpy")(_integrate)

@@ -1,0 +1,138 @@
+"""Best linear approximation and nonlinearity detection from periodic-random data.
+
+The robust method of Pintelon & Schoukens (System Identification, 2nd ed., 2012, section 4.3)
+on ``M`` realizations of a random-phase multisine, each with ``P`` steady periods:
+
+* per realization, the period average ``U_m, Y_m`` at the excited lines and its noise
+  (co)variances from the spread over periods; ``G_m = Y_m / U_m`` with its noise variance
+  ``(s_Y^2 + |G|^2 s_U^2 - 2 Re(G^* s_YU)) / |U|^2`` (first order);
+* the BLA ``G = mean_m G_m``, its noise variance ``sum_m var_n(G_m) / M^2`` and its total
+  variance ``sum_m |G_m - G|^2 / (M (M - 1))``.
+
+A linear system leaves only noise, so both variances agree; stochastic nonlinear distortions
+(the part of the response a linear model cannot explain, which changes with the random
+phases) make the total exceed the noise. Per line, ``total / noise`` is F-distributed with
+``(2 (M - 1), 2 M (P - 1))`` degrees of freedom for a linear system (Gaussian noise): lines
+above its 99 % quantile flag distortion, and far more than 1 % of such lines detect a
+nonlinearity (`analysis.detection.bla_summary`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+import scipy.stats
+
+from ..errors import InputError
+from ..recordings import steady_periods
+from ._sine_fit import hold_gain
+
+DETECT_QUANTILE = 0.99
+"""Per-line quantile of the linear-system F distribution of total / noise variance."""
+
+
+@dataclass
+class BLA:
+    """Best linear approximation of one level.
+
+    Attributes
+    ----------
+    freqs : ndarray, shape (n_f,)
+        Excited lines, Hz.
+    G : ndarray, shape (n_f, n_out), complex
+        BLA from the force to each response.
+    var_noise, var_total : ndarray, shape (n_f, n_out)
+        Noise and total variance of ``G`` (total: NaN with one realization, where the
+        stochastic distortions cannot be told from the linear part).
+    coherence : ndarray, shape (n_f, n_out)
+        Coherence of the period averages across realizations (noise and distortion lower
+        it; with few realizations it is biased high by about ``1 / M``); with one
+        realization, that of a single period against the noise from the period spread.
+    realizations, periods : int
+    """
+
+    freqs: np.ndarray
+    G: np.ndarray
+    var_noise: np.ndarray
+    var_total: np.ndarray
+    coherence: np.ndarray
+    realizations: int
+    periods: int
+
+    @property
+    def var_distortion(self) -> np.ndarray:
+        """Variance of ``G`` due to stochastic nonlinear distortions (>= 0)."""
+        return np.maximum(self.var_total - self.var_noise, 0.0)
+
+    def threshold(self) -> float:
+        """99 % quantile of ``var_total / var_noise`` for a linear system."""
+        m, p = self.realizations, self.periods
+        return float(scipy.stats.f.ppf(DETECT_QUANTILE, 2 * (m - 1), 2 * m * (p - 1)))
+
+def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float,
+                              period: int, *, transient_periods: int = 1,
+                              realizations: int = 1, force_hold: str | None = None) -> BLA:
+    """BLA, noise and total variance of a periodic-random record (module docstring).
+
+    Parameters
+    ----------
+    force : ndarray, shape (n,) or (n, 1)
+        The one applied force.
+    response : ndarray, shape (n, n_out)
+    fs : float
+        Sample rate, Hz.
+    period, transient_periods, realizations
+        Record layout (`analysis.recordings.steady_periods`).
+    force_hold : {"none", "linear"}, optional
+        How the force acted between its samples (`analysis.spectral.hold_gain`).
+
+    Returns
+    -------
+    BLA
+    """
+    f = np.asarray(force, dtype=float)
+    f = f[:, None] if f.ndim == 1 else f
+    if f.shape[1] != 1:
+        raise InputError(f"the BLA takes one force channel, got {f.shape[1]}; analyse each "
+                         "shaker's run separately")
+    x = np.asarray(response, dtype=float)
+    x = x[:, None] if x.ndim == 1 else x
+    per = steady_periods(np.concatenate([f, x], axis=1), period,
+                         transient_periods=transient_periods, realizations=realizations)
+    n_p = per.shape[1]
+    if n_p < 2:
+        raise InputError("the BLA's noise variance needs at least 2 steady periods")
+    spec = scipy.fft.rfft(per, axis=2)                      # (M, P, n_lines, 1 + n_out)
+    mean = spec.mean(axis=1)
+    dev = spec - mean[:, None]
+    U, Y = mean[..., 0], mean[..., 1:]
+    power = np.abs(U).mean(axis=0) ** 2
+    lines = np.flatnonzero(power > 1e-4 * power.max())     # excited: flat drive lines
+    lines = lines[lines > 0]
+    if lines.size == 0:
+        raise InputError("the force excites no DFT line of the period")
+    U, Y, dev = U[:, lines], Y[:, lines], dev[:, :, lines]
+    scale = 1.0 / ((n_p - 1) * n_p)                         # variance of a period mean
+    s_uu = (np.abs(dev[..., 0]) ** 2).sum(axis=1) * scale                  # (M, n_f)
+    s_yy = (np.abs(dev[..., 1:]) ** 2).sum(axis=1) * scale                 # (M, n_f, n_out)
+    s_yu = (dev[..., 1:] * dev[..., :1].conj()).sum(axis=1) * scale
+    Gm = Y / U[..., None]
+    var_m = (s_yy + np.abs(Gm) ** 2 * s_uu[..., None]
+             - 2 * (Gm.conj() * s_yu).real) / (np.abs(U) ** 2)[..., None]
+    m = Gm.shape[0]
+    G = Gm.mean(axis=0)
+    var_noise = np.maximum(var_m, 0.0).sum(axis=0) / m**2
+    if m >= 2:
+        var_total = (np.abs(Gm - G) ** 2).sum(axis=0) / (m * (m - 1))
+        cross = np.abs((Y * U.conj()[..., None]).sum(axis=0)) ** 2
+        coherence = cross / ((np.abs(U) ** 2).sum(axis=0)[:, None]
+                             * (np.abs(Y) ** 2).sum(axis=0))
+    else:   # one realization: no total variance; coherence of one period against the noise
+        var_total = np.full_like(var_noise, np.nan)
+        signal = np.abs(G) ** 2
+        coherence = signal / np.maximum(signal + n_p * var_noise, 1e-300)
+    freqs = lines * fs / period
+    gain = hold_gain(freqs, fs, force_hold)[:, None]
+    return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p)

@@ -1,0 +1,13 @@
+"""Campaigns: configuration and validation, devices, the runner and what it tells its watchers.
+
+Modules behind this API: ``_campaign``, ``_campaign_config``, ``_campaign_bench``,
+``_campaign_sweep``, ``_observer``. Code inside this package imports its siblings by their
+private module path.
+"""
+
+from ._campaign import CampaignAborted, harmonics, run_campaign
+from ._campaign_config import CampaignError, load_campaign, load_plant_model, parse_campaign
+from ._observer import LevelStatus, LevelSummary, NullObserver
+
+__all__ = ["CampaignAborted", "CampaignError", "LevelStatus", "LevelSummary", "NullObserver",
+           "harmonics", "load_campaign", "load_plant_model", "parse_campaign", "run_campaign"]

@@ -1,0 +1,465 @@
+"""Test campaigns: drive the shaker, stream the DAQ, write every block to a run file.
+
+Random campaigns hold each force-rms level by closed-loop control of the drive, discard the
+transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude at
+each frequency, wait until the response harmonics stop changing, then record one block per
+step with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
+over-limit or a communication failure ramps the drive to zero at once and the run is marked
+aborted (data kept). Lost samples never leave a silent gap: the block being assembled is
+discarded and the loss counted in the run. ``resume`` continues at the first incomplete block
+or step.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from analysis.recordings import PeriodicLayout
+from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutput
+from drivers.errors import CommsError
+
+from ._campaign_bench import Bench, open_bench
+from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
+from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
+from ..store import LevelWriter, RunWriter
+
+
+MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
+
+
+class CampaignAborted(RuntimeError):
+    """A safety limit or persistent data loss stopped the campaign (drive ramped to zero,
+    data kept)."""
+
+
+@dataclass
+class CampaignResult:
+    """What a finished campaign did."""
+
+    out: Path
+    status: str
+    segments: dict[int, int]
+    lost_frames: int = 0
+    lost_samples: int = 0
+    daq_stats: dict[str, int] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    levels: list[LevelSummary] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"out": str(self.out), "status": self.status,
+                "segments": {str(k): v for k, v in self.segments.items()},
+                "lost_frames": self.lost_frames, "lost_samples": self.lost_samples,
+                "daq_stats": self.daq_stats, "warnings": self.warnings,
+                "levels": [lv.as_dict() for lv in self.levels]}
+
+
+def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndarray:
+    """Least-squares complex amplitudes ``c_h`` (x = Re sum c_h e^{i h w t}), h = 0..orders.
+
+    Works on blocks that hold no whole number of cycles. Returns (orders + 1, n_channels);
+    orders at or above fs/2 are zero.
+    """
+    n = len(block)
+    t = np.arange(n) / fs
+    usable = [h for h in range(1, orders + 1) if h * freq < fs / 2]
+    cols = [np.ones(n)]
+    for h in usable:
+        w = 2 * np.pi * h * freq * t
+        cols += [np.cos(w), np.sin(w)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), block, rcond=None)
+    out = np.zeros((orders + 1, block.shape[1]), complex)
+    out[0] = coef[0]
+    for i, h in enumerate(usable):
+        out[h] = coef[1 + 2 * i] - 1j * coef[2 + 2 * i]
+    return out
+
+
+class _Runner:
+    def __init__(self, c: Campaign, bench: Bench, writer: RunWriter,
+                 observer: Watchers, stop: threading.Event | None = None) -> None:
+        self.c, self.bench, self.writer, self.observer = c, bench, writer, observer
+        self.stop = stop
+        names = [ch.name for ch in c.channels]
+        self.force_col = next(i for i, ch in enumerate(c.channels) if ch.quantity == "force")
+        resp = sorted((ch.dof, i) for i, ch in enumerate(c.channels) if ch.quantity != "force")
+        self.resp_cols = [i for _, i in resp]
+        self.limits = [(names.index(k), k, v) for k, v in c.limits.items()]
+        self.gain = c.gain_guess
+        self.level = 0
+        self._carry: Block | None = None
+        self._lost_frames_seen = 0
+        self.warnings: list[str] = []
+        self.summaries: list[LevelSummary] = []
+        self._level_t0 = 0.0
+        self._drive: float | None = None
+
+    # --- streaming -----------------------------------------------------------------------
+    def _chunk(self) -> Block:
+        """Next DAQ chunk, safety-checked; losses counted in the run."""
+        daq = self.bench.daq
+        if self.stop is not None and self.stop.is_set():
+            raise KeyboardInterrupt("campaign stopped by the user")
+        self.bench.shaker.check_link()
+        block = daq.read(timeout=max(self.c.comms_timeout, 4 * self.c.frame_size / self.c.fs))
+        for col, name, limit in self.limits:
+            peak = float(np.max(np.abs(block.data[:, col])))
+            if peak > limit:
+                self.bench.shaker.emergency_stop()
+                raise CampaignAborted(f"channel {name} reached {peak:.4g}, over its safety "
+                                      f"limit {limit:.4g}; drive ramped to zero, data kept")
+        if block.gap:
+            frames = daq.stats.lost_frames - self._lost_frames_seen
+            self._lost_frames_seen = daq.stats.lost_frames
+            self.writer.count_loss(frames, block.gap, f"DAQ stream gap at sample "
+                                   f"{block.first_sample}; partial block discarded",
+                                   self.level)
+        return block
+
+    def take(self, n: int) -> tuple[np.ndarray, float]:
+        """``n`` contiguous samples (restarting after any gap) and the first one's time."""
+        parts: list[np.ndarray] = []
+        have, t0, restarts = 0, 0.0, 0
+        while have < n:
+            block = self._carry if self._carry is not None else self._chunk()
+            self._carry = None
+            if block.gap and parts:
+                parts, have, restarts = [], 0, restarts + 1
+                if restarts > MAX_RESTARTS:
+                    self.bench.shaker.emergency_stop()
+                    raise CampaignAborted(f"the DAQ lost samples in {restarts} attempts at a "
+                                          f"{n}-sample block; fix the link or use shorter "
+                                          "blocks")
+            if not parts:
+                t0 = block.t0
+            need = n - have
+            if len(block.data) > need:
+                rest = block.data[need:]
+                self._carry = Block(block.seq, block.first_sample + need,
+                                    block.t0 + need / self.c.fs, rest, 0)
+            parts.append(block.data[:need])
+            have += len(parts[-1])
+        return np.vstack(parts), t0
+
+    def split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return data[:, [self.force_col]], data[:, self.resp_cols]
+
+    def _start(self, output: Output, drive: float) -> None:
+        self.bench.shaker.configure(output, drive)
+        self.bench.daq.start()
+        self.bench.shaker.start()
+        self._carry = None
+
+    def _stop(self) -> None:
+        self.bench.shaker.stop()
+        self.bench.daq.stop()
+
+    def _new_drive(self, drive: float, wanted: float) -> float:
+        """Control step, limited to a factor of 4 per step and to the shaker's max_drive."""
+        return float(min(max(wanted, drive / 4), drive * 4, self.c.max_drive))
+
+    # --- random --------------------------------------------------------------------------
+    def random(self, plan: RandomSpec) -> None:
+        if plan.periodic:
+            self.periodic_random(plan)
+            return
+        for i, level in enumerate(plan.levels):
+            self.level = i
+            lw = self._level_start(i, level, plan.averages)
+            if lw.n_segments >= plan.averages:
+                self._level_end(lw, level, plan.averages)
+                continue
+            drive = min(level / self.gain, self.c.max_drive)
+            seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
+            self._start(RandomOutput(plan.band, seed), drive)
+            drive, data, t0 = self._control_rms(plan, i, level, drive)
+            while lw.n_segments < plan.averages:
+                if data is None:
+                    data, t0 = self.take(plan.block_size)
+                force, resp = self.split(data)
+                seq = lw.append_block(force, resp, t=t0)
+                self.observer.block(i, seq, force, resp)
+                self._stored(lw, level, plan.averages, float(np.std(force)), drive)
+                data = None
+            self._stop()
+            self._level_end(lw, level, plan.averages)
+
+    def periodic_random(self, plan: RandomSpec) -> None:
+        """Per level ``averages`` realizations, each a multisine with its own phases held for
+        transient + steady periods and stored as one block; the drive is ramped down and up
+        between realizations (the transient periods absorb it)."""
+        n = (plan.transient_periods + plan.periods) * plan.block_size
+        for i, level in enumerate(plan.levels):
+            self.level = i
+            lw = self._level_start(i, level, plan.averages)
+            drive = min(level / self.gain, self.c.max_drive)
+            base = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i
+            controlled = False
+            while lw.n_segments < plan.averages:
+                self._start(MultisineOutput(plan.band, plan.block_size, base + lw.n_segments),
+                            drive)
+                if not controlled:   # on whole periods: a period's rms is the level's
+                    drive = self._control_rms(plan, i, level, drive)[0]
+                    controlled = True
+                data, t0 = self.take(n)
+                force, resp = self.split(data)
+                seq = lw.append_block(force, resp, t=t0)
+                self.observer.block(i, seq, force, resp)
+                self._stored(lw, level, plan.averages, float(np.std(force[self._skip:])),
+                             drive)
+                self._stop()
+            self._level_end(lw, level, plan.averages)
+
+    def _control_rms(self, plan: RandomSpec, i: int, level: float, drive: float
+                     ) -> tuple[float, np.ndarray | None, float]:
+        """Bring the force rms within tolerance of ``level``; returns the drive and the last
+        block measured at it (None if the drive changed after it) with its time."""
+        data, t0 = None, 0.0
+        for _ in range(plan.max_control_iterations):
+            for _ in range(plan.settle_blocks):
+                self.take(plan.block_size)
+            data, t0 = self.take(plan.block_size)
+            rms = float(np.std(data[:, self.force_col]))
+            if rms <= 0:
+                break
+            self.gain = rms / drive
+            if abs(rms / level - 1) <= plan.tolerance:
+                break
+            drive = self._new_drive(drive, level / self.gain)
+            self.bench.shaker.set_level(drive)
+            data = None
+        else:
+            self.warnings.append(f"level {i}: force rms not within {plan.tolerance:.0%} "
+                                 f"of {level} N after {plan.max_control_iterations} tries")
+        return drive, data, t0
+
+    # --- stepped sine ----------------------------------------------------------------------
+    def stepped(self, plan: SteppedSpec) -> None:
+        n_steps = len(plan.freqs)
+        for i, amp in enumerate(plan.levels):
+            self.level = i
+            lw = self._level_start(i, amp, n_steps)
+            first = lw.n_segments
+            if first < n_steps:
+                drive = min(amp / self.gain, self.c.max_drive)
+                self._start(SineOutput(plan.freqs[first]), drive)
+                for k in range(first, n_steps):
+                    if k > first:
+                        self.bench.shaker.set_frequency(plan.freqs[k])
+                    drive, famp = self._step(lw, i, k, plan, amp, drive)
+                    self._stored(lw, amp, n_steps, famp, drive)
+                self._stop()
+            self._level_end(lw, amp, n_steps)
+
+    def _step(self, lw, level: int, k: int, plan: SteppedSpec, amp: float,
+              drive: float) -> tuple[float, float]:
+        """Settle, record and store step ``k``; returns the drive and the force amplitude."""
+        freq, fs = plan.freqs[k], self.c.fs
+        prev, settled, changes, blocks = None, False, 0, 0
+        skip = 1  # the block after a change holds the transient and data already in flight
+        while blocks < plan.max_settle_blocks and not settled:
+            data, _ = self.take(plan.block_size)
+            blocks += 1
+            if skip:
+                skip -= 1
+                continue
+            h = harmonics(data, freq, fs, 1)[1]
+            famp = abs(h[self.force_col])
+            err = famp / amp - 1
+            if famp > 0:
+                self.gain = famp / drive
+            if abs(err) > plan.tolerance and changes < plan.max_control_iterations \
+                    and famp > 0:
+                drive = self._new_drive(drive, amp / self.gain)
+                self.bench.shaker.set_level(drive)
+                changes, prev, skip = changes + 1, None, 1
+                continue
+            resp = h[self.resp_cols]
+            if prev is not None:
+                change = np.max(np.abs(resp - prev)) / max(np.max(np.abs(resp)), 1e-300)
+                settled = change <= plan.settle_tolerance
+            prev = resp
+        if not settled:
+            self.warnings.append(f"level {level} step {k} ({freq:g} Hz): not settled within "
+                                 f"{plan.max_settle_blocks} blocks; recorded anyway")
+        data, t0 = self.take(plan.block_size)
+        hs = harmonics(data, freq, fs, plan.harmonics)
+        force, resp = self.split(data)
+        famp = float(abs(hs[1, self.force_col]))
+        extra = {"harmonics": np.stack([hs.real, hs.imag], -1),
+                 "channels": [ch.name for ch in self.c.channels],
+                 "control_error": famp / amp - 1, "settle_blocks": blocks,
+                 "settled": bool(settled), "drive": drive}
+        lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0)
+        self.observer.step(level, k, freq, force, resp, famp / amp - 1,
+                           hs[:, self.resp_cols])
+        return drive, famp
+
+    # --- what the watchers are told ------------------------------------------------------
+    @property
+    def _skip(self) -> int:
+        """Samples of a stored block before its steady part (transient periods)."""
+        p = self.c.plan
+        return p.transient_periods * p.block_size \
+            if isinstance(p, RandomSpec) and p.periodic else 0
+
+    def _level_start(self, i: int, target: float, planned: int) -> LevelWriter:
+        lw = self.writer.level(i, target)
+        self._level_t0, self._drive = time.monotonic(), None
+        self.observer.level_progress(LevelStatus(i, target, lw.n_segments, planned, None,
+                                                 None, None))
+        return lw
+
+    def _stored(self, lw: LevelWriter, target: float, planned: int, measured: float,
+                drive: float) -> None:
+        self._drive = drive
+        self.observer.level_progress(LevelStatus(lw.index, target, lw.n_segments, planned,
+                                                 measured, drive, measured / target - 1))
+
+    def _level_end(self, lw: LevelWriter, target: float, planned: int) -> None:
+        """Mark the level complete and tell its summary, built from the stored data."""
+        lw.complete()
+        n, total, squares, amplitudes = 0, 0.0, 0.0, []
+        for block, amplitude in lw.stored_force():      # a block at a time: any level size
+            x = block[self._skip:, 0]
+            n, total, squares = n + x.size, total + x.sum(), squares + x @ x
+            amplitudes.append(amplitude)
+        stepped = isinstance(self.c.plan, (SteppedSpec, SweepSpec))
+        force = error = None
+        if amplitudes and stepped:
+            force = float(np.mean(amplitudes))
+            errors = np.array(amplitudes) / target - 1
+            error = float(errors[np.argmax(np.abs(errors))])
+        elif amplitudes:
+            force = float(np.sqrt(max(squares / n - (total / n) ** 2, 0.0)))
+            error = force / target - 1
+        unit = "sweep" if isinstance(self.c.plan, SweepSpec) else \
+            "step" if stepped else "realization" if self._skip else "block"
+        summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,
+                               lw.n_segments, planned, force, error, self._drive,
+                               time.monotonic() - self._level_t0)
+        self.summaries.append(summary)
+        self.observer.level_finished(summary)
+
+    def run(self) -> None:
+        c = self.c
+        per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else \
+            1 if isinstance(c.plan, SweepSpec) else len(c.plan.freqs)
+        info = {"fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof],
+                "n_dof": c.n_dof, "response_kind": c.response_kind,
+                "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
+                "block_len": c.plan.block_size, "averages": getattr(c.plan, "averages", None)}
+        if isinstance(c.plan, SweepSpec):    # one block per level: the sweep (H1 live)
+            info.update(averages=1, sweeps=[dict(law.__dict__) for law in c.plan.laws])
+        if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
+            info["block_len"] *= c.plan.transient_periods + c.plan.periods
+            info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
+        if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
+            info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
+        info.update(planned=per_level, unit="step" if isinstance(c.plan, SteppedSpec) else
+                    "sweep" if isinstance(c.plan, SweepSpec) else
+                    "realization" if self._skip else "block",
+                    stored=[self.writer.level(i, x).n_segments
+                            for i, x in enumerate(c.levels)])
+        self.observer.campaign_started(info)
+        try:
+            if isinstance(c.plan, RandomSpec):
+                self.random(c.plan)
+            elif isinstance(c.plan, SweepSpec):
+                from ._campaign_sweep import run_sweeps
+                run_sweeps(self, c.plan)
+            else:
+                self.stepped(c.plan)
+        except BaseException:
+            self._safe_stop()
+            raise
+
+    def _safe_stop(self) -> None:
+        """Ramp the drive to zero whatever failed; a dead shaker link is reported, not
+        raised over the original error."""
+        try:
+            self.bench.shaker.emergency_stop()
+        except CommsError as exc:
+            self.warnings.append(f"emergency stop could not be confirmed: {exc}")
+            try:
+                self.writer.log("estop-failed", {"error": str(exc)})
+            except Exception:  # noqa: BLE001 - the original error matters more
+                pass
+
+
+def _store_channels(c: Campaign) -> list[dict[str, Any]]:
+    return [{"name": ch.name, "unit": ch.unit, "dof": ch.dof, "sensitivity": ch.sensitivity,
+             "kind": "force" if ch.quantity == "force" else "response"}
+            for ch in sorted(c.channels, key=lambda ch: (ch.quantity != "force", ch.dof))]
+
+
+def _excitation(c: Campaign) -> dict[str, Any]:
+    plan = dict(c.plan.__dict__)
+    if isinstance(c.plan, SweepSpec):
+        plan["laws"] = [dict(law.__dict__) for law in c.plan.laws]
+    return {"kind": c.kind, **plan}
+
+
+def _layout(c: Campaign) -> PeriodicLayout | None:
+    """Periodic-random runs: a block is one realization of the multisine."""
+    p = c.plan
+    if not (isinstance(p, RandomSpec) and p.periodic):
+        return None
+    return PeriodicLayout(p.block_size, p.transient_periods, p.periods, p.averages)
+
+
+def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
+                 overwrite: bool = False,
+                 observer: CampaignObserver | Sequence[CampaignObserver] | None = None,
+                 on_bench=None, stop: threading.Event | None = None) -> CampaignResult:
+    """Run campaign ``c`` into the run file ``out``.
+
+    ``observer`` (one or several) is told of every block, step and level as it is stored.
+    ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
+    emulators). Setting ``stop`` (from another thread) ends the campaign at the next DAQ
+    chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
+    `KeyboardInterrupt` raised. Raises `CampaignAborted` on a safety limit and
+    `drivers.errors.CommsError` on communication failure; the run file is marked aborted
+    and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
+    it) or ``overwrite`` (replace it).
+    """
+    out = Path(out)
+    observer = Watchers(*observer) if isinstance(observer, Sequence) else Watchers(observer)
+    status = "aborted"
+    with open_bench(c) as bench:
+        if on_bench is not None:
+            on_bench(bench)
+        bench.daq.configure(c.fs, c.channels, frame_size=c.frame_size)
+        settings = {"campaign": c.raw, "shaker_url": c.shaker_url, "daq_url": c.daq_url,
+                    "source_file": str(c.source) if c.source else None}
+        # the simulated rig holds the drive linearly between samples (analysis.plant)
+        hold = "linear" if bench.rig is not None else "none"
+        with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
+                       n_dof=c.n_dof, response_kind=c.response_kind,
+                       channels=_store_channels(c), settings=settings, force_hold=hold,
+                       layout=_layout(c),
+                       model_toml=bench.model_toml, source=bench.source,
+                       mode="resume" if resume else "overwrite" if overwrite else "create"
+                       ) as writer:
+            runner = _Runner(c, bench, writer, observer, stop)
+            try:
+                runner.run()
+                status = "complete"
+            except KeyboardInterrupt:
+                status = "interrupted"
+                raise
+            finally:
+                stats = bench.daq.stats.as_dict()
+                writer.log("daq-stats", stats)
+                for w in runner.warnings:
+                    writer.log("warning", {"text": w})
+                observer.campaign_finished(status)
+            segments = {lv.index: lv.n_segments for lv in
+                        [writer.level(i, n) for i, n in enumerate(c.levels)]}
+    return CampaignResult(out, status, segments, stats["lost_frames"], stats["lost_samples"],
+                          stats, runner.warnings, runner.summaries)

@@ -1,0 +1,128 @@
+"""Open the shaker and DAQ of a campaign, starting the simulated rig and emulators it names.
+
+``sim://`` runs both devices in-process on one `SimRig`; ``serial-emu://`` and
+``can-emu://INTERFACE/CHANNEL`` start the bundled emulators on that rig (pseudo-terminals,
+python-can bus) and connect the production ``serial://`` / ``can://`` drivers to them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import parse_qsl, urlsplit
+
+from drivers.base import Acquirer, SignalGenerator
+from drivers.errors import DriverConfigError
+from drivers.registry import open_daq, open_shaker
+from drivers.rig import SimRig
+
+from ._campaign_config import Campaign, CampaignError, load_plant_model, scheme
+
+DEFAULT_PACE = {"serial-emu": 8.0, "can-emu": 8.0}
+
+
+@dataclass
+class Bench:
+    """The open devices of a campaign (and the simulation behind them, if any)."""
+
+    shaker: SignalGenerator
+    daq: Acquirer
+    source: str
+    rig: SimRig | None = None
+    model_toml: str | None = None
+    emulators: list[Any] = field(default_factory=list)
+
+    @property
+    def daq_emulator(self) -> Any:
+        return next((e for e in self.emulators if hasattr(e, "wiring")), None)
+
+    @property
+    def shaker_emulator(self) -> Any:
+        return next((e for e in self.emulators if hasattr(e, "IDN") and "SHAKER" in e.IDN),
+                    None)
+
+
+def _query(url: str) -> dict[str, str]:
+    return dict(parse_qsl(urlsplit(url).query))
+
+
+def _pace(campaign: Campaign, url: str) -> float:
+    q = _query(url)
+    try:
+        pace = float(q["pace"]) if "pace" in q else campaign.pace
+    except ValueError:
+        raise CampaignError(f"pace in '{url}' must be a number") from None
+    return DEFAULT_PACE[scheme(url)] if pace is None else pace
+
+
+def _rig(campaign: Campaign) -> tuple[SimRig, str]:
+    spec = campaign.plant
+    assert spec is not None
+    model = load_plant_model(campaign)
+    rig = SimRig(model, campaign.fs, campaign.force_dof, shaker_gain=spec.shaker_gain,
+                 noise_std=spec.noise_std, response_kind=campaign.response_kind,
+                 seed=spec.seed, oversample=spec.oversample)
+    return rig, spec.model.read_text()
+
+
+@contextlib.contextmanager
+def open_bench(campaign: Campaign):
+    """Context manager yielding a `Bench`; closes devices, then emulators."""
+    stack = contextlib.ExitStack()
+    with stack:
+        rig = model_toml = None
+        if campaign.simulated:
+            rig, model_toml = _rig(campaign)
+        emulators: list[Any] = []
+        shaker = stack.enter_context(_open_shaker(campaign, rig, emulators, stack))
+        daq = stack.enter_context(_open_daq(campaign, rig, emulators, stack))
+        yield Bench(shaker, daq, scheme(campaign.daq_url).replace("-emu", ""), rig,
+                    model_toml, emulators)
+
+
+def _closing_emulator(emu: Any, emulators: list[Any], stack: contextlib.ExitStack) -> Any:
+    emu.start()
+    emulators.append(emu)
+    stack.callback(emu.close)
+    return emu
+
+
+def _open_shaker(c: Campaign, rig: SimRig | None, emulators: list[Any],
+                 stack: contextlib.ExitStack) -> SignalGenerator:
+    kind = scheme(c.shaker_url)
+    if kind == "sim":  # in-process: the drive dies with the host, no link to watch
+        return open_shaker("sim://", rig=rig, ramp_time=c.ramp_time)
+    options: dict[str, Any] = {"ramp_time": c.ramp_time}
+    if c.watchdog is not None:
+        options["watchdog"] = c.watchdog
+    if kind == "serial-emu":
+        from drivers.emulators.serial_emu import SerialShakerEmulator
+        emu = _closing_emulator(SerialShakerEmulator(rig), emulators, stack)
+        return open_shaker(f"serial://{emu.port}", **options)
+    return open_shaker(c.shaker_url, **options)
+
+
+def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
+              stack: contextlib.ExitStack) -> Acquirer:
+    kind = scheme(c.daq_url)
+    if kind == "sim":
+        return open_daq("sim://", rig=rig)
+    faults = c.fault_spec()
+    if kind == "serial-emu":
+        from drivers.emulators.serial_emu import SerialDaqEmulator
+        emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=_pace(c, c.daq_url),
+                                                  faults=faults), emulators, stack)
+        return open_daq(f"serial://{emu.port}", stall_timeout=c.comms_timeout)
+    if kind == "can-emu":
+        from drivers.emulators.can_emu import CanDaqEmulator
+        parts = urlsplit(c.daq_url)
+        channel = parts.path.strip("/")
+        if not parts.netloc or not channel:
+            raise DriverConfigError(f"'{c.daq_url}': write can-emu://INTERFACE/CHANNEL, e.g. "
+                                    "can-emu://virtual/nlid0")
+        _closing_emulator(CanDaqEmulator(rig, c.channels, parts.netloc, channel,
+                                         pace=_pace(c, c.daq_url), faults=faults),
+                          emulators, stack)
+        return open_daq(f"can://{parts.netloc}/{channel}", stall_timeout=c.comms_timeout)
+    return open_daq(c.daq_url, stall_timeout=c.comms_timeout)

@@ -1,0 +1,526 @@
+"""Campaign files (TOML): parsing and validation into a `Campaign` (docs/campaign-format.md).
+
+Every problem raises `CampaignError` (an `InputError`: the CLI exits 2) naming the key and
+the fix. Relative paths are resolved against the campaign file's folder.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+from analysis.errors import InputError
+from analysis.recordings import RESPONSE_KINDS
+from analysis.models import read_text, unknown_keys
+from drivers.base import Channel
+from drivers.errors import DriverConfigError
+from drivers.faults import FaultSpec
+
+KINDS = ("random", "stepped-sine", "swept-sine")
+DIRECTIONS = ("up", "down", "up-down")
+SIMULATED = ("sim", "serial-emu", "can-emu")
+SCHEMES = SIMULATED + ("serial", "can")
+TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
+            "sweep", "safety", "emulator"}
+MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
+MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
+
+
+class CampaignError(InputError):
+    """A campaign file is invalid."""
+
+
+@dataclass
+class PlantSpec:
+    model: Path
+    seed: int = 0
+    shaker_gain: float = 1.0
+    noise_std: float = 0.0
+    oversample: int | None = None
+
+
+@dataclass
+class RandomSpec:
+    levels: list[float]
+    averages: int
+    block_size: int
+    band: tuple[float, float]
+    settle_blocks: int = 1
+    tolerance: float = 0.05
+    max_control_iterations: int = 6
+    periodic: bool = False       # periodic random: block_size = period, averages = realizations
+    periods: int = 8             # steady periods per realization (periodic only)
+    transient_periods: int = 1   # leading periods per realization, dropped (periodic only)
+
+
+@dataclass
+class SteppedSpec:
+    levels: list[float]
+    freqs: list[float]
+    block_size: int
+    harmonics: int = 7
+    tolerance: float = 0.02
+    settle_tolerance: float = 0.01
+    max_settle_blocks: int = 20
+    max_control_iterations: int = 8
+
+
+@dataclass
+class SweepSpec:
+    """Swept-sine plan: one level per (force amplitude, direction), amplitudes in order."""
+
+    levels: list[float]           # force amplitude of each level, N
+    laws: list                    # analysis.sweep_law.SweepLaw of each level
+    block_size: int               # samples per level-control block (a sine at the start)
+    tolerance: float = 0.02
+    max_control_iterations: int = 8
+    lead_s: float = 0.5           # recorded before the sweep starts (trimmed when stored)
+
+
+@dataclass
+class Campaign:
+    """A validated campaign."""
+
+    name: str
+    kind: str
+    shaker_url: str
+    daq_url: str
+    fs: float
+    channels: list[Channel]
+    response_kind: str
+    plan: RandomSpec | SteppedSpec | SweepSpec
+    plant: PlantSpec | None = None
+    frame_size: int = 32
+    comms_timeout: float = 0.25
+    ramp_time: float = 0.05
+    gain_guess: float = 1.0
+    max_drive: float = 10.0
+    watchdog: float | None = None
+    limits: dict[str, float] = field(default_factory=dict)
+    pace: float | None = None
+    faults: dict[str, Any] = field(default_factory=dict)
+    source: Path | None = None
+    raw: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def simulated(self) -> bool:
+        return scheme(self.shaker_url) in SIMULATED
+
+    def blocks_per_level(self) -> tuple[int, int]:
+        """DAQ blocks of ``plan.block_size`` one level takes: at least (level control right
+        at once, every step settled at the first check) and at most (every control and
+        settling allowance used); drive ramps and transport latency come on top."""
+        p = self.plan
+        if isinstance(p, SweepSpec):     # control: skip + measure per try; the sweep itself
+            sweep = math.ceil((max(lw.duration for lw in p.laws) + 2 * p.lead_s) * self.fs
+                              / p.block_size)
+            return 2 + sweep, 2 * p.max_control_iterations + sweep
+        if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
+            return 4 * len(p.freqs), (p.max_settle_blocks + 1) * len(p.freqs)
+        control = p.settle_blocks + 1
+        if p.periodic:                   # a block is one period here
+            record = p.averages * (p.transient_periods + p.periods)
+            return control + record, p.max_control_iterations * control + record
+        return control + p.averages - 1, p.max_control_iterations * control + p.averages
+
+    def plan_size(self) -> tuple[float, float, int]:
+        """Least and most measurement time (s) of the whole plan (see `blocks_per_level`), and
+        the bytes of float64 samples the least time records on every channel."""
+        lo, hi = self.blocks_per_level()
+        samples = len(self.levels) * lo * self.plan.block_size
+        return samples / self.fs, len(self.levels) * hi * self.plan.block_size / self.fs, \
+            samples * len(self.channels) * 8
+
+    def plan_summary(self) -> str:
+        """One line: the planned measurement time and recorded data."""
+        lo, hi, nbytes = self.plan_size()
+        return (f"measurement time {duration(lo)} to {duration(hi)} (level control and "
+                f"settling) plus drive ramps, at least {nbytes / 1e6:.3g} MB of data")
+
+    def plan_excess(self, model=None) -> str | None:
+        """Why the plan is beyond what `campaign run` starts unconfirmed, or None; with the
+        simulated plant's ``model``, also the plant's work (`nlid_lab.sim_budget`)."""
+        lo, _, nbytes = self.plan_size()
+        if model is not None and self.plant is not None:
+            from ..sim_budget import excess
+            too_much = excess(model, self.fs, round(lo * self.fs), self.plant.oversample)
+            if too_much:
+                return f"the plan: {too_much}"
+        if lo > MAX_PLAN_S:
+            return f"the plan takes at least {duration(lo)}, more than {duration(MAX_PLAN_S)}"
+        if nbytes > MAX_PLAN_BYTES:
+            return (f"the plan records at least {nbytes / 1e9:.3g} GB, more than "
+                    f"{MAX_PLAN_BYTES / 1e9:.3g} GB")
+        return None
+
+    @property
+    def force_dof(self) -> int:
+        return next(c.dof for c in self.channels if c.quantity == "force")
+
+    @property
+    def n_dof(self) -> int:
+        return sum(c.quantity != "force" for c in self.channels)
+
+    @property
+    def levels(self) -> list[float]:
+        return self.plan.levels
+
+    def fault_spec(self) -> FaultSpec:
+        return FaultSpec.from_dict(self.faults, "emulator.faults")
+
+
+def scheme(url: str) -> str:
+    return urlsplit(url).scheme
+
+
+def duration(seconds: float) -> str:
+    """``seconds`` as s, min or h for the terminal."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
+
+
+# --- parsing helpers ---------------------------------------------------------------------
+def _table(data: dict, key: str, where: str = "", required: bool = True) -> dict:
+    value = data.get(key)
+    name = f"{where}{key}"
+    if value is None:
+        if required:
+            raise CampaignError(f"missing [{name}] table; see docs/campaign-format.md")
+        return {}
+    if not isinstance(value, dict):
+        raise CampaignError(f"'{name}' must be a table ([{name}])")
+    return value
+
+
+def _unknown(table: dict, allowed: set[str], name: str) -> None:
+    message = unknown_keys(table, sorted(allowed), f"[{name}]")
+    if message:
+        raise CampaignError(message)
+
+
+def _num(table: dict, key: str, name: str, *, default: Any = ..., lo: float = -math.inf,
+         hi: float = math.inf, integer: bool = False, open_lo: bool = False) -> Any:
+    if key not in table:
+        if default is ...:
+            raise CampaignError(f"[{name}] needs '{key}'")
+        return default
+    v = table[key]
+    ok_type = isinstance(v, int) if integer else isinstance(v, (int, float))
+    if isinstance(v, bool) or not ok_type or not math.isfinite(v) \
+            or v < lo or v > hi or (open_lo and v == lo):
+        kind = "an integer" if integer else "a number"
+        bound = f"> {lo:g}" if open_lo else f">= {lo:g}"
+        raise CampaignError(f"[{name}] {key} must be {kind} {bound}"
+                            f"{'' if hi == math.inf else f' and <= {hi:g}'}, got {v!r}")
+    return int(v) if integer else float(v)
+
+
+def _levels(table: dict, name: str) -> list[float]:
+    levels = table.get("levels")
+    if not isinstance(levels, list) or not levels or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+            and x > 0 for x in levels):
+        raise CampaignError(f"[{name}] levels must be a non-empty list of force levels > 0 N, "
+                            f"got {levels!r}")
+    return [float(x) for x in levels]
+
+
+def _url(table: dict, name: str) -> str:
+    url = table.get("url")
+    if not isinstance(url, str) or scheme(url) not in SCHEMES:
+        raise CampaignError(f"[{name}] url must be a string starting with one of "
+                            f"{', '.join(s + '://' for s in SCHEMES)}, got {url!r}")
+    return url
+
+
+def _channels(raw: Any) -> list[Channel]:
+    if not isinstance(raw, list) or not raw or not all(isinstance(c, dict) for c in raw):
+        raise CampaignError("give the DAQ inputs as [[channel]] tables (name, quantity, dof, "
+                            "sensitivity)")
+    out = []
+    for i, c in enumerate(raw):
+        _unknown(c, {"name", "quantity", "dof", "sensitivity", "unit"}, f"channel {i}")
+        if not isinstance(c.get("name"), str) or not c["name"]:
+            raise CampaignError(f"[[channel]] {i} needs a non-empty 'name'")
+        dof = c.get("dof")
+        if isinstance(dof, bool) or not isinstance(dof, int):
+            raise CampaignError(f"channel '{c['name']}': dof must be an integer (0-based)")
+        sens = _num(c, "sensitivity", f"channel {c['name']}", default=1.0, lo=0.0,
+                    open_lo=True)
+        try:
+            out.append(Channel(c["name"], str(c.get("quantity", "")), dof, sens,
+                               str(c.get("unit", ""))))
+        except DriverConfigError as exc:
+            raise CampaignError(str(exc)) from None
+    return out
+
+
+def _check_channel_set(channels: list[Channel], kind: str) -> None:
+    names = [c.name for c in channels]
+    if len(set(names)) != len(names):
+        raise CampaignError(f"channel names must be unique, got {names}")
+    forces = [c for c in channels if c.quantity == "force"]
+    if len(forces) != 1:
+        raise CampaignError(f"give exactly one force channel (one shaker), got {len(forces)}")
+    resp = [c for c in channels if c.quantity != "force"]
+    if not resp or any(c.quantity != kind for c in resp):
+        raise CampaignError(f"every response channel must measure '{kind}' "
+                            "(daq.response_kind)")
+    if sorted(c.dof for c in resp) != list(range(len(resp))):
+        raise CampaignError("give one response channel per DOF 0..n_dof-1, got DOFs "
+                            f"{sorted(c.dof for c in resp)}")
+    if forces[0].dof >= len(resp):
+        raise CampaignError(f"force channel DOF {forces[0].dof} has no response channel")
+
+
+def _freqs(t: dict) -> list[float]:
+    if "freqs" in t:
+        freqs = t["freqs"]
+        if not isinstance(freqs, list) or not freqs or not all(
+                isinstance(f, (int, float)) and not isinstance(f, bool)
+                and math.isfinite(f) and f > 0 for f in freqs):
+            raise CampaignError(f"[stepped] freqs must be a non-empty list of frequencies > 0 "
+                                f"Hz, got {freqs!r}")
+        base = [float(f) for f in freqs]
+    else:
+        start = _num(t, "start", "stepped", lo=0.0, open_lo=True)
+        stop = _num(t, "stop", "stepped", lo=0.0, open_lo=True)
+        step = _num(t, "step", "stepped", lo=0.0, open_lo=True)
+        if stop < start:
+            raise CampaignError("[stepped] stop must be >= start (use direction = \"down\" to "
+                                "sweep downwards)")
+        n = int(math.floor((stop - start) / step + 1e-9)) + 1
+        if n > 100000:
+            raise CampaignError(f"[stepped] start/stop/step give {n} steps; at most 100000")
+        base = [start + i * step for i in range(n)]
+    direction = t.get("direction", "up")
+    if direction not in DIRECTIONS:
+        raise CampaignError(f"[stepped] direction must be one of {', '.join(DIRECTIONS)}, "
+                            f"got {direction!r}")
+    up = sorted(base)
+    if direction == "up":
+        return up
+    if direction == "down":
+        return up[::-1]
+    return up + up[::-1][1:]
+
+
+def _periodic(t: dict, spec: RandomSpec, fs: float) -> RandomSpec:
+    """The periodic-random keys of [random]: a multisine of period block_size, ``averages``
+    realizations of transient_periods + periods periods each."""
+    periodic = t.get("periodic", False)
+    if not isinstance(periodic, bool):
+        raise CampaignError(f"[random] periodic must be true or false, got {periodic!r}")
+    if not periodic:
+        extra = sorted({"periods", "transient_periods"} & set(t))
+        if extra:
+            raise CampaignError(f"[random] {', '.join(extra)} needs periodic = true")
+        return spec
+    lo, hi = spec.band
+    df = fs / spec.block_size
+    if math.floor(hi / df) < max(math.ceil(lo / df), 1):
+        raise CampaignError(f"[random] band {lo:g}-{hi:g} Hz holds no line of a "
+                            f"{spec.block_size}-sample period (lines every {df:g} Hz); widen "
+                            "the band or lengthen block_size")
+    spec.periodic = True
+    spec.periods = _num(t, "periods", "random", default=8, lo=1, integer=True, hi=10000)
+    spec.transient_periods = _num(t, "transient_periods", "random", default=1, lo=1,
+                                  integer=True, hi=1000)
+    return spec
+
+
+def _sweep(data: dict, fs: float) -> SweepSpec:
+    """The [sweep] table: levels (force amplitudes), start, stop, law, rate, direction."""
+    from analysis.errors import RecordingError
+    from analysis.recordings import SweepLaw
+
+    t = _table(data, "sweep")
+    _unknown(t, {"levels", "start", "stop", "law", "rate", "direction", "block_size",
+                 "tolerance", "max_control_iterations", "lead"}, "sweep")
+    start = _num(t, "start", "sweep", lo=0.0, open_lo=True)
+    stop = _num(t, "stop", "sweep", lo=0.0, open_lo=True)
+    if not start < stop < fs / 2:
+        raise CampaignError(f"[sweep] need 0 < start < stop < fs/2 = {fs / 2:g} Hz (direction "
+                            f"says which way), got {start:g}, {stop:g}")
+    law = t.get("law", "linear")
+    direction = t.get("direction", "up")
+    if direction not in DIRECTIONS:
+        raise CampaignError(f"[sweep] direction must be one of {', '.join(DIRECTIONS)}, "
+                            f"got {direction!r}")
+    try:
+        up = SweepLaw(start, stop, law, _num(t, "rate", "sweep", lo=0.0, open_lo=True))
+    except RecordingError as exc:
+        raise CampaignError(f"[sweep] {exc}") from None
+    down = SweepLaw(stop, start, up.law, up.rate)
+    ways = {"up": [up], "down": [down], "up-down": [up, down]}[direction]
+    amps = _levels(t, "sweep")
+    return SweepSpec([a for a in amps for _ in ways], [w for _ in amps for w in ways],
+                     _num(t, "block_size", "sweep", default=1024, lo=16, hi=2**22,
+                          integer=True),
+                     _num(t, "tolerance", "sweep", default=0.02, lo=0, open_lo=True, hi=1),
+                     _num(t, "max_control_iterations", "sweep", default=8, lo=1, integer=True,
+                          hi=100),
+                     _num(t, "lead", "sweep", default=0.5, lo=0.0, hi=60))
+
+
+def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepSpec:
+    if kind == "swept-sine":
+        return _sweep(data, fs)
+    if kind == "random":
+        t = _table(data, "random")
+        _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
+                     "tolerance", "max_control_iterations", "periodic", "periods",
+                     "transient_periods"}, "random")
+        band = t.get("band")
+        if not (isinstance(band, list) and len(band) == 2 and all(
+                isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
+                and 0 <= band[0] < band[1] <= fs / 2):
+            raise CampaignError(f"[random] band must be [lo, hi] Hz with 0 <= lo < hi <= fs/2 "
+                                f"= {fs / 2:g}, got {band!r}")
+        spec = RandomSpec(_levels(t, "random"), _num(t, "averages", "random", lo=1,
+                                                     integer=True, hi=100000),
+                          _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
+                          (float(band[0]), float(band[1])),
+                          _num(t, "settle_blocks", "random", default=1, lo=0, integer=True),
+                          _num(t, "tolerance", "random", default=0.05, lo=0, open_lo=True,
+                               hi=1),
+                          _num(t, "max_control_iterations", "random", default=6, lo=1,
+                               integer=True, hi=100))
+        return _periodic(t, spec, fs)
+    t = _table(data, "stepped")
+    _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
+                 "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
+                 "max_control_iterations"}, "stepped")
+    freqs = _freqs(t)
+    if max(freqs) >= fs / 2:
+        raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
+    return SteppedSpec(_levels(t, "stepped"), freqs,
+                       _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
+                       _num(t, "harmonics", "stepped", default=7, lo=1, hi=50, integer=True),
+                       _num(t, "tolerance", "stepped", default=0.02, lo=0, open_lo=True, hi=1),
+                       _num(t, "settle_tolerance", "stepped", default=0.01, lo=0, open_lo=True,
+                            hi=1),
+                       _num(t, "max_settle_blocks", "stepped", default=20, lo=2, integer=True,
+                            hi=10000),
+                       _num(t, "max_control_iterations", "stepped", default=8, lo=1,
+                            integer=True, hi=100))
+
+
+def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
+    """Validate a campaign dict (as read from TOML); paths relative to ``base``."""
+    if not isinstance(data, dict):
+        raise CampaignError("a campaign file is a TOML table")
+    _unknown(data, TOP_KEYS, "top level")
+    kind = data.get("kind")
+    if kind not in KINDS:
+        raise CampaignError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+    shaker, daq = _table(data, "shaker"), _table(data, "daq")
+    _unknown(shaker, {"url", "ramp_time", "gain_guess", "max_drive", "watchdog"}, "shaker")
+    _unknown(daq, {"url", "fs", "frame_size", "response_kind", "comms_timeout"}, "daq")
+    shaker_url, daq_url = _url(shaker, "shaker"), _url(daq, "daq")
+    fs = _num(daq, "fs", "daq", lo=0.0, open_lo=True, hi=1e6)
+    response_kind = daq.get("response_kind", "displacement")
+    if response_kind not in RESPONSE_KINDS:
+        raise CampaignError(f"[daq] response_kind must be one of {', '.join(RESPONSE_KINDS)}")
+    channels = _channels(data.get("channel"))
+    _check_channel_set(channels, response_kind)
+    sims = [scheme(u) in SIMULATED for u in (shaker_url, daq_url)]
+    if sims[0] != sims[1]:
+        raise CampaignError("shaker and DAQ must both be simulated (sim://, serial-emu://, "
+                            "can-emu://) or both real: one simulated plant is one loop")
+    if scheme(shaker_url) == "can-emu":
+        raise CampaignError("[shaker] url: the CAN protocol carries DAQ data only; use "
+                            "sim:// or serial-emu:// for the shaker")
+    if (scheme(shaker_url) == "sim") != (scheme(daq_url) == "sim"):
+        raise CampaignError("sim:// is in-process: use it for both shaker and DAQ, or use "
+                            "emulators for both")
+    plant = None
+    if sims[0]:
+        p = _table(data, "plant")
+        _unknown(p, {"model", "seed", "shaker_gain", "noise_std", "oversample"}, "plant")
+        if not isinstance(p.get("model"), str):
+            raise CampaignError("[plant] model must be the path of a model TOML file")
+        model = Path(p["model"])
+        if not model.is_absolute() and base is not None:
+            model = base / model
+        over = p.get("oversample")
+        if over is not None:
+            over = _num(p, "oversample", "plant", lo=1, integer=True, hi=1000)
+        plant = PlantSpec(model, _num(p, "seed", "plant", default=0, lo=0, integer=True),
+                          _num(p, "shaker_gain", "plant", default=1.0, lo=0, open_lo=True),
+                          _num(p, "noise_std", "plant", default=0.0, lo=0), over)
+    safety = _table(data, "safety", required=False)
+    _unknown(safety, {"limits"}, "safety")
+    limits = safety.get("limits", {})
+    if not isinstance(limits, dict):
+        raise CampaignError("[safety] limits must be a table {channel name = max |value|}")
+    for key, value in limits.items():
+        if key not in {c.name for c in channels}:
+            raise CampaignError(f"[safety] limits names unknown channel '{key}'")
+        _num(limits, key, "safety.limits", lo=0.0, open_lo=True)
+    emu = _table(data, "emulator", required=False)
+    _unknown(emu, {"pace", "faults"}, "emulator")
+    pace = _num(emu, "pace", "emulator", default=None, lo=0.0) if "pace" in emu else None
+    faults = emu.get("faults", {})
+    if not isinstance(faults, dict):
+        raise CampaignError("[emulator] faults must be a table")
+    try:
+        FaultSpec.from_dict(faults, "emulator.faults")
+    except DriverConfigError as exc:
+        raise CampaignError(str(exc)) from None
+    watchdog = None
+    if "watchdog" in shaker:
+        watchdog = _num(shaker, "watchdog", "shaker", lo=0.0, hi=60)
+        if 0 < watchdog < 0.02:
+            raise CampaignError(f"[shaker] watchdog must be 0 (off) or 0.02..60 s, got "
+                                f"{watchdog!r}")
+    frame_default = max(1, min(256, int(fs / 32)))
+    name = data.get("name", "campaign")
+    if not isinstance(name, str):
+        raise CampaignError("name must be a string")
+    return Campaign(
+        name=name, kind=kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
+        channels=channels, response_kind=response_kind, plan=_plan(data, kind, fs),
+        plant=plant,
+        frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
+                        integer=True),
+        comms_timeout=_num(daq, "comms_timeout", "daq", default=0.25, lo=0.001,
+                           open_lo=False, hi=60),
+        ramp_time=_num(shaker, "ramp_time", "shaker", default=0.05, lo=0.0, hi=10),
+        gain_guess=_num(shaker, "gain_guess", "shaker", default=1.0, lo=0.0, open_lo=True),
+        max_drive=_num(shaker, "max_drive", "shaker", default=10.0, lo=0.0, open_lo=True),
+        watchdog=watchdog,
+        limits={k: float(v) for k, v in limits.items()}, pace=pace, faults=dict(faults),
+        source=None, raw=data)
+
+
+def load_plant_model(campaign: Campaign):
+    """The simulated plant's `Model`, checked against the campaign's response channels."""
+    from analysis.models import Model
+    assert campaign.plant is not None
+    model = Model.load(campaign.plant.model)
+    if model.n_dof != campaign.n_dof:
+        raise CampaignError(f"the model has {model.n_dof} DOFs but the campaign lists "
+                            f"{campaign.n_dof} response channels; give one per DOF")
+    return model
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and validate a campaign TOML file."""
+    path = Path(path)
+    text = read_text(path, "campaign file", CampaignError)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise CampaignError(f"{path}: not valid TOML ({exc}); fix the syntax") from None
+    try:
+        campaign = parse_campaign(data, path.resolve().parent)
+    except CampaignError as exc:
+        raise CampaignError(f"{path}: {exc}") from None
+    campaign.source = path
+    return campaign

@@ -1,0 +1,338 @@
+"""MATLAB recordings (``.mat``) as acquisition systems export them, through a channel map.
+
+A commercial export is a struct (or plain variables) of channel arrays and a sample rate,
+e.g. ``data.Force`` (n x 1), ``data.Voltage``, ``data.Acceleration`` (n x 3), ``data.Fs``. The
+file is read into a flat tree of dotted names (`read_mat_tree`: v5/v6/v7 by `scipy.io`, v7.3 —
+HDF5 — by the store); a `ChannelMap` says which leaves are the force, the responses and the
+sample rate, with their units::
+
+    fs=Fs  force=Force  response=Acceleration[0:3]:g
+
+(``NAME[cols]`` selects columns — ``[0:3]``, ``[0,2]`` — of a 2-D array, channel-major arrays
+are transposed automatically; ``:UNIT`` scales to SI and names the response kind of those
+columns; ``@A,B,C`` names the model point of each selected column: the sensor map.) The same
+keys can come from a small TOML file (docs/recording-formats.md).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analysis.errors import InputError
+
+from ._units import lookup
+
+MAT73_SIGNATURE = b"MATLAB 7.3 MAT-file"
+MAX_MAP_BYTES = 1 << 16
+_COMMA = re.compile(r",(?![^\[]*\])")  # commas between names, not inside NAME[0,2]
+_SELECT = re.compile(r"^(?P<key>[A-Za-z_][\w.]*)(?:\[(?P<cols>[^\]]*)\])?(?::(?P<unit>.+))?$")
+
+
+class MatFileError(InputError):
+    """A MAT file or its channel map does not give what an import needs."""
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Columns of one named array, with the unit they are in."""
+
+    key: str
+    cols: tuple[int, ...] | slice | None = None
+    unit: str | None = None
+    #: model points of the selected columns (``NAME[0:3]@wing,joint,payload``), one each
+    points: tuple[str, ...] | None = None
+
+    @classmethod
+    def parse(cls, text: str, role: str) -> "Selection":
+        text, at, where = text.strip().partition("@")
+        points = tuple(p.strip() for p in where.split(",")) if at else None
+        if points is not None and not all(points):
+            raise MatFileError(f"channel map {role}={text}@{where}: name a point per column "
+                               "after '@', comma-separated (NAME[0:3]@a,b,c)")
+        m = _SELECT.match(text)
+        if not m:
+            raise MatFileError(f"channel map {role}={text!r}: write NAME, NAME[0:3], NAME[0,2] "
+                               "or NAME[0]:UNIT, optionally @POINT,... (the model points)")
+        cols = m["cols"]
+        if cols is None:
+            sel = None
+        elif ":" in cols:
+            parts = cols.split(":")
+            try:
+                sel = slice(*(int(p) if p.strip() else None for p in parts))
+            except (TypeError, ValueError):
+                raise MatFileError(f"channel map {role}={text!r}: bad column range "
+                                   f"[{cols}]") from None
+        else:
+            try:
+                sel = tuple(int(c) for c in cols.split(","))
+            except ValueError:
+                raise MatFileError(f"channel map {role}={text!r}: columns must be integers "
+                                   f"(0-based), got [{cols}]") from None
+        return cls(m["key"], sel, m["unit"], points)
+
+
+@dataclass
+class ChannelMap:
+    """Where the force, responses and sample rate of a recording are in a MAT tree."""
+
+    force: list[Selection]
+    response: list[Selection]
+    fs: str | float = "Fs"
+    response_kind: str | None = None
+    #: other recording keys (force_dofs, level, period, ...): literal values, or names of
+    #: variables in the file
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_items(cls, items: list[str]) -> "ChannelMap":
+        """From ``KEY=VALUE`` words (``--map force=Force response=Acc[0:3]:g fs=Fs``)."""
+        data: dict[str, Any] = {}
+        for item in items:
+            key, sep, value = item.partition("=")
+            if not sep or not value:
+                raise MatFileError(f"channel map item {item!r}: write KEY=VALUE, e.g. "
+                                   "force=Force")
+            data.setdefault(key.strip(), []).append(_literal(value.strip()))
+        return cls.from_dict({k: v if k in ("force", "response") else v[-1]
+                              for k, v in data.items()}, "--map")
+
+    def with_units(self, units: dict[str, str]) -> "ChannelMap":
+        """This map with ``units`` (name -> unit, e.g. from a CSV header) on the selections
+        that give none."""
+        def fill(sels: list[Selection]) -> list[Selection]:
+            return [Selection(s.key, s.cols, s.unit or units.get(s.key), s.points)
+                    for s in sels]
+        return ChannelMap(fill(self.force), fill(self.response), self.fs, self.response_kind,
+                          self.extra)
+
+    @classmethod
+    def from_toml(cls, path: str | os.PathLike) -> "ChannelMap":
+        path = Path(path)
+        if not path.is_file() or path.stat().st_size > MAX_MAP_BYTES:
+            raise MatFileError(f"channel map {path}: not a (small) regular file")
+        try:
+            data = tomllib.loads(path.read_text())
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise MatFileError(f"channel map {path}: not valid TOML ({exc})") from None
+        return cls.from_dict(data, str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str) -> "ChannelMap":
+        known = {"force", "response", "fs", "response_kind"}
+        for role in ("force", "response"):
+            if role not in data:
+                raise MatFileError(f"{source}: the channel map needs '{role}' (e.g. "
+                                   f"{role}=Force)")
+        extra = {k: v for k, v in data.items() if k not in known}
+        sels = {role: [s for v in np.atleast_1d(data[role]) for s in _selections(str(v), role)]
+                for role in ("force", "response")}
+        fs = data.get("fs", "Fs")
+        try:
+            fs = float(fs)
+        except (TypeError, ValueError):
+            fs = str(fs)
+        return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra)
+
+
+def _selections(text: str, role: str) -> list[Selection]:
+    """``A,B,C:g`` -> three selections, the closing unit applying to all three
+    (``A,B,C:g@p,q,r``: one point each)."""
+    names, at, where = text.partition("@")
+    parts = _COMMA.split(names)
+    if len(parts) == 1:
+        return [Selection.parse(text, role)]
+    points = [p.strip() for p in where.split(",")] if at else [None] * len(parts)
+    if len(points) != len(parts):
+        raise MatFileError(f"channel map {role}={text}: {len(parts)} names but {len(points)} "
+                           "point(s) after '@'; give one point per name")
+    sels = [Selection.parse(part if point is None else f"{part}@{point}", role)
+            for part, point in zip(parts, points)]
+    unit = sels[-1].unit
+    if unit and all(s.unit is None for s in sels[:-1]):
+        sels = [Selection(s.key, s.cols, unit, s.points) for s in sels]
+    return sels
+
+
+def _literal(text: str) -> Any:
+    """A map value as TOML reads it (``0``, ``2.5``, ``[0, 1]``), else the text itself."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def is_mat73(path: Path) -> bool:
+    with open(path, "rb") as fh:
+        return fh.read(128).startswith(MAT73_SIGNATURE)
+
+
+def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
+    """Every leaf of a MAT file by dotted name (struct fields joined with ``.``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise MatFileError(f"MAT file {path} not found; check the path")
+    if is_mat73(path):
+        from ..store.mat73 import read_mat73
+        return read_mat73(path)
+    import scipy.io
+    from scipy.io.matlab import MatReadError
+
+    try:
+        raw = scipy.io.loadmat(path, simplify_cells=True)
+    except (MatReadError, ValueError, OSError, TypeError) as exc:
+        raise MatFileError(f"{path} is not a readable MAT file ({exc}); save it with MATLAB's "
+                           "save or scipy.io.savemat") from None
+    out: dict[str, Any] = {}
+    _flatten("", {k: v for k, v in raw.items() if not k.startswith("__")}, out)
+    return out
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _flatten(f"{prefix}.{k}" if prefix else k, v, out)
+    else:
+        out[prefix] = value
+
+
+def _leaf(tree: dict[str, Any], key: str, source: str) -> Any:
+    """A leaf by full dotted name, or by its last part(s) when that is unique."""
+    if key in tree:
+        return tree[key]
+    hits = [k for k in tree if k.endswith("." + key)]
+    if len(hits) == 1:
+        return tree[hits[0]]
+    names = ", ".join(sorted(tree)) or "none"
+    if hits:
+        raise MatFileError(f"{source}: '{key}' is ambiguous ({', '.join(hits)}); give the full "
+                           "dotted name")
+    raise MatFileError(f"{source}: no variable '{key}' (the file holds {names})")
+
+
+def _columns(tree: dict[str, Any], sel: Selection, n: int | None, source: str) -> np.ndarray:
+    value = _leaf(tree, sel.key, source)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise MatFileError(f"{source}: '{sel.key}' is not numeric") from None
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise MatFileError(f"{source}: '{sel.key}' has shape {arr.shape}; a channel array is "
+                           "1-D or 2-D")
+    if n is not None and arr.shape[0] != n and arr.shape[1] == n:
+        arr = arr.T                                          # channel-major export
+    elif n is None and arr.shape[0] < arr.shape[1]:
+        arr = arr.T                                          # channel-major (fewer rows)
+    try:
+        arr = arr[:, sel.cols] if isinstance(sel.cols, slice) else \
+            arr[:, list(sel.cols)] if sel.cols is not None else arr
+    except IndexError:
+        raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[1]} column(s); the map asks "
+                           f"for {sel.cols}") from None
+    if arr.shape[1] == 0:
+        raise MatFileError(f"{source}: '{sel.key}{sel.cols}' selects no column")
+    return arr
+
+
+def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, Any]:
+    """Force, response, fs and response kind (SI) from a MAT tree.
+
+    Returns
+    -------
+    dict
+        ``fs``, ``force`` (n, n_in) in N, ``response`` (n, n_out) in SI, ``response_kind``,
+        and the map's other keys (values read from the file where they name a variable).
+    """
+    force = [_columns(tree, s, None, source) for s in cmap.force]
+    n = force[0].shape[0]
+    force = [_columns(tree, s, n, source) for s in cmap.force]
+    response = [_columns(tree, s, n, source) for s in cmap.response]
+    for sel, arr in zip(cmap.force + cmap.response, force + response):
+        if arr.shape[0] != n:
+            raise MatFileError(f"{source}: '{sel.key}' has {arr.shape[0]} samples, the force "
+                               f"{n}; channels of one recording have one length")
+    kinds: list[str | None] = []       # per response channel
+    for sel, arr in zip(cmap.force, force):
+        if sel.unit:
+            factor, quantity = lookup(sel.unit, f"{source}: force {sel.key}")
+            if quantity != "force":
+                raise MatFileError(f"{source}: force {sel.key} is in {sel.unit}, a "
+                                   f"{quantity} unit")
+            arr *= factor
+    for sel, arr in zip(cmap.response, response):
+        if sel.unit:
+            factor, quantity = lookup(sel.unit, f"{source}: response {sel.key}")
+            if quantity == "force":
+                raise MatFileError(f"{source}: response {sel.key} is in {sel.unit}, a force "
+                                   "unit; map it as force=")
+            arr *= factor
+        kinds += [quantity if sel.unit else cmap.response_kind or _kind_of_name(sel.key)
+                  ] * arr.shape[1]
+    if cmap.response_kind and {k for k in kinds if k} - {cmap.response_kind}:
+        raise MatFileError(f"{source}: response_kind = {cmap.response_kind} but the units say "
+                           f"{', '.join(sorted({k for k in kinds if k}))}; drop one of them")
+    known = {k for k in kinds if k}
+    if len(known) > 1 and None in kinds:
+        raise MatFileError(f"{source}: responses of different kinds; give every response "
+                           "selection a unit (NAME[0]:m/s^2) so each channel's kind is known")
+    kinds = [k or (next(iter(known)) if known else None) for k in kinds]
+    points = _points(cmap.force, force, "force", source) | _points(cmap.response, response,
+                                                                   "response", source)
+    if isinstance(cmap.fs, float):
+        fs = cmap.fs
+    else:
+        try:
+            fs = float(np.asarray(_leaf(tree, cmap.fs, source), dtype=float).reshape(()))
+        except (TypeError, ValueError):
+            raise MatFileError(f"{source}: the sample rate '{cmap.fs}' is not one number") \
+                from None
+    extra = {}
+    for key, value in cmap.extra.items():
+        if isinstance(value, str) and value not in ("none", "linear") and _known(tree, value):
+            value = _leaf(tree, value, source)
+        extra[key] = value
+    if len(set(kinds)) > 1:
+        points["response_kinds"] = np.array(kinds)
+    kind = kinds[0] if len(set(kinds)) == 1 and kinds[0] else "displacement"
+    return {"fs": fs, "force": np.hstack(force), "response": np.hstack(response),
+            **({"response_kind": kind} if "response_kinds" not in points else {}),
+            **points, **extra}
+
+
+def _kind_of_name(name: str) -> str | None:
+    """The response kind a variable's name states (``Acceleration``, ``acc2``, ``Vel``,
+    ``Disp``), or None: exports name channels so more often than they give a unit."""
+    last = name.rpartition(".")[2].lower()
+    for prefix, kind in (("acc", "acceleration"), ("vel", "velocity"), ("disp", "displacement")):
+        if last.startswith(prefix):
+            return kind
+    return None
+
+
+def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,
+            source: str) -> dict[str, np.ndarray]:
+    """``force_points``/``response_points`` from the selections' ``@`` names (all or none)."""
+    if all(s.points is None for s in sels):
+        return {}
+    out = []
+    for sel, arr in zip(sels, arrays):
+        if sel.points is None or len(sel.points) != arr.shape[1]:
+            have = 0 if sel.points is None else len(sel.points)
+            raise MatFileError(f"{source}: {role} {sel.key} selects {arr.shape[1]} column(s) "
+                               f"but names {have} point(s); give one point per column after "
+                               "'@' (on every selection or none)")
+        out += sel.points
+    return {f"{role}_points": np.array(out)}
+
+
+def _known(tree: dict[str, Any], key: str) -> bool:
+    return key in tree or sum(k.endswith("." + key) for k in tree) == 1

@@ -1,0 +1,662 @@
+"""NPZ and CSV recordings <-> `analysis.Recording` (docs/recording-formats.md).
+
+NPZ follows contracts sections 3 and 5. CSV holds random recordings: ``# key = value``
+comment lines with the recording keys, then a header row naming a time column (``t`` or
+``time``, seconds) and one column per channel written ``NAME@DOF``; names starting with ``f``
+are forces, the others responses (override with ``force_cols``). Keys no `Recording` field
+holds are kept in ``Recording.extra`` and written back, so every key survives a round trip.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import re
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from analysis.errors import InputError
+from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, MAX_FS, MAX_SAMPLE, MIN_FS,
+                                 SWEEP_KEYS, PeriodicLayout, Recording, SensorMap, names,
+                                 sensor_map)
+from analysis.models import read_text
+
+from ._sweep_keys import sweep_fields
+from ._units import lookup, split_label
+
+MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
+_COLUMN = re.compile(r"^\s*([A-Za-z_][\w.\-]*)\s*@\s*(?:dof)?(\d+)\s*$")
+
+
+class RecordingFileError(InputError):
+    """A recording file is missing, unreadable or does not follow its format."""
+
+
+def _scalar(data, key: str, cast, path: Path):
+    arr = np.asarray(data[key])
+    if arr.size != 1:
+        raise RecordingFileError(f"{path}: '{key}' must be a scalar, got shape {arr.shape}")
+    if cast is float:
+        _real(arr, key, path)
+    elif arr.dtype.kind not in "US":
+        raise RecordingFileError(f"{path}: '{key}' must be a string, got {arr.dtype} {arr!r}")
+    try:
+        return cast(arr.reshape(()).item())
+    except (TypeError, ValueError):
+        raise RecordingFileError(f"{path}: '{key}' = {arr!r} is not a valid {cast.__name__}") \
+            from None
+
+
+def _real(arr: np.ndarray, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    """``arr`` if it holds real numbers (integers if ``integer``): no complex, text or bool."""
+    kinds = "iu" if integer else "iuf"
+    if arr.dtype.kind not in kinds:
+        if integer and arr.dtype.kind == "f" and np.all(np.abs(arr) < 2**31) \
+                and np.all(arr == np.round(arr)):  # False for NaN
+            return arr.astype(int)
+        what = "integers" if integer else "real numbers"
+        raise RecordingFileError(f"{path}: '{key}' must hold {what}, got dtype {arr.dtype}; "
+                                 "save plain numeric arrays")
+    return arr
+
+
+def _array(data, key: str, path: Path, integer: bool = False) -> np.ndarray:
+    arr = _real(np.asarray(data[key]), key, path, integer)
+    return np.atleast_1d(arr).astype(int) if integer else arr.astype(float)
+
+
+def _load_npz(path: Path, what: str) -> dict[str, np.ndarray]:
+    """All arrays of an NPZ file, with file problems turned into `RecordingFileError`."""
+    if not path.exists():
+        raise RecordingFileError(f"{what} {path} not found; check the path")
+    if not zipfile.is_zipfile(path):
+        raise RecordingFileError(f"{path} is not a readable NPZ file (not a zip archive); "
+                                 "save it with numpy.savez")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: data[key] for key in data.files}
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+        raise RecordingFileError(f"{path} is not a readable NPZ file ({exc})") from None
+
+
+# Keys with a `Recording` field (contracts sections 3 and 5); every other key of a file is
+# kept verbatim in `Recording.extra` and written back on export.
+CORE_KEYS = ("fs", "excitation", "force_dofs", "force", "response", "response_kind", "freqs")
+LEVEL_KEYS = ("force_rms", "force_amplitude", "level")
+LAYOUT_KEYS = ("period", "transient_periods", "periods", "realizations")
+
+
+def level_key(excitation: str) -> str:
+    """The key a recording's nominal level is written under."""
+    return "force_rms" if excitation == "random" else "force_amplitude"
+
+
+def read_npz(path: str | os.PathLike) -> Recording:
+    """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
+    path = Path(path)
+    return recording_from_keys(load_npz_keys(path), path)
+
+
+def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Every key of an NPZ recording, unchecked (`recording_from_keys` checks them)."""
+    return _load_npz(Path(path), "recording")
+
+
+def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
+    """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's); ``path`` names
+    the source in messages and ``meta["source"]``."""
+    path = Path(path)
+    missing = {"fs", "force", "response", "force_dofs"} - set(data)
+    if missing == {"force_dofs"} and "force_points" in data:
+        missing = set()
+    if missing:
+        raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; an NPZ "
+                                 "recording needs fs, force_dofs (or force_points), force and "
+                                 "response")
+    excitation = (_scalar(data, "excitation", str, path) if "excitation" in data
+                  else ("stepped-sine" if "freqs" in data else "random"))
+    try:
+        force, response = _array(data, "force", path), _array(data, "response", path)
+        fs = _scalar(data, "fs", float, path)
+        level, level_from = _level(data, path, excitation)
+        kind = _scalar(data, "response_kind", str, path) if "response_kind" in data else None
+        sweep = None
+        if excitation == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(data, force, response, fs)
+            level = amplitude if level is None else level
+        sensors, force_dofs = _sensors(data, response, kind, path)
+        return Recording(
+            fs=fs, excitation=excitation, force_dofs=force_dofs, force=force,
+            response=response, response_kind=kind or "displacement", sensors=sensors,
+            freqs=_array(data, "freqs", path) if "freqs" in data else None,
+            level=level, force_hold=_force_hold(data, path),
+            layout=_layout(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
+            extra=_extra(data, excitation, level_from), meta={"source": str(path)})
+    except (TypeError, ValueError) as exc:  # RecordingError included: name the file
+        raise RecordingFileError(f"{path}: {exc}") from None
+
+
+def _sensors(data: dict, response: np.ndarray, kind: str | None, path: Path
+             ) -> tuple[SensorMap | None, np.ndarray]:
+    """The sensor map of a file's keys (`analysis.recordings.KEYS`) and the force DOFs (the
+    channels measuring ``force_points`` when the file gives no ``force_dofs``)."""
+    n = response.shape[-1] if response.ndim else 0
+    dofs = _array(data, "force_dofs", path, integer=True) if "force_dofs" in data else None
+    smap = SensorMap.from_keys(data, n, [] if dofs is None else np.atleast_1d(dofs), kind)
+    if smap is None:
+        return None, dofs
+    smap.validate(n, len(smap.force_points))
+    return smap, np.asarray(smap.force_channels) if dofs is None else dofs
+
+
+def _force_hold(data: dict, path: Path) -> str:
+    if "force_hold" not in data:
+        return "none"
+    hold = _scalar(data, "force_hold", str, path)
+    if hold not in FORCE_HOLDS:
+        raise RecordingFileError(f"{path}: force_hold '{hold}' must be none or linear")
+    return hold
+
+
+def _layout(data: dict, path: Path, n: int) -> PeriodicLayout | None:
+    """The periodic layout the file's keys describe (missing keys completed), else None."""
+    given = {k: _scalar(data, k, float, path) for k in LAYOUT_KEYS if k in data}
+    if not given:
+        return None
+    if "period" not in given:
+        raise RecordingFileError(f"{path}: {sorted(given)} given without period (samples per "
+                                 "period); add period or remove the layout keys")
+    return PeriodicLayout.complete(n, **given)
+
+
+def _level(data: dict, path: Path, excitation: str) -> tuple[float | None, str | None]:
+    """Nominal level and the key it came from (the excitation's own key first)."""
+    own = level_key(excitation)
+    for key in (own,) + tuple(k for k in LEVEL_KEYS if k != own):
+        if key in data:
+            return _scalar(data, key, float, path), key
+    return None, None
+
+
+def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
+    """Keys no field holds. A level read from another key than the excitation's own (say
+    ``level``) stays here too, so that the file's own key is written back."""
+    known = set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | {"force_hold"}
+    if excitation == "swept-sine":
+        known |= set(SWEEP_KEYS)
+    if level_from == level_key(excitation):
+        known.add(level_from)
+    return {k: np.asarray(v) for k, v in data.items() if k not in known}
+
+
+def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
+    """Every key of ``rec`` as written to NPZ (contracts sections 3 and 5, then ``extra``)."""
+    out = {k: np.asarray(v) for k, v in rec.extra.items()}
+    out.update({"fs": np.float64(rec.fs), "excitation": np.str_(rec.excitation),
+                "force_dofs": rec.force_dofs, "force": rec.force, "response": rec.response,
+                "response_kind": np.str_(rec.response_kind),
+                "force_hold": np.str_(rec.force_hold)})
+    if rec.freqs is not None:
+        out["freqs"] = rec.freqs
+    if rec.layout is not None:
+        out.update({k: np.int64(getattr(rec.layout, k)) for k in LAYOUT_KEYS})
+    if rec.sweep is not None:
+        out.update(rec.sweep.keys())
+    if rec.level is not None:
+        out[level_key(rec.excitation)] = np.float64(rec.level)
+    if rec.sensors is not None:
+        out.update(rec.sensors.to_keys())
+    return out
+
+
+def write_npz(path: str | os.PathLike, rec: Recording) -> None:
+    """Write ``rec`` as an NPZ recording (every key of `recording_keys`)."""
+    with open(path, "wb") as fh:  # np.savez would append ".npz" to other names
+        np.savez(fh, **recording_keys(rec))
+
+
+@dataclass
+class _Column:
+    """One channel column of a CSV recording."""
+
+    index: int
+    name: str
+    dof: int | None
+    factor: float = 1.0              # to SI
+    quantity: str | None = None      # from the unit: force, displacement, velocity, ...
+
+
+def parse_header(names: list[str], force_cols: list[str] | None = None
+                 ) -> tuple[int, float, list[_Column]]:
+    """Time column index, its scale to seconds, and the channel columns.
+
+    A column is ``NAME@DOF`` or, as acquisition systems export them, ``NAME (UNIT)`` /
+    ``NAME [UNIT]`` (``Force (N)``, ``Acc1 [m/s^2]``): the unit scales the column to SI and
+    says what it measures (`nlid_lab.formats._units`). Either every channel names its DOF or none does.
+    """
+    time_col, time_scale, chans = [], 1.0, []
+    for i, raw in enumerate(names):
+        base, unit = split_label(raw)
+        if base.lower() in ("t", "time"):
+            time_col.append(i)
+            if unit:
+                factor, quantity = lookup(unit, f"CSV column '{raw.strip()}'")
+                if quantity != "time":
+                    raise RecordingFileError(f"CSV column '{raw.strip()}': the time column "
+                                             "must be in s or ms")
+                time_scale = factor
+            continue
+        m = _COLUMN.match(base)
+        name, dof = (m.group(1), int(m.group(2))) if m else (base, None)
+        if not name or not re.match(r"^[A-Za-z_][\w .\-]*$", name):
+            raise RecordingFileError(f"CSV column '{raw.strip()}' is not NAME@DOF or NAME (UNIT)"
+                                     " (e.g. f0@0, x1@1, 'Acc1 [m/s^2]')")
+        factor, quantity = lookup(unit, f"CSV column '{raw.strip()}'") if unit else (1.0, None)
+        chans.append(_Column(i, name, dof, factor, quantity))
+    if len(time_col) != 1:
+        raise RecordingFileError("CSV header needs exactly one time column named 't' or "
+                                 f"'time' (optionally with its unit, 'Time (s)'); got {names}")
+    if len({c.dof is None for c in chans}) > 1:
+        raise RecordingFileError("CSV header: name the DOF of every channel (NAME@DOF) or of "
+                                 "none (then responses are points 0.. in column order)")
+    if force_cols is not None:
+        unknown = set(force_cols) - {c.name for c in chans}
+        if unknown:
+            raise RecordingFileError(f"--force-cols names {sorted(unknown)} not in the header")
+    return time_col[0], time_scale, chans
+
+
+def _is_force(c: _Column, force_cols: list[str] | None) -> bool:
+    if force_cols is not None:
+        return c.name in force_cols
+    if c.quantity is not None:
+        return c.quantity == "force"
+    return c.name.lower().startswith("f")
+
+
+def _csv_table(text: str, path: Path) -> tuple[list[str], np.ndarray]:
+    """Header names and data of a CSV export: comment lines (``#``) and any preamble before
+    the header are skipped; the delimiter (``,``, ``;`` or tab) and a decimal comma are
+    recognised from the first data row."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    for h in range(len(lines) - 1):
+        for delim in (",", ";", "\t"):
+            first = lines[h + 1].split(delim)
+            names = next(csv.reader([lines[h]], delimiter=delim))
+            if len(first) < 2 or len(first) != len(names):
+                continue
+            decimal_comma = delim != "," and any("," in c for c in first)
+            try:
+                [float(c.replace(",", ".") if decimal_comma else c) for c in first]
+            except ValueError:
+                continue
+            body = lines[h + 1:]
+            if decimal_comma:
+                body = [ln.replace(",", ".") for ln in body]
+            if len(body) < 2:
+                break
+            try:
+                data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=delim, ndmin=2)
+            except ValueError as exc:
+                raise RecordingFileError(f"{path}: bad number in the data ({exc})") from None
+            return names, data
+    raise RecordingFileError(f"{path}: needs a header row and at least two data rows of "
+                             "numbers (comma, semicolon or tab separated) after any preamble")
+
+
+def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
+             response_kind: str | None = None, level: float | None = None,
+             force_dofs: list[int] | None = None, excitation: str | None = None,
+             keys: dict[str, Any] | None = None) -> Recording:
+    """Read a random recording from CSV (see the module docstring for the header).
+
+    ``# key = value`` comment lines before the header carry recording keys (``fs``,
+    ``response_kind``, ``force_hold``, ``period``...; others kept in ``extra``; ``force_dofs``
+    when the header names no DOF, or the ``force_dofs`` argument). ``response_kind`` None
+    takes the unit of the response columns, else the file's key, else displacement.
+    ``excitation`` (else a ``# excitation`` line, else random) may be ``"swept-sine"``: the
+    sweep keys, or the law estimated from the force (`sweep_keys.sweep_fields`). ``keys``
+    add to (override) the file's ``# key`` lines.
+    """
+    path = Path(path)
+    text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
+    keys = {**_csv_keys(text, path), **{k: np.asarray(v) for k, v in (keys or {}).items()}}
+    if force_dofs is not None:
+        keys["force_dofs"] = np.asarray(force_dofs)
+    names, data = _csv_table(text, path)
+    if data.shape[0] < 2:
+        raise RecordingFileError(f"{path}: needs a header row and at least two data rows")
+    if data.shape[1] != len(names):
+        raise RecordingFileError(f"{path}: {data.shape[1]} data columns but {len(names)} "
+                                 "header names")
+    time_col, time_scale, chans = parse_header(names, force_cols)
+    fs = _csv_fs(data[:, time_col] * time_scale, keys, path)
+    forces = [c for c in chans if _is_force(c, force_cols)]
+    responses = [c for c in chans if not _is_force(c, force_cols)]
+    if not forces or not responses:
+        raise RecordingFileError(f"{path}: need at least one force and one response column "
+                                 "(forces are named f...@DOF or carry a force unit, 'Force (N)'"
+                                 ", unless --force-cols is given)")
+    force_dofs = _csv_force_dofs(keys, forces, responses, path)
+    responses = sorted(responses, key=lambda c: c.dof if c.dof is not None else c.index)
+    dofs = [c.dof for c in responses]
+    if responses[0].dof is not None and dofs != list(range(len(dofs))):
+        raise RecordingFileError(f"{path}: response columns must cover DOFs 0..n-1 once each, "
+                                 f"got DOFs {dofs}")
+    file_kind = _scalar(keys, "response_kind", str, path) if "response_kind" in keys else None
+    unit_kinds = {c.quantity for c in responses if c.quantity is not None}
+    if len(unit_kinds) > 1 and all(c.quantity for c in responses) \
+            and "response_kinds" not in keys:   # units say each column's kind: a sensor map
+        keys["response_kinds"] = np.array([c.quantity for c in responses])
+        unit_kinds = set()
+    if len(unit_kinds) > 1 or (unit_kinds and len(unit_kinds) == 1
+                               and any(c.quantity is None for c in responses)):
+        raise RecordingFileError(f"{path}: the response columns measure different quantities "
+                                 f"({', '.join(sorted(map(str, unit_kinds)))}); import them as "
+                                 "separate recordings")
+    for what, kind in (("the file's response_kind", file_kind),
+                       ("--response-kind", response_kind)):
+        if kind is not None and unit_kinds and kind not in unit_kinds:
+            raise RecordingFileError(f"{path}: {what} is {kind} but the column units say "
+                                     f"{unit_kinds.pop()}; drop one of them")
+    if response_kind is not None and file_kind not in (None, response_kind):
+        raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
+                                 f"{response_kind} was asked for; drop one of them")
+    kind = response_kind or file_kind or (unit_kinds.pop() if unit_kinds else "displacement")
+    exc = excitation or (_scalar(keys, "excitation", str, path) if "excitation" in keys
+                         else "random")
+    if exc not in ("random", "swept-sine"):
+        raise RecordingFileError(f"{path}: CSV holds random or swept-sine recordings, not {exc}")
+    keys["excitation"] = np.str_(exc)
+    keys.pop("force_dofs", None)
+    try:
+        file_level, level_from = _level(keys, path, exc)
+        force = data[:, [c.index for c in forces]] * [c.factor for c in forces]
+        response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
+        sweep = None
+        if exc == "swept-sine":
+            sweep, force, response, amplitude = sweep_fields(keys, force, response, fs)
+            file_level = amplitude if file_level is None else file_level
+        sensors, _ = _sensors({**keys, "force_dofs": np.asarray(force_dofs)}, response,
+                              response_kind or file_kind, path)
+        return Recording(
+            fs=fs, excitation=exc, force_dofs=force_dofs, force=force, response=response,
+            response_kind=kind, sensors=sensors,
+            level=file_level if level is None else level, force_hold=_force_hold(keys, path),
+            layout=_layout(keys, path, data.shape[0]), sweep=sweep,
+            extra=_extra(keys, exc, level_from),
+            meta={"source": str(path), "channels": [c.name for c in forces + responses]})
+    except (TypeError, ValueError) as exc:  # RecordingError included: name the file
+        raise RecordingFileError(f"{path}: {exc}") from None
+
+
+def _csv_force_dofs(keys: dict, forces: list[_Column], responses: list[_Column],
+                    path: Path) -> list[int]:
+    """The DOF (response point) of each force: from ``NAME@DOF``, else a ``force_dofs`` key."""
+    if forces[0].dof is not None:
+        if "force_dofs" in keys:
+            raise RecordingFileError(f"{path}: the header names the force DOFs; remove the "
+                                     "'# force_dofs' line")
+        return [c.dof for c in forces]
+    if "force_dofs" not in keys:
+        raise RecordingFileError(f"{path}: say where each force acts: a '# force_dofs = K' line "
+                                 "(K the 0-based response column measured at the drive point, "
+                                 "a list for several forces) or NAME@DOF headers")
+    dofs = np.atleast_1d(keys["force_dofs"])
+    if dofs.size != len(forces) or dofs.dtype.kind not in "iu":
+        raise RecordingFileError(f"{path}: force_dofs must give one integer per force column "
+                                 f"({len(forces)}), got {keys['force_dofs']}")
+    if np.any(dofs < 0) or np.any(dofs >= len(responses)):
+        raise RecordingFileError(f"{path}: force_dofs {dofs.tolist()} outside the response "
+                                 f"columns 0..{len(responses) - 1}")
+    return dofs.astype(int).tolist()
+
+
+def read_csv_columns(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, str]]:
+    """Every column of a CSV export by its header name, for a channel map (`nlid_lab.formats._mat_io`).
+
+    For exports that do not follow this module's header (``Force,Voltage,Acceleration1,...``,
+    no time column): the names lose their unit (``Acc1 [m/s^2]`` -> ``Acc1``), which is
+    returned beside them; ``# key = value`` lines come as leaves too (``fs``, ``period``...).
+
+    Returns
+    -------
+    tree : dict
+        Column name -> samples (as written), and the file's keys.
+    units : dict
+        Column name -> the unit its header gave.
+    """
+    path = Path(path)
+    text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
+    tree: dict[str, Any] = dict(_csv_keys(text, path))
+    names, data = _csv_table(text, path)
+    units = {}
+    for j, raw in enumerate(names):
+        name, unit = split_label(raw)
+        if name in tree:
+            raise RecordingFileError(f"{path}: column '{name}' appears twice (or also as a "
+                                     "'# key = value' line); rename one")
+        tree[name] = data[:, j]
+        if unit:
+            units[name] = unit
+    return tree, units
+
+
+_CSV_KEY = re.compile(r"^\s*#\s*([A-Za-z_]\w*)\s*=\s*(.*?)\s*$")
+
+
+def _csv_keys(text: str, path: Path) -> dict[str, np.ndarray]:
+    """Recording keys of ``# key = value`` comment lines: numbers, or strings in quotes."""
+    keys: dict[str, np.ndarray] = {}
+    for line in text.splitlines():
+        m = _CSV_KEY.match(line)
+        if not m:
+            continue
+        key, raw = m.groups()
+        if key in ("force", "response", "freqs"):
+            raise RecordingFileError(f"{path}: '{key}' comes from the CSV header and data, not "
+                                     "from a '# key = value' line; remove that line")
+        if len(raw) >= 2 and raw[0] == raw[-1] == '"':
+            keys[key] = np.str_(raw[1:-1])
+            continue
+        if raw.startswith("[") and raw.endswith("]"):        # a list of integers
+            try:
+                keys[key] = np.array([int(v) for v in raw[1:-1].split(",")])
+                continue
+            except ValueError:
+                pass
+        for cast in (int, float):
+            try:
+                keys[key] = np.asarray(cast(raw))
+                break
+            except ValueError:
+                pass
+        else:
+            keys[key] = np.str_(raw)
+    return keys
+
+
+def _csv_fs(t: np.ndarray, keys: dict, path: Path) -> float:
+    """Sample rate of a uniform time column (the ``fs`` key when given, checked)."""
+    span = t[-1] - t[0]
+    fs = (len(t) - 1) / span if np.isfinite(span) and span > 0 else np.nan
+    if "fs" in keys:
+        given = _scalar(keys, "fs", float, path)
+        if not abs(given - fs) <= 1e-6 * abs(given):
+            raise RecordingFileError(f"{path}: fs = {given:g} but the time column steps at "
+                                     f"{fs:g} Hz; fix one of them")
+        fs = given
+    grid = t[0] + np.arange(len(t)) / fs
+    if not np.isfinite(fs) or np.max(np.abs(t - grid)) > 0.01 / fs:
+        raise RecordingFileError(f"{path}: the time column must increase in equal steps "
+                                 "(uniform sampling, jitter below 1 % of a sample)")
+    return fs
+
+
+def _csv_value(key: str, value: np.ndarray) -> str:
+    arr = np.asarray(value)
+    if arr.ndim == 0 and arr.dtype.kind == "U":
+        return f'"{arr.item()}"'
+    if arr.ndim == 0 and arr.dtype.kind in "iu":
+        return str(int(arr))
+    if arr.ndim == 0 and arr.dtype.kind == "f":
+        return repr(float(arr))
+    raise RecordingFileError(f"key '{key}' ({arr.dtype}, shape {arr.shape}) cannot be written "
+                             "to CSV (numbers and strings only); export as NPZ")
+
+
+def write_csv(path: str | os.PathLike, rec: Recording) -> None:
+    """Write a random ``rec`` as CSV: ``# key = value`` lines for its keys, then header
+    ``t,f0@DOF,...,x0@0,...`` and the samples."""
+    if rec.excitation == "stepped-sine":
+        raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
+                                 "sine as NPZ")
+    drop = ("force_dofs", "force", "response") + (("excitation",) if rec.excitation == "random"
+                                                   else ())
+    keys = {k: v for k, v in recording_keys(rec).items() if k not in drop}
+    keys.update({k: np.str_(",".join(v.tolist())) for k, v in keys.items()
+                 if k in SENSOR_KEYS})
+    lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
+    kinds = sensor_map(rec).response_kinds
+    names = (["t"] + [f"f{i}@{d}" for i, d in enumerate(rec.force_dofs)]
+             + [f"{kinds[j][0]}{j}@{j}" for j in range(rec.n_dof)])
+    t = np.arange(rec.force.shape[0]) / rec.fs
+    np.savetxt(path, np.column_stack([t, rec.force, rec.response]), delimiter=",",
+               header="\n".join(lines + [",".join(names)]), comments="", fmt="%.17g")
+
+
+def read_drive(path: str | os.PathLike) -> dict:
+    """Read a drive NPZ (keys fs, force, force_dofs; freqs for stepped sine).
+
+    Returns a dict with ``fs``, ``force`` (random (n, n_in); stepped (n_steps, n, n_in)),
+    ``force_dofs``, ``excitation``, ``freqs`` (or None), ``level`` (or None), ``layout``
+    (a `PeriodicLayout` from the drive's ``period``... keys, or None), ``sweep`` (an
+    ``excitation = "swept-sine"`` drive's `Sweep`, from its keys or estimated from its
+    force; else None) and ``extra`` (the
+    drive's other keys, for the simulated recording). A recording used as a drive gives
+    its force: its ``response``, ``response_kind`` and ``force_hold`` are not carried.
+    ``sensors`` holds the drive's sensor-map keys (`analysis.recordings.KEYS`, lists of names;
+    ``force_points`` then name the model points the forces act on).
+    """
+    path = Path(path)
+    data = _load_npz(path, "drive")
+    missing = {"fs", "force", "force_dofs"} - set(data)
+    if missing == {"force_dofs"} and "force_points" in data:
+        missing = set()
+    if missing:
+        raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; a drive NPZ "
+                                 "needs fs, force and force_dofs (or force_points)")
+    try:
+        points = names(data["force_points"], "force_points") if "force_points" in data \
+            else None
+        drive = {"fs": _scalar(data, "fs", float, path),
+                 "force": _array(data, "force", path),
+                 "force_dofs": (_array(data, "force_dofs", path, integer=True)
+                                if "force_dofs" in data else np.arange(len(points))),
+                 "freqs": _array(data, "freqs", path) if "freqs" in data else None,
+                 # sensor-map keys: where the forces act and what the channels measure
+                 "sensors": {k: names(data[k], k) for k in SENSOR_KEYS if k in data}}
+        stepped = drive["freqs"] is not None
+        swept = not stepped and "excitation" in data \
+            and _scalar(data, "excitation", str, path) == "swept-sine"
+        drive["excitation"] = "stepped-sine" if stepped else "swept-sine" if swept else "random"
+        drive["level"], level_from = _level(data, path, drive["excitation"])
+        drive["extra"] = _extra(data, drive["excitation"], level_from)
+    except (TypeError, ValueError) as exc:
+        raise RecordingFileError(f"{path}: {exc}") from None
+    force, n_in = drive["force"], drive["force_dofs"].size
+    if force.ndim == 1 and n_in == 1 and not stepped:
+        force = drive["force"] = force[:, None]
+    want = 3 if stepped else 2
+    if force.ndim != want or force.shape[-1] != n_in:
+        raise RecordingFileError(f"{path}: force has shape {force.shape}; expected "
+                                 f"{'(n_steps, n, n_in)' if stepped else '(n, n_in)'} with "
+                                 f"n_in = {n_in} (one column per force_dofs entry)")
+    if stepped and drive["freqs"].shape != (force.shape[0],):
+        raise RecordingFileError(f"{path}: freqs must hold one frequency per step "
+                                 f"({force.shape[0]})")
+    if not np.all(np.isfinite(force)):
+        raise RecordingFileError(f"{path}: force holds NaN/infinite samples; repair the drive")
+    if force.size == 0 or force.shape[-2] < 2:
+        raise RecordingFileError(f"{path}: force of shape {force.shape} needs at least 2 "
+                                 "samples")
+    if np.abs(force).max() > MAX_SAMPLE:
+        raise RecordingFileError(f"{path}: force holds samples beyond +-{MAX_SAMPLE:g} N; "
+                                 "check the units and scaling")
+    if not MIN_FS <= drive["fs"] <= MAX_FS:
+        raise RecordingFileError(f"{path}: fs must be a number in {MIN_FS:g}..{MAX_FS:g} Hz")
+    if stepped and not np.all((drive["freqs"] > 0) & (drive["freqs"] < drive["fs"] / 2)):
+        raise RecordingFileError(f"{path}: freqs must lie between 0 and fs/2")
+    if drive["level"] is not None and not 0 < drive["level"] <= MAX_SAMPLE:
+        raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
+                                 f"number in (0, {MAX_SAMPLE:g}] N")
+    try:
+        drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
+        drive["sweep"] = None
+        if drive["excitation"] == "swept-sine":     # a sweep drive plays from its first sample
+            drive["sweep"], drive["force"], _, level = sweep_fields(data, force, force,
+                                                                    drive["fs"])
+            drive["level"] = drive["level"] or level
+    except ValueError as exc:
+        raise RecordingFileError(f"{path}: {exc}") from None
+    return drive
+
+
+def load_recordings(path: str | os.PathLike) -> list[Recording]:
+    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``."""
+    from ..store import StoreError, open_run
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".h5", ".hdf5"):
+        return open_run(path).recordings()
+    if suffix == ".npz":
+        return [read_npz(path)]
+    if suffix == ".csv":
+        return [read_csv(path)]
+    raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")
+
+
+def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
+    """A sensor-map TOML file (``response_points``, ``response_kinds``, ``force_points``:
+    lists of names; docs/model-format.md#sensor-maps) as recording keys."""
+    import tomllib
+
+    path = Path(path)
+    text = read_text(path, "sensor map", RecordingFileError, max_bytes=1 << 16)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(data) - set(SENSOR_KEYS))
+    if unknown or not data:
+        raise RecordingFileError(f"{path}: a sensor map holds {', '.join(SENSOR_KEYS)}"
+                                 + (f", not {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for key, value in data.items():
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise RecordingFileError(f"{path}: {key} must be a list of names, e.g. "
+                                     f"{key} = [\"wing_tip\", \"payload\"]")
+        out[key] = [v.strip() for v in value]
+    return out
+
+
+def with_sensors(rec: Recording, keys: dict[str, list[str]]) -> Recording:
+    """``rec`` with the sensor map of ``keys`` (`read_sensors`; missing keys from ``rec``'s
+    own map); the force DOFs follow ``force_points``."""
+    import dataclasses
+
+    own = sensor_map(rec).to_keys() if rec.sensors is not None else {}
+    merged = {**own, **{k: np.array(v) for k, v in keys.items()}}
+    try:
+        smap = SensorMap.from_keys(merged, rec.n_dof, rec.force_dofs, None)
+        smap.validate(rec.n_dof, rec.n_in)
+        return dataclasses.replace(rec, force_dofs=np.asarray(smap.force_channels),
+                                   sensors=smap, extra=dict(rec.extra), meta=dict(rec.meta))
+    except ValueError as exc:
+        raise RecordingFileError(f"{rec.meta.get('source', 'recording')}: {exc}") from None
