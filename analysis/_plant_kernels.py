@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from .elements import element_force
+from .elements import element_force, element_tangent
 from ._numba_cache import guard
 
 guard(__file__, "elements")
@@ -23,6 +23,7 @@ guard(__file__, "elements")
 # The same force law compiled for inlining into the hot loop (a call with array arguments
 # costs more than the law itself); `_virgin` is re-jitted alongside since it is called inside.
 _element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
+_element_tangent = numba.njit(inline="always", cache=True)(element_tangent.py_func)
 
 STICK_SLIP = 5
 MAX_ITER = 30
@@ -173,7 +174,7 @@ def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarra
 
 
 MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "corr", "pwe",
-            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "prm", "h", "shapes",
+            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "smooth", "prm", "h", "shapes",
             "identity", "tax", "tav", "out_z")
 """The discretisation arguments of `integrate`, in order (`analysis.plant.Plant._discretise`)."""
 
@@ -182,8 +183,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
               inj_f: np.ndarray, inj_g: np.ndarray, u_g: np.ndarray, we: np.ndarray,
               r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
               pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
-              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray,
-              h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
+              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, smooth: np.ndarray,
+              prm: np.ndarray, h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
               out_z: np.ndarray, s: np.ndarray, gh: np.ndarray, uh: np.ndarray,
               es: np.ndarray, fprev: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
               out_a: np.ndarray, out_el: np.ndarray, out_uv: np.ndarray,
@@ -193,7 +194,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     ``s, gh, uh, es, fprev`` are updated in place (they are the plant state; ``s`` the
     accumulated state of `analysis.plant`, Method). ``out_x, out_v, out_a`` receive
     displacement, velocity and acceleration at the points, ``out_el`` the element forces and
-    ``out_uv`` the element deformations and rates at each output sample.
+    ``out_uv`` the element deformations and rates at each output sample. ``smooth[e]``:
+    element ``e`` is memoryless (the corrector may close with its law's tangent).
     """
     ny = s.shape[0]
     n = ny // 2
@@ -224,6 +226,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     fb = np.empty(nin)
     z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
     vh = np.empty(ne)            # element deformation rates at the last node
+    delta = np.empty(2 * ne)     # last corrector change of the deformations and rates
+    lin = np.empty((4, ne))      # closing: force change, its error bound, end tangents
     state = s              # s and kn swap roles every substep; the result goes to state
     n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
     _history(fprev, gh, z)
@@ -358,7 +362,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 # when the change or the next one (ratio estimated from the last two) is below
                 dmax = 0.0
                 for r in range(2 * ne):
-                    d = abs(acc[r] - uv[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
+                    delta[r] = acc[r] - uv[r]
+                    d = abs(delta[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
                     dmax = max(dmax, d)
                     uv[r] = acc[r]
                 same = True   # the branch choice must be settled before stopping
@@ -367,6 +372,61 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                         same = False
                     ev_prev[e] = event[e]
                 if same and (dmax <= 1.0 or (it > 0 and dmax * dmax <= dprev)):
+                    converged = True
+                    break
+                # Close with the laws' tangents instead of another evaluation: the laws were
+                # evaluated at uv - delta; each force change over delta is taken by the
+                # trapezoid rule of the tangents at both ends (exact for a stick-slip joint on
+                # its branch), its effect pwe dg added to uv. Accepted when what remains is
+                # below the tolerance: the next linear change (end tangents times pwe dg) plus
+                # the trapezoid's error bound (half the tangent change times delta, a bound
+                # for one kink too), with no stick-slip joint leaving its branch.
+                closed = same
+                for e in range(ne):
+                    if not closed or event[e] != 0:
+                        closed = False
+                    elif codes[e] == STICK_SLIP:
+                        kd = prm[e, 0] if sigma0[e] == 0.0 else 0.0
+                        lin[0, e], lin[1, e], lin[2, e], lin[3, e] = kd * delta[e], 0.0, kd, 0.0
+                    elif smooth[e]:
+                        u1, v1, du, dv = uv[e], uv[ne + e], delta[e], delta[ne + e]
+                        t0 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
+                                              u1 - du, v1 - dv, 0.0, 0.0, 0.0, 0.0, g[e])
+                        t1 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
+                                              u1, v1, 0.0, 0.0, 0.0, 0.0, g[e])
+                        lin[0, e] = 0.5 * ((t0[0] + t1[0]) * du + (t0[1] + t1[1]) * dv)
+                        lin[1, e] = 0.5 * (abs((t1[0] - t0[0]) * du) + abs((t1[1] - t0[1]) * dv))
+                        lin[2, e], lin[3, e] = t1[0], t1[1]
+                    else:
+                        closed = False
+                if closed:
+                    for r in range(2 * ne):    # acc: the change pwe dg of uv
+                        t = 0.0
+                        for e in range(ne):
+                            t += pwe[r, e] * lin[0, e]
+                        acc[r] = t
+                    for r in range(2 * ne):
+                        t, bound = 0.0, 0.0
+                        for e in range(ne):
+                            t += pwe[r, e] * (lin[2, e] * acc[e] + lin[3, e] * acc[ne + e])
+                            bound += abs(pwe[r, e]) * lin[1, e]
+                        if abs(t) + bound > RTOL * (abs(pk[r]) + abs(uv[r] + acc[r])):
+                            closed = False
+                    for e in range(ne):
+                        if closed and codes[e] == STICK_SLIP:
+                            kd, fd = prm[e, 0], prm[e, 1]
+                            if sigma0[e] == 0.0:
+                                closed = abs(kd * (uv[e] + acc[e] - es[e, 0])) <= fd
+                            else:
+                                closed = sigma0[e] * (uv[ne + e] + acc[ne + e]) >= 0.0
+                if closed:
+                    for r in range(2 * ne):
+                        uv[r] += acc[r]
+                    for e in range(ne):
+                        g[e] += lin[0, e]
+                        gc[e] += lin[0, e]
+                        if codes[e] == STICK_SLIP and sigma0[e] != 0.0:
+                            st[e, 0] = uv[e] - sigma0[e] * prm[e, 1] / prm[e, 0]
                     converged = True
                     break
                 dprev = dmax

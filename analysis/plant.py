@@ -356,7 +356,9 @@ class Plant:
             shapes=t, tax=tax, tav=tav, out_z=out_z.reshape(3, npt, -1))
         args = {k: np.ascontiguousarray(v, dtype=float) for k, v in args.items()}
         args.update(codes=np.array([KINDS[el.kind].code for el in model.elements],
-                                   dtype=np.int64), h=h, identity=not model.is_modal)
+                                   dtype=np.int64), h=h, identity=not model.is_modal,
+                    smooth=np.array([not KINDS[el.kind].memory for el in model.elements],
+                                    dtype=np.bool_))
         r_z = np.hstack([r_f, *r_g])
         args["r_v"] = np.ascontiguousarray(wq @ r_z[n:])
         return {**args, "r_z": r_z}
