@@ -139,6 +139,13 @@ def _axpy(a: float, x: np.ndarray, out: np.ndarray) -> None:
 
 
 @numba.njit(cache=True, inline="always")
+def _copy(a: np.ndarray, out: np.ndarray) -> None:
+    """``out[:] = a`` (a copy costs less than swapping the two arrays' references)."""
+    for r in range(out.shape[0]):
+        out[r] = a[r]
+
+
+@numba.njit(cache=True, inline="always")
 def _dot(a: np.ndarray, b: np.ndarray, lo: int) -> float:
     """``a . b[lo:lo + len(a)]``."""
     s = 0.0
@@ -228,7 +235,6 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     vh = np.empty(ne)            # element deformation rates at the last node
     delta = np.empty(2 * ne)     # last corrector change of the deformations and rates
     lin = np.empty((4, ne))      # closing: force change, its error bound, end tangents
-    state = s              # s and kn swap roles every substep; the result goes to state
     n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
     _history(fprev, gh, z)
     for e in range(ne):
@@ -250,7 +256,7 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 for e in range(ne):
                     _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
             if ne == 0:
-                s, kn = kn, s
+                _copy(kn, s)
                 continue
             # element deformations and rates of the known part (less the pending history)
             for e in range(ne):
@@ -462,7 +468,7 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                                                          - ev_ut[e])
                 for nd in range(q - 1):  # the accumulated state holds the old history
                     _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
-            s, kn = kn, s
+            _copy(kn, s)
         stats[S_SUBSTEPS] += m
         for i in range(nin):
             fprev[i] = force[k, i]
@@ -482,8 +488,6 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
-    for r in range(ny):
-        state[r] = s[r]
 
 
 integrate = numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)(_integrate)
