@@ -165,21 +165,6 @@ def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
             z[nin + b * ne + e] = gh[e, q - 1 - b]
 
 
-@numba.njit(cache=True, inline="always")
-def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
-    """``out = Phi s``: ``phi`` dense, or (when ``phi`` is empty) per-mode 2 x 2 blocks given
-    by the four diagonals ``phi_d`` of ``[[P11, P12], [P21, P22]]``."""
-    if phi.shape[0] == 0:
-        n = phi_d.shape[1]
-        for i in range(n):
-            x, v = s[i], s[n + i]
-            out[i] = phi_d[0, i] * x + phi_d[1, i] * v
-            out[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
-    else:
-        for r in range(phi.shape[0]):
-            out[r] = _dot(phi[r], s, 0)
-
-
 MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "corr", "pwe",
             "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "smooth", "prm", "h", "shapes",
             "identity", "tax", "tav", "out_z")
@@ -246,29 +231,51 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 df = (force[k, i] - fprev[i]) / m
                 fa[i] = fprev[i] + j * df
                 fb[i] = fa[i] + df
-            # known part of the end state: free response, drive, injected history
-            _propagate(phi, phi_d, s, kn)
+            # known part of the end state: free response, drive, injected history. The hot
+            # loops are written out: passing arrays (or row views) to helpers costs atomic
+            # reference counts, more than the arithmetic.
+            if phi.shape[0] == 0:   # per-mode 2 x 2 blocks: the four diagonals of phi_d
+                for i in range(n):
+                    x, v = s[i], s[n + i]
+                    kn[i] = phi_d[0, i] * x + phi_d[1, i] * v
+                    kn[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
+            else:
+                for r in range(ny):
+                    t = 0.0
+                    for c in range(ny):
+                        t += phi[r, c] * s[c]
+                    kn[r] = t
             for i in range(nin):
-                _axpy(fb[i], inj_f[0, i], kn)
+                for r in range(ny):
+                    kn[r] += fb[i] * inj_f[0, i, r]
                 if inj_f.shape[0] > 1:
-                    _axpy(fa[i], inj_f[1, i], kn)
+                    for r in range(ny):
+                        kn[r] += fa[i] * inj_f[1, i, r]
             for a in range(inj_g.shape[0]):
                 for e in range(ne):
-                    _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
+                    w = gh[e, q - 1 - a]
+                    for r in range(ny):
+                        kn[r] += w * inj_g[a, e, r]
             if ne == 0:
                 _copy(kn, s)
                 continue
             # element deformations and rates of the known part (less the pending history)
             for e in range(ne):
-                pk[e] = _dot(wq[e], kn, 0)
-                pk[ne + e] = _dot(wq[e], kn, n)
+                t, tv = 0.0, 0.0
+                for c in range(n):
+                    t += wq[e, c] * kn[c]
+                    tv += wq[e, c] * kn[n + c]
+                pk[e], pk[ne + e] = t, tv
             for i in range(nin):
                 z[i] = fb[i]
             for a in range(1, q):
                 for e in range(ne):
                     z[nin + (a - 1) * ne + e] = gh[e, q - a]
             for r in range(2 * ne):
-                pk[r] += _dot(corr[r], z, 0)
+                t = 0.0
+                for c in range(corr.shape[1]):
+                    t += corr[r, c] * z[c]
+                pk[r] += t
             for e in range(ne):
                 sigma0[e] = 0.0
                 if codes[e] == STICK_SLIP:
@@ -440,7 +447,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 n_noconv += 1
             # end state: the hold used gc at the end node, the history keeps g
             for e in range(ne):
-                _axpy(g[e], u_g[e], kn)
+                for r in range(ny):
+                    kn[r] += g[e] * u_g[e, r]
                 if event[e] != 0:
                     _axpy(gc[e] - g[e], we[e], kn)
                     for i in range(nt):
@@ -481,10 +489,26 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             if identity:
                 x, v = s[p], s[n + p]
             else:
-                x, v = _dot(shapes[p], s, 0), _dot(shapes[p], s, n)
-            out_x[k, p] = x + _dot(out_z[0, p], z, 0)
-            out_v[k, p] = v + _dot(out_z[1, p], z, 0)
-            out_a[k, p] = _dot(tax[p], s, 0) + _dot(tav[p], s, n) + _dot(out_z[2, p], z, 0)
+                x, v = 0.0, 0.0
+                for c in range(n):
+                    x += shapes[p, c] * s[c]
+                for c in range(n):
+                    v += shapes[p, c] * s[n + c]
+            ax, av = 0.0, 0.0
+            for c in range(n):
+                ax += tax[p, c] * s[c]
+            for c in range(n):
+                av += tav[p, c] * s[n + c]
+            zx, zv, za = 0.0, 0.0, 0.0
+            for c in range(out_z.shape[2]):
+                zx += out_z[0, p, c] * z[c]
+            for c in range(out_z.shape[2]):
+                zv += out_z[1, p, c] * z[c]
+            for c in range(out_z.shape[2]):
+                za += out_z[2, p, c] * z[c]
+            out_x[k, p] = x + zx
+            out_v[k, p] = v + zv
+            out_a[k, p] = ax + av + za
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
