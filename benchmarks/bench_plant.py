@@ -13,7 +13,7 @@ seen at 4 points, a stick-slip (Jenkins) joint between points 1 and 2 and a cubi
 between points 2 and 3, band-limited random drive (2-200 Hz) at point 0, fs = 4096 Hz (16x
 the 200 Hz top mode, a usual GVT rate); output samples/s with default settings (best of 3
 whole runs by wall clock and by thread CPU time, and the sum of each 1024-sample block's
-fastest of 5 passes, `blockwise_time`, which holds on a shared machine), the ratio to
+fastest of 15 passes, `blockwise_time`, which holds on a shared machine), the ratio to
 solve_ivp (DOP853, rtol 1e-9, on the modal coordinates) timed in the same run, and the
 default-settings error against a converged run (oversample 48; target <= 1e-5).
 
@@ -72,7 +72,7 @@ def best_of(plant: Plant, force: np.ndarray, repeats: int = 3
     return min(times), float(np.median(times)), min(cpu), out
 
 
-def blockwise_time(plant: Plant, force: np.ndarray, passes: int = 5, block: int = 1024
+def blockwise_time(plant: Plant, force: np.ndarray, passes: int = 15, block: int = 1024
                    ) -> float:
     """Run time estimated for an idle machine: the record is run ``passes`` times in
     ``block``-sample calls (with automatic substeps, the same computation as one call: the
