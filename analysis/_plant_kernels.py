@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from .elements import element_force, element_tangent
+from .elements import element_force, element_tangent, memoryless_force
 from ._numba_cache import guard
 
 guard(__file__, "elements")
@@ -359,6 +359,10 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                 for i in range(nt):
                                     t += pab[e, i, r] * ev_c[e, i]
                                 acc[r] += t
+                    elif smooth[e]:     # no memory: the law of scalars (no array binding)
+                        g[e] = memoryless_force(codes[e], prm[e, 0], prm[e, 1], prm[e, 2], u1,
+                                                v1)
+                        gc[e] = g[e]
                     else:
                         # scratch copies: passing row views costs more than the force law
                         for i in range(pscr.shape[0]):
