@@ -176,11 +176,11 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
               r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
               pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
               xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, smooth: np.ndarray,
-              prm: np.ndarray, h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
-              out_z: np.ndarray, s: np.ndarray, gh: np.ndarray, uh: np.ndarray,
-              es: np.ndarray, fprev: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
-              out_a: np.ndarray, out_el: np.ndarray, out_uv: np.ndarray,
-              stats: np.ndarray) -> None:
+              prm: np.ndarray, h: float, shapes: np.ndarray, identity: bool,
+              tax: np.ndarray, tav: np.ndarray, out_z: np.ndarray, s: np.ndarray,
+              gh: np.ndarray, uh: np.ndarray, es: np.ndarray, fprev: np.ndarray,
+              out_x: np.ndarray, out_v: np.ndarray, out_a: np.ndarray, out_el: np.ndarray,
+              out_uv: np.ndarray, stats: np.ndarray) -> None:
     """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
 
     ``s, gh, uh, es, fprev`` are updated in place (they are the plant state; ``s`` the
