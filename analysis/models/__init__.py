@@ -7,8 +7,9 @@ Modules behind this API: ``_model``, ``_model_file``, ``_kinds``, ``_elements``,
 
 from ._model import Element, MAX_DOF, MAX_ELEMENTS, MAX_ENTRY, MAX_PARAM, Model
 from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_order
-from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent, pack_params,
-                        register_kind, restoring_force, unregister_kind)
+from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent,
+                        memoryless_force, pack_params, register_kind, restoring_force,
+                        unregister_kind)
 from ._basis import (FAMILIES, LIBRARY, alias_error, aliasing_factor, deformation, element_basis,
                      evaluate)
 from ._textfile import MAX_TOML_BYTES, read_text, unknown_keys
@@ -16,6 +17,6 @@ from ._textfile import MAX_TOML_BYTES, read_text, unknown_keys
 __all__ = ["Element", "FAMILIES", "KINDS", "Kind", "LIBRARY", "MAX_DOF", "MAX_ELEMENTS",
            "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "Model", "N_BUILTIN", "N_PARAM", "N_STATE",
            "Param", "Refs", "alias_error", "aliasing_factor", "coefficient_units", "deformation",
-           "element_basis", "element_force", "element_tangent", "evaluate", "lookup", "pack_params",
-           "read_text", "register_kind", "restoring_force", "search_order", "unknown_keys",
-           "unregister_kind"]
+           "element_basis", "element_force", "element_tangent", "evaluate", "lookup",
+           "memoryless_force", "pack_params", "read_text", "register_kind", "restoring_force",
+           "search_order", "unknown_keys", "unregister_kind"]

@@ -137,6 +137,29 @@ def _virgin(kd: float, fd: float, n: float, x: float) -> float:
     return np.sign(x) * fd / (1.0 + r ** (-n)) ** (1.0 / n)
 
 
+@numba.njit(cache=True, inline="always")
+def memoryless_force(code: int, p0: float, p1: float, p2: float, u: float, v: float) -> float:
+    """Restoring force of a kind without memory (`element_force` with scalars only: a
+    caller's loop then binds no arrays, whose reference counts cost more than the law)."""
+    if code == 0:
+        return p0 * u * u * u
+    if code == 1:
+        return p0 * u * abs(u)
+    if code == 2:
+        return p0 * v * abs(v)
+    if code == 3:
+        return p0 * v * v * v
+    if code == 4:
+        return p0 * np.tanh(v / p1)
+    if code == 7:
+        if u > p1:
+            return p0 * (u - p1)
+        if u < -p1:
+            return p0 * (u + p1)
+        return 0.0
+    return _extension_force(code, p0, p1, p2, u, v)
+
+
 @numba.njit(cache=True)
 def element_force(code: int, p: np.ndarray, u: float, v: float,
                   s_in: np.ndarray, s_out: np.ndarray) -> float:
@@ -160,16 +183,6 @@ def element_force(code: int, p: np.ndarray, u: float, v: float,
     """
     for i in range(s_in.shape[0]):
         s_out[i] = s_in[i]
-    if code == 0:
-        return p[0] * u * u * u
-    if code == 1:
-        return p[0] * u * abs(u)
-    if code == 2:
-        return p[0] * v * abs(v)
-    if code == 3:
-        return p[0] * v * v * v
-    if code == 4:
-        return p[0] * np.tanh(v / p[1])
     if code == 5:
         kd, fd = p[0], p[1]
         f = kd * (u - s_in[0])
@@ -198,14 +211,7 @@ def element_force(code: int, p: np.ndarray, u: float, v: float,
         if d != 0.0:
             s_out[2] = d
         return f
-    if code == 7:
-        k, g = p[0], p[1]
-        if u > g:
-            return k * (u - g)
-        if u < -g:
-            return k * (u + g)
-        return 0.0
-    return _extension_force(code, p[0], p[1], p[2], u, v)
+    return memoryless_force(code, p[0], p[1], p[2], u, v)
 
 
 @numba.njit(cache=True, inline="always")

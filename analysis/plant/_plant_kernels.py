@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from ..models import element_force
+from ..models import element_force, element_tangent, memoryless_force
 from .._numba_cache import guard
 
 guard(__file__, "..models._elements")
@@ -23,6 +23,7 @@ guard(__file__, "..models._elements")
 # The same force law compiled for inlining into the hot loop (a call with array arguments
 # costs more than the law itself); `_virgin` is re-jitted alongside since it is called inside.
 _element_force = numba.njit(inline="always", cache=True)(element_force.py_func)
+_element_tangent = numba.njit(inline="always", cache=True)(element_tangent.py_func)
 
 STICK_SLIP = 5
 MAX_ITER = 30
@@ -138,6 +139,13 @@ def _axpy(a: float, x: np.ndarray, out: np.ndarray) -> None:
 
 
 @numba.njit(cache=True, inline="always")
+def _copy(a: np.ndarray, out: np.ndarray) -> None:
+    """``out[:] = a`` (a copy costs less than swapping the two arrays' references)."""
+    for r in range(out.shape[0]):
+        out[r] = a[r]
+
+
+@numba.njit(cache=True, inline="always")
 def _dot(a: np.ndarray, b: np.ndarray, lo: int) -> float:
     """``a . b[lo:lo + len(a)]``."""
     s = 0.0
@@ -157,23 +165,8 @@ def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
             z[nin + b * ne + e] = gh[e, q - 1 - b]
 
 
-@numba.njit(cache=True, inline="always")
-def _propagate(phi: np.ndarray, phi_d: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
-    """``out = Phi s``: ``phi`` dense, or (when ``phi`` is empty) per-mode 2 x 2 blocks given
-    by the four diagonals ``phi_d`` of ``[[P11, P12], [P21, P22]]``."""
-    if phi.shape[0] == 0:
-        n = phi_d.shape[1]
-        for i in range(n):
-            x, v = s[i], s[n + i]
-            out[i] = phi_d[0, i] * x + phi_d[1, i] * v
-            out[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
-    else:
-        for r in range(phi.shape[0]):
-            out[r] = _dot(phi[r], s, 0)
-
-
 MATRICES = ("phi", "phi_d", "inj_f", "inj_g", "u_g", "we", "r_g", "r_v", "wq", "corr", "pwe",
-            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "prm", "h", "shapes",
+            "ab", "pab", "vinv", "xpred", "inv_fact", "codes", "smooth", "prm", "h", "shapes",
             "identity", "tax", "tav", "out_z")
 """The discretisation arguments of `integrate`, in order (`analysis.plant._plant.Plant._discretise`)."""
 
@@ -182,18 +175,19 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
               inj_f: np.ndarray, inj_g: np.ndarray, u_g: np.ndarray, we: np.ndarray,
               r_g: np.ndarray, r_v: np.ndarray, wq: np.ndarray, corr: np.ndarray,
               pwe: np.ndarray, ab: np.ndarray, pab: np.ndarray, vinv: np.ndarray,
-              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, prm: np.ndarray,
-              h: float, shapes: np.ndarray, identity: bool, tax: np.ndarray, tav: np.ndarray,
-              out_z: np.ndarray, s: np.ndarray, gh: np.ndarray, uh: np.ndarray,
-              es: np.ndarray, fprev: np.ndarray, out_x: np.ndarray, out_v: np.ndarray,
-              out_a: np.ndarray, out_el: np.ndarray, out_uv: np.ndarray,
-              stats: np.ndarray) -> None:
+              xpred: np.ndarray, inv_fact: np.ndarray, codes: np.ndarray, smooth: np.ndarray,
+              prm: np.ndarray, h: float, shapes: np.ndarray, identity: bool,
+              tax: np.ndarray, tav: np.ndarray, out_z: np.ndarray, s: np.ndarray,
+              gh: np.ndarray, uh: np.ndarray, es: np.ndarray, fprev: np.ndarray,
+              out_x: np.ndarray, out_v: np.ndarray, out_a: np.ndarray, out_el: np.ndarray,
+              out_uv: np.ndarray, stats: np.ndarray) -> None:
     """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
 
     ``s, gh, uh, es, fprev`` are updated in place (they are the plant state; ``s`` the
     accumulated state of `analysis.plant._plant`, Method). ``out_x, out_v, out_a`` receive
     displacement, velocity and acceleration at the points, ``out_el`` the element forces and
-    ``out_uv`` the element deformations and rates at each output sample.
+    ``out_uv`` the element deformations and rates at each output sample. ``smooth[e]``:
+    element ``e`` is memoryless (the corrector may close with its law's tangent).
     """
     ny = s.shape[0]
     n = ny // 2
@@ -224,7 +218,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     fb = np.empty(nin)
     z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
     vh = np.empty(ne)            # element deformation rates at the last node
-    state = s              # s and kn swap roles every substep; the result goes to state
+    delta = np.empty(2 * ne)     # last corrector change of the deformations and rates
+    lin = np.empty((4, ne))      # closing: force change, its error bound, end tangents
     n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
     _history(fprev, gh, z)
     for e in range(ne):
@@ -236,29 +231,51 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 df = (force[k, i] - fprev[i]) / m
                 fa[i] = fprev[i] + j * df
                 fb[i] = fa[i] + df
-            # known part of the end state: free response, drive, injected history
-            _propagate(phi, phi_d, s, kn)
+            # known part of the end state: free response, drive, injected history. The hot
+            # loops are written out: passing arrays (or row views) to helpers costs atomic
+            # reference counts, more than the arithmetic.
+            if phi.shape[0] == 0:   # per-mode 2 x 2 blocks: the four diagonals of phi_d
+                for i in range(n):
+                    x, v = s[i], s[n + i]
+                    kn[i] = phi_d[0, i] * x + phi_d[1, i] * v
+                    kn[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
+            else:
+                for r in range(ny):
+                    t = 0.0
+                    for c in range(ny):
+                        t += phi[r, c] * s[c]
+                    kn[r] = t
             for i in range(nin):
-                _axpy(fb[i], inj_f[0, i], kn)
+                for r in range(ny):
+                    kn[r] += fb[i] * inj_f[0, i, r]
                 if inj_f.shape[0] > 1:
-                    _axpy(fa[i], inj_f[1, i], kn)
+                    for r in range(ny):
+                        kn[r] += fa[i] * inj_f[1, i, r]
             for a in range(inj_g.shape[0]):
                 for e in range(ne):
-                    _axpy(gh[e, q - 1 - a], inj_g[a, e], kn)
+                    w = gh[e, q - 1 - a]
+                    for r in range(ny):
+                        kn[r] += w * inj_g[a, e, r]
             if ne == 0:
-                s, kn = kn, s
+                _copy(kn, s)
                 continue
             # element deformations and rates of the known part (less the pending history)
             for e in range(ne):
-                pk[e] = _dot(wq[e], kn, 0)
-                pk[ne + e] = _dot(wq[e], kn, n)
+                t, tv = 0.0, 0.0
+                for c in range(n):
+                    t += wq[e, c] * kn[c]
+                    tv += wq[e, c] * kn[n + c]
+                pk[e], pk[ne + e] = t, tv
             for i in range(nin):
                 z[i] = fb[i]
             for a in range(1, q):
                 for e in range(ne):
                     z[nin + (a - 1) * ne + e] = gh[e, q - a]
             for r in range(2 * ne):
-                pk[r] += _dot(corr[r], z, 0)
+                t = 0.0
+                for c in range(corr.shape[1]):
+                    t += corr[r, c] * z[c]
+                pk[r] += t
             for e in range(ne):
                 sigma0[e] = 0.0
                 if codes[e] == STICK_SLIP:
@@ -342,6 +359,10 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                 for i in range(nt):
                                     t += pab[e, i, r] * ev_c[e, i]
                                 acc[r] += t
+                    elif smooth[e]:     # no memory: the law of scalars (no array binding)
+                        g[e] = memoryless_force(codes[e], prm[e, 0], prm[e, 1], prm[e, 2], u1,
+                                                v1)
+                        gc[e] = g[e]
                     else:
                         # scratch copies: passing row views costs more than the force law
                         for i in range(pscr.shape[0]):
@@ -358,7 +379,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 # when the change or the next one (ratio estimated from the last two) is below
                 dmax = 0.0
                 for r in range(2 * ne):
-                    d = abs(acc[r] - uv[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
+                    delta[r] = acc[r] - uv[r]
+                    d = abs(delta[r]) / (RTOL * (abs(pk[r]) + abs(acc[r])) + 1e-300)
                     dmax = max(dmax, d)
                     uv[r] = acc[r]
                 same = True   # the branch choice must be settled before stopping
@@ -369,12 +391,68 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                 if same and (dmax <= 1.0 or (it > 0 and dmax * dmax <= dprev)):
                     converged = True
                     break
+                # Close with the laws' tangents instead of another evaluation: the laws were
+                # evaluated at uv - delta; each force change over delta is taken by the
+                # trapezoid rule of the tangents at both ends (exact for a stick-slip joint on
+                # its branch), its effect pwe dg added to uv. Accepted when what remains is
+                # below the tolerance: the next linear change (end tangents times pwe dg) plus
+                # the trapezoid's error bound (half the tangent change times delta, a bound
+                # for one kink too), with no stick-slip joint leaving its branch.
+                closed = same
+                for e in range(ne):
+                    if not closed or event[e] != 0:
+                        closed = False
+                    elif codes[e] == STICK_SLIP:
+                        kd = prm[e, 0] if sigma0[e] == 0.0 else 0.0
+                        lin[0, e], lin[1, e], lin[2, e], lin[3, e] = kd * delta[e], 0.0, kd, 0.0
+                    elif smooth[e]:
+                        u1, v1, du, dv = uv[e], uv[ne + e], delta[e], delta[ne + e]
+                        t0 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
+                                              u1 - du, v1 - dv, 0.0, 0.0, 0.0, 0.0, g[e])
+                        t1 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
+                                              u1, v1, 0.0, 0.0, 0.0, 0.0, g[e])
+                        lin[0, e] = 0.5 * ((t0[0] + t1[0]) * du + (t0[1] + t1[1]) * dv)
+                        lin[1, e] = 0.5 * (abs((t1[0] - t0[0]) * du) + abs((t1[1] - t0[1]) * dv))
+                        lin[2, e], lin[3, e] = t1[0], t1[1]
+                    else:
+                        closed = False
+                if closed:
+                    for r in range(2 * ne):    # acc: the change pwe dg of uv
+                        t = 0.0
+                        for e in range(ne):
+                            t += pwe[r, e] * lin[0, e]
+                        acc[r] = t
+                    for r in range(2 * ne):
+                        t, bound = 0.0, 0.0
+                        for e in range(ne):
+                            t += pwe[r, e] * (lin[2, e] * acc[e] + lin[3, e] * acc[ne + e])
+                            bound += abs(pwe[r, e]) * lin[1, e]
+                        if abs(t) + bound > RTOL * (abs(pk[r]) + abs(uv[r] + acc[r])):
+                            closed = False
+                    for e in range(ne):
+                        if closed and codes[e] == STICK_SLIP:
+                            kd, fd = prm[e, 0], prm[e, 1]
+                            if sigma0[e] == 0.0:
+                                closed = abs(kd * (uv[e] + acc[e] - es[e, 0])) <= fd
+                            else:
+                                closed = sigma0[e] * (uv[ne + e] + acc[ne + e]) >= 0.0
+                if closed:
+                    for r in range(2 * ne):
+                        uv[r] += acc[r]
+                    for e in range(ne):
+                        g[e] += lin[0, e]
+                        gc[e] += lin[0, e]
+                        if codes[e] == STICK_SLIP and sigma0[e] != 0.0:
+                            st[e, 0] = uv[e] - sigma0[e] * prm[e, 1] / prm[e, 0]
+                    converged = True
+                    break
                 dprev = dmax
             if not converged:
                 n_noconv += 1
             # end state: the hold used gc at the end node, the history keeps g
             for e in range(ne):
-                _axpy(g[e], u_g[e], kn)
+                for r in range(ny):
+                    kn[r] += g[e] * u_g[e, r]
                 if event[e] != 0:
                     _axpy(gc[e] - g[e], we[e], kn)
                     for i in range(nt):
@@ -402,7 +480,7 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                                                          - ev_ut[e])
                 for nd in range(q - 1):  # the accumulated state holds the old history
                     _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
-            s, kn = kn, s
+            _copy(kn, s)
         stats[S_SUBSTEPS] += m
         for i in range(nin):
             fprev[i] = force[k, i]
@@ -415,15 +493,29 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             if identity:
                 x, v = s[p], s[n + p]
             else:
-                x, v = _dot(shapes[p], s, 0), _dot(shapes[p], s, n)
-            out_x[k, p] = x + _dot(out_z[0, p], z, 0)
-            out_v[k, p] = v + _dot(out_z[1, p], z, 0)
-            out_a[k, p] = _dot(tax[p], s, 0) + _dot(tav[p], s, n) + _dot(out_z[2, p], z, 0)
+                x, v = 0.0, 0.0
+                for c in range(n):
+                    x += shapes[p, c] * s[c]
+                for c in range(n):
+                    v += shapes[p, c] * s[n + c]
+            ax, av = 0.0, 0.0
+            for c in range(n):
+                ax += tax[p, c] * s[c]
+            for c in range(n):
+                av += tav[p, c] * s[n + c]
+            zx, zv, za = 0.0, 0.0, 0.0
+            for c in range(out_z.shape[2]):
+                zx += out_z[0, p, c] * z[c]
+            for c in range(out_z.shape[2]):
+                zv += out_z[1, p, c] * z[c]
+            for c in range(out_z.shape[2]):
+                za += out_z[2, p, c] * z[c]
+            out_x[k, p] = x + zx
+            out_v[k, p] = v + zv
+            out_a[k, p] = ax + av + za
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
-    for r in range(ny):
-        state[r] = s[r]
 
 
 integrate = numba.njit(cache=True, error_model="numpy", fastmath=FASTMATH)(_integrate)
