@@ -101,3 +101,37 @@ def test_f16_like_csv_exports_import_as_the_mat_files_do(tmp_path):
         np.testing.assert_allclose(b.force, a.force, rtol=1e-9, atol=1e-9 * np.abs(a.force).max())
         np.testing.assert_allclose(b.response, a.response, rtol=1e-9,
                                    atol=1e-9 * np.abs(a.response).max())
+
+
+def test_f16_like_exports_import_with_the_period_found(tmp_path, capsys):
+    """No period= in the map: the importer finds the twin's 4096-sample period and its
+    transient first period, says so, and stores the layout the explicit map gives."""
+    from nlid_lab.recordings_io import load_recordings
+    files = T.export_mat(T.twin(True, 4096, 4), tmp_path)[:2]
+    assert main(["import", *map(str, files), "--out", str(tmp_path / "run.h5"), "--map",
+                 "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs",
+                 "force_dofs=0"]) == 0
+    out = capsys.readouterr().out
+    assert ("periodic: 4096-sample period found, 5 periods, the first taken as transient; "
+            "give period= to override (all 2 files)") in out
+    for rec in load_recordings(tmp_path / "run.h5"):
+        assert (rec.layout.period, rec.layout.transient_periods, rec.layout.periods) \
+            == (4096, 1, 4)
+
+
+def test_a_random_export_imports_as_plain_random(tmp_path, capsys):
+    from scipy.io import savemat
+
+    from nlid_lab.recordings_io import load_recordings
+    rng = np.random.default_rng(0)
+    savemat(tmp_path / "r.mat", {"Force": rng.standard_normal((1, 8192 * 3)),
+                                 "Acceleration": rng.standard_normal((3, 8192 * 3)),
+                                 "Fs": 400.0})
+    assert main(["import", str(tmp_path / "r.mat"), "--out", str(tmp_path / "run.h5"),
+                 "--map", "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs",
+                 "force_dofs=0", "--json", str(tmp_path / "i.json")]) == 0
+    assert "no period found in the force: imported as plain random, nothing assumed" \
+        in capsys.readouterr().out
+    assert load_recordings(tmp_path / "run.h5")[0].layout is None
+    assert json.loads((tmp_path / "i.json").read_text())["period_found"] == {
+        str(tmp_path / "r.mat"): None}
