@@ -63,7 +63,7 @@ class ModalFit:
         ``H_i(s) = sum_r A_ir / (s - λ_r) + conj + L_i / s^2 + U0_i + U2_i s^2``.
     lower : ndarray, complex, shape (n_out,)
         Modes below the band act as ``L / s^2`` (mass-like); with ``pseudo_hz``, the real
-        coefficient ``a`` of a pseudo-mode ``a / (ω_l^2 + s^2)`` at ``pseudo_hz[0]``.
+        coefficient ``a`` of a pseudo-mode ``a / (ω_l^2 + 2 ζ ω_l s + s^2)`` at ``pseudo_hz[0]``.
     upper : ndarray, complex, shape (2, n_out)
         Modes above the band act as ``U0 + U2 s^2`` (stiffness-like, with the first term of
         their rise towards resonance); with ``pseudo_hz``, ``upper[0]`` is the real
@@ -107,9 +107,21 @@ def _synthesis(s, poles, residues, lower, upper, pseudo_hz=None):
     gc = 1 / (s[:, None] - np.conj(poles)[None, :])
     modes = g @ residues + gc @ np.conj(residues)
     if pseudo_hz is not None:
-        wl, wu = (2 * np.pi * f for f in pseudo_hz)
-        return modes + lower / (wl ** 2 + s[:, None] ** 2) + upper[0] / (wu ** 2 + s[:, None] ** 2)
+        wl, wu = (_pseudo_mode(s[:, None], f) for f in pseudo_hz)
+        return modes + lower * wl + upper[0] * wu
     return modes + lower / s[:, None] ** 2 + upper[0] + upper[1] * s[:, None] ** 2
+
+
+PSEUDO_DAMPING = 0.05
+"""Damping ratio of the residual pseudo-modes (decays their ringing in a simulation)."""
+
+
+def _pseudo_mode(s: np.ndarray, freq_hz: float) -> np.ndarray:
+    """Receptance ``1 / (ω_r^2 + 2 ζ ω_r s + s^2)`` of a unit pseudo-mode as the written
+    model holds it (damping `PSEUDO_DAMPING`: finite where the Welch kernel's shifted lines
+    reach ``ω_r``)."""
+    w = 2 * np.pi * freq_hz
+    return 1 / (w ** 2 + 2 * PSEUDO_DAMPING * w * s + s ** 2)
 
 
 def stabilisation(freqs: np.ndarray, frf: np.ndarray, band: tuple[float, float], *,
@@ -230,7 +242,8 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
         periods of a periodic run); equal relative weight when omitted.
     pseudo_hz : (lower, upper), optional
         Fit the residual terms as the pseudo-modes a modal model can hold: real coefficients
-        of ``1 / (ω_r^2 + s^2)`` at these frequencies (below and above the band), instead of
+        of ``1 / (ω_r^2 + 2 ζ ω_r s + s^2)`` (ζ = `PSEUDO_DAMPING`) at these frequencies
+        (below and above the band), instead of
         the complex ``L / s^2`` and ``U0 + U2 s^2`` (whose sum a model of modes cannot
         reproduce: on a structure with a strong mode just above the band the two upper terms
         nearly cancelled, and the model written from them missed by 12 % in band).
@@ -257,7 +270,7 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
             + ([np.sum(np.ones_like(s) * kernel, axis=-1), np.sum(s ** 2 * kernel, axis=-1)]
                if upper_on else [])
     else:
-        extra = [np.sum(kernel / ((2 * np.pi * fr) ** 2 + s ** 2), axis=-1)
+        extra = [np.sum(kernel * _pseudo_mode(s, fr), axis=-1)
                  for fr, on in zip(pseudo_hz, residuals) if on]
 
     def to_poles(x):
@@ -379,10 +392,6 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
                    lower, upper, shapes, mac(shapes), support, err, (float(lo), float(hi)),
                    pseudo)
     return fit, stab
-
-
-PSEUDO_DAMPING = 0.05
-"""Damping ratio of the residual pseudo-modes (decays their ringing in a simulation)."""
 
 
 def modal_model(fit: ModalFit, driving_point: int, *, points: list[str] | None = None,
