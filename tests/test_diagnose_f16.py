@@ -64,6 +64,19 @@ def test_f16_like_joint_through_the_cli(tmp_path):
     # the in-band modes the channels see (2.69 ... 10.79 Hz), the torsion near 7.3 Hz
     assert sum(2 < f < 15 for f in freqs) >= 6 and any(abs(f - 7.29) < 0.05 for f in freqs)
     check_joint(d)
+    # MAT files carry no nominal level: each is named by its measured force
+    rms = [np.std(lv["Force"]) for lv in T.twin(True, 4096, 4).levels]
+    assert sorted(lv["label"] for lv in d["fit"]["levels"]) \
+        == sorted(f"{r:.3g} N rms" for r in rms)
+    assert "12.4 N rms" in [lv["label"] for lv in d["fit"]["levels"]]
+
+
+def test_levels_without_a_nominal_value_are_named_by_their_measured_force():
+    from analysis.diagnose.prepare import level_name
+    rec = T.recordings(T.twin(True, 4096, 4))[0]
+    assert level_name(rec) == "12.4 N rms"
+    rec.level = 30.0
+    assert level_name(rec) == "level 30"
 
 
 def d_fit_freqs(d: dict) -> list[float]:
