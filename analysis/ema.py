@@ -124,8 +124,12 @@ def _pseudo_mode(s: np.ndarray, freq_hz: float) -> np.ndarray:
     return 1 / (w ** 2 + 2 * PSEUDO_DAMPING * w * s + s ** 2)
 
 
+TOL_FREQ = 0.01
+"""Relative frequency change between model orders of a stable pole."""
+
+
 def stabilisation(freqs: np.ndarray, frf: np.ndarray, band: tuple[float, float], *,
-                  max_order: int = 40, tol_freq: float = 0.01,
+                  max_order: int = 40, tol_freq: float = TOL_FREQ,
                   tol_damp: float = 0.05) -> Stabilisation:
     """Poles of LSCF fits of orders 2..``max_order`` (pyEMA), with stability flags.
 
@@ -222,7 +226,7 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
            residuals: tuple[bool, bool] = (True, True),
            smoothing: tuple[np.ndarray, np.ndarray] | None = None,
            weights: np.ndarray | None = None,
-           pseudo_hz: tuple[float, float] | None = None):
+           pseudo_hz: tuple[float, float] | None = None, full_output: bool = False):
     """Poles, residues and residual terms fitted to receptance data (variable projection).
 
     Parameters
@@ -247,10 +251,12 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
         the complex ``L / s^2`` and ``U0 + U2 s^2`` (whose sum a model of modes cannot
         reproduce: on a structure with a strong mode just above the band the two upper terms
         nearly cancelled, and the model written from them missed by 12 % in band).
+    full_output : bool
+        Also return the weighted sum of squared residuals and their number.
 
     Returns
     -------
-    poles, residues, lower, upper
+    poles, residues, lower, upper[, cost, n_residuals]
     """
     f = np.asarray(freqs, dtype=float)
     h = np.asarray(receptance, dtype=complex).reshape(f.size, -1)
@@ -308,7 +314,40 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
     else:
         upper = coef[nm + int(lower_on):nm + int(lower_on) + 2] if upper_on \
             else np.stack([zero, zero])
+    if full_output:
+        return to_poles(sol.x), coef[:nm], lower, upper, 2 * float(sol.cost), sol.fun.size
     return to_poles(sol.x), coef[:nm], lower, upper
+
+
+def recurring_poles(stab: Stabilisation, known_hz: np.ndarray, *, cluster: float = 0.005,
+                    min_orders: int = 3) -> list[tuple[float, float, float]]:
+    """Candidate modes the stability flags missed: clusters of poles (stable or not) that,
+    from the order where they first appear, recur at every higher order (at least
+    ``min_orders``) and that no ``known_hz`` mode holds (a mode nearly still at the driving
+    point is identified in frequency but not in damping, which then fails the test).
+
+    Returns
+    -------
+    list of (freq_hz, damping, share)
+        Cluster medians and the share of the orders holding the cluster, most recurrent
+        first.
+    """
+    n = len(stab.orders)
+    pts = sorted((f, z, k) for k in range(n) for f, z in zip(stab.freqs_hz[k], stab.damping[k]))
+    groups: list[list] = []
+    for p in pts:
+        if groups and p[0] - groups[-1][-1][0] <= cluster * p[0]:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    out = []
+    for g in groups:
+        orders = sorted({k for _, _, k in g})
+        fc = float(np.median([p[0] for p in g]))
+        if (len(orders) >= min_orders and orders == list(range(orders[0], n))
+                and not np.any(np.abs(np.asarray(known_hz) - fc) <= 2 * cluster * fc)):
+            out.append((fc, float(np.median([p[1] for p in g])), len(orders) / n))
+    return sorted(out, key=lambda c: -c[2])
 
 
 def mac(a: np.ndarray, b: np.ndarray | None = None) -> np.ndarray:
@@ -381,8 +420,24 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
         smoothing = (smoothing[0], smoothing[1][inb])
     # residual terms as the pseudo-modes the written model holds (`modal_model`)
     pseudo = (lo / 2, 2 * hi) if pseudo_modes and lo > 0 else None
-    poles, res, lower, upper = refine(f[inb], h[inb], fn, zeta, residuals=residuals,
-                                      smoothing=smoothing, weights=w, pseudo_hz=pseudo)
+    kw = dict(residuals=residuals, smoothing=smoothing, weights=w, pseudo_hz=pseudo,
+              full_output=True)
+    poles, res, lower, upper, cost, m = refine(f[inb], h[inb], fn, zeta, **kw)
+    if n_modes is None:
+        # a recurring pole the stability flags missed is a mode when the refined fit keeps it
+        # where the diagram has it (within the stability tolerance) and it lowers the misfit
+        # by more than BIC asks of its parameters (misfit scaled by its own residual variance:
+        # the data need not be at their noise floor)
+        for fc, zc, share in recurring_poles(stab, fn):
+            trial = refine(f[inb], h[inb], np.r_[fn, fc], np.r_[zeta, zc], **kw)
+            added = abs(trial[0][-1]) / (2 * np.pi)
+            extra = 2 + 2 * h.shape[1]
+            if (abs(added - fc) <= TOL_FREQ * fc and lo <= added <= hi
+                    and (cost - trial[4]) * (m - extra * (fn.size + 1)) / trial[4]
+                    > extra * math.log(m)):
+                poles, res, lower, upper, cost, m = trial
+                fn, zeta = np.r_[fn, added], np.r_[zeta, -trial[0][-1].real / abs(trial[0][-1])]
+                support = np.r_[support, share]
     order = np.argsort(np.abs(poles))
     poles, res, support = poles[order], res[order], support[order]
     shapes = real_shapes(poles, res, driving_point)

@@ -2,7 +2,8 @@
 runs it (docs/gvt-workflow.md): import the seven per-level MAT files, detect, fit-linear on the
 lowest level (3 channels, 8 modes in band), diagnose. Levels 2, 4, 6 are held back.
 
-Measured (reduced twin: 4096-sample periods, 1 + 4 periods; seeds fixed): jointed twin ->
+Measured (reduced twin: 4096-sample periods, 1 + 4 periods; seeds fixed; before fit-linear
+found the 9.995 Hz mode): jointed twin ->
 discrepancy, hysteresis between the wing and payload channels ranked first (45 % of the
 misfit; the best grounded one, a mass at the payload, 30 %), held-back FRF error 0.053 ->
 0.016, every held-back level down by half or more, level 1 0.014 -> 0.018 under its floor
@@ -61,8 +62,12 @@ def test_f16_like_joint_through_the_cli(tmp_path):
     d = chain(tmp_path, True, 4096, 4)
     assert d["detect"]["verdict"] == "nonlinear"
     freqs = d_fit_freqs(d)
-    # the in-band modes the channels see (2.69 ... 10.79 Hz), the torsion near 7.3 Hz
-    assert sum(2 < f < 15 for f in freqs) >= 6 and any(abs(f - 7.29) < 0.05 for f in freqs)
+    # the eight in-band modes of the structure (2.687 ... 10.788 Hz), the torsion near 7.3 Hz
+    # and the 9.995 Hz mode nearly still at the drive point (its damping unstable over the
+    # model orders: added by its misfit reduction, `analysis.ema.recurring_poles`)
+    true = [2.687, 3.33, 5.845, 7.3, 8.033, 9.325, 9.995, 10.788]
+    assert len(freqs) == 8 and all(abs(f - t) < 0.02 * t for f, t in zip(sorted(freqs), true))
+    assert any(abs(f - 7.29) < 0.05 for f in freqs) and any(abs(f - 9.995) < 0.01 for f in freqs)
     check_joint(d)
     # MAT files carry no nominal level: each is named by its measured force
     rms = [np.std(lv["Force"]) for lv in T.twin(True, 4096, 4).levels]
