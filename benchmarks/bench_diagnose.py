@@ -121,7 +121,7 @@ def run_f16(period: int, periods: int) -> None:
         run, lin = str(root / "run.h5"), str(root / "linear.toml")
         steps = {"import": ["import", *files, "--out", run, "--map", "force=Force",
                             "response=Acceleration[0:3]:m/s^2", "fs=Fs", "force_dofs=0",
-                            'force_hold="none"', f"period={period}", "transient_periods=1"],
+                            'force_hold="none"'],            # the period found in the force
                  "fit-linear": ["fit-linear", run, "--out", lin, "--band", "2", "15",
                                 "--points", "wing_drive,wing_joint,payload", "--json",
                                 str(root / "fit.json")],
