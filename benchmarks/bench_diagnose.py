@@ -1,7 +1,10 @@
 """Benchmark: ``nlid-lab diagnose`` on a 3-DOF, 3-level random case (issue 6: under a minute)
 and on the jointed GVT-like case (``--case jointed``: fit-linear on the lowest of five
 multisine levels, then the diagnosis of a friction joint between two accelerometers; issue 15:
-under a minute).
+under a minute) and on the F-16-like GVT twin (``--case f16``: the seven per-level MAT
+exports of `tests/f16_twin.py` imported, fit-linear on the lowest level, diagnose; F-16 layout:
+8192-sample periods, 9 periods with the first transient; ``--period 4096 --periods 4`` for the
+reduced twin of the default tests).
 
 Prints the wall time of the whole command (NPZ loading, search of the full candidate library,
 reverse-path refinement, second search pass on the corrected model, held-back comparison,
@@ -104,8 +107,62 @@ def run_jointed() -> None:
           f"held-back FRF error {res['fit']['before']:.3g} -> {res['fit']['after']:.3g}")
 
 
+def run_f16(period: int, periods: int) -> None:
+    """import + fit-linear + diagnose on the F-16-like twin's MAT exports, each step timed."""
+    import os
+
+    import f16_twin as T
+    t0 = time.perf_counter()
+    twin = T.twin(True, period, periods)
+    t_sim = time.perf_counter() - t0
+    load0 = os.getloadavg()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        files = sorted(map(str, T.export_mat(twin, root)))
+        run, lin = str(root / "run.h5"), str(root / "linear.toml")
+        steps = {"import": ["import", *files, "--out", run, "--map", "force=Force",
+                            "response=Acceleration[0:3]:m/s^2", "fs=Fs", "force_dofs=0",
+                            'force_hold="none"'],            # the period found in the force
+                 "fit-linear": ["fit-linear", run, "--out", lin, "--band", "2", "15",
+                                "--points", "wing_drive,wing_joint,payload", "--json",
+                                str(root / "fit.json")],
+                 "diagnose": ["diagnose", lin, run, "--json", str(root / "d.json"),
+                              "--model-out", str(root / "fixed.toml")]}
+        took, codes = {}, {}
+        for name, argv in steps.items():
+            t0 = time.perf_counter()
+            codes[name] = main(argv if name == "import" else [*argv, "--quiet"])
+            took[name] = time.perf_counter() - t0
+        res = json.loads((root / "d.json").read_text())
+        fit = json.loads((root / "fit.json").read_text())
+    load1 = os.getloadavg()
+    total = took["fit-linear"] + took["diagnose"]
+    m = res["missing_physics"][0] if res["missing_physics"] else {}
+    held = [lv for lv in res["fit"]["levels"] if lv["held_back"]]
+    print(f"case: F-16-like twin (11 DOF + shaker, Iwan-like joint), 7 MAT levels x "
+          f"{period} x (1 + {periods}) samples, 3 accelerometers; exit codes "
+          f"{', '.join(f'{k} {v}' for k, v in codes.items())}")
+    print(f"simulate  the twin (not timed below):            {t_sim:8.2f} s")
+    for name in steps:
+        print(f"{name:<9} command:                               {took[name]:8.2f} s")
+    print(f"total     fit-linear + diagnose:                 {total:8.2f} s")
+    print(f"budget    {BUDGET_S:.0f} s: {'met' if total < BUDGET_S else 'MISSED'} "
+          f"({total / BUDGET_S:.2f} of it); load average {load0[0]:.1f} before, "
+          f"{load1[0]:.1f} after, {os.cpu_count()} cores")
+    print(f"fit       {len(fit['modes'])} modes: "
+          + ", ".join(f"{md['freq_hz']:.3f}" for md in fit["modes"]) + " Hz")
+    print(f"result    {res['verdict']}: {m.get('kind')} between {m.get('points')}, held-back "
+          f"FRF error {res['fit']['before']:.3g} -> {res['fit']['after']:.3g} ("
+          + ", ".join(f"{lv['before']:.3g} -> {lv['after']:.3g}" for lv in held) + ")")
+
+
 if __name__ == "__main__":
-    if "--case" in sys.argv and sys.argv[sys.argv.index("--case") + 1] == "jointed":
+    case = sys.argv[sys.argv.index("--case") + 1] if "--case" in sys.argv else "cubic"
+    if case == "jointed":
         run_jointed()
+    elif case == "f16":
+        def opt(name: str, default: int) -> int:
+            return int(sys.argv[sys.argv.index(name) + 1]) if name in sys.argv else default
+        run_f16(opt("--period", 8192), opt("--periods", 8))
     else:
         run()

@@ -69,6 +69,16 @@ def record_level(rec: Recording) -> float:
     return float(np.abs(f).max())
 
 
+def level_name(rec: Recording) -> str:
+    """A level as people read it: its nominal value (``level 30``), else its measured force,
+    rounded to three figures (``12.4 N rms`` random, ``4.8 N`` sine amplitude): exports such
+    as MAT files carry no nominal level."""
+    if rec.level is not None:
+        return f"level {rec.level:g}"
+    unit = "N rms" if rec.excitation == "random" else "N"
+    return f"{record_level(rec):.3g} {unit}"
+
+
 def analysis_band(rec: Recording, nperseg: int) -> tuple[float, float]:
     """Excited band of a random recording (from its force spectrum)."""
     f = remove_dc(rec.force)

@@ -15,8 +15,8 @@ from .compare import (FLOOR, choose_nperseg, element_force, level_frf, model_frf
                       stuck_linear, weighted_error)
 from .leakage import leakage_bias, level_floor
 from .locate import level_dependence, mismatch_band
-from .prepare import (DiagnoseInputError, Prepared, analysis_band, prepare_random, prepared_band,
-                      record_level, split_segment)
+from .prepare import (DiagnoseInputError, Prepared, analysis_band, level_name, prepare_random,
+                      prepared_band, record_level, split_segment)
 from .replay import Replay, horizon_samples, replay, steady_replay
 from .report import METRIC, Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
 from .select import SHORTLIST, Fit, RandomSearch
@@ -93,7 +93,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     if band is None:
         band = analysis_band(recs[0], per[0] or nps)
     band = (float(band[0]), float(band[1]))
-    preps = [prepare_random(r, band, f"level {record_level(r):g}",
+    preps = [prepare_random(r, band, level_name(r),
                             period=int(p) if p else None) for r, p in zip(recs, per)]
     hold = _pick_holdout([p.level for p in preps], holdout)
     if hold is None:

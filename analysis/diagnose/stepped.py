@@ -29,6 +29,7 @@ from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
 from .locate import level_dependence, mismatch_band
+from .prepare import level_name
 from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, _apply, _pick_holdout, _pruned,
                      joint_veto, misfit_summary,
                      decide, linear_only, model_change, pruned_labels)
@@ -126,7 +127,7 @@ class SteppedSearch(Search):
         x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
         v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
         extra = candidate_extras(model, (x, v), (x, v))
-        levels = [_level(model, r, f, extra, floor, f"level {f.level:g}")
+        levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
 
@@ -269,7 +270,7 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
         f, i1 = frfs[i], list(HARMONICS).index(1)
         xb, xa = hbm(start, i), hbm(fixed, i)
         hb, ha = xb[:, i1] / f.force[:, None], xa[:, i1] / f.force[:, None]
-        return LevelCurves(f"level {f.level:g}", f.level, i == hold, f.freqs,
+        return LevelCurves(level_name(recs[i]), f.level, i == hold, f.freqs,
                            f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
                            _error(f, hb), _error(f, ha), None,
                            periodic_replay(f.freqs, f.harmonics, f.X, xb),

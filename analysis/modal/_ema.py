@@ -63,7 +63,7 @@ class ModalFit:
         ``H_i(s) = sum_r A_ir / (s - λ_r) + conj + L_i / s^2 + U0_i + U2_i s^2``.
     lower : ndarray, complex, shape (n_out,)
         Modes below the band act as ``L / s^2`` (mass-like); with ``pseudo_hz``, the real
-        coefficient ``a`` of a pseudo-mode ``a / (ω_l^2 + s^2)`` at ``pseudo_hz[0]``.
+        coefficient ``a`` of a pseudo-mode ``a / (ω_l^2 + 2 ζ ω_l s + s^2)`` at ``pseudo_hz[0]``.
     upper : ndarray, complex, shape (2, n_out)
         Modes above the band act as ``U0 + U2 s^2`` (stiffness-like, with the first term of
         their rise towards resonance); with ``pseudo_hz``, ``upper[0]`` is the real
@@ -107,13 +107,29 @@ def _synthesis(s, poles, residues, lower, upper, pseudo_hz=None):
     gc = 1 / (s[:, None] - np.conj(poles)[None, :])
     modes = g @ residues + gc @ np.conj(residues)
     if pseudo_hz is not None:
-        wl, wu = (2 * np.pi * f for f in pseudo_hz)
-        return modes + lower / (wl ** 2 + s[:, None] ** 2) + upper[0] / (wu ** 2 + s[:, None] ** 2)
+        wl, wu = (_pseudo_mode(s[:, None], f) for f in pseudo_hz)
+        return modes + lower * wl + upper[0] * wu
     return modes + lower / s[:, None] ** 2 + upper[0] + upper[1] * s[:, None] ** 2
 
 
+PSEUDO_DAMPING = 0.05
+"""Damping ratio of the residual pseudo-modes (decays their ringing in a simulation)."""
+
+
+def _pseudo_mode(s: np.ndarray, freq_hz: float) -> np.ndarray:
+    """Receptance ``1 / (ω_r^2 + 2 ζ ω_r s + s^2)`` of a unit pseudo-mode as the written
+    model holds it (damping `PSEUDO_DAMPING`: finite where the Welch kernel's shifted lines
+    reach ``ω_r``)."""
+    w = 2 * np.pi * freq_hz
+    return 1 / (w ** 2 + 2 * PSEUDO_DAMPING * w * s + s ** 2)
+
+
+TOL_FREQ = 0.01
+"""Relative frequency change between model orders of a stable pole."""
+
+
 def stabilisation(freqs: np.ndarray, frf: np.ndarray, band: tuple[float, float], *,
-                  max_order: int = 40, tol_freq: float = 0.01,
+                  max_order: int = 40, tol_freq: float = TOL_FREQ,
                   tol_damp: float = 0.05) -> Stabilisation:
     """Poles of LSCF fits of orders 2..``max_order`` (pyEMA), with stability flags.
 
@@ -210,7 +226,7 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
            residuals: tuple[bool, bool] = (True, True),
            smoothing: tuple[np.ndarray, np.ndarray] | None = None,
            weights: np.ndarray | None = None,
-           pseudo_hz: tuple[float, float] | None = None):
+           pseudo_hz: tuple[float, float] | None = None, full_output: bool = False):
     """Poles, residues and residual terms fitted to receptance data (variable projection).
 
     Parameters
@@ -230,14 +246,17 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
         periods of a periodic run); equal relative weight when omitted.
     pseudo_hz : (lower, upper), optional
         Fit the residual terms as the pseudo-modes a modal model can hold: real coefficients
-        of ``1 / (ω_r^2 + s^2)`` at these frequencies (below and above the band), instead of
+        of ``1 / (ω_r^2 + 2 ζ ω_r s + s^2)`` (ζ = `PSEUDO_DAMPING`) at these frequencies
+        (below and above the band), instead of
         the complex ``L / s^2`` and ``U0 + U2 s^2`` (whose sum a model of modes cannot
         reproduce: on a structure with a strong mode just above the band the two upper terms
         nearly cancelled, and the model written from them missed by 12 % in band).
+    full_output : bool
+        Also return the weighted sum of squared residuals and their number.
 
     Returns
     -------
-    poles, residues, lower, upper
+    poles, residues, lower, upper[, cost, n_residuals]
     """
     f = np.asarray(freqs, dtype=float)
     h = np.asarray(receptance, dtype=complex).reshape(f.size, -1)
@@ -257,7 +276,7 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
             + ([np.sum(np.ones_like(s) * kernel, axis=-1), np.sum(s ** 2 * kernel, axis=-1)]
                if upper_on else [])
     else:
-        extra = [np.sum(kernel / ((2 * np.pi * fr) ** 2 + s ** 2), axis=-1)
+        extra = [np.sum(kernel * _pseudo_mode(s, fr), axis=-1)
                  for fr, on in zip(pseudo_hz, residuals) if on]
 
     def to_poles(x):
@@ -295,7 +314,40 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
     else:
         upper = coef[nm + int(lower_on):nm + int(lower_on) + 2] if upper_on \
             else np.stack([zero, zero])
+    if full_output:
+        return to_poles(sol.x), coef[:nm], lower, upper, 2 * float(sol.cost), sol.fun.size
     return to_poles(sol.x), coef[:nm], lower, upper
+
+
+def recurring_poles(stab: Stabilisation, known_hz: np.ndarray, *, cluster: float = 0.005,
+                    min_orders: int = 3) -> list[tuple[float, float, float]]:
+    """Candidate modes the stability flags missed: clusters of poles (stable or not) that,
+    from the order where they first appear, recur at every higher order (at least
+    ``min_orders``) and that no ``known_hz`` mode holds (a mode nearly still at the driving
+    point is identified in frequency but not in damping, which then fails the test).
+
+    Returns
+    -------
+    list of (freq_hz, damping, share)
+        Cluster medians and the share of the orders holding the cluster, most recurrent
+        first.
+    """
+    n = len(stab.orders)
+    pts = sorted((f, z, k) for k in range(n) for f, z in zip(stab.freqs_hz[k], stab.damping[k]))
+    groups: list[list] = []
+    for p in pts:
+        if groups and p[0] - groups[-1][-1][0] <= cluster * p[0]:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    out = []
+    for g in groups:
+        orders = sorted({k for _, _, k in g})
+        fc = float(np.median([p[0] for p in g]))
+        if (len(orders) >= min_orders and orders == list(range(orders[0], n))
+                and not np.any(np.abs(np.asarray(known_hz) - fc) <= 2 * cluster * fc)):
+            out.append((fc, float(np.median([p[1] for p in g])), len(orders) / n))
+    return sorted(out, key=lambda c: -c[2])
 
 
 def mac(a: np.ndarray, b: np.ndarray | None = None) -> np.ndarray:
@@ -368,8 +420,24 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
         smoothing = (smoothing[0], smoothing[1][inb])
     # residual terms as the pseudo-modes the written model holds (`modal_model`)
     pseudo = (lo / 2, 2 * hi) if pseudo_modes and lo > 0 else None
-    poles, res, lower, upper = refine(f[inb], h[inb], fn, zeta, residuals=residuals,
-                                      smoothing=smoothing, weights=w, pseudo_hz=pseudo)
+    kw = dict(residuals=residuals, smoothing=smoothing, weights=w, pseudo_hz=pseudo,
+              full_output=True)
+    poles, res, lower, upper, cost, m = refine(f[inb], h[inb], fn, zeta, **kw)
+    if n_modes is None:
+        # a recurring pole the stability flags missed is a mode when the refined fit keeps it
+        # where the diagram has it (within the stability tolerance) and it lowers the misfit
+        # by more than BIC asks of its parameters (misfit scaled by its own residual variance:
+        # the data need not be at their noise floor)
+        for fc, zc, share in recurring_poles(stab, fn):
+            trial = refine(f[inb], h[inb], np.r_[fn, fc], np.r_[zeta, zc], **kw)
+            added = abs(trial[0][-1]) / (2 * np.pi)
+            extra = 2 + 2 * h.shape[1]
+            if (abs(added - fc) <= TOL_FREQ * fc and lo <= added <= hi
+                    and (cost - trial[4]) * (m - extra * (fn.size + 1)) / trial[4]
+                    > extra * math.log(m)):
+                poles, res, lower, upper, cost, m = trial
+                fn, zeta = np.r_[fn, added], np.r_[zeta, -trial[0][-1].real / abs(trial[0][-1])]
+                support = np.r_[support, share]
     order = np.argsort(np.abs(poles))
     poles, res, support = poles[order], res[order], support[order]
     shapes = real_shapes(poles, res, driving_point)
@@ -379,10 +447,6 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
                    lower, upper, shapes, mac(shapes), support, err, (float(lo), float(hi)),
                    pseudo)
     return fit, stab
-
-
-PSEUDO_DAMPING = 0.05
-"""Damping ratio of the residual pseudo-modes (decays their ringing in a simulation)."""
 
 
 def modal_model(fit: ModalFit, driving_point: int, *, points: list[str] | None = None,

@@ -1,10 +1,10 @@
 """What a measurement is: a recording of one level, its sensor map, the law of its sweep (given
-or estimated from the force), response kinds and their conversion (integration,
-differentiation, bands, hold images).
+or estimated from the force), its period when a file names none, response kinds and their
+conversion (integration, differentiation, bands, hold images).
 
 Modules behind this API: ``_recording``, ``_sensors``, ``_signals``, ``_sweep_law``,
-``_sweep_estimate``. Code inside this package imports its siblings by their private module
-path.
+``_sweep_estimate``, ``_periodicity``. Code inside this package imports its siblings by their
+private module path.
 """
 
 from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
@@ -17,12 +17,13 @@ from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation
                        signal_bandwidth, steady_periods, to_kinematics)
 from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
 from ._sweep_estimate import active_span, estimate_sweep
+from ._periodicity import SHARE_MIN, find_period
 
 __all__ = ["DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
            "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS", "MAX_SAMPLE", "MIN_FS", "MIXED",
-           "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SWEEP_KEYS", "SWEEP_LAWS", "SensorMap",
-           "Sweep", "SweepLaw", "active_span", "at_points", "change_kind", "channel_labels",
-           "estimate_sweep", "excitation_band", "hold_image_gain", "hold_image_response",
-           "hold_image_taps", "hold_images", "model_at_sensors", "names", "one_kind",
-           "period_spectra", "periodic_kinematics", "remove_dc", "remove_hold_images", "sensor_map",
-           "signal_bandwidth", "steady_periods", "to_kinematics"]
+           "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SHARE_MIN", "SWEEP_KEYS", "SWEEP_LAWS",
+           "SensorMap", "Sweep", "SweepLaw", "active_span", "at_points", "change_kind",
+           "channel_labels", "estimate_sweep", "excitation_band", "find_period", "hold_image_gain",
+           "hold_image_response", "hold_image_taps", "hold_images", "model_at_sensors", "names",
+           "one_kind", "period_spectra", "periodic_kinematics", "remove_dc", "remove_hold_images",
+           "sensor_map", "signal_bandwidth", "steady_periods", "to_kinematics"]

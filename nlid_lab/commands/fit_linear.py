@@ -9,10 +9,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from analysis.diagnose.prepare import level_name
 from analysis.errors import InputError
 
-from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_overwrite,
-                       summary_stream, write_json)
+from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
+                       write_json)
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         stabilisation(fit).savefig(args.plot)
     result = summary(fit)
     result["level"] = rec.level
-    text = (f"level {level_text(rec.level)}\n" + format_summary(result, rec.response_kind)
+    text = (f"fitted on {level_name(rec)}\n" + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
     write_json(result, args.json)

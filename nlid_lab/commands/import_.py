@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS
+from analysis.recordings import RESPONSE_KINDS, find_period
 
 from ..formats import _recordings_io as recordings_io, describe, parse_sweep_option
 from .. import store
@@ -25,7 +25,7 @@ def _sweep_keys(args: argparse.Namespace) -> dict:
     return keys
 
 
-def _read(src: Path, args: argparse.Namespace):
+def _read(src: Path, args: argparse.Namespace, found: dict):
     suffix = src.suffix.lower()
     given = _sweep_keys(args)
     if suffix == ".npz":
@@ -43,7 +43,7 @@ def _read(src: Path, args: argparse.Namespace):
             raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
                              "(e.g. --map force=Force response=Acceleration1,Acceleration2 "
                              "fs=400)")
-        return _mapped({**mat_io.apply_map(tree, cmap, str(src)), **given}, src, args)
+        return _mapped({**mat_io.apply_map(tree, cmap, str(src)), **given}, src, args, found)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
         return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
@@ -65,7 +65,7 @@ def _read(src: Path, args: argparse.Namespace):
                              "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
                              + ", ".join(sorted(tree)))
         return _mapped({**mat_io.apply_map(tree, _channel_map(args.map), str(src)), **given},
-                       src, args)
+                       src, args, found)
     raise InputError(f"{src}: unknown recording type '{suffix}'; import .npz, .csv or .mat")
 
 
@@ -77,11 +77,43 @@ def _channel_map(items: list[str]):
     return mat_io.ChannelMap.from_items(items)
 
 
-def _mapped(keys: dict, src: Path, args: argparse.Namespace):
-    """The recording of the keys a channel map took from ``src``."""
+def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
+    """The recording of the keys a channel map took from ``src``; a random record whose map
+    gives no period gets the one its force shows (`analysis.recordings._periodicity`), noted in
+    ``found[src]`` (None: none found)."""
     if args.response_kind:
         keys["response_kind"] = args.response_kind
+    if (keys.get("excitation", "random") == "random" and "freqs" not in keys
+            and not set(recordings_io.LAYOUT_KEYS) & set(keys)):
+        p = find_period(keys["force"])
+        found[src] = p
+        if p is not None and not p.remainder:
+            keys.update(period=p.period, transient_periods=p.transient_periods)
     return recordings_io.recording_from_keys(keys, src)
+
+
+def _period_lines(found: dict) -> list[str]:
+    """What the import found or assumed about the period, one line per distinct finding."""
+    says: dict[str, list[Path]] = {}
+    for src, p in found.items():
+        if p is None:
+            text = ("no period found in the force: imported as plain random, nothing "
+                    "assumed; give period= (samples) if it is periodic")
+        elif p.remainder:
+            text = (f"the force repeats every {p.period} samples but the record is not whole "
+                    f"periods ({p.remainder} samples over {p.periods}): imported as plain "
+                    "random; trim it and give period=")
+        else:
+            first = ("no transient (the first period repeats like the others)"
+                     if p.transient_periods == 0 else "the first taken as transient"
+                     if p.transient_periods == 1 else
+                     f"the first {p.transient_periods} taken as transient")
+            text = (f"periodic: {p.period}-sample period found, {p.periods} periods, {first}; "
+                    "give period= to override")
+        says.setdefault(text, []).append(src)
+    return [text + ("" if len(srcs) == len(found) == 1 else f" ({len(srcs)} of "
+                    f"{len(found)} files)" if len(srcs) < len(found) else f" (all "
+                    f"{len(found)} files)") for text, srcs in says.items()]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
     if args.level is not None and len(sources) > 1:
         raise InputError("--level names the level of one recording; with several files each "
                          "level comes from its file (a level key, else the force)")
-    recs = [_read(src, args) for src in sources]
+    found: dict = {}
+    recs = [_read(src, args, found) for src in sources]
     if args.sensors:
         keys = recordings_io.read_sensors(args.sensors)
         recs = [recordings_io.with_sensors(r, keys) for r in recs]
@@ -110,6 +143,10 @@ def run(args: argparse.Namespace) -> int:
                   k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
     if rec.sweep is not None:
         result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
+    if found:
+        result["period_found"] = {str(src): None if p is None else {
+            "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
+            "share": p.share, "remainder": p.remainder} for src, p in found.items()}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "
@@ -118,6 +155,8 @@ def run(args: argparse.Namespace) -> int:
         for src, r in zip(sources, recs):
             if r.sweep is not None:
                 print(f"  {src.name}: {describe(r.sweep)}")
+        for line in _period_lines(found):
+            print(f"  {line}")
     write_json(result, args.json)
     return 0
 

@@ -169,7 +169,7 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
 def modal_fit_section(run: RunData) -> Section | None:
     """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
     one (stabilisation diagram and the modes), or why it cannot be made."""
-    from analysis.diagnose.prepare import record_level
+    from analysis.diagnose.prepare import level_name, record_level
     from analysis.errors import EstimationError
     from analysis.modal import fit_linear
     random = [r for r in run.recordings if r.excitation == "random"]
@@ -180,7 +180,7 @@ def modal_fit_section(run: RunData) -> Section | None:
     try:
         fit = fit_linear(rec)
     except (InputError, EstimationError) as exc:
-        return Section(title, f"No modal fit of level {html.escape(level_text(rec.level))}: "
+        return Section(title, f"No modal fit of {html.escape(level_name(rec))}: "
                        f"{html.escape(str(exc))}.")
     m, model = fit.modes, fit.model
     mac = m.mac - np.eye(m.mac.shape[0])
@@ -189,7 +189,7 @@ def modal_fit_section(run: RunData) -> Section | None:
                    for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support)))
     errors = ", ".join(f"DOF {p} {100 * e:.1f} %" for p, e in zip(model.points, fit.frf_error))
     sec = Section(title,
-                  f"Level {html.escape(level_text(rec.level))}, the closest to linear: "
+                  f"The lowest level ({html.escape(level_name(rec))}), the closest to linear: "
                   f"{html.escape(fit.data.method)}, modes in {m.band_hz[0]:.3g}-"
                   f"{m.band_hz[1]:.3g} Hz chosen where the poles stay stable as the model "
                   "order grows. In-band FRF error of the modal model "

@@ -2,7 +2,8 @@
 runs it (docs/gvt-workflow.md): import the seven per-level MAT files, detect, fit-linear on the
 lowest level (3 channels, 8 modes in band), diagnose. Levels 2, 4, 6 are held back.
 
-Measured (reduced twin: 4096-sample periods, 1 + 4 periods; seeds fixed): jointed twin ->
+Measured (reduced twin: 4096-sample periods, 1 + 4 periods; seeds fixed; before fit-linear
+found the 9.995 Hz mode): jointed twin ->
 discrepancy, hysteresis between the wing and payload channels ranked first (45 % of the
 misfit; the best grounded one, a mass at the payload, 30 %), held-back FRF error 0.053 ->
 0.016, every held-back level down by half or more, level 1 0.014 -> 0.018 under its floor
@@ -61,9 +62,26 @@ def test_f16_like_joint_through_the_cli(tmp_path):
     d = chain(tmp_path, True, 4096, 4)
     assert d["detect"]["verdict"] == "nonlinear"
     freqs = d_fit_freqs(d)
-    # the in-band modes the channels see (2.69 ... 10.79 Hz), the torsion near 7.3 Hz
-    assert sum(2 < f < 15 for f in freqs) >= 6 and any(abs(f - 7.29) < 0.05 for f in freqs)
+    # the eight in-band modes of the structure (2.687 ... 10.788 Hz), the torsion near 7.3 Hz
+    # and the 9.995 Hz mode nearly still at the drive point (its damping unstable over the
+    # model orders: added by its misfit reduction, `analysis.ema.recurring_poles`)
+    true = [2.687, 3.33, 5.845, 7.3, 8.033, 9.325, 9.995, 10.788]
+    assert len(freqs) == 8 and all(abs(f - t) < 0.02 * t for f, t in zip(sorted(freqs), true))
+    assert any(abs(f - 7.29) < 0.05 for f in freqs) and any(abs(f - 9.995) < 0.01 for f in freqs)
     check_joint(d)
+    # MAT files carry no nominal level: each is named by its measured force
+    rms = [np.std(lv["Force"]) for lv in T.twin(True, 4096, 4).levels]
+    assert sorted(lv["label"] for lv in d["fit"]["levels"]) \
+        == sorted(f"{r:.3g} N rms" for r in rms)
+    assert "12.4 N rms" in [lv["label"] for lv in d["fit"]["levels"]]
+
+
+def test_levels_without_a_nominal_value_are_named_by_their_measured_force():
+    from analysis.diagnose.prepare import level_name
+    rec = T.recordings(T.twin(True, 4096, 4))[0]
+    assert level_name(rec) == "12.4 N rms"
+    rec.level = 30.0
+    assert level_name(rec) == "level 30"
 
 
 def d_fit_freqs(d: dict) -> list[float]:
@@ -101,3 +119,37 @@ def test_f16_like_csv_exports_import_as_the_mat_files_do(tmp_path):
         np.testing.assert_allclose(b.force, a.force, rtol=1e-9, atol=1e-9 * np.abs(a.force).max())
         np.testing.assert_allclose(b.response, a.response, rtol=1e-9,
                                    atol=1e-9 * np.abs(a.response).max())
+
+
+def test_f16_like_exports_import_with_the_period_found(tmp_path, capsys):
+    """No period= in the map: the importer finds the twin's 4096-sample period and its
+    transient first period, says so, and stores the layout the explicit map gives."""
+    from nlid_lab.formats import load_recordings
+    files = T.export_mat(T.twin(True, 4096, 4), tmp_path)[:2]
+    assert main(["import", *map(str, files), "--out", str(tmp_path / "run.h5"), "--map",
+                 "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs",
+                 "force_dofs=0"]) == 0
+    out = capsys.readouterr().out
+    assert ("periodic: 4096-sample period found, 5 periods, the first taken as transient; "
+            "give period= to override (all 2 files)") in out
+    for rec in load_recordings(tmp_path / "run.h5"):
+        assert (rec.layout.period, rec.layout.transient_periods, rec.layout.periods) \
+            == (4096, 1, 4)
+
+
+def test_a_random_export_imports_as_plain_random(tmp_path, capsys):
+    from scipy.io import savemat
+
+    from nlid_lab.formats import load_recordings
+    rng = np.random.default_rng(0)
+    savemat(tmp_path / "r.mat", {"Force": rng.standard_normal((1, 8192 * 3)),
+                                 "Acceleration": rng.standard_normal((3, 8192 * 3)),
+                                 "Fs": 400.0})
+    assert main(["import", str(tmp_path / "r.mat"), "--out", str(tmp_path / "run.h5"),
+                 "--map", "force=Force", "response=Acceleration[0:3]:m/s^2", "fs=Fs",
+                 "force_dofs=0", "--json", str(tmp_path / "i.json")]) == 0
+    assert "no period found in the force: imported as plain random, nothing assumed" \
+        in capsys.readouterr().out
+    assert load_recordings(tmp_path / "run.h5")[0].layout is None
+    assert json.loads((tmp_path / "i.json").read_text())["period_found"] == {
+        str(tmp_path / "r.mat"): None}

@@ -1,0 +1,158 @@
+"""Is a record periodic, and with which period? For exports that carry no period (a MATLAB
+or CSV file of a periodic multisine test holds only the arrays and the sample rate).
+
+A signal of period ``P`` repeated ``n`` times has, in the FFT of the whole ``n P`` samples,
+energy on every ``n``-th line only; noise spreads evenly over all lines. The period is found
+in two steps: candidate lags from the autocorrelation (its peaks after the main lobe), then
+for each candidate the share of the record's power on the lines of period ``P``
+(`periodic_share`). A random (non-periodic) record holds about ``1/n`` of its power there,
+a periodic one all of it but its noise. The first period is a start-up transient when it
+differs from the next one by more than the steady periods differ from each other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: least share of the (steady) record's power on the period's lines for "clearly periodic":
+#: the periodic part is at least 10 dB above what is not (noise, drift, a transient left)
+SHARE_MIN = 0.9
+#: least normalised autocorrelation at a candidate lag (below it no lag is tried)
+CORR_MIN = 0.5
+#: candidate lags tried, highest autocorrelation first
+MAX_CANDIDATES = 8
+#: a leading period is a transient when its change to the next exceeds the later changes by
+#: this many standard deviations of a noise-only change (relative std ``sqrt(2 / P)``)
+TRANSIENT_SIGMAS = 4.0
+
+
+@dataclass(frozen=True)
+class Periodicity:
+    """The period found in a record.
+
+    Attributes
+    ----------
+    period : int
+        Samples per period.
+    periods : int
+        Whole periods in the record (transient ones included).
+    transient_periods : int
+        Leading periods that differ from the steady ones more than these differ from each
+        other (start-up transient).
+    share : float
+        Share of the steady part's power (DC excluded) on the period's spectral lines.
+    remainder : int
+        Samples after the last whole period (0 when the record is whole periods).
+    """
+
+    period: int
+    periods: int
+    transient_periods: int
+    share: float
+    remainder: int
+
+
+def find_period(signal: np.ndarray, min_period: int = 2) -> Periodicity | None:
+    """The period of a clearly periodic record, else None.
+
+    Parameters
+    ----------
+    signal : ndarray, shape (n,) or (n, n_channels)
+        The record (e.g. the measured forces), time along axis 0.
+    min_period : int
+        Shortest period considered, samples.
+
+    Returns
+    -------
+    Periodicity or None
+        None when no lag holds at least `SHARE_MIN` of the power on its lines over at least
+        two whole periods (random, swept or too short records).
+    """
+    x = np.asarray(signal, dtype=float)
+    x = x.reshape(x.shape[0], -1) - x.mean(axis=0).reshape(1, -1)
+    n = x.shape[0]
+    if n < 2 * max(min_period, 2) or not np.any(x):
+        return None
+    found = None
+    for lag in _candidate_lags(x, max(min_period, 2)):
+        total = n // lag
+        start = lag if total >= 3 else 0          # drop a possible transient first period
+        share = periodic_share(x[start:total * lag], total - start // lag)
+        if share >= SHARE_MIN and (found is None or lag < found[0]):
+            found = (lag, share)
+    if found is None:
+        return None
+    lag, _ = found
+    total = n // lag
+    transient = transient_periods(x[:total * lag], lag)
+    share = periodic_share(x[transient * lag:total * lag], total - transient)
+    return Periodicity(lag, total, transient, float(share), n - total * lag)
+
+
+def _candidate_lags(x: np.ndarray, min_period: int) -> list[int]:
+    """Lags of the autocorrelation's peaks (after its main lobe, at least `CORR_MIN`, up to
+    half the record), the highest `MAX_CANDIDATES` of them."""
+    n = x.shape[0]
+    spec = np.fft.rfft(x, 2 * n, axis=0)
+    acf = np.fft.irfft((np.abs(spec) ** 2).sum(axis=1), 2 * n)[:n // 2 + 1]
+    r = acf / (n - np.arange(acf.size)) / (acf[0] / n)      # unbiased, r[0] = 1
+    below = np.flatnonzero(r < CORR_MIN)
+    if below.size == 0:
+        return []
+    lo = max(int(below[0]), min_period)
+    mid = r[lo:-1]
+    peaks = lo + np.flatnonzero((mid >= CORR_MIN) & (mid >= r[lo - 1:-2]) & (mid >= r[lo + 1:]))
+    if r[-1] >= CORR_MIN and r[-1] >= r[-2]:
+        peaks = np.r_[peaks, r.size - 1]
+    best = peaks[np.argsort(r[peaks])[::-1][:MAX_CANDIDATES]]
+    return sorted(int(p) for p in best)
+
+
+def periodic_share(x: np.ndarray, periods: int) -> float:
+    """Share of the power (DC excluded) of ``periods`` whole periods on the period's lines.
+
+    Parameters
+    ----------
+    x : ndarray, shape (periods * P, n_channels)
+    periods : int
+
+    Returns
+    -------
+    float
+        1 for an exactly periodic record; about ``1 / periods`` for noise.
+    """
+    if periods < 2:
+        return 0.0
+    power = (np.abs(np.fft.rfft(x - x.mean(axis=0), axis=0)) ** 2).sum(axis=1)[1:]
+    whole = power.sum()
+    if whole == 0:
+        return 0.0
+    on = power[periods - 1::periods].sum()      # lines k * periods, k >= 1
+    return float(on / whole)
+
+
+def transient_periods(x: np.ndarray, period: int) -> int:
+    """Leading periods of ``x`` (whole periods) that are start-up transient.
+
+    Period ``k`` counts as transient when its change to period ``k + 1`` exceeds every later
+    change between consecutive periods by more than `TRANSIENT_SIGMAS` noise standard
+    deviations; at least two steady periods are left. Two periods in all: none transient.
+
+    Parameters
+    ----------
+    x : ndarray, shape (periods * period, n_channels)
+    period : int
+
+    Returns
+    -------
+    int
+    """
+    blocks = x.reshape(-1, period, x.shape[1])
+    change = (np.diff(blocks, axis=0) ** 2).sum(axis=(1, 2))     # period k -> k + 1
+    tol = 1 + TRANSIENT_SIGMAS * np.sqrt(2 / (period * x.shape[1]))
+    t = 0
+    while t < change.size - 1 and change[t] > tol * change[t + 1:].max():
+        t += 1
+    return t
