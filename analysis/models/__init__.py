@@ -1,11 +1,12 @@
 """What a structure is: model files, element kinds (one descriptor each) and their numba laws,
 the reverse-path basis functions of a kind, bounded text reading.
 
-Modules behind this API: ``_model``, ``_model_file``, ``_kinds``, ``_elements``, ``_basis``,
+Modules behind this API: ``_model``, ``_model_file``, ``_model_tables``, ``_kinds``, ``_elements``, ``_basis``,
 ``_textfile``. Code inside this package imports its siblings by their private module path.
 """
 
-from ._model import Element, MAX_DOF, MAX_ELEMENTS, MAX_ENTRY, MAX_PARAM, Model
+from ._model import Element, MAX_ELEMENTS, MAX_PARAM, Model
+from ._model_tables import MAX_DOF, MAX_ENTRY
 from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_order
 from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent,
                         memoryless_force, pack_params, register_kind, restoring_force,

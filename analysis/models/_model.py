@@ -21,21 +21,19 @@ import numpy as np
 
 from ._elements import KINDS
 from ..errors import ModelError
-from ._model_file import (check_keys, check_toml_matrix, default_points, is_number, point_index,
+from ._model_file import (check_keys, check_toml_matrix, default_points, point_index,
                           short, toml_element, toml_list, toml_num, toml_str, toml_where)
+from ._model_tables import (MAX_DOF, MAX_ENTRY, MAX_MODES, MAX_RATE_HZ, matrix,
+                            modal_table, points_table, shapes_table)
 from ._textfile import read_text
 
 TOP_KEYS = ("name", "points", "linear", "modal", "element")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
 MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
               "residual_damping_ratios", "residual_shapes")
-MAX_DOF = 100             # points, and DOFs of the [linear] form
-MAX_MODES = 500
 MAX_ELEMENTS = 100
-MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
 MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
 MAX_PARAM = 1e30          # largest |element parameter|
-MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2 pi)
 
 
 @dataclass
@@ -93,17 +91,17 @@ class Model:
     n_residual: int = 0
 
     def __post_init__(self) -> None:
-        self.mass = _matrix(self.mass, "linear.mass", max_size=MAX_MODES)
+        self.mass = matrix(self.mass, "linear.mass", max_size=MAX_MODES)
         n = self.mass.shape[0]
-        self.damping = _matrix(self.damping, "linear.damping", n, max_size=MAX_MODES)
-        self.stiffness = _matrix(self.stiffness, "linear.stiffness", n, max_size=MAX_MODES)
+        self.damping = matrix(self.damping, "linear.damping", n, max_size=MAX_MODES)
+        self.stiffness = matrix(self.stiffness, "linear.stiffness", n, max_size=MAX_MODES)
         if self.shapes is None:
             if n > MAX_DOF:
                 raise ModelError(f"linear.mass is {n} x {n}: more than {MAX_DOF} DOFs; reduce "
                                  "the model (e.g. to the measured DOFs) or give it in modal form")
             self.shapes = np.eye(n)
-        self.shapes = _shapes(self.shapes, n)
-        self.points = _points(self.points, self.shapes.shape[0])
+        self.shapes = shapes_table(self.shapes, n)
+        self.points = points_table(self.points, self.shapes.shape[0])
         _check_physics(self)
         if len(self.elements) > MAX_ELEMENTS:
             raise ModelError(f"{len(self.elements)} elements, more than {MAX_ELEMENTS}")
@@ -121,10 +119,10 @@ class Model:
         ``shapes`` is (n_modes, n_points), mass-normalised (1/sqrt(kg)); the residual
         pseudo-modes, outside the band, stand for the modes the table leaves out.
         """
-        f, z, phi = _modes(freqs_hz, damping_ratios, shapes, "modal")
+        f, z, phi = modal_table(freqs_hz, damping_ratios, shapes, "modal")
         nr = len(residual_freqs_hz)
         if nr:
-            fr, zr, phr = _modes(residual_freqs_hz, residual_damping, residual_shapes,
+            fr, zr, phr = modal_table(residual_freqs_hz, residual_damping, residual_shapes,
                                  "modal.residual", n_points=phi.shape[1])
             f, z, phi = np.r_[f, fr], np.r_[z, zr], np.vstack([phi, phr])
         w = 2 * np.pi * f
@@ -339,7 +337,7 @@ class Model:
                 raise ModelError("a [modal] model needs top-level points = [...] naming the "
                                  "point of each shape column")
             n_points = len(points)
-        names = _points(points, n_points)
+        names = points_table(points, n_points)
         elements = [Element(*toml_element(raw, i, names)) for i, raw in enumerate(raw_elements)]
         if linear is not None:
             return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
@@ -398,104 +396,6 @@ class Model:
         return cls.loads(read_text(path, "model file", ModelError), str(path))
 
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-def _points(points: Any, n: int) -> list[str]:
-    """Validated point names (default ``"0", "1", ...``)."""
-    if points is None:
-        return default_points(n)
-    points = list(points)
-    if len(points) != n:
-        raise ModelError(f"points names {len(points)} points but the linear system has {n}; "
-                         "give one name per DOF or shape column")
-    for p in points:
-        if not isinstance(p, str) or not p.strip():
-            raise ModelError(f"points: {short(p)} is not a point name (a non-empty string)")
-    dup = sorted({p for p in points if points.count(p) > 1})
-    if dup:
-        raise ModelError(f"points: {', '.join(map(repr, dup))} named twice; point names must "
-                         "be unique")
-    return points
-
-
-def _shapes(value: Any, n_q: int) -> np.ndarray:
-    arr = np.array(value, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != n_q or arr.shape[0] == 0:
-        raise ModelError(f"shapes must be n_points x {n_q}, got shape {arr.shape}")
-    if arr.shape[0] > MAX_DOF:
-        raise ModelError(f"{arr.shape[0]} points, more than {MAX_DOF}")
-    if not np.all(np.isfinite(arr)):
-        raise ModelError("shapes hold NaN or infinite values")
-    return arr
-
-
-def _modes(freqs: Any, zeta: Any, shapes: Any, where: str, n_points: int | None = None
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Validated modal table: frequencies (Hz), damping ratios, shapes (n_modes, n_points)."""
-    residual = where.endswith("residual")
-    pre = "residual_" if residual else ""
-    f = _vector(freqs, f"{where.split('.')[0]}.{pre}frequencies_hz")
-    z = _vector(zeta, f"{where.split('.')[0]}.{pre}damping_ratios")
-    if f.size != z.size:
-        raise ModelError(f"{where}: {f.size} frequencies but {z.size} damping ratios; give one "
-                         "per mode")
-    if f.size > MAX_MODES:
-        raise ModelError(f"{where}: {f.size} modes, more than {MAX_MODES}")
-    if not np.all(f > 0) or f.max(initial=0) > MAX_RATE_HZ:
-        raise ModelError(f"{where}: frequencies must be > 0 Hz and <= {MAX_RATE_HZ:g} Hz, got "
-                         f"{f.min():g}..{f.max():g}")
-    lo_ok = (z >= 0) if residual else (z > 0)
-    if not np.all(lo_ok & (z < 1)):
-        raise ModelError(f"{where}: damping ratios must lie in {'[0' if residual else '(0'}, 1) "
-                         f"(fractions of critical, not %), got {z.min():g}..{z.max():g}")
-    try:
-        phi = np.array(shapes, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: {pre}shapes must be a list of equal-length rows of "
-                         "numbers, one row per mode and one value per point") from None
-    if phi.ndim != 2 or phi.shape[0] != f.size or (n_points is not None
-                                                   and phi.shape[1] != n_points):
-        want = f"{f.size} x {n_points if n_points is not None else 'n_points'}"
-        raise ModelError(f"{where}: {pre}shapes must be {want} (one row per mode, one value "
-                         f"per point), got shape {phi.shape}")
-    if not np.all(np.isfinite(phi)) or np.abs(phi).max(initial=0) > MAX_ENTRY:
-        raise ModelError(f"{where}: {pre}shapes must be finite numbers below {MAX_ENTRY:g}")
-    if np.any(np.all(phi == 0, axis=1)):
-        raise ModelError(f"{where}: mode {int(np.flatnonzero(np.all(phi == 0, axis=1))[0])} "
-                         "has a zero shape at every point; drop it or give its shape")
-    return f, z, phi
-
-
-def _vector(value: Any, name: str) -> np.ndarray:
-    if not isinstance(value, (list, tuple, np.ndarray)) or not all(
-            is_number(x) or isinstance(x, np.number) for x in np.ravel(value)):
-        raise ModelError(f"{name} = {short(value)} must be a list of numbers")
-    arr = np.array(value, dtype=float).ravel()
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{name} holds NaN or infinite values")
-    return arr
-
-
 def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Frequencies, damping ratios, shapes (n_modes, n_points) and the number of trailing
     pseudo-modes of a modal model; matrices changed by a correction are diagonalised again
@@ -509,34 +409,6 @@ def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int
     w = np.sqrt(np.clip(lam, 0.0, None))
     zeta = np.einsum("qi,qr,ri->i", vec, c, vec) / (2 * np.maximum(w, 1e-300))
     return w / (2 * np.pi), zeta, (model.shapes @ vec).T, 0
-
-
-
-
-def _matrix(value: Any, name: str, n: int | None = None, max_size: int = MAX_DOF
-            ) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name} must be a square matrix of numbers (a list of equal-length "
-                         "rows)") from None
-    if arr.ndim == 0:
-        arr = arr.reshape(1, 1)
-    if arr.ndim != 2 or arr.shape[0] != arr.shape[1] or arr.shape[0] == 0:
-        raise ModelError(f"{name} must be a square n x n matrix, got shape {arr.shape}")
-    if n is not None and arr.shape[0] != n:
-        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]} but mass is {n} x {n}; "
-                         "all linear matrices must have the same size")
-    if arr.shape[0] > max_size:
-        raise ModelError(f"{name} is {arr.shape[0]} x {arr.shape[0]}: more than {max_size} "
-                         "DOFs; reduce the model (e.g. to the measured DOFs)")
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{name} holds NaN or infinite values")
-    big = np.abs(arr).max()
-    if big > MAX_ENTRY:
-        raise ModelError(f"{name} has an entry of magnitude {big:.3g}, above {MAX_ENTRY:g}; "
-                         "give SI units (kg, N s/m, N/m)")
-    return arr
 
 
 def _check_physics(model: Model) -> None:

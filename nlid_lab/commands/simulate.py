@@ -13,6 +13,7 @@ from analysis.errors import InputError
 from analysis.recordings import RESPONSE_KINDS, Recording, SensorMap
 
 from ..formats import _recordings_io as recordings_io
+from ..formats import read_drive
 from .. import sim_budget
 from ..outputs import add_force_option, refuse_overwrite, write_json
 from ..progress import progress
@@ -26,7 +27,7 @@ OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
 def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacement",
                    noise_std: float = 0.0, seed: int | None = None,
                    oversample: int | None = None) -> Recording:
-    """Run a drive (see `recordings_io.read_drive`) through the simulated plant.
+    """Run a drive (see `nlid_lab.formats.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
     a real shaker; each step's response is recorded in full. A drive with sensor-map keys
@@ -123,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--noise must be >= 0 (standard deviation in response units)")
     model_path = Path(args.model)
     model = Model.load(model_path)
-    drive = recordings_io.read_drive(args.drive)
+    drive = read_drive(args.drive)
     if args.sensors:
         drive["sensors"] = recordings_io.read_sensors(args.sensors)
     rec = simulate_drive(model, drive, response_kind=args.response_kind,
