@@ -109,7 +109,9 @@ def _synthesis(s, poles, residues, lower, upper, pseudo_hz=None):
     if pseudo_hz is not None:
         wl, wu = (_pseudo_mode(s[:, None], f) for f in pseudo_hz)
         return modes + lower * wl + upper[0] * wu
-    return modes + lower / s[:, None] ** 2 + upper[0] + upper[1] * s[:, None] ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):   # the lower residual is
+        # unbounded at 0 Hz (a mass line): infinite there, as the model says, without a warning
+        return modes + lower / s[:, None] ** 2 + upper[0] + upper[1] * s[:, None] ** 2
 
 
 PSEUDO_DAMPING = 0.05
