@@ -97,18 +97,30 @@ def _root_velocity(u0: float, v0: float, u1: float, v1: float, h: float) -> floa
 
 
 @numba.njit(cache=True)
+def _matvec(a: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
+    """``out = a @ x`` (small: no BLAS call, no allocation)."""
+    for r in range(a.shape[0]):
+        t = 0.0
+        for c in range(a.shape[1]):
+            t += a[r, c] * x[c]
+        out[r] = t
+
+
+@numba.njit(cache=True)
 def _jump_coeffs(dnodes: np.ndarray, theta: float, vinv: np.ndarray, h: float,
-                 inv_fact: np.ndarray, out: np.ndarray) -> None:
+                 inv_fact: np.ndarray, out: np.ndarray, dmono: np.ndarray,
+                 dsh: np.ndarray) -> None:
     """Taylor weights ``c_i`` of the end-state effect of a force jump ``D(s) H(s - theta h)``.
 
     ``D`` is the hold polynomial through ``dnodes``; the effect is
     ``sum_i c_i A^i b`` with ``c_i = sum_k d_k h k! r^(k+1) delta^i / (i+k+1)!``, where
     ``d_k`` are the coefficients of ``D`` in powers of ``(s - theta h)/h``, ``r = 1 - theta``
-    and ``delta = r h`` (phi-function series of the exponential integrator).
+    and ``delta = r h`` (phi-function series of the exponential integrator). ``dmono``,
+    ``dsh``: scratch of ``dnodes``' size (an allocation here costs more than the arithmetic).
     """
     nq = dnodes.shape[0]
-    dmono = vinv @ dnodes
-    dsh = np.zeros(nq)
+    _matvec(vinv, dnodes, dmono)
+    dsh[:] = 0.0
     for m in range(nq):  # shift the monomials to the jump time: x = theta + rho
         binom = 1.0
         for k in range(m + 1):
@@ -214,6 +226,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
     ev_ut = np.zeros(ne)
     ev_c = np.zeros((ne, nt))
     dnodes = np.empty(q + 1)
+    dmono = np.empty(q + 1)
+    dsh = np.empty(q + 1)
     fa = np.empty(nin)
     fb = np.empty(nin)
     z = np.empty(nin + q * ne)   # drive and hold history that the pending terms act on
@@ -325,7 +339,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                 for nd in range(q):
                                     dnodes[nd] = gh[e, nd]
                                 dnodes[q] = r1
-                                ev_theta[e] = _root_poly(vinv @ dnodes, sg * fd)
+                                _matvec(vinv, dnodes, dmono)
+                                ev_theta[e] = _root_poly(dmono, sg * fd)
                                 for nd in range(q + 1):
                                     dnodes[nd] = sg * fd - dnodes[nd]
                                 g[e] = sg * fd
@@ -353,7 +368,8 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                                 st[e, 1] = 0.0
                                 event[e] = 2
                         if event[e] != 0:
-                            _jump_coeffs(dnodes, ev_theta[e], vinv, h, inv_fact, ev_c[e])
+                            _jump_coeffs(dnodes, ev_theta[e], vinv, h, inv_fact, ev_c[e],
+                                         dmono, dsh)
                             for r in range(2 * ne):
                                 t = 0.0
                                 for i in range(nt):
