@@ -505,30 +505,28 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             out_uv[k, e] = uv[e]
             out_uv[k, ne + e] = uv[ne + e]
         _history(fprev, gh, z)
+        # outputs at the points: one loop per point and operand for all three kinds (short
+        # loops cost more in set-up and final reduction than in their arithmetic)
         for p in range(npt):
+            x, v, ax = 0.0, 0.0, 0.0
             if identity:
                 x, v = s[p], s[n + p]
+                for c in range(n):
+                    ax += tax[p, c] * s[c] + tav[p, c] * s[n + c]
             else:
-                x, v = 0.0, 0.0
                 for c in range(n):
-                    x += shapes[p, c] * s[c]
-                for c in range(n):
-                    v += shapes[p, c] * s[n + c]
-            ax, av = 0.0, 0.0
-            for c in range(n):
-                ax += tax[p, c] * s[c]
-            for c in range(n):
-                av += tav[p, c] * s[n + c]
-            zx, zv, za = 0.0, 0.0, 0.0
+                    sx, sv = s[c], s[n + c]
+                    x += shapes[p, c] * sx
+                    v += shapes[p, c] * sv
+                    ax += tax[p, c] * sx + tav[p, c] * sv
             for c in range(out_z.shape[2]):
-                zx += out_z[0, p, c] * z[c]
-            for c in range(out_z.shape[2]):
-                zv += out_z[1, p, c] * z[c]
-            for c in range(out_z.shape[2]):
-                za += out_z[2, p, c] * z[c]
-            out_x[k, p] = x + zx
-            out_v[k, p] = v + zv
-            out_a[k, p] = ax + av + za
+                zc = z[c]
+                x += out_z[0, p, c] * zc
+                v += out_z[1, p, c] * zc
+                ax += out_z[2, p, c] * zc
+            out_x[k, p] = x
+            out_v[k, p] = v
+            out_a[k, p] = ax
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
