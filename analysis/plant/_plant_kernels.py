@@ -248,11 +248,13 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             # known part of the end state: free response, drive, injected history. The hot
             # loops are written out: passing arrays (or row views) to helpers costs atomic
             # reference counts, more than the arithmetic.
+            first = 0               # drive inputs already injected
             if phi.shape[0] == 0:   # per-mode 2 x 2 blocks: the four diagonals of phi_d
+                f0, first = fb[0], 1    # and the first drive input in the same pass
                 for i in range(n):
                     x, v = s[i], s[n + i]
-                    kn[i] = phi_d[0, i] * x + phi_d[1, i] * v
-                    kn[n + i] = phi_d[2, i] * x + phi_d[3, i] * v
+                    kn[i] = phi_d[0, i] * x + phi_d[1, i] * v + f0 * inj_f[0, 0, i]
+                    kn[n + i] = phi_d[2, i] * x + phi_d[3, i] * v + f0 * inj_f[0, 0, n + i]
             else:
                 for r in range(ny):
                     t = 0.0
@@ -260,8 +262,9 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                         t += phi[r, c] * s[c]
                     kn[r] = t
             for i in range(nin):
-                for r in range(ny):
-                    kn[r] += fb[i] * inj_f[0, i, r]
+                if i >= first:
+                    for r in range(ny):
+                        kn[r] += fb[i] * inj_f[0, i, r]
                 if inj_f.shape[0] > 1:
                     for r in range(ny):
                         kn[r] += fa[i] * inj_f[1, i, r]
@@ -466,13 +469,18 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
             if not converged:
                 n_noconv += 1
             # end state: the hold used gc at the end node, the history keeps g
-            for e in range(ne):
+            # (the last element's pass writes the new state: no copy of kn)
+            for e in range(ne - 1):
                 for r in range(ny):
                     kn[r] += g[e] * u_g[e, r]
+            gl = g[ne - 1]
+            for r in range(ny):
+                s[r] = kn[r] + gl * u_g[ne - 1, r]
+            for e in range(ne):
                 if event[e] != 0:
-                    _axpy(gc[e] - g[e], we[e], kn)
+                    _axpy(gc[e] - g[e], we[e], s)
                     for i in range(nt):
-                        _axpy(ev_c[e, i], ab[e, i], kn)
+                        _axpy(ev_c[e, i], ab[e, i], s)
             for e in range(ne):
                 for i in range(es.shape[1]):
                     es[e, i] = st[e, i]
@@ -495,8 +503,7 @@ def _integrate(force: np.ndarray, m: int, phi: np.ndarray, phi_d: np.ndarray,
                         gh[e, nd] = sigma0[e] * prm[e, 1] + prm[e, 0] * (uh[e, nd]
                                                                          - ev_ut[e])
                 for nd in range(q - 1):  # the accumulated state holds the old history
-                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], kn)
-            _copy(kn, s)
+                    _axpy(gh[e, nd] - gold[nd], r_g[q - 1 - nd, e], s)
         stats[S_SUBSTEPS] += m
         for i in range(nin):
             fprev[i] = force[k, i]
