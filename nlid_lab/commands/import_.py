@@ -9,7 +9,7 @@ from pathlib import Path
 from analysis.errors import InputError
 from analysis.recordings import RESPONSE_KINDS, find_period
 
-from ..formats import _recordings_io as recordings_io, describe, parse_sweep_option
+from ..formats import _recordings_io as recordings_io, _sensor_files, describe, parse_sweep_option
 from .. import store
 from ..outputs import add_force_option, refuse_overwrite, write_json
 
@@ -128,8 +128,8 @@ def run(args: argparse.Namespace) -> int:
     found: dict = {}
     recs = [_read(src, args, found) for src in sources]
     if args.sensors:
-        keys = recordings_io.read_sensors(args.sensors)
-        recs = [recordings_io.with_sensors(r, keys) for r in recs]
+        keys = _sensor_files.read_sensors(args.sensors)
+        recs = [_sensor_files.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
     store.save_recording(out, recs, source="import",
