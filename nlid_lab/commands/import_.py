@@ -141,6 +141,8 @@ def run(args: argparse.Namespace) -> int:
               "response_kind": rec.response_kind,
               "sensors": None if rec.sensors is None else {
                   k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
+    if rec.monitors:
+        result["monitors"] = {k: rec.monitor_units.get(k, "") for k in rec.monitors}
     if rec.sweep is not None:
         result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
     if found:
@@ -157,6 +159,13 @@ def run(args: argparse.Namespace) -> int:
                 print(f"  {src.name}: {describe(r.sweep)}")
         for line in _period_lines(found):
             print(f"  {line}")
+        if rec.monitors:
+            named = args.map and any(item.startswith("monitor=") for item in args.map)
+            chans = ", ".join(f"{k} [{rec.monitor_units[k]}]" if k in rec.monitor_units else k
+                              for k in rec.monitors)
+            print(f"  monitor channel(s) kept, not used by any estimator: {chans}"
+                  + ("" if named or not args.map else " (the channels the map does not "
+                     "name; monitor=NAME chooses them, monitor=none drops them)"))
     write_json(result, args.json)
     return 0
 
@@ -180,7 +189,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="MAT or CSV export: channel map, e.g. force=Force "
                    "response=Acceleration[0:3]:g fs=Fs force_dofs=0 (CSV: "
                    "response=Acc1,Acc2 fs=400; NAME[cols]@A,B,C names the model point of "
-                   "each column: a sensor map), or one MAP.toml")
+                   "each column: a sensor map; monitor=Voltage:V names channels kept beside "
+                   "force and response, default every channel the map does not use, "
+                   "monitor=none drops them), or one MAP.toml")
     p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: the model point "
                    "and kind of each response channel, the point of each force "
                    "(response_points, response_kinds, force_points; docs/model-format.md"

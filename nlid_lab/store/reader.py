@@ -311,6 +311,11 @@ def _check_same_run(a: Recording, b: Recording, index: int) -> None:
             np.array_equal(np.asarray(a.extra[k]), np.asarray(b.extra[k])) for k in a.extra),
     }
     for what, ok in same.items():
+        if what.startswith("monitor") and not ok:
+            raise StoreError(f"recording {index + 1} has monitor channels {list(b.monitors)} "
+                             f"but the first {list(a.monitors)} (units {b.monitor_units} vs "
+                             f"{a.monitor_units}); levels of one run share their monitor "
+                             "channels: map the same monitor= in every file, or monitor=none")
         if not ok:
             raise StoreError(f"recording {index + 1} differs from the first in its {what}; "
                              "levels of one run share it (import them as separate runs)")
