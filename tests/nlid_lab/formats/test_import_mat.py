@@ -96,6 +96,10 @@ def test_realizations_back_to_back_found_without_layout_keys(run, capsys):
             f"back of {TRANSIENT + PERIODS} periods each") in said
     found = json.loads((tmp / "found.json").read_text())["period_found"]
     assert {f["realizations"] for f in found.values()} == {REALIZATIONS}
+    from nlid_lab.formats import load_recordings          # Voltage kept, block by block
+    for path, rec in zip(files, load_recordings(out)):
+        volt = scipy.io.loadmat(path, simplify_cells=True)["data"]["Voltage"]
+        np.testing.assert_array_equal(rec.monitors["Voltage"], volt)
     js = tmp / "found-detect.json"
     assert main(["detect", str(out), "--json", str(js)]) == 0
     bla = [t for t in json.loads(js.read_text())["tests"] if t["method"] == "bla"]

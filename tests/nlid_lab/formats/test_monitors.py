@@ -35,7 +35,7 @@ def test_unmapped_channels_are_kept_as_monitors_by_default():
     np.testing.assert_array_equal(rec.monitors["Voltage"], tree["data.Voltage"][0])
 
 
-def test_map_names_monitors_with_columns_and_units_or_none():
+def test_map_names_monitors_with_columns_and_units_or_none(tmp_path):
     tree = gvt(1)
     keys = apply_map(tree, ChannelMap.from_items(
         ["force=Force", "response=Acceleration[0:2]", "monitor=Voltage:V",
@@ -46,6 +46,11 @@ def test_map_names_monitors_with_columns_and_units_or_none():
     keys = apply_map(tree, ChannelMap.from_items(["force=Force", "response=Acceleration",
                                                   "monitor=none"]), "x")
     assert "monitor" not in keys
+    mapfile = tmp_path / "map.toml"
+    mapfile.write_text('force = "Force"\nresponse = ["Acceleration[0:2]"]\n'
+                       'monitor = ["Voltage:V"]\n')
+    keys = apply_map(tree, ChannelMap.from_toml(mapfile), "x")
+    assert keys["monitor_names"].tolist() == ["Voltage"]
     with pytest.raises(InputError, match="no model point"):
         ChannelMap.from_items(["force=Force", "response=Acceleration", "monitor=Voltage@tip"])
 
@@ -140,3 +145,21 @@ def test_bad_monitor_keys_name_the_problem(tmp_path, keys, words):
     with pytest.raises(InputError) as info:
         rio.recording_from_keys({**base, **keys}, tmp_path / "x.npz")
     assert words in str(info.value)
+
+
+def test_an_estimated_sweep_trims_the_monitors_with_the_force(tmp_path):
+    """Lead-in and trailing zeros cut from an export whose sweep law is estimated: the
+    monitors lose the same samples (a sample counter stays aligned)."""
+    t = np.arange(8000) / FS
+    chirp = np.sin(2 * np.pi * (2.0 * t + 0.5 * 8.0 * t**2 / t[-1]))
+    force = np.r_[np.zeros(500), chirp, np.zeros(300)][:, None]
+    rng = np.random.default_rng(8)
+    keys = {"fs": FS, "excitation": "swept-sine", "force": force, "force_dofs": np.array([0]),
+            "response": rng.standard_normal((force.shape[0], 1)),
+            "monitor": np.arange(force.shape[0], dtype=float)[:, None],
+            "monitor_names": np.array(["counter"])}
+    rec = rio.recording_from_keys(keys, tmp_path / "sweep.npz")
+    lead = rec.sweep.trimmed_lead
+    assert lead > 0 and rec.sweep.trimmed_tail > 0
+    np.testing.assert_array_equal(rec.monitors["counter"],
+                                  np.arange(lead, lead + rec.force.shape[0]))
