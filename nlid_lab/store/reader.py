@@ -12,8 +12,8 @@ import numpy as np
 
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, Sweep
 
-from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
-                      _open_swmr_write, _read_extra, _read_status, _valid_segments,
+from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, StoreError, _append_log, _crc,
+                      _json_at, _open, _open_swmr_write, _read_extra, _read_status, _valid_segments,
                       writer_left_open)
 from .writer import RunWriter, _repair
 
@@ -204,9 +204,9 @@ def open_run(path: str | os.PathLike) -> Run:
         if f.attrs.get("format") != FORMAT:
             raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
         version = int(f.attrs["schema_version"])
-        if version > SCHEMA_VERSION:
+        if version > MONITORS_SCHEMA_VERSION:
             raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
-                             f"{SCHEMA_VERSION}: upgrade nlid-lab")
+                             f"{MONITORS_SCHEMA_VERSION}: upgrade nlid-lab")
         meta = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
         for key in ("excitation_settings", "settings"):
             meta[key] = json.loads(meta[key])

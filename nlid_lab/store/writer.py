@@ -14,11 +14,11 @@ import numpy as np
 from analysis.recordings import (EXCITATIONS, FORCE_HOLDS, KEYS as SENSOR_KEYS, MIXED,
                                  RESPONSE_KINDS, PeriodicLayout, SensorMap)
 
-from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
-                      StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
-                      _default_channels, _json_default, _open, _open_swmr_write,
-                      _valid_segments, _write_extra, _write_text, in_use, utc_now,
-                      writer_left_open)
+from ._common import (CHUNK_ROWS, FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE,
+                      STATUSES, _TABLES, StoreError, WriterLock, _append_log, _append_row,
+                      _channel_table, _crc, _default_channels, _json_default, _open,
+                      _open_swmr_write, _valid_segments, _write_extra, _write_text, in_use,
+                      utc_now, writer_left_open)
 
 
 class LevelWriter:
@@ -192,6 +192,7 @@ class RunWriter:
         self.monitors = dict(monitors or {})
         if self.monitors:
             attrs["monitors"] = json.dumps([[k, v] for k, v in self.monitors.items()])
+            attrs["schema_version"] = MONITORS_SCHEMA_VERSION
         if layout is not None:
             attrs.update(period=layout.period, transient_periods=layout.transient_periods,
                          periods=layout.periods)

@@ -89,3 +89,12 @@ def test_repair_keeps_the_monitors_of_a_killed_writer(tmp_path):
                                   + blocks)
     assert list(rec.monitors) == ["Voltage", "Current"]
     assert rec.monitor_units == {"Voltage": "V", "Current": "A"}
+
+
+def test_only_runs_with_monitors_are_schema_2(tmp_path):
+    _write(tmp_path / "m.h5", np.random.default_rng(2))
+    assert store.open_run(tmp_path / "m.h5").meta["schema_version"] == 2
+    with store.RunWriter(tmp_path / "p.h5", fs=100.0, excitation="random", force_dofs=[0],
+                         n_dof=1) as run:
+        run.level(0, 1.0).append_block(np.ones((8, 1)), np.ones((8, 1)))
+    assert store.open_run(tmp_path / "p.h5").meta["schema_version"] == store.SCHEMA_VERSION == 1
