@@ -273,3 +273,7 @@ class Recording:
         unknown = sorted(set(self.monitor_units) - set(self.monitors))
         if unknown:
             raise RecordingError(f"monitor_units names {unknown}, which are not monitors")
+        for name, unit in self.monitor_units.items():
+            if "," in unit:
+                raise RecordingError(f"monitor '{name}': unit {unit!r} holds a comma; write "
+                                     "it without")
