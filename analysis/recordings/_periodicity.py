@@ -8,6 +8,15 @@ for each candidate the share of the record's power on the lines of period ``P``
 (`periodic_share`). A random (non-periodic) record holds about ``1/n`` of its power there,
 a periodic one all of it but its noise. The first period is a start-up transient when it
 differs from the next one by more than the steady periods differ from each other.
+
+Records of several realizations back to back (``R`` random-phase multisines of ``M`` periods
+each, one after the other in one array) repeat only within each realization: the share on the
+period's lines of the whole record is low, that of each realization high. For a candidate lag
+the record is split into ``R`` equal realizations, ``R`` = 1 first, then the divisors of the
+whole periods in increasing order: the first ``R`` whose every realization is clearly periodic
+is the layout (a smaller ``R`` puts realization boundaries inside a part, which then fails;
+a larger one would only split realizations further). Each realization's leading periods are
+its transient; the layout takes the most any realization shows.
 """
 
 from __future__ import annotations
@@ -39,12 +48,16 @@ class Periodicity:
     periods : int
         Whole periods in the record (transient ones included).
     transient_periods : int
-        Leading periods that differ from the steady ones more than these differ from each
-        other (start-up transient).
+        Leading periods of each realization that differ from the steady ones more than these
+        differ from each other (start-up transient).
     share : float
-        Share of the steady part's power (DC excluded) on the period's spectral lines.
+        Share of the steady part's power (DC excluded) on the period's spectral lines (the
+        least of the realizations').
     remainder : int
         Samples after the last whole period (0 when the record is whole periods).
+    realizations : int
+        Realizations back to back, each of ``periods`` periods (transient ones included);
+        ``periods`` counts the periods of one realization.
     """
 
     period: int
@@ -52,9 +65,11 @@ class Periodicity:
     transient_periods: int
     share: float
     remainder: int
+    realizations: int = 1
 
 
-def find_period(signal: np.ndarray, min_period: int = 2) -> Periodicity | None:
+def find_period(signal: np.ndarray, min_period: int = 2, period: int | None = None,
+                settle: np.ndarray | None = None) -> Periodicity | None:
     """The period of a clearly periodic record, else None.
 
     Parameters
@@ -63,12 +78,18 @@ def find_period(signal: np.ndarray, min_period: int = 2) -> Periodicity | None:
         The record (e.g. the measured forces), time along axis 0.
     min_period : int
         Shortest period considered, samples.
+    period : int, optional
+        The period, when known (a file's ``period`` key): only this lag is tried, for the
+        realizations and transient periods.
+    settle : ndarray, shape (n, n_channels), optional
+        Channels that must have settled too (the responses, each scaled to unit rms): a
+        leading period is transient when it is so in ``signal`` or in ``settle``.
 
     Returns
     -------
     Periodicity or None
         None when no lag holds at least `SHARE_MIN` of the power on its lines over at least
-        two whole periods (random, swept or too short records).
+        two whole periods of every realization (random, swept or too short records).
     """
     x = np.asarray(signal, dtype=float)
     x = x.reshape(x.shape[0], -1) - x.mean(axis=0).reshape(1, -1)
@@ -76,19 +97,45 @@ def find_period(signal: np.ndarray, min_period: int = 2) -> Periodicity | None:
     if n < 2 * max(min_period, 2) or not np.any(x):
         return None
     found = None
-    for lag in _candidate_lags(x, max(min_period, 2)):
+    lags = _candidate_lags(x, max(min_period, 2)) if period is None else \
+        [int(period)] if 2 <= period <= n // 2 else []
+    for lag in lags:
+        if found is not None and lag >= found[0]:
+            continue
         total = n // lag
-        start = lag if total >= 3 else 0          # drop a possible transient first period
-        share = periodic_share(x[start:total * lag], total - start // lag)
-        if share >= SHARE_MIN and (found is None or lag < found[0]):
-            found = (lag, share)
+        for m in (d for d in range(1, total // 2 + 1) if total % d == 0):
+            parts = _realizations(x[:total * lag], lag, m)
+            if min(_steady_share(p, lag) for p in parts) >= SHARE_MIN:
+                found = (lag, m)
+                break
     if found is None:
         return None
-    lag, _ = found
+    lag, m = found
     total = n // lag
-    transient = transient_periods(x[:total * lag], lag)
-    share = periodic_share(x[transient * lag:total * lag], total - transient)
-    return Periodicity(lag, total, transient, float(share), n - total * lag)
+    parts = _realizations(x[:total * lag], lag, m)
+    transient = max(transient_periods(p, lag) for p in parts)
+    if settle is not None:
+        y = np.asarray(settle, dtype=float).reshape(n, -1)[:total * lag]
+        y = y - y.mean(axis=0)
+        y = y / np.where(y.std(axis=0) > 0, y.std(axis=0), 1.0)
+        transient = max(transient, *(transient_periods(p, lag)
+                                     for p in _realizations(y, lag, m)))
+    each = total // m
+    share = min(periodic_share(p[transient * lag:], each - transient) for p in parts)
+    return Periodicity(lag, each, transient, float(share), n - total * lag, m)
+
+
+def _realizations(x: np.ndarray, period: int, m: int) -> list[np.ndarray]:
+    """``x`` (whole periods) cut into ``m`` equal realizations."""
+    return np.split(x, m) if m > 1 else [x]
+
+
+def _steady_share(x: np.ndarray, period: int) -> float:
+    """`periodic_share` of one realization's whole periods, its first left out when it has
+    three or more (a possible start-up transient)."""
+    total = x.shape[0] // period
+    start = period if total >= 3 else 0
+    return periodic_share(x[start:], total - start // period)
 
 
 def _candidate_lags(x: np.ndarray, min_period: int) -> list[int]:

@@ -129,6 +129,12 @@ class Recording:
     sensors : SensorMap, optional
         Model point and kind of each response channel, point of each force
         (`analysis.recordings._sensors`); None: channel ``j`` is point ``j``, all in ``response_kind``.
+    monitors : dict of str to ndarray
+        Channels that are neither force nor response (say the shaker amplifier's drive
+        voltage), by name, each shaped like one force channel (``force.shape[:-1]``), as
+        recorded. Kept through import, the run store and export; no estimator reads them.
+    monitor_units : dict of str to str
+        Unit text of each monitor (``""`` or missing: not given).
     """
 
     fs: float
@@ -145,6 +151,8 @@ class Recording:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
     sensors: SensorMap | None = None
+    monitors: dict[str, np.ndarray] = field(default_factory=dict)
+    monitor_units: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.sensors is not None:
@@ -154,7 +162,10 @@ class Recording:
         self.response = np.asarray(self.response, dtype=float)
         if self.freqs is not None:
             self.freqs = np.atleast_1d(np.asarray(self.freqs, dtype=float))
+        self.monitors = {str(k): np.asarray(v) for k, v in self.monitors.items()}
+        self.monitor_units = {str(k): str(v) for k, v in self.monitor_units.items()}
         self.validate()
+        self.monitors = {k: v.astype(float, copy=False) for k, v in self.monitors.items()}
 
     @property
     def n_dof(self) -> int:
@@ -234,6 +245,7 @@ class Recording:
         if top >= self.fs / 2:
             raise RecordingError(f"the sweep reaches {top:g} Hz, not below fs/2 = "
                                  f"{self.fs / 2:g} Hz; check sweep_start_hz/sweep_stop_hz")
+        self._validate_monitors()
         if self.layout is not None:
             if self.excitation != "random":
                 raise RecordingError("a periodic layout (period, ...) belongs to random "
@@ -244,3 +256,24 @@ class Recording:
                     f"{self.force.shape[0]} samples are not {lay.realizations} realization(s) "
                     f"of ({lay.transient_periods} + {lay.periods}) periods of {lay.period} "
                     "samples")
+
+    def _validate_monitors(self) -> None:
+        """Monitor channels: named (no comma), real numbers, one force channel's shape."""
+        shape = self.force.shape[:-1]
+        for name, arr in self.monitors.items():
+            if not name.strip() or "," in name or name != name.strip():
+                raise RecordingError(f"monitor name {name!r} must be non-empty text without "
+                                     "commas or surrounding spaces; rename the channel")
+            if arr.dtype.kind not in "iuf":
+                raise RecordingError(f"monitor '{name}' must hold real numbers, got dtype "
+                                     f"{arr.dtype}")
+            if arr.shape != shape:
+                raise RecordingError(f"monitor '{name}' has shape {arr.shape}, not the "
+                                     f"force's {shape} (one sample per force sample)")
+        unknown = sorted(set(self.monitor_units) - set(self.monitors))
+        if unknown:
+            raise RecordingError(f"monitor_units names {unknown}, which are not monitors")
+        for name, unit in self.monitor_units.items():
+            if "," in unit:
+                raise RecordingError(f"monitor '{name}': unit {unit!r} holds a comma; write "
+                                     "it without")

@@ -196,9 +196,13 @@ class _Processing:
 
 def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray,
               proc: _Processing, unknown, known, warnings: list[str],
-              noise_var: tuple[np.ndarray, np.ndarray] | None
-              ) -> tuple[list[np.ndarray], list[str]]:
-    """Time-domain channels ``[x_0.., f_0.., r_known.., r_1..]`` of one record, input labels."""
+              noise_var: tuple[np.ndarray, np.ndarray] | None,
+              buried: list[float] | None = None) -> tuple[list[np.ndarray], list[str]]:
+    """Time-domain channels ``[x_0.., f_0.., r_known.., r_1..]`` of one record, input labels.
+
+    With ``noise_var`` (the formed displacement's and velocity's noise variance per DOF),
+    ``buried`` receives, per unknown element, its deformation's noise std over the rms of
+    what is not noise (`_noise.BURIED_RANDOM`)."""
     fs, n = proc.fs, response.shape[0]
     lo, hi = proc.band
     needs_v = bool(known) or any(fn.variable == "v" for *_, fn in unknown)
@@ -235,6 +239,9 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
             if fn.debias is None and s2 > (0.05 * s.std()) ** 2:
                 warnings.append(f"basis {fn.name} of element {i} has no noise correction: "
                                 "its estimate stays biased by the noise")
+            if buried is not None:
+                core = s[edge: n - edge]
+                buried.append(float(np.sqrt(s2 / max(core.var() - s2, 1e-12 * s2, 1e-300))))
         cols.append(-bas.evaluate(fn, s, up, s2))
         labels.append(f"-{fn.name}@{i}")
     # a list of (strided) columns: spectral_matrix reads them in place, no stacked copy

@@ -202,14 +202,14 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
     info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
-    built = []
+    built, buried = [], []
     for (rec, kind), floor in zip(recs, floors):
         proc = _Processing(fsr, kind, (lo, hi), opts.antialias,
                            force_hold or rec.force_hold,
                            info["lowpass_hz"])
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
-                                     known, warnings, nvar)
+                                     known, warnings, nvar, buried)
         built.append((rec, proc, channels))
     inputs += labels
     spec = Spectra.pool([spectral_matrix(c, fsr, **welch) for *_, c in built])
@@ -221,6 +221,9 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
     else:
         result = noise_mod.iv_passes(result, model, built, unknown, known, welch, info,
                                      warnings)
+    if buried:
+        info["buried"] = [max(buried[i::len(unknown)]) for i in range(len(unknown))]
+        noise_mod.buried_random(info["buried"], unknown, warnings)
     result.warnings = _merge_alias_warnings(warnings)
     result.noise = info
     return result

@@ -4,12 +4,15 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
-from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS, find_period
+import numpy as np
 
-from ..formats import _recordings_io as recordings_io, describe, parse_sweep_option
+from analysis.errors import InputError
+from analysis.recordings import RESPONSE_KINDS, PeriodicLayout, find_period
+
+from ..formats import _recordings_io as recordings_io, _sensor_files, describe, parse_sweep_option
 from .. import store
 from ..outputs import add_force_option, refuse_overwrite, write_json
 
@@ -80,20 +83,65 @@ def _channel_map(items: list[str]):
 def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     """The recording of the keys a channel map took from ``src``; a random record whose map
     gives no period gets the one its force shows (`analysis.recordings._periodicity`), noted in
-    ``found[src]`` (None: none found)."""
+    ``found[src]`` (None: none found); one whose map gives only the period (and perhaps the
+    transient periods) gets the realizations back to back the force shows, when several, and
+    their transient periods unless given (noted in ``args.period_given``)."""
     if args.response_kind:
         keys["response_kind"] = args.response_kind
-    if (keys.get("excitation", "random") == "random" and "freqs" not in keys
-            and not set(recordings_io.LAYOUT_KEYS) & set(keys)):
-        p = find_period(keys["force"])
+    random = keys.get("excitation", "random") == "random" and "freqs" not in keys
+    if random and not set(recordings_io.LAYOUT_KEYS) & set(keys):
+        p = find_period(keys["force"], settle=keys["response"])
         found[src] = p
         if p is not None and not p.remainder:
-            keys.update(period=p.period, transient_periods=p.transient_periods)
+            keys.update(period=p.period, transient_periods=p.transient_periods,
+                        realizations=p.realizations)
+    elif random and set(recordings_io.LAYOUT_KEYS) & set(keys) <= {"period",
+                                                                    "transient_periods"} \
+            and _whole(keys.get("period")):
+        p = find_period(keys["force"], period=_whole(keys["period"]), settle=keys["response"])
+        if p is not None and p.realizations > 1 and not p.remainder:
+            keys.setdefault("transient_periods", p.transient_periods)
+            keys["realizations"] = p.realizations         # back to back with the given period
+            found[src] = dataclasses.replace(p, transient_periods=int(
+                keys["transient_periods"]))
+            args.period_given.add(src)
     return recordings_io.recording_from_keys(keys, src)
 
 
-def _period_lines(found: dict) -> list[str]:
-    """What the import found or assumed about the period, one line per distinct finding."""
+def _whole(value) -> int | None:
+    """A ``period=`` the map gives as one whole number >= 2, else None (then the recording's
+    own checks name the problem)."""
+    arr = np.asarray(value)
+    if arr.size != 1 or arr.dtype.kind not in "iuf":
+        return None
+    v = float(arr.reshape(()))
+    return int(v) if v.is_integer() and v >= 2 else None
+
+
+def _common_transient(recs: list, sources: list[Path], found: dict) -> list:
+    """Levels whose layouts were found and differ only in their transient periods all take
+    the most any shows (levels of one run share their layout; a higher level often settles
+    later); ``found`` is updated to say so."""
+    lays = [r.layout for r in recs]
+    if len(recs) < 2 or any(found.get(s) is None or lay is None
+                            for s, lay in zip(sources, lays)):
+        return recs
+    shape = {(lay.period, lay.realizations, lay.transient_periods + lay.periods)
+             for lay in lays}
+    t = max(lay.transient_periods for lay in lays)
+    if len(shape) != 1 or all(lay.transient_periods == t for lay in lays):
+        return recs
+    period, m, each = shape.pop()
+    layout = PeriodicLayout(period, t, each - t, m)
+    for s in sources:
+        found[s] = dataclasses.replace(found[s], transient_periods=t)
+    return [dataclasses.replace(r, layout=layout, extra=dict(r.extra), meta=dict(r.meta))
+            for r in recs]
+
+
+def _period_lines(found: dict, given: set) -> list[str]:
+    """What the import found or assumed about the period, one line per distinct finding
+    (``given``: files whose map gave the period, where only the realizations were found)."""
     says: dict[str, list[Path]] = {}
     for src, p in found.items():
         if p is None:
@@ -108,8 +156,13 @@ def _period_lines(found: dict) -> list[str]:
                      if p.transient_periods == 0 else "the first taken as transient"
                      if p.transient_periods == 1 else
                      f"the first {p.transient_periods} taken as transient")
-            text = (f"periodic: {p.period}-sample period found, {p.periods} periods, {first}; "
-                    "give period= to override")
+            each = (f"{p.periods} periods" if p.realizations == 1 else
+                    f"{p.realizations} realizations back to back of {p.periods} periods each")
+            first += "" if p.realizations == 1 or not p.transient_periods else " in each"
+            text = (f"periodic: {p.period}-sample period found, {each}, {first}; "
+                    "give period= to override") if src not in given else (
+                f"periodic: {p.period}-sample period given, {each} found, {first}; give "
+                "realizations= to override")
         says.setdefault(text, []).append(src)
     return [text + ("" if len(srcs) == len(found) == 1 else f" ({len(srcs)} of "
                     f"{len(found)} files)" if len(srcs) < len(found) else f" (all "
@@ -126,10 +179,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--level names the level of one recording; with several files each "
                          "level comes from its file (a level key, else the force)")
     found: dict = {}
+    args.period_given = given = set()
     recs = [_read(src, args, found) for src in sources]
+    recs = _common_transient(recs, sources, found)
     if args.sensors:
-        keys = recordings_io.read_sensors(args.sensors)
-        recs = [recordings_io.with_sensors(r, keys) for r in recs]
+        keys = _sensor_files.read_sensors(args.sensors)
+        recs = [_sensor_files.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
     store.save_recording(out, recs, source="import",
@@ -141,12 +196,15 @@ def run(args: argparse.Namespace) -> int:
               "response_kind": rec.response_kind,
               "sensors": None if rec.sensors is None else {
                   k: v.tolist() for k, v in rec.sensors.to_keys().items()}}
+    if rec.monitors:
+        result["monitors"] = {k: rec.monitor_units.get(k, "") for k in rec.monitors}
     if rec.sweep is not None:
         result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
     if found:
         result["period_found"] = {str(src): None if p is None else {
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
-            "share": p.share, "remainder": p.remainder} for src, p in found.items()}
+            "realizations": p.realizations, "share": p.share, "remainder": p.remainder}
+            for src, p in found.items()}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "
@@ -155,8 +213,15 @@ def run(args: argparse.Namespace) -> int:
         for src, r in zip(sources, recs):
             if r.sweep is not None:
                 print(f"  {src.name}: {describe(r.sweep)}")
-        for line in _period_lines(found):
+        for line in _period_lines(found, given):
             print(f"  {line}")
+        if rec.monitors:
+            named = args.map and any(item.startswith("monitor=") for item in args.map)
+            chans = ", ".join(f"{k} [{rec.monitor_units[k]}]" if k in rec.monitor_units else k
+                              for k in rec.monitors)
+            print(f"  monitor channel(s) kept, not used by any estimator: {chans}"
+                  + ("" if named or not args.map else " (the channels the map does not "
+                     "name; monitor=NAME chooses them, monitor=none drops them)"))
     write_json(result, args.json)
     return 0
 
@@ -180,7 +245,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="MAT or CSV export: channel map, e.g. force=Force "
                    "response=Acceleration[0:3]:g fs=Fs force_dofs=0 (CSV: "
                    "response=Acc1,Acc2 fs=400; NAME[cols]@A,B,C names the model point of "
-                   "each column: a sensor map), or one MAP.toml")
+                   "each column: a sensor map; monitor=Voltage:V names channels kept beside "
+                   "force and response, default every channel the map does not use, "
+                   "monitor=none drops them), or one MAP.toml")
     p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: the model point "
                    "and kind of each response channel, the point of each force "
                    "(response_points, response_kinds, force_points; docs/model-format.md"

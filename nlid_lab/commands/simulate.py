@@ -12,7 +12,7 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recordings import RESPONSE_KINDS, Recording, SensorMap
 
-from ..formats import _recordings_io as recordings_io
+from ..formats import _recordings_io as recordings_io, _sensor_files
 from ..formats import read_drive
 from .. import sim_budget
 from ..outputs import add_force_option, refuse_overwrite, write_json
@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     model = Model.load(model_path)
     drive = read_drive(args.drive)
     if args.sensors:
-        drive["sensors"] = recordings_io.read_sensors(args.sensors)
+        drive["sensors"] = _sensor_files.read_sensors(args.sensors)
     rec = simulate_drive(model, drive, response_kind=args.response_kind,
                          noise_std=args.noise, seed=args.seed, oversample=args.oversample)
     if out.suffix.lower() == ".npz":

@@ -1,8 +1,8 @@
 """Recordings in and out of files: NPZ/CSV/MAT recordings, the sweep keys of a file, channel
 units, FE modes from UFF.
 
-Modules behind this API: ``_recordings_io``, ``_drives``, ``_mat_io``, ``_mat_recording``, ``_sweep_keys``,
-``_units``, ``_fe_modes``. Code inside this package imports its siblings by their private
+Modules behind this API: ``_recordings_io``, ``_monitors``, ``_sensor_files``, ``_drives``,
+``_mat_io``, ``_mat_recording``, ``_sweep_keys``, ``_units``, ``_fe_modes``. Code inside this package imports its siblings by their private
 module path.
 """
 

@@ -10,7 +10,10 @@ sample rate, with their units::
 
 (``NAME[cols]`` selects columns — ``[0:3]``, ``[0,2]`` — of a 2-D array, channel-major arrays
 are transposed automatically; ``:UNIT`` scales to SI and names the response kind of those
-columns; ``@A,B,C`` names the model point of each selected column: the sensor map.) The same
+columns; ``@A,B,C`` names the model point of each selected column: the sensor map.) Channels
+that are neither force nor response (the amplifier's ``Voltage``) are kept as monitor channels
+(`nlid_lab.formats._monitors`): those ``monitor=NAME[cols]:UNIT`` names, else every channel
+array of the record's length the map does not use; ``monitor=none`` keeps none. The same
 keys can come from a small TOML file (docs/recording-formats.md).
 """
 
@@ -30,6 +33,8 @@ from analysis.errors import InputError
 from ._units import lookup
 
 MAT73_SIGNATURE = b"MATLAB 7.3 MAT-file"
+#: channel-map keys that select channels (repeatable)
+ROLES = ("force", "response", "monitor")
 MAX_MAP_BYTES = 1 << 16
 _COMMA = re.compile(r",(?![^\[]*\])")  # commas between names, not inside NAME[0,2]
 _SELECT = re.compile(r"^(?P<key>[A-Za-z_][\w.]*)(?:\[(?P<cols>[^\]]*)\])?(?::(?P<unit>.+))?$")
@@ -90,6 +95,10 @@ class ChannelMap:
     #: other recording keys (force_dofs, level, period, ...): literal values, or names of
     #: variables in the file
     extra: dict[str, Any] = field(default_factory=dict)
+    #: monitor channels named by the map; None: every channel array the map does not use
+    monitor: list[Selection] | None = None
+    #: units by variable name (a CSV header's), for monitors the map does not name
+    units: dict[str, str] = field(default_factory=dict)
 
     @classmethod
     def from_items(cls, items: list[str]) -> "ChannelMap":
@@ -101,8 +110,7 @@ class ChannelMap:
                 raise MatFileError(f"channel map item {item!r}: write KEY=VALUE, e.g. "
                                    "force=Force")
             data.setdefault(key.strip(), []).append(_literal(value.strip()))
-        return cls.from_dict({k: v if k in ("force", "response") else v[-1]
-                              for k, v in data.items()}, "--map")
+        return cls.from_dict({k: v if k in ROLES else v[-1] for k, v in data.items()}, "--map")
 
     def with_units(self, units: dict[str, str]) -> "ChannelMap":
         """This map with ``units`` (name -> unit, e.g. from a CSV header) on the selections
@@ -111,7 +119,8 @@ class ChannelMap:
             return [Selection(s.key, s.cols, s.unit or units.get(s.key), s.points)
                     for s in sels]
         return ChannelMap(fill(self.force), fill(self.response), self.fs, self.response_kind,
-                          self.extra)
+                          self.extra, None if self.monitor is None else fill(self.monitor),
+                          {**self.units, **units})
 
     @classmethod
     def from_toml(cls, path: str | os.PathLike) -> "ChannelMap":
@@ -126,20 +135,32 @@ class ChannelMap:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str) -> "ChannelMap":
-        known = {"force", "response", "fs", "response_kind"}
+        known = {"fs", "response_kind", *ROLES}
         for role in ("force", "response"):
             if role not in data:
                 raise MatFileError(f"{source}: the channel map needs '{role}' (e.g. "
                                    f"{role}=Force)")
         extra = {k: v for k, v in data.items() if k not in known}
-        sels = {role: [s for v in np.atleast_1d(data[role]) for s in _selections(str(v), role)]
-                for role in ("force", "response")}
+        given = {role: [str(v) for v in np.atleast_1d(data[role])]
+                 for role in ROLES if role in data}
+        if given.get("monitor") == ["none"]:
+            given["monitor"] = []
+        elif "none" in given.get("monitor", []):
+            raise MatFileError(f"{source}: monitor=none keeps no monitor channel; drop it or "
+                               "the other monitor= items")
+        sels = {role: [s for v in values for s in _selections(v, role)]
+                for role, values in given.items()}
+        for sel in sels.get("monitor", []):
+            if sel.points is not None:
+                raise MatFileError(f"{source}: monitor={sel.key}@...: a monitor channel has "
+                                   "no model point; drop the '@' part")
         fs = data.get("fs", "Fs")
         try:
             fs = float(fs)
         except (TypeError, ValueError):
             fs = str(fs)
-        return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra)
+        return cls(sels["force"], sels["response"], fs, data.get("response_kind"), extra,
+                   sels.get("monitor"))
 
 
 def _selections(text: str, role: str) -> list[Selection]:
@@ -205,11 +226,16 @@ def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
 
 def _leaf(tree: dict[str, Any], key: str, source: str) -> Any:
     """A leaf by full dotted name, or by its last part(s) when that is unique."""
+    return tree[_full_name(tree, key, source)]
+
+
+def _full_name(tree: dict[str, Any], key: str, source: str) -> str:
+    """The full dotted name of the leaf ``key`` names (`_leaf`)."""
     if key in tree:
-        return tree[key]
+        return key
     hits = [k for k in tree if k.endswith("." + key)]
     if len(hits) == 1:
-        return tree[hits[0]]
+        return hits[0]
     names = ", ".join(sorted(tree)) or "none"
     if hits:
         raise MatFileError(f"{source}: '{key}' is ambiguous ({', '.join(hits)}); give the full "
@@ -295,11 +321,15 @@ def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, 
         except (TypeError, ValueError):
             raise MatFileError(f"{source}: the sample rate '{cmap.fs}' is not one number") \
                 from None
-    extra = {}
+    extra, used = {}, {_full_name(tree, s.key, source) for s in cmap.force + cmap.response}
     for key, value in cmap.extra.items():
         if isinstance(value, str) and value not in ("none", "linear") and _known(tree, value):
+            used.add(_full_name(tree, value, source))
             value = _leaf(tree, value, source)
         extra[key] = value
+    if isinstance(cmap.fs, str):
+        used.add(_full_name(tree, cmap.fs, source))
+    extra.update(monitor_keys_of(tree, cmap, n, used, source))
     if len(set(kinds)) > 1:
         points["response_kinds"] = np.array(kinds)
     kind = kinds[0] if len(set(kinds)) == 1 and kinds[0] else "displacement"
@@ -336,3 +366,46 @@ def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,
 
 def _known(tree: dict[str, Any], key: str) -> bool:
     return key in tree or sum(k.endswith("." + key) for k in tree) == 1
+
+
+def monitor_keys_of(tree: dict[str, Any], cmap: ChannelMap, n: int, used: set[str],
+                    source: str) -> dict[str, np.ndarray]:
+    """The ``monitor``, ``monitor_names``, ``monitor_units`` keys (`nlid_lab.formats._monitors`)
+    of a mapped file: the map's ``monitor=`` selections, else every numeric 1-D or 2-D
+    variable with ``n`` samples along one axis that the map does not use (all its columns);
+    none when there are none. Units are kept as the map or header gives them, unconverted."""
+    if cmap.monitor is None:
+        sels = [Selection(k, None, cmap.units.get(k)) for k, v in tree.items()
+                if k not in used and _is_channel(v, n)]
+    else:
+        sels = cmap.monitor
+    full = [_full_name(tree, s.key, source) for s in sels]
+    short = [k.rpartition(".")[2] for k in full]
+    base = [s if short.count(s) == 1 else k for s, k in zip(short, full)]
+    cols, labels, units = [], [], []
+    for sel, name in zip(sels, base):
+        arr = _columns(tree, Selection(sel.key), n, source)
+        if arr.shape[0] != n:
+            raise MatFileError(f"{source}: monitor '{sel.key}' has {arr.shape[0]} samples, "
+                               f"the force {n}; channels of one recording have one length")
+        picked = np.arange(arr.shape[1])
+        picked = picked[sel.cols] if isinstance(sel.cols, slice) else \
+            picked[list(sel.cols)] if sel.cols is not None else picked
+        whole = arr.shape[1] == 1 and sel.cols is None
+        cols.append(_columns(tree, sel, n, source))
+        labels += [name] if whole else [f"{name}[{j}]" for j in picked]
+        units += [sel.unit or ""] * len(picked)
+    if not cols:
+        return {}
+    if len(set(labels)) != len(labels):
+        raise MatFileError(f"{source}: monitor channels {labels} repeat a name; select each "
+                           "column once")
+    return {"monitor": np.hstack(cols), "monitor_names": np.array(labels),
+            "monitor_units": np.array(units)}
+
+
+def _is_channel(value: Any, n: int) -> bool:
+    """True for a numeric 1-D or 2-D array with ``n`` samples along one axis."""
+    arr = np.asarray(value)
+    return (arr.dtype.kind in "iuf" and arr.ndim in (1, 2) and n in arr.shape
+            and arr.size >= n > 1)

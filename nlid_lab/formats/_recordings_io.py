@@ -25,6 +25,8 @@ from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, P
                                  Recording, SensorMap, names, sensor_map)
 from analysis.models import read_text
 
+from ._monitors import (MONITOR_KEYS, csv_monitor_columns, monitor_fields, monitor_keys,
+                        trimmed)
 from ._sweep_keys import sweep_fields
 from ._units import lookup, split_label
 
@@ -124,10 +126,13 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
         fs = _scalar(data, "fs", float, path)
         level, level_from = _level(data, path, excitation)
         kind = _scalar(data, "response_kind", str, path) if "response_kind" in data else None
+        monitors, units = monitor_fields(data, force.shape[:-1], path)
         sweep = None
         if excitation == "swept-sine":
             sweep, force, response, amplitude = sweep_fields(data, force, response, fs)
             level = amplitude if level is None else level
+            if monitors and len(force) != len(next(iter(monitors.values()))):  # law estimated
+                monitors = trimmed(monitors, sweep.trimmed_lead, force.shape[0])
         sensors, force_dofs = _sensors(data, response, kind, path)
         return Recording(
             fs=fs, excitation=excitation, force_dofs=force_dofs, force=force,
@@ -135,7 +140,8 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Record
             freqs=_array(data, "freqs", path) if "freqs" in data else None,
             level=level, force_hold=_force_hold(data, path),
             layout=_layout(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
-            extra=_extra(data, excitation, level_from), meta={"source": str(path)})
+            extra=_extra(data, excitation, level_from), meta={"source": str(path)},
+            monitors=monitors, monitor_units=units)
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
@@ -185,7 +191,8 @@ def _level(data: dict, path: Path, excitation: str) -> tuple[float | None, str |
 def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
     """Keys no field holds. A level read from another key than the excitation's own (say
     ``level``) stays here too, so that the file's own key is written back."""
-    known = set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | {"force_hold"}
+    known = (set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | set(MONITOR_KEYS)
+             | {"force_hold"})
     if excitation == "swept-sine":
         known |= set(SWEEP_KEYS)
     if level_from == level_key(excitation):
@@ -210,6 +217,7 @@ def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
         out[level_key(rec.excitation)] = np.float64(rec.level)
     if rec.sensors is not None:
         out.update(rec.sensors.to_keys())
+    out.update(monitor_keys(rec))
     return out
 
 
@@ -333,6 +341,13 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     if data.shape[1] != len(names):
         raise RecordingFileError(f"{path}: {data.shape[1]} data columns but {len(names)} "
                                  "header names")
+    mcols = csv_monitor_columns(names, keys, path)
+    if mcols:
+        keys["monitor"] = data[:, mcols]
+        keys.setdefault("monitor_units", np.array([split_label(names[j])[1] or ""
+                                                   for j in mcols]))
+        names = [h for j, h in enumerate(names) if j not in mcols]
+        data = np.delete(data, mcols, axis=1)
     time_col, time_scale, chans = parse_header(names, force_cols)
     fs = _csv_fs(data[:, time_col] * time_scale, keys, path)
     forces = [c for c in chans if _is_force(c, force_cols)]
@@ -377,10 +392,13 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
         file_level, level_from = _level(keys, path, exc)
         force = data[:, [c.index for c in forces]] * [c.factor for c in forces]
         response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
+        monitors, units = monitor_fields(keys, force.shape[:-1], path)
         sweep = None
         if exc == "swept-sine":
             sweep, force, response, amplitude = sweep_fields(keys, force, response, fs)
             file_level = amplitude if file_level is None else file_level
+            if monitors and len(force) != data.shape[0]:      # law estimated: trimmed
+                monitors = trimmed(monitors, sweep.trimmed_lead, force.shape[0])
         sensors, _ = _sensors({**keys, "force_dofs": np.asarray(force_dofs)}, response,
                               response_kind or file_kind, path)
         return Recording(
@@ -388,7 +406,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
             response_kind=kind, sensors=sensors,
             level=file_level if level is None else level, force_hold=_force_hold(keys, path),
             layout=_layout(keys, path, data.shape[0]), sweep=sweep,
-            extra=_extra(keys, exc, level_from),
+            extra=_extra(keys, exc, level_from), monitors=monitors, monitor_units=units,
             meta={"source": str(path), "channels": [c.name for c in forces + responses]})
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
@@ -515,20 +533,19 @@ def write_csv(path: str | os.PathLike, rec: Recording) -> None:
     if rec.excitation == "stepped-sine":
         raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
                                  "sine as NPZ")
-    drop = ("force_dofs", "force", "response") + (("excitation",) if rec.excitation == "random"
-                                                   else ())
+    drop = ("force_dofs", "force", "response", "monitor") + (
+        ("excitation",) if rec.excitation == "random" else ())
     keys = {k: v for k, v in recording_keys(rec).items() if k not in drop}
     keys.update({k: np.str_(",".join(v.tolist())) for k, v in keys.items()
-                 if k in SENSOR_KEYS})
+                 if k in SENSOR_KEYS + MONITOR_KEYS})
     lines = [f"# {k} = {_csv_value(k, v)}" for k, v in keys.items()]
     kinds = sensor_map(rec).response_kinds
     names = (["t"] + [f"f{i}@{d}" for i, d in enumerate(rec.force_dofs)]
-             + [f"{kinds[j][0]}{j}@{j}" for j in range(rec.n_dof)])
+             + [f"{kinds[j][0]}{j}@{j}" for j in range(rec.n_dof)] + list(rec.monitors))
     t = np.arange(rec.force.shape[0]) / rec.fs
-    np.savetxt(path, np.column_stack([t, rec.force, rec.response]), delimiter=",",
+    np.savetxt(path, np.column_stack([t, rec.force, rec.response, *rec.monitors.values()]),
+               delimiter=",",
                header="\n".join(lines + [",".join(names)]), comments="", fmt="%.17g")
-
-
 
 
 def load_recordings(path: str | os.PathLike) -> list[Recording]:
@@ -544,43 +561,3 @@ def load_recordings(path: str | os.PathLike) -> list[Recording]:
     if suffix == ".csv":
         return [read_csv(path)]
     raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")
-
-
-def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
-    """A sensor-map TOML file (``response_points``, ``response_kinds``, ``force_points``:
-    lists of names; docs/model-format.md#sensor-maps) as recording keys."""
-    import tomllib
-
-    path = Path(path)
-    text = read_text(path, "sensor map", RecordingFileError, max_bytes=1 << 16)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(data) - set(SENSOR_KEYS))
-    if unknown or not data:
-        raise RecordingFileError(f"{path}: a sensor map holds {', '.join(SENSOR_KEYS)}"
-                                 + (f", not {', '.join(unknown)}" if unknown else ""))
-    out = {}
-    for key, value in data.items():
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise RecordingFileError(f"{path}: {key} must be a list of names, e.g. "
-                                     f"{key} = [\"wing_tip\", \"payload\"]")
-        out[key] = [v.strip() for v in value]
-    return out
-
-
-def with_sensors(rec: Recording, keys: dict[str, list[str]]) -> Recording:
-    """``rec`` with the sensor map of ``keys`` (`read_sensors`; missing keys from ``rec``'s
-    own map); the force DOFs follow ``force_points``."""
-    import dataclasses
-
-    own = sensor_map(rec).to_keys() if rec.sensors is not None else {}
-    merged = {**own, **{k: np.array(v) for k, v in keys.items()}}
-    try:
-        smap = SensorMap.from_keys(merged, rec.n_dof, rec.force_dofs, None)
-        smap.validate(rec.n_dof, rec.n_in)
-        return dataclasses.replace(rec, force_dofs=np.asarray(smap.force_channels),
-                                   sensors=smap, extra=dict(rec.extra), meta=dict(rec.meta))
-    except ValueError as exc:
-        raise RecordingFileError(f"{rec.meta.get('source', 'recording')}: {exc}") from None

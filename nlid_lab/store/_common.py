@@ -19,6 +19,9 @@ import numpy as np
 from analysis.errors import InputError
 
 SCHEMA_VERSION = 1
+#: runs with monitor channels: their block checksums cover the monitors, which a version-1
+#: reader would take for corrupt blocks; runs without stay version 1
+MONITORS_SCHEMA_VERSION = 2
 
 
 def _software() -> str:
@@ -157,8 +160,10 @@ def writer_left_open(path: Path) -> bool:
         return "open for" in str(exc) or "consistency" in str(exc)
 
 
-def _crc(force: np.ndarray, response: np.ndarray) -> int:
-    return zlib.crc32(response.tobytes(), zlib.crc32(force.tobytes()))
+def _crc(force: np.ndarray, response: np.ndarray, monitor: np.ndarray | None = None) -> int:
+    """Checksum of a block's samples (its monitor channels' too, when the run has some)."""
+    crc = zlib.crc32(response.tobytes(), zlib.crc32(force.tobytes()))
+    return crc if monitor is None else zlib.crc32(np.ascontiguousarray(monitor).tobytes(), crc)
 
 
 def _default_channels(force_dofs: np.ndarray, n_dof: int, response_kind: str,
@@ -259,7 +264,8 @@ def _read_extra(f: h5py.File) -> dict[str, np.ndarray]:
 def _valid_segments(f: h5py.File) -> np.ndarray:
     """Index rows whose samples are on disk (checksums are verified when data are read)."""
     seg = f["segments"][:]
-    n = min(f["data/force"].shape[0], f["data/response"].shape[0])
+    n = min(f[f"data/{k}"].shape[0] for k in ("force", "response", "monitor")
+            if f"data/{k}" in f)
     return seg[seg["start"] + seg["length"] <= n]
 
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, Sweep
 
-from ._common import (FORMAT, SCHEMA_VERSION, StoreError, _append_log, _crc, _json_at, _open,
-                      _open_swmr_write, _read_extra, _read_status, _valid_segments,
+from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, StoreError, _append_log, _crc,
+                      _json_at, _open, _open_swmr_write, _read_extra, _read_status, _valid_segments,
                       writer_left_open)
 from .writer import RunWriter, _repair
 
@@ -67,6 +67,12 @@ class Run:
         return SensorMap(**json.loads(text)) if text else None
 
     @property
+    def monitor_units(self) -> dict[str, str]:
+        """The run's monitor channels, name -> unit (``""``: none), in column order of
+        ``/data/monitor``; empty for runs without monitors."""
+        return dict(json.loads(self.meta.get("monitors") or "[]"))
+
+    @property
     def force_hold(self) -> str:
         """The run's force hold; runs written before it was an attribute kept it in
         ``settings``."""
@@ -107,12 +113,15 @@ class Run:
         index = self.level_index(level)
         seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
         lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
+        units = self.monitor_units
         with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
             force, response, text = f["data/force"][lo:hi], f["data/response"][lo:hi], f["text"]
+            monitor = f["data/monitor"][lo:hi] if units else None
             extra = [_json_at(text, s["extra_start"], s["extra_length"]) for s in seg]
-        parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n])
+        parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n],
+                  None if monitor is None else monitor[s - lo:s - lo + n])
                  for s, n in zip(seg["start"], seg["length"])]
-        keep = [i for i, (fo, re) in enumerate(parts) if _crc(fo, re) == seg["crc"][i]]
+        keep = [i for i, p in enumerate(parts) if _crc(*p) == seg["crc"][i]]
         if len(keep) < len(seg):
             self.warnings.append(f"level {index}: {len(seg) - len(keep)} block(s) failed their "
                                  "checksum and were skipped")
@@ -129,7 +138,12 @@ class Run:
                       response_kind=self.meta["response_kind"],
                       level=None if np.isnan(nominal) else nominal,
                       force_hold=self.force_hold, extra=dict(self.extra), meta=meta,
-                      sensors=self.sensors)
+                      sensors=self.sensors, monitor_units={k: u for k, u in units.items() if u})
+
+        def monitors(stack) -> dict[str, np.ndarray]:
+            """Each monitor's samples, the blocks joined by ``stack``."""
+            return {} if not units else {name: stack([p[2][:, j] for p in parts])
+                                         for j, name in enumerate(units)}
         if self.meta["excitation"] == "swept-sine":
             keys = next((e for e in extra if e), None)
             if keys is None:
@@ -138,7 +152,8 @@ class Run:
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             return Recording(force=np.concatenate([p[0] for p in parts]),
                              response=np.concatenate([p[1] for p in parts]),
-                             sweep=Sweep.from_keys(keys), **common)
+                             sweep=Sweep.from_keys(keys), monitors=monitors(np.concatenate),
+                             **common)
         if self.meta["excitation"] == "random":
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
@@ -148,12 +163,14 @@ class Run:
                                      "length; the level is analysed as plain random data")
             return Recording(force=np.concatenate([p[0] for p in parts]),
                              response=np.concatenate([p[1] for p in parts]),
-                             layout=layout or None, **common)
+                             layout=layout or None, monitors=monitors(np.concatenate),
+                             **common)
         n = min(len(p[0]) for p in parts)
         meta.update(step_amplitude=seg["amplitude"], step_extra=extra,
                     step_lengths=seg["length"])
         return Recording(force=np.stack([p[0][-n:] for p in parts]),
                          response=np.stack([p[1][-n:] for p in parts]), freqs=seg["freq"],
+                         monitors=monitors(lambda cols: np.stack([c[-n:] for c in cols])),
                          **common)
 
     def _layout(self, parts: list) -> PeriodicLayout | None | bool:
@@ -187,9 +204,9 @@ def open_run(path: str | os.PathLike) -> Run:
         if f.attrs.get("format") != FORMAT:
             raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
         version = int(f.attrs["schema_version"])
-        if version > SCHEMA_VERSION:
+        if version > MONITORS_SCHEMA_VERSION:
             raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
-                             f"{SCHEMA_VERSION}: upgrade nlid-lab")
+                             f"{MONITORS_SCHEMA_VERSION}: upgrade nlid-lab")
         meta = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
         for key in ("excitation_settings", "settings"):
             meta[key] = json.loads(meta[key])
@@ -248,7 +265,8 @@ def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording]
 
     Levels in separate files (one recording each) become one run: they must agree on what a
     run file holds once (sample rate, excitation, force DOFs, channels, response kind, force
-    hold, periodic layout, extra keys). ``meta`` goes to `RunWriter` (``source``,
+    hold, periodic layout, extra keys, monitor channel names and units; each level keeps its
+    own monitor samples). ``meta`` goes to `RunWriter` (``source``,
     ``model_toml``, ``settings``, ``channels``).
     """
     recs = [rec] if isinstance(rec, Recording) else list(rec)
@@ -259,18 +277,23 @@ def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording]
     with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
                    n_dof=first.n_dof, response_kind=first.response_kind, mode="overwrite",
                    force_hold=first.force_hold, layout=first.layout, extra=first.extra,
-                   sensors=first.sensors, **meta) as run:
+                   sensors=first.sensors, monitors={k: first.monitor_units.get(k, "")
+                                                    for k in first.monitors},
+                   **meta) as run:
         for index, r in enumerate(recs):
             lv = run.level(index, np.nan if r.level is None else r.level)
+            mon = (np.stack(list(r.monitors.values()), axis=-1) if r.monitors
+                   else np.zeros(r.force.shape[:-1] + (0,)))
             if r.excitation == "swept-sine":
-                lv.append_block(r.force, r.response, extra=r.sweep.keys())
+                lv.append_block(r.force, r.response, extra=r.sweep.keys(), monitor=mon)
             elif r.excitation == "random":
                 n = r.layout.realization_samples if r.layout else len(r.force)
                 for i in range(0, len(r.force), n):
-                    lv.append_block(r.force[i:i + n], r.response[i:i + n])
+                    lv.append_block(r.force[i:i + n], r.response[i:i + n],
+                                    monitor=mon[i:i + n])
             else:
-                for freq, force, response in zip(r.freqs, r.force, r.response):
-                    lv.append_step(freq, force, response, amplitude=r.level)
+                for freq, force, response, m in zip(r.freqs, r.force, r.response, mon):
+                    lv.append_step(freq, force, response, amplitude=r.level, monitor=m)
             lv.complete()
 
 
@@ -282,10 +305,17 @@ def _check_same_run(a: Recording, b: Recording, index: int) -> None:
         "response channels": a.n_dof == b.n_dof, "response_kind": a.response_kind
         == b.response_kind, "force_hold": a.force_hold == b.force_hold,
         "periodic layout": a.layout == b.layout, "sensor map": a.sensors == b.sensors,
+        "monitor channels (names and units)": list(a.monitors) == list(b.monitors)
+        and a.monitor_units == b.monitor_units,
         "extra keys": a.extra.keys() == b.extra.keys() and all(
             np.array_equal(np.asarray(a.extra[k]), np.asarray(b.extra[k])) for k in a.extra),
     }
     for what, ok in same.items():
+        if what.startswith("monitor") and not ok:
+            raise StoreError(f"recording {index + 1} has monitor channels {list(b.monitors)} "
+                             f"but the first {list(a.monitors)} (units {b.monitor_units} vs "
+                             f"{a.monitor_units}); levels of one run share their monitor "
+                             "channels: map the same monitor= in every file, or monitor=none")
         if not ok:
             raise StoreError(f"recording {index + 1} differs from the first in its {what}; "
                              "levels of one run share it (import them as separate runs)")

@@ -14,11 +14,11 @@ import numpy as np
 from analysis.recordings import (EXCITATIONS, FORCE_HOLDS, KEYS as SENSOR_KEYS, MIXED,
                                  RESPONSE_KINDS, PeriodicLayout, SensorMap)
 
-from ._common import (CHUNK_ROWS, FORMAT, SCHEMA_VERSION, SOFTWARE, STATUSES, _TABLES,
-                      StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
-                      _default_channels, _json_default, _open, _open_swmr_write,
-                      _valid_segments, _write_extra, _write_text, in_use, utc_now,
-                      writer_left_open)
+from ._common import (CHUNK_ROWS, FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE,
+                      STATUSES, _TABLES, StoreError, WriterLock, _append_log, _append_row,
+                      _channel_table, _crc, _default_channels, _json_default, _open,
+                      _open_swmr_write, _valid_segments, _write_extra, _write_text, in_use,
+                      utc_now, writer_left_open)
 
 
 class LevelWriter:
@@ -35,21 +35,23 @@ class LevelWriter:
 
     def append_block(self, force: np.ndarray, response: np.ndarray, seq: int | None = None,
                      t: float | None = None, extra: dict | None = None,
-                     amplitude: float | None = None) -> int:
+                     amplitude: float | None = None, monitor: np.ndarray | None = None) -> int:
         """Append one random or swept-sine block; returns its sequence number. A swept-sine
         level's first block carries the level's sweep keys in ``extra``
-        (`analysis.recordings.Sweep.keys`) and may carry its force ``amplitude``."""
+        (`analysis.recordings.Sweep.keys`) and may carry its force ``amplitude``. A run
+        with monitor channels takes their samples as ``monitor`` (n, n_monitors)."""
         amp = np.nan if amplitude is None else float(amplitude)
-        return self._append(force, response, seq, t, np.nan, amp, extra)
+        return self._append(force, response, seq, t, np.nan, amp, extra, monitor)
 
     def append_step(self, freq: float, force: np.ndarray, response: np.ndarray,
                     amplitude: float | None = None, extra: dict | None = None,
-                    seq: int | None = None, t: float | None = None) -> int:
+                    seq: int | None = None, t: float | None = None,
+                    monitor: np.ndarray | None = None) -> int:
         """Append one stepped-sine step (steady-state samples at ``freq``)."""
         if not np.isfinite(freq) or freq <= 0:
             raise StoreError(f"step frequency must be a positive number, got {freq}")
         amp = np.nan if amplitude is None else float(amplitude)
-        return self._append(force, response, seq, t, float(freq), amp, extra)
+        return self._append(force, response, seq, t, float(freq), amp, extra, monitor)
 
     def stored_force(self) -> Iterator[tuple[np.ndarray, float]]:
         """Force samples of each stored block/step of this level in ``seq`` order (read one
@@ -69,7 +71,7 @@ class LevelWriter:
         ds[pos] = row
         self._run._file.flush()
 
-    def _append(self, force, response, seq, t, freq, amp, extra) -> int:
+    def _append(self, force, response, seq, t, freq, amp, extra, monitor=None) -> int:
         run = self._run
         force = np.ascontiguousarray(force, dtype="<f8")
         response = np.ascontiguousarray(response, dtype="<f8")
@@ -81,17 +83,28 @@ class LevelWriter:
                              f"expected (n, {n_in}) and (n, {n_dof})")
         if len(force) == 0:
             raise StoreError("empty block; append at least one sample")
+        blocks = [("force", force), ("response", response)]
+        n_mon = len(run.monitors)
+        if n_mon or monitor is not None:
+            monitor = np.ascontiguousarray(np.zeros((len(force), 0)) if monitor is None
+                                           else monitor, dtype="<f8")
+            if monitor.shape != (len(force), n_mon):
+                raise StoreError(f"block monitor shape {monitor.shape}; the run has "
+                                 f"{n_mon} monitor channel(s): expected ({len(force)}, "
+                                 f"{n_mon})")
+            if n_mon:
+                blocks.append(("monitor", monitor))
         seq = self.next_seq if seq is None else int(seq)
         f = run._file
         start = f["data/force"].shape[0]
-        for name, block in (("force", force), ("response", response)):
+        for name, block in blocks:
             f[f"data/{name}"].resize((start + len(block), block.shape[1]))
             f[f"data/{name}"][start:] = block
         f.flush()  # data on disk before the index row that makes them visible
         ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
+        crc = _crc(force, response, monitor if n_mon else None)
         _append_row(f, "segments", (self.index, seq, time.time() if t is None else float(t),
-                                    start, len(force), freq, amp, _crc(force, response),
-                                    ex_start, ex_len))
+                                    start, len(force), freq, amp, crc, ex_start, ex_len))
         f.flush()
         self.n_segments += 1
         self.n_samples += len(force)
@@ -137,6 +150,10 @@ class RunWriter:
         Point and kind of each response channel, point of each force
         (`analysis.recordings.SensorMap`), stored as the ``sensors`` JSON attribute;
         ``response_kind`` is then its kind (``"mixed"`` when the channels differ).
+    monitors : dict of str to str, optional
+        Monitor channels (`analysis.recordings.Recording.monitors`): name -> unit, in column
+        order of ``/data/monitor`` (the ``monitors`` JSON attribute); every block then
+        carries their samples.
     mode : {"create", "overwrite", "resume"}
         ``create`` refuses an existing file; ``resume`` continues one (a crashed file is
         rebuilt first) after checking it matches fs, excitation, force_dofs and n_dof.
@@ -148,7 +165,8 @@ class RunWriter:
                  model_toml: str | None = None, source: str = "sim",
                  force_hold: str = "none", layout: PeriodicLayout | None = None,
                  extra: dict[str, np.ndarray] | None = None, mode: str = "create",
-                 sensors: SensorMap | None = None) -> None:
+                 sensors: SensorMap | None = None, monitors: dict[str, str] | None = None
+                 ) -> None:
         self.path = Path(path)
         exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
         self.excitation = exc_settings.get("kind")
@@ -171,6 +189,10 @@ class RunWriter:
         }
         if sensors is not None:
             attrs["sensors"] = json.dumps({k: list(getattr(sensors, k)) for k in SENSOR_KEYS})
+        self.monitors = dict(monitors or {})
+        if self.monitors:
+            attrs["monitors"] = json.dumps([[k, v] for k, v in self.monitors.items()])
+            attrs["schema_version"] = MONITORS_SCHEMA_VERSION
         if layout is not None:
             attrs.update(period=layout.period, transient_periods=layout.transient_periods,
                          periods=layout.periods)
@@ -205,6 +227,10 @@ class RunWriter:
     def _resume(self, attrs: dict) -> h5py.File:
         rebuilt = _repair(self.path)
         f = _open_swmr_write(self.path)
+        if json.loads(f.attrs.get("monitors", "[]")) != json.loads(attrs.get("monitors", "[]")):
+            f.close()
+            raise StoreError(f"cannot resume {self.path}: its monitor channels differ from "
+                             "the ones given; use the same settings or a new file")
         for key in ("fs", "excitation", "n_dof", "force_dofs"):
             have = f.attrs[key]
             if not np.array_equal(have, attrs[key]):
@@ -291,9 +317,11 @@ def _create(path: Path, attrs: dict, channels: np.ndarray,
             for name, dtype in _TABLES.items():
                 f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(256,), dtype=dtype)
             f.create_dataset("text", shape=(0,), maxshape=(None,), chunks=(65536,), dtype="u1")
-            for name, width in (("force", n_in), ("response", n_dof)):
-                f.create_dataset(f"data/{name}", shape=(0, width), maxshape=(None, width),
-                                 chunks=(CHUNK_ROWS, width), dtype="<f8")
+            n_mon = len(json.loads(attrs.get("monitors", "[]")))
+            for name, width in (("force", n_in), ("response", n_dof), ("monitor", n_mon)):
+                if width:
+                    f.create_dataset(f"data/{name}", shape=(0, width), maxshape=(None, width),
+                                     chunks=(CHUNK_ROWS, width), dtype="<f8")
             if fill:
                 fill(f)
     except OSError as exc:
@@ -319,7 +347,9 @@ def _repair(path: Path) -> bool:
     with _open(path, "r") as old:
         seg_ok = _valid_segments(old)
         force, response = old["data/force"], old["data/response"]
-        seg_ok = seg_ok[[_crc(force[s:s + n], response[s:s + n]) == c
+        monitor = old["data/monitor"] if "data/monitor" in old else None
+        seg_ok = seg_ok[[_crc(force[s:s + n], response[s:s + n],
+                              None if monitor is None else monitor[s:s + n]) == c
                          for s, n, c in zip(seg_ok["start"], seg_ok["length"], seg_ok["crc"])]]
         end = int((seg_ok["start"] + seg_ok["length"]).max()) if len(seg_ok) else 0
         log = old["log"][:]
@@ -337,7 +367,7 @@ def _repair(path: Path) -> bool:
                 old.copy("extra", f)
             f["text"].resize((text_n,))
             f["text"][:] = old["text"][:text_n]
-            for name in ("force", "response"):
+            for name in ("force", "response") + (("monitor",) if monitor is not None else ()):
                 src, dst = old[f"data/{name}"], f[f"data/{name}"]
                 dst.resize((end, src.shape[1]))
                 for i in range(0, end, 1 << 20):

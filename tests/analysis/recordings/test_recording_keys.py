@@ -19,12 +19,14 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from analysis.recordings import PeriodicLayout, Recording
 from analysis.spectral import stepped_sine_frf
 from nlid_lab.formats import _recordings_io as rio
+from nlid_lab.formats._monitors import MONITOR_KEYS
 from nlid_lab import store
 from nlid_lab.methods.hbm import _stepped
 from nlid_lab.cli import main
 
 ROOT = Path(__file__).resolve().parents[3]
-KNOWN = set(rio.CORE_KEYS) | set(rio.LEVEL_KEYS) | set(rio.LAYOUT_KEYS) | {"force_hold"}
+KNOWN = (set(rio.CORE_KEYS) | set(rio.LEVEL_KEYS) | set(rio.LAYOUT_KEYS) | set(MONITOR_KEYS)
+         | {"force_hold"})
 
 
 def _assert_same(got: np.ndarray, want: np.ndarray, key: str) -> None:
@@ -99,6 +101,14 @@ def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
         shape = (n_steps, draw(st.integers(3, 30)))
     keys["force"] = rng.normal(size=shape + (force_dofs.size,))
     keys["response"] = rng.normal(size=shape + (n_dof,))
+    if draw(st.booleans()):                     # monitor channels (the amplifier voltage...)
+        names = draw(st.lists(st.from_regex(r"[A-Z][a-z]{2,6}", fullmatch=True).filter(
+            lambda s: s != "Time"), min_size=1, max_size=3, unique=True))
+        keys.update(monitor=rng.normal(size=shape + (len(names),)),
+                    monitor_names=np.array(names))
+        if draw(st.booleans()):
+            keys["monitor_units"] = np.array(draw(st.lists(st.sampled_from(
+                ["V", "A", "", "m/s^2"]), min_size=len(names), max_size=len(names))))
     if draw(st.booleans()):
         keys[rio.level_key(excitation)] = np.float64(draw(st.floats(0.01, 100)))
     extras = draw(st.dictionaries(_names, _scalar_extra if csv else _array_extra, max_size=4))

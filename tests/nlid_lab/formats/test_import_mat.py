@@ -78,3 +78,53 @@ def test_reverse_path_period_averages_and_covers_the_truth(run):
     [el] = result["elements"]
     lo, hi = el["ci95"]["p"]
     assert lo <= P_TRUE <= hi and (hi - lo) < 0.05 * P_TRUE, (el["params"]["p"], lo, hi)
+
+
+def test_realizations_back_to_back_found_without_layout_keys(run, capsys):
+    """The same exports with no layout key in the map: period, realizations and transient
+    periods found on import (the responses settle over the 6 generated transient periods at
+    the higher level, so both levels drop 6); detect and reverse-path period-average with no
+    flags and cover the truth as with the explicit layout."""
+    tmp, _, candidate = run
+    files = [tmp / "level0.mat", tmp / "level1.mat"]
+    out = tmp / "found.h5"
+    assert main(["import", *map(str, files), "--out", str(out), "--map", "force=Force",
+                 "response=Acceleration:g", "fs=Fs", "force_dofs=0",
+                 "--json", str(tmp / "found.json")]) == 0
+    said = capsys.readouterr().out
+    assert (f"periodic: {PERIOD}-sample period found, {REALIZATIONS} realizations back to "
+            f"back of {TRANSIENT + PERIODS} periods each") in said
+    found = json.loads((tmp / "found.json").read_text())["period_found"]
+    assert {f["realizations"] for f in found.values()} == {REALIZATIONS}
+    from nlid_lab.formats import load_recordings          # Voltage kept, block by block
+    for path, rec in zip(files, load_recordings(out)):
+        volt = scipy.io.loadmat(path, simplify_cells=True)["data"]["Voltage"]
+        np.testing.assert_array_equal(rec.monitors["Voltage"], volt)
+    js = tmp / "found-detect.json"
+    assert main(["detect", str(out), "--json", str(js)]) == 0
+    bla = [t for t in json.loads(js.read_text())["tests"] if t["method"] == "bla"]
+    assert all(t["realizations"] == REALIZATIONS for t in bla)
+    steady = {t["periods"] for t in bla}
+    assert len(steady) == 1 and 2 <= steady.pop() <= PERIODS
+    js = tmp / "found-rp.json"
+    assert main(["analyze", "reverse-path", str(out), "--model", str(candidate),
+                 "--json", str(js)]) == 0
+    result = json.loads(js.read_text())
+    assert result["noise"]["method"].startswith("periodic")
+    [el] = result["elements"]
+    lo, hi = el["ci95"]["p"]
+    assert lo <= P_TRUE <= hi and (hi - lo) < 0.05 * P_TRUE, (el["params"]["p"], lo, hi)
+
+
+def test_a_map_giving_only_the_period_gets_the_realizations(run, capsys):
+    from nlid_lab.formats import load_recordings
+    tmp, _, _ = run
+    out = tmp / "given.h5"
+    assert main(["import", str(tmp / "level0.mat"), "--out", str(out), "--map", "force=Force",
+                 "response=Acceleration:g", "fs=Fs", "force_dofs=0", "period=BlockSize",
+                 f"transient_periods={TRANSIENT}"]) == 0
+    assert (f"periodic: {PERIOD}-sample period given, {REALIZATIONS} realizations back to "
+            "back") in capsys.readouterr().out
+    [rec] = load_recordings(out)
+    assert (rec.layout.period, rec.layout.transient_periods, rec.layout.periods,
+            rec.layout.realizations) == (PERIOD, TRANSIENT, PERIODS, REALIZATIONS)

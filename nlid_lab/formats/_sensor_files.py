@@ -1,0 +1,52 @@
+"""Sensor-map TOML files (docs/model-format.md#sensor-maps) and applying one to a recording."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+
+from analysis.models import read_text
+from analysis.recordings import KEYS as SENSOR_KEYS, Recording, SensorMap, sensor_map
+
+from ._recordings_io import RecordingFileError
+
+
+def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
+    """A sensor-map TOML file (``response_points``, ``response_kinds``, ``force_points``:
+    lists of names; docs/model-format.md#sensor-maps) as recording keys."""
+    import tomllib
+
+    path = Path(path)
+    text = read_text(path, "sensor map", RecordingFileError, max_bytes=1 << 16)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(data) - set(SENSOR_KEYS))
+    if unknown or not data:
+        raise RecordingFileError(f"{path}: a sensor map holds {', '.join(SENSOR_KEYS)}"
+                                 + (f", not {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for key, value in data.items():
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise RecordingFileError(f"{path}: {key} must be a list of names, e.g. "
+                                     f"{key} = [\"wing_tip\", \"payload\"]")
+        out[key] = [v.strip() for v in value]
+    return out
+
+
+def with_sensors(rec: Recording, keys: dict[str, list[str]]) -> Recording:
+    """``rec`` with the sensor map of ``keys`` (`read_sensors`; missing keys from ``rec``'s
+    own map); the force DOFs follow ``force_points``."""
+    own = sensor_map(rec).to_keys() if rec.sensors is not None else {}
+    merged = {**own, **{k: np.array(v) for k, v in keys.items()}}
+    try:
+        smap = SensorMap.from_keys(merged, rec.n_dof, rec.force_dofs, None)
+        smap.validate(rec.n_dof, rec.n_in)
+        return dataclasses.replace(rec, force_dofs=np.asarray(smap.force_channels),
+                                   sensors=smap, extra=dict(rec.extra), meta=dict(rec.meta))
+    except ValueError as exc:
+        raise RecordingFileError(f"{rec.meta.get('source', 'recording')}: {exc}") from None
