@@ -148,6 +148,7 @@ def test_lifecycle_and_registry_errors(emulated):
         dq.configure(2 * FS, CHANNELS)
 
 
+@pytest.mark.realtime
 def test_realtime_pacing(emulated):
     _, _, _, sh, dq = emulated(pace=1.0)
     t = time.monotonic()

@@ -158,6 +158,7 @@ def _first_over(emu, col, limit_volts):
     return next(t for _, _, t, peak in emu.sent if peak[col] > limit_volts)
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("backend", ["serial", "can"])
 def test_over_limit_aborts_and_zeroes_drive_within_100ms(backend, tmp_path):
     c = campaign(backend, name="limit", safety={"limits": {"x0": 5e-5}})
@@ -172,6 +173,7 @@ def test_over_limit_aborts_and_zeroes_drive_within_100ms(backend, tmp_path):
     assert run.status == "aborted" and "safety limit" in run.reason
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("fault", [{"stall_at": 60}, {"disconnect_at": 60}])
 @pytest.mark.parametrize("backend", ["serial", "can"])
 def test_comms_loss_zeroes_drive_within_100ms(backend, fault, tmp_path):
@@ -186,6 +188,7 @@ def test_comms_loss_zeroes_drive_within_100ms(backend, fault, tmp_path):
     assert open_run(tmp_path / "run.h5").status == "aborted"
 
 
+@pytest.mark.realtime
 def test_shaker_link_cut_mid_run_watchdog_zeroes_drive(tmp_path):
     """Pulling the shaker cable mid-campaign: the failed watchdog feed aborts the run (data
     kept) and the controller, no longer fed, zeroes the drive within 100 ms of its

@@ -185,6 +185,7 @@ def test_sigkill_many_trials(tmp_path):
 WATCHDOG = 0.2
 
 
+@pytest.mark.realtime
 def test_sigkill_host_watchdog_zeroes_drive(tmp_path):
     """The campaign runs in its own process on real ``serial://`` ports served by emulators
     in this one; after SIGKILL nobody feeds the controller's watchdog, which ramps the drive
