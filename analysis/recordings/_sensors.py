@@ -129,6 +129,31 @@ def names(value: Any, key: str) -> list[str]:
     return [str(p).strip() for p in arr.ravel()]
 
 
+def table_keys(table: Any, where: str) -> dict[str, list[str]]:
+    """The sensor-map keys of a TOML table (a ``--sensors`` file, a campaign's ``[sensors]``):
+    each of `KEYS` a list of names, no other key.
+
+    Raises
+    ------
+    RecordingError
+        An unknown key, an empty table or a value that is not a list of names (``where``
+        names the table in the message).
+    """
+    if not isinstance(table, dict):
+        raise RecordingError(f"{where} must be a table of {', '.join(KEYS)}")
+    unknown = sorted(set(table) - set(KEYS))
+    if unknown or not table:
+        raise RecordingError(f"{where} holds {', '.join(KEYS)}"
+                             + (f", not {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for key, value in table.items():
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise RecordingError(f"{where}: {key} must be a list of names, e.g. "
+                                 f"{key} = [\"wing_tip\", \"payload\"]")
+        out[key] = [v.strip() for v in value]
+    return out
+
+
 def sensor_map(rec: "Recording") -> SensorMap:
     """The recording's sensor map, or the identity map it implies."""
     if rec.sensors is not None:
