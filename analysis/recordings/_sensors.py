@@ -61,6 +61,11 @@ class SensorMap:
         return kinds.pop() if len(kinds) == 1 else MIXED
 
     @property
+    def labels(self) -> list[str]:
+        """``"point (kind)"`` per response channel, as figures and views name them."""
+        return [f"{p} ({k})" for p, k in zip(self.response_points, self.response_kinds)]
+
+    @property
     def force_channels(self) -> list[int]:
         """Response channel measuring each force's point."""
         return [self.response_points.index(p) for p in self.force_points]
@@ -167,8 +172,7 @@ def channel_labels(rec: "Recording") -> list[str]:
     """``"point (kind)"`` per response channel (``"x0"`` style without a sensor map)."""
     if rec.sensors is None:
         return [f"{rec.response_kind[0]}{j}" for j in range(rec.n_dof)]
-    return [f"{p} ({k})" for p, k in zip(rec.sensors.response_points,
-                                          rec.sensors.response_kinds)]
+    return rec.sensors.labels
 
 
 def one_kind(rec: "Recording") -> "Recording":
