@@ -153,3 +153,44 @@ def test_example_runs_end_to_end_through_fit_linear_and_diagnose(tmp_path, capsy
     assert main(["diagnose", str(fitted), str(run), "--band", "3", "100",
                  "--json", str(tmp_path / "d.json"), "--quiet"]) == 0
     assert json.loads((tmp_path / "d.json").read_text())["verdict"]
+
+
+def test_one_level_control_loop_for_every_measure():
+    """`_Runner.control` (random rms and swept-sine amplitude alike): per try the settle
+    blocks, one measured block, a drive step limited to x4 and max_drive; a warning naming the
+    measure after the last try; the last block returned only when measured at the final
+    drive."""
+    from types import SimpleNamespace
+
+    from nlid_lab.campaign._campaign import _Runner
+
+    class Plant:                   # force = 3 N/V x drive; the block's value is the force
+        def __init__(self):
+            self.drive, self.levels, self.taken = 0.5, [], 0
+
+        def set_level(self, drive):
+            self.drive = drive
+            self.levels.append(drive)
+
+        def take(self, n):
+            self.taken += 1
+            return np.full((n, 1), 3.0 * self.drive), float(self.taken)
+
+    plant = Plant()
+    runner = object.__new__(_Runner)
+    runner.c = SimpleNamespace(max_drive=10.0)
+    runner.bench = SimpleNamespace(shaker=plant)
+    runner.take, runner.gain, runner.level, runner.warnings = plant.take, 1.0, 3, []
+    drive, data, t0 = runner.control(6.0, 0.5, lambda d: float(d[0, 0]), "force rms", 8, 2,
+                                     0.05, 6)
+    assert drive == pytest.approx(2.0) and plant.levels == [pytest.approx(2.0)]
+    assert runner.gain == pytest.approx(3.0) and plant.taken == 6 and t0 == 6.0
+    assert data[0, 0] == pytest.approx(6.0) and runner.warnings == []
+    # a target out of reach: x4 per step, then max_drive; the block measured before the
+    # last correction is not returned
+    plant.levels = []
+    drive, data, _ = runner.control(1e3, 2.0, lambda d: float(d[0, 0]), "force amplitude", 8,
+                                    1, 0.02, 3, " at 40 Hz")
+    assert plant.levels == [8.0, 10.0, 10.0] and drive == 10.0 and data is None
+    assert runner.warnings == ["level 3: force amplitude not within 2% of 1000.0 N at 40 Hz "
+                               "after 3 tries"]
