@@ -9,6 +9,8 @@ pytest.importorskip("pytestqt")
 
 from nlid_lab.campaign import parse_campaign, run_campaign  # noqa: E402
 from nlid_lab.gui.live import LiveView  # noqa: E402
+from nlid_lab.gui.offline import OfflineView  # noqa: E402
+from nlid_lab.reports import all_level_frfs, load_run  # noqa: E402
 from test_campaign_sensors import BASE, EXAMPLES, short  # noqa: E402
 
 
@@ -35,3 +37,13 @@ def test_live_view_names_points_and_kinds(qtbot, tmp_path):
                     "joint (acceleration) [m/s^2]", "payload (displacement) [m]"]
     assert view.frf is not None and view.frf.H.shape[1] == 3
     assert view.mag_curves[2].yData.size > 0        # the displacement channel is drawn
+
+
+def test_offline_view_offers_responses_by_point_and_kind(qtbot, tmp_path):
+    run_campaign(parse_campaign(short(BASE), EXAMPLES), tmp_path / "a.h5")
+    run = load_run(tmp_path / "a.h5")
+    offline = OfflineView([run], [all_level_frfs(run)])
+    qtbot.addWidget(offline)
+    assert [offline.output.itemText(i) for i in range(offline.output.count())] == [
+        "response drive (acceleration)", "response joint (acceleration)",
+        "response payload (acceleration)"]
