@@ -523,7 +523,8 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         raise CampaignError("[safety] limits must be a table {channel name = max |value|}")
     for key, value in limits.items():
         if key not in {c.name for c in channels}:
-            raise CampaignError(f"[safety] limits names unknown channel '{key}'")
+            raise CampaignError(f"[safety] limits names unknown channel '{key}' (channels: "
+                                f"{', '.join(c.name for c in channels)})")
         _num(limits, key, "safety.limits", lo=0.0, open_lo=True)
     emu = _table(data, "emulator", required=False)
     _unknown(emu, {"pace", "faults"}, "emulator")

@@ -99,6 +99,8 @@ def test_without_sensors_the_run_has_no_map(tmp_path):
     (lambda d: d["sensors"].update(response_points=["drive", "drive", "joint"]),
      "measured by two channels"),
     (lambda d: d["daq"].update(response_kind="displacement"), "response_kind = displacement"),
+    (lambda d: d["safety"].update(limits={"tip": 1.0}),
+     r"unknown channel 'tip' \(channels: force@drive, drive, joint, payload\)"),
 ])
 def test_sensors_validation_names_the_problem(change, match):
     data = copy.deepcopy(BASE)
