@@ -174,10 +174,11 @@ def modal_fit_section(run: RunData) -> Section | None:
     from analysis.diagnose.prepare import level_name, record_level
     from analysis.errors import EstimationError
     from analysis.modal import fit_linear
+    from analysis.recordings import one_kind
     random = [r for r in run.recordings if r.excitation == "random"]
     if not random:
         return None
-    rec = min(random, key=record_level)
+    rec = one_kind(min(random, key=record_level))      # mixed kinds: as fit-linear reads them
     title = "Modal fit of the lowest level (fit-linear)"
     try:
         fit = fit_linear(rec)

@@ -54,3 +54,17 @@ def test_bla_figure_names_point_and_kind():
                                   var_noise=abs(g) ** 2 * 1e-4)
     title = figures.bla_levels(frfs, 0, (["tip (velocity)"], ["root"])).axes[0].get_title()
     assert title == "Best linear approximation, response tip (velocity) / force at root"
+
+
+def test_report_of_a_mixed_kind_sensor_run(tmp_path):
+    """`nlid-lab report` on a campaign run mapping 3 of 11 points in two kinds: FRFs in the
+    highest kind (as analyze reads them), figures named by point and measured kind."""
+    from nlid_lab.cli import main
+    data = short(BASE)
+    data["random"]["levels"] = [2.0, 20.0]
+    data["sensors"]["response_kinds"] = ["acceleration", "acceleration", "displacement"]
+    run_campaign(parse_campaign(data, EXAMPLES), tmp_path / "m.h5")
+    assert main(["report", str(tmp_path / "m.h5"), "--out", str(tmp_path / "rep")]) == 0
+    assert (tmp_path / "rep" / "level_change.png").exists()
+    assert [f.response_kind for f in all_level_frfs(load_run(tmp_path / "m.h5"))] == \
+        ["acceleration"] * 2
