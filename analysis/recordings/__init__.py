@@ -10,7 +10,7 @@ private module path.
 from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
                          MIN_FS, PeriodicLayout, RESPONSE_KINDS, Recording)
 from ._sensors import (KEYS, MIXED, SensorMap, at_points, channel_labels, model_at_sensors, names,
-                       one_kind, sensor_map)
+                       one_kind, sensor_map, table_keys)
 from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation_band,
                        hold_image_gain, hold_image_response, hold_image_taps, hold_images,
                        period_spectra, periodic_kinematics, remove_dc, remove_hold_images,
@@ -26,4 +26,4 @@ __all__ = ["DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAG
            "channel_labels", "estimate_sweep", "excitation_band", "find_period", "hold_image_gain",
            "hold_image_response", "hold_image_taps", "hold_images", "model_at_sensors", "names",
            "one_kind", "period_spectra", "periodic_kinematics", "remove_dc", "remove_hold_images",
-           "sensor_map", "signal_bandwidth", "steady_periods", "to_kinematics"]
+           "sensor_map", "signal_bandwidth", "steady_periods", "table_keys", "to_kinematics"]

@@ -61,6 +61,11 @@ class SensorMap:
         return kinds.pop() if len(kinds) == 1 else MIXED
 
     @property
+    def labels(self) -> list[str]:
+        """``"point (kind)"`` per response channel, as figures and views name them."""
+        return [f"{p} ({k})" for p, k in zip(self.response_points, self.response_kinds)]
+
+    @property
     def force_channels(self) -> list[int]:
         """Response channel measuring each force's point."""
         return [self.response_points.index(p) for p in self.force_points]
@@ -129,6 +134,31 @@ def names(value: Any, key: str) -> list[str]:
     return [str(p).strip() for p in arr.ravel()]
 
 
+def table_keys(table: Any, where: str) -> dict[str, list[str]]:
+    """The sensor-map keys of a TOML table (a ``--sensors`` file, a campaign's ``[sensors]``):
+    each of `KEYS` a list of names, no other key.
+
+    Raises
+    ------
+    RecordingError
+        An unknown key, an empty table or a value that is not a list of names (``where``
+        names the table in the message).
+    """
+    if not isinstance(table, dict):
+        raise RecordingError(f"{where} must be a table of {', '.join(KEYS)}")
+    unknown = sorted(set(table) - set(KEYS))
+    if unknown or not table:
+        raise RecordingError(f"{where} holds {', '.join(KEYS)}"
+                             + (f", not {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for key, value in table.items():
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise RecordingError(f"{where}: {key} must be a list of names, e.g. "
+                                 f"{key} = [\"wing_tip\", \"payload\"]")
+        out[key] = [v.strip() for v in value]
+    return out
+
+
 def sensor_map(rec: "Recording") -> SensorMap:
     """The recording's sensor map, or the identity map it implies."""
     if rec.sensors is not None:
@@ -142,8 +172,7 @@ def channel_labels(rec: "Recording") -> list[str]:
     """``"point (kind)"`` per response channel (``"x0"`` style without a sensor map)."""
     if rec.sensors is None:
         return [f"{rec.response_kind[0]}{j}" for j in range(rec.n_dof)]
-    return [f"{p} ({k})" for p, k in zip(rec.sensors.response_points,
-                                          rec.sensors.response_kinds)]
+    return rec.sensors.labels
 
 
 def one_kind(rec: "Recording") -> "Recording":

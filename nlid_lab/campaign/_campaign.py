@@ -16,7 +16,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -177,7 +177,7 @@ class _Runner:
             drive = min(level / self.gain, self.c.max_drive)
             seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
             self._start(RandomOutput(plan.band, seed), drive)
-            drive, data, t0 = self._control_rms(plan, i, level, drive)
+            drive, data, t0 = self._control_rms(plan, level, drive)
             while lw.n_segments < plan.averages:
                 if data is None:
                     data, t0 = self.take(plan.block_size)
@@ -204,7 +204,7 @@ class _Runner:
                 self._start(MultisineOutput(plan.band, plan.block_size, base + lw.n_segments),
                             drive)
                 if not controlled:   # on whole periods: a period's rms is the level's
-                    drive = self._control_rms(plan, i, level, drive)[0]
+                    drive = self._control_rms(plan, level, drive)[0]
                     controlled = True
                 data, t0 = self.take(n)
                 force, resp = self.split(data)
@@ -215,27 +215,39 @@ class _Runner:
                 self._stop()
             self._level_end(lw, level, plan.averages)
 
-    def _control_rms(self, plan: RandomSpec, i: int, level: float, drive: float
+    def _control_rms(self, plan: RandomSpec, level: float, drive: float
                      ) -> tuple[float, np.ndarray | None, float]:
-        """Bring the force rms within tolerance of ``level``; returns the drive and the last
-        block measured at it (None if the drive changed after it) with its time."""
+        """Bring the force rms within tolerance of ``level`` (`control`)."""
+        return self.control(level, drive, lambda data: float(np.std(data[:, self.force_col])),
+                            "force rms", plan.block_size, plan.settle_blocks, plan.tolerance,
+                            plan.max_control_iterations)
+
+    def control(self, target: float, drive: float, measure: Callable[[np.ndarray], float],
+                what: str, block_size: int, settle_blocks: int, tolerance: float,
+                max_iterations: int, where: str = "") -> tuple[float, np.ndarray | None, float]:
+        """The level control: per try, discard ``settle_blocks`` blocks, measure one with
+        ``measure`` (block -> force rms or amplitude) and correct the drive (`_new_drive`)
+        until the measure is within ``tolerance`` of ``target``; a warning after
+        ``max_iterations`` tries (``what`` and ``where`` name the measure in it). Returns the
+        drive and the last block measured at it (None if the drive changed after it) with
+        its time."""
         data, t0 = None, 0.0
-        for _ in range(plan.max_control_iterations):
-            for _ in range(plan.settle_blocks):
-                self.take(plan.block_size)
-            data, t0 = self.take(plan.block_size)
-            rms = float(np.std(data[:, self.force_col]))
-            if rms <= 0:
+        for _ in range(max_iterations):
+            for _ in range(settle_blocks):
+                self.take(block_size)
+            data, t0 = self.take(block_size)
+            value = measure(data)
+            if value <= 0:
                 break
-            self.gain = rms / drive
-            if abs(rms / level - 1) <= plan.tolerance:
+            self.gain = value / drive
+            if abs(value / target - 1) <= tolerance:
                 break
-            drive = self._new_drive(drive, level / self.gain)
+            drive = self._new_drive(drive, target / self.gain)
             self.bench.shaker.set_level(drive)
             data = None
         else:
-            self.warnings.append(f"level {i}: force rms not within {plan.tolerance:.0%} "
-                                 f"of {level} N after {plan.max_control_iterations} tries")
+            self.warnings.append(f"level {self.level}: {what} not within {tolerance:.0%} of "
+                                 f"{target} N{where} after {max_iterations} tries")
         return drive, data, t0
 
     # --- stepped sine ----------------------------------------------------------------------
@@ -352,6 +364,7 @@ class _Runner:
             1 if isinstance(c.plan, SweepSpec) else len(c.plan.freqs)
         info = {"fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof],
                 "n_dof": c.n_dof, "response_kind": c.response_kind,
+                "sensors": None if c.sensors is None else dict(vars(c.sensors)),
                 "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
                 "block_len": c.plan.block_size, "averages": getattr(c.plan, "averages", None)}
         if isinstance(c.plan, SweepSpec):    # one block per level: the sweep (H1 live)
@@ -434,7 +447,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     with open_bench(c) as bench:
         if on_bench is not None:
             on_bench(bench)
-        bench.daq.configure(c.fs, c.channels, frame_size=c.frame_size)
+        bench.daq.configure(c.fs, bench.channels, frame_size=c.frame_size)
         settings = {"campaign": c.raw, "shaker_url": c.shaker_url, "daq_url": c.daq_url,
                     "source_file": str(c.source) if c.source else None}
         # the simulated rig holds the drive linearly between samples (analysis.plant)
@@ -442,7 +455,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
         with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
                        n_dof=c.n_dof, response_kind=c.response_kind,
                        channels=_store_channels(c), settings=settings, force_hold=hold,
-                       layout=_layout(c),
+                       layout=_layout(c), sensors=c.sensors,
                        model_toml=bench.model_toml, source=bench.source,
                        mode="resume" if resume else "overwrite" if overwrite else "create"
                        ) as writer:

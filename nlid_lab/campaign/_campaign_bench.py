@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
-from drivers.base import Acquirer, SignalGenerator
+from drivers.base import Acquirer, Channel, SignalGenerator
 from drivers.errors import DriverConfigError
 from drivers.registry import open_daq, open_shaker
 from drivers.rig import SimRig
@@ -32,6 +32,7 @@ class Bench:
     rig: SimRig | None = None
     model_toml: str | None = None
     emulators: list[Any] = field(default_factory=list)
+    channels: list[Channel] = field(default_factory=list)   # as the DAQ reads them
 
     @property
     def daq_emulator(self) -> Any:
@@ -56,14 +57,17 @@ def _pace(campaign: Campaign, url: str) -> float:
     return DEFAULT_PACE[scheme(url)] if pace is None else pace
 
 
-def _rig(campaign: Campaign) -> tuple[SimRig, str]:
+def _rig(campaign: Campaign) -> tuple[SimRig, str, list[Channel]]:
+    """The simulated rig, its model's text and the channels at the model's points."""
     spec = campaign.plant
     assert spec is not None
     model = load_plant_model(campaign)
-    rig = SimRig(model, campaign.fs, campaign.force_dof, shaker_gain=spec.shaker_gain,
-                 noise_std=spec.noise_std, response_kind=campaign.response_kind,
+    channels = campaign.daq_channels(model)
+    force_dof = next(ch.dof for ch in channels if ch.quantity == "force")
+    rig = SimRig(model, campaign.fs, force_dof, shaker_gain=spec.shaker_gain,
+                 noise_std=spec.noise_std, response_kind=campaign.plant_kind,
                  seed=spec.seed, oversample=spec.oversample)
-    return rig, spec.model.read_text()
+    return rig, spec.model.read_text(), channels
 
 
 @contextlib.contextmanager
@@ -72,13 +76,14 @@ def open_bench(campaign: Campaign):
     stack = contextlib.ExitStack()
     with stack:
         rig = model_toml = None
+        channels = campaign.channels
         if campaign.simulated:
-            rig, model_toml = _rig(campaign)
+            rig, model_toml, channels = _rig(campaign)
         emulators: list[Any] = []
         shaker = stack.enter_context(_open_shaker(campaign, rig, emulators, stack))
         daq = stack.enter_context(_open_daq(campaign, rig, emulators, stack))
         yield Bench(shaker, daq, scheme(campaign.daq_url).replace("-emu", ""), rig,
-                    model_toml, emulators)
+                    model_toml, emulators, channels)
 
 
 def _closing_emulator(emu: Any, emulators: list[Any], stack: contextlib.ExitStack) -> Any:

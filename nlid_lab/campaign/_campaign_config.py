@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS
+from analysis.errors import InputError, RecordingError
+from analysis.recordings import KIND_ORDER, MIXED, RESPONSE_KINDS, SensorMap, table_keys
 from analysis.models import read_text, unknown_keys
 from drivers.base import Channel
 from drivers.errors import DriverConfigError
@@ -25,7 +25,7 @@ DIRECTIONS = ("up", "down", "up-down")
 SIMULATED = ("sim", "serial-emu", "can-emu")
 SCHEMES = SIMULATED + ("serial", "can")
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
-            "sweep", "safety", "emulator"}
+            "sweep", "safety", "emulator", "sensors"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
 MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
 
@@ -105,6 +105,7 @@ class Campaign:
     faults: dict[str, Any] = field(default_factory=dict)
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
+    sensors: SensorMap | None = None   # [sensors]: channels at model points (sim:// only)
 
     @property
     def simulated(self) -> bool:
@@ -159,7 +160,26 @@ class Campaign:
 
     @property
     def force_dof(self) -> int:
+        """Response channel (DOF of the run) at the shaker's point."""
         return next(c.dof for c in self.channels if c.quantity == "force")
+
+    @property
+    def plant_kind(self) -> str:
+        """The simulated plant's response kind: the channels' kind, the highest one when
+        a sensor map mixes kinds (`[plant] noise_std` is added to channels of that kind)."""
+        if self.response_kind != MIXED:
+            return self.response_kind
+        return max(self.sensors.response_kinds, key=KIND_ORDER.__getitem__)
+
+    def daq_channels(self, model) -> list[Channel]:
+        """The channels as the simulated DAQ reads them: with a sensor map, each at its
+        point's index in ``model`` (the run's channels are numbered in map order)."""
+        if self.sensors is None:
+            return self.channels
+        smap = self.sensors
+        points = [smap.force_points[0]] + list(smap.response_points)
+        return [Channel(ch.name, ch.quantity, model.point_index(p), ch.sensitivity, ch.unit)
+                for ch, p in zip(self.channels, points)]
 
     @property
     def n_dof(self) -> int:
@@ -258,6 +278,44 @@ def _channels(raw: Any) -> list[Channel]:
         except DriverConfigError as exc:
             raise CampaignError(str(exc)) from None
     return out
+
+
+def _sensors(data: dict, daq: dict, daq_url: str) -> SensorMap | None:
+    """The [sensors] table (the vocabulary of a ``--sensors`` file) as a `SensorMap`, or None."""
+    if "sensors" not in data:
+        return None
+    if "channel" in data:
+        raise CampaignError("give [sensors] or [[channel]] tables, not both: with [sensors] the "
+                            "channels are its points, named after them")
+    if scheme(daq_url) != "sim":
+        raise CampaignError(f"[sensors] needs the sim:// backend ({scheme(daq_url)}:// streams "
+                            "one [[channel]] per model DOF); drop [sensors] and give [[channel]] "
+                            "tables, or use sim://")
+    try:
+        keys = table_keys(data["sensors"], "[sensors]")
+    except RecordingError as exc:
+        raise CampaignError(str(exc)) from None
+    for key in ("response_points", "force_points"):
+        if key not in keys:
+            raise CampaignError(f"[sensors] needs {key}, e.g. {key} = [\"drive\"]")
+    if len(keys["force_points"]) != 1:
+        raise CampaignError(f"[sensors] force_points names {len(keys['force_points'])} "
+                            "points; give the one point the shaker drives")
+    try:
+        smap = SensorMap.from_keys(keys, len(keys["response_points"]), [],
+                                   daq.get("response_kind"))
+        smap.validate(len(smap.response_points), 1)
+    except RecordingError as exc:
+        raise CampaignError(f"[sensors] {exc}") from None
+    return smap
+
+
+def _sensor_channels(smap: SensorMap) -> list[Channel]:
+    """The channels a sensor map records: the force (``force@POINT``), then one per response
+    point in its kind, named after the point; ``dof`` is the run's channel number."""
+    force = Channel(f"force@{smap.force_points[0]}", "force", smap.force_channels[0])
+    return [force] + [Channel(p, k, j) for j, (p, k) in
+                      enumerate(zip(smap.response_points, smap.response_kinds))]
 
 
 def _check_channel_set(channels: list[Channel], kind: str) -> None:
@@ -427,8 +485,12 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     response_kind = daq.get("response_kind", "displacement")
     if response_kind not in RESPONSE_KINDS:
         raise CampaignError(f"[daq] response_kind must be one of {', '.join(RESPONSE_KINDS)}")
-    channels = _channels(data.get("channel"))
-    _check_channel_set(channels, response_kind)
+    sensors = _sensors(data, daq, daq_url)
+    if sensors is None:
+        channels = _channels(data.get("channel"))
+        _check_channel_set(channels, response_kind)
+    else:
+        channels, response_kind = _sensor_channels(sensors), sensors.kind
     sims = [scheme(u) in SIMULATED for u in (shaker_url, daq_url)]
     if sims[0] != sims[1]:
         raise CampaignError("shaker and DAQ must both be simulated (sim://, serial-emu://, "
@@ -461,7 +523,8 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         raise CampaignError("[safety] limits must be a table {channel name = max |value|}")
     for key, value in limits.items():
         if key not in {c.name for c in channels}:
-            raise CampaignError(f"[safety] limits names unknown channel '{key}'")
+            raise CampaignError(f"[safety] limits names unknown channel '{key}' (channels: "
+                                f"{', '.join(c.name for c in channels)})")
         _num(limits, key, "safety.limits", lo=0.0, open_lo=True)
     emu = _table(data, "emulator", required=False)
     _unknown(emu, {"pace", "faults"}, "emulator")
@@ -496,7 +559,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         max_drive=_num(shaker, "max_drive", "shaker", default=10.0, lo=0.0, open_lo=True),
         watchdog=watchdog,
         limits={k: float(v) for k, v in limits.items()}, pace=pace, faults=dict(faults),
-        source=None, raw=data)
+        source=None, raw=data, sensors=sensors)
 
 
 def load_plant_model(campaign: Campaign):
@@ -504,6 +567,13 @@ def load_plant_model(campaign: Campaign):
     from analysis.models import Model
     assert campaign.plant is not None
     model = Model.load(campaign.plant.model)
+    if campaign.sensors is not None:
+        for point in campaign.sensors.response_points:
+            if point not in model.points:
+                raise CampaignError(f"[sensors] point '{point}' is not in the model "
+                                    f"{campaign.plant.model.name} (its points: "
+                                    f"{', '.join(model.points)}); fix the name")
+        return model
     if model.n_dof != campaign.n_dof:
         raise CampaignError(f"the model has {model.n_dof} DOFs but the campaign lists "
                             f"{campaign.n_dof} response channels; give one per DOF")

@@ -36,21 +36,11 @@ def run_sweeps(runner: Any, plan: SweepSpec) -> None:
             continue
         drive = min(amp / runner.gain, runner.c.max_drive)
         runner._start(SineOutput(law.start_hz), drive)
-        for _ in range(plan.max_control_iterations):
-            runner.take(plan.block_size)                   # the transient after a change
-            data, _ = runner.take(plan.block_size)
-            famp = abs(sine_fit(data[:, [runner.force_col]], fs, law.start_hz)[0][0])
-            if famp <= 0:
-                break
-            runner.gain = famp / drive
-            if abs(famp / amp - 1) <= plan.tolerance:
-                break
-            drive = runner._new_drive(drive, amp / runner.gain)
-            runner.bench.shaker.set_level(drive)
-        else:
-            runner.warnings.append(f"level {i}: force amplitude not within "
-                                   f"{plan.tolerance:.0%} of {amp} N at {law.start_hz:g} Hz "
-                                   f"after {plan.max_control_iterations} tries")
+        drive = runner.control(             # one discarded block: the transient after a change
+            amp, drive, lambda data: float(abs(sine_fit(data[:, [runner.force_col]], fs,
+                                                        law.start_hz)[0][0])),
+            "force amplitude", plan.block_size, 1, plan.tolerance,
+            plan.max_control_iterations, f" at {law.start_hz:g} Hz")[0]
         runner._stop()
         runner._start(SweepOutput(law.start_hz, law.stop_hz, law.law, law.rate), drive)
         n = int(round(law.duration * fs))

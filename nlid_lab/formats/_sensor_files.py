@@ -8,8 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from analysis.errors import RecordingError
 from analysis.models import read_text
-from analysis.recordings import KEYS as SENSOR_KEYS, Recording, SensorMap, sensor_map
+from analysis.recordings import Recording, SensorMap, sensor_map, table_keys
 
 from ._recordings_io import RecordingFileError
 
@@ -25,17 +26,10 @@ def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(data) - set(SENSOR_KEYS))
-    if unknown or not data:
-        raise RecordingFileError(f"{path}: a sensor map holds {', '.join(SENSOR_KEYS)}"
-                                 + (f", not {', '.join(unknown)}" if unknown else ""))
-    out = {}
-    for key, value in data.items():
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise RecordingFileError(f"{path}: {key} must be a list of names, e.g. "
-                                     f"{key} = [\"wing_tip\", \"payload\"]")
-        out[key] = [v.strip() for v in value]
-    return out
+    try:
+        return table_keys(data, "a sensor map")
+    except RecordingError as exc:
+        raise RecordingFileError(f"{path}: {exc}") from None
 
 
 def with_sensors(rec: Recording, keys: dict[str, list[str]]) -> Recording:

@@ -19,6 +19,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
+from analysis.recordings import MIXED, SensorMap
 from analysis.spectral import (FRF_UNITS, LevelFRF, _spectral as spectral,
                                best_linear_approximation, frf_from_bla, frf_from_spectra, sine_fit)
 
@@ -289,12 +290,31 @@ class LiveView(QtWidgets.QWidget):
         """Kind of the response channels (displacement, velocity or acceleration)."""
         return self.info.get("response_kind", "displacement")
 
+    @property
+    def sensors(self) -> SensorMap | None:
+        """The campaign's sensor map (``[sensors]``), or None."""
+        keys = self.info.get("sensors")
+        return SensorMap(**keys) if keys else None
+
+    def response_labels(self) -> list[str]:
+        """Name of each response channel: ``"point (kind)"`` with a sensor map
+        (`analysis.recordings.SensorMap.labels`, as the report's figures), else ``"DOF q"``."""
+        smap = self.sensors
+        return smap.labels if smap is not None else \
+            [f"DOF {q}" for q in range(int(self.info["n_dof"]))]
+
     def channel_names(self) -> list[tuple[str, str]]:
-        """(name, unit) of every channel, forces first."""
+        """(name, unit) of every channel, forces first; with a sensor map the responses are
+        named ``"point (kind)"``."""
         chans = self.info.get("channels")
         if chans:
-            return [(c["name"], c.get("unit", "")) if isinstance(c, dict) else tuple(c)
-                    for c in chans]
+            out = [(c["name"], c.get("unit", "")) if isinstance(c, dict) else tuple(c)
+                   for c in chans]
+            if self.sensors is not None:
+                n_in = len(out) - int(self.info["n_dof"])
+                out[n_in:] = [(label, unit) for label, (_, unit) in
+                              zip(self.response_labels(), out[n_in:])]
+            return out
         unit = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
         return ([(f"F{d}", "N") for d in self.force_dofs]
                 + [(f"x{q}", unit[self.response_kind]) for q in range(int(self.info["n_dof"]))])
@@ -313,17 +333,19 @@ class LiveView(QtWidgets.QWidget):
                 p.setXLink(left.getItem(0, 0))
             self.time_curves.append(p.plot(pen=plots.pen(plots.channel_colour(i), 1)))
         n_dof = int(self.info["n_dof"])
-        units = FRF_UNITS[self.response_kind]
+        mixed = self.response_kind == MIXED     # a sensor map mixing kinds: each in its own
+        units = "SI" if mixed else FRF_UNITS[self.response_kind]
         stepped = self.stepped
         title = ("FRF of the fundamental, per step" if stepped else
                  "FRF: best linear approximation over the realizations"
                  if self.info.get("period") else "FRF: H1 averaged over the blocks")
         self.mag, self.phase = plots.frf_plots(right, units, title=title,
-                                               quantity=plots.FRF_QUANTITY[self.response_kind])
-        if n_dof > 1:                 # line style per DOF, colour per level
-            for q in range(n_dof):
+                                               quantity="|H| (each in its kind)" if mixed else
+                                               plots.FRF_QUANTITY[self.response_kind])
+        if n_dof > 1:                 # line style per response, colour per level
+            for q, label in enumerate(self.response_labels()):
                 self.mag.legend.addItem(pg.PlotDataItem(pen=pg.mkPen(
-                    "#555", width=1.5, style=DOF_STYLES[q % len(DOF_STYLES)])), f"DOF {q}")
+                    "#555", width=1.5, style=DOF_STYLES[q % len(DOF_STYLES)])), label)
         if stepped:
             self.error_plot = right.addPlot(row=2, col=0, title="Level-control error")
             plots.style(self.error_plot, "error", "%")

@@ -54,7 +54,7 @@ class OfflineView(QtWidgets.QWidget):
         self._distortion: dict[tuple[int, int], np.ndarray] = {}
         self._fill_tree()
         n_dof = max(f.H.shape[1] for run in frfs for f in run)
-        self.output.addItems([f"response DOF {q}" for q in range(n_dof)])
+        self.output.addItems([f"response {label}" for label in response_labels(runs, n_dof)])
         self._build_plots()
         left = QtWidgets.QWidget()
         lbox = QtWidgets.QVBoxLayout(left)
@@ -233,3 +233,15 @@ def _averages(frf: LevelFRF) -> str:
     if frf.excitation == "swept-sine":
         return f"{frf.freqs.size} tracked points"
     return f"{frf.n_averages} {'realizations' if frf.bla is not None else 'averages'}"
+
+
+def response_labels(runs: list[RunData], n_dof: int) -> list[str]:
+    """``"point (kind)"`` per response when every run has the same sensor map
+    (`analysis.recordings.channel_labels`, as the report's figures), else ``"DOF q"``."""
+    from analysis.recordings import channel_labels
+    recs = [run.recordings[0] for run in runs if run.recordings]
+    maps = {rec.sensors for rec in recs}
+    if len(recs) == len(runs) and len(maps) == 1 and None not in maps \
+            and recs[0].n_dof == n_dof:
+        return channel_labels(recs[0])
+    return [f"DOF {q}" for q in range(n_dof)]

@@ -237,12 +237,21 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     import nlid_lab.reports._figures as figures
     from ..reports._rundata import PARAM_UNITS, Section, candidate_model, reference_model
 
+    from analysis.errors import InputError
+    from analysis.recordings import model_at_sensors, one_kind
+
     model = candidate_model(run, candidate)
-    recs = [r for r in run.recordings if r.excitation == "random"]
+    recs = [one_kind(r) for r in run.recordings if r.excitation == "random"]
     if model is None or not recs or not any(not el.known for el in model.elements):
         return []
-    res = reverse_path(recs, model)
     ref = reference_model(run)
+    try:            # a run with a sensor map: the models at its measured points
+        model = model_at_sensors(model, recs, "the report's reverse path")
+        ref = None if ref is None else model_at_sensors(ref, recs, "the report's reverse path")
+    except InputError as exc:
+        return [Section("Reverse path: underlying linear system and nonlinear coefficients",
+                        f"Not computed: {html.escape(str(exc))}.")]
+    res = reverse_path(recs, model)
     H_model = None if ref is None else ref.linear_frf(res.freqs, list(res.force_dofs))
     coefs, units, exact = {}, {}, {}
     for c in res.coefficients:

@@ -92,6 +92,12 @@ def _frf_axes(title: str) -> tuple[Figure, object, object]:
     return fig, mag, ph
 
 
+def response_name(out: int, names: tuple[Sequence[str], Sequence[str]] | None = None) -> str:
+    """``"drive (acceleration)"`` with a sensor map's channel ``names`` (`channel_names` of
+    the report), else ``"DOF 0"``."""
+    return names[0][out] if names is not None else f"DOF {out}"
+
+
 def _pair_name(frf: "LevelFRF", out: int, inp: int,
                names: tuple[Sequence[str], Sequence[str]] | None = None) -> str:
     if names is not None:            # a sensor map: "point (kind)" / force point
@@ -126,28 +132,33 @@ def _fit_band(ax, frfs: Sequence["LevelFRF"]) -> None:
     ax.set_xlim(lo, hi)
 
 
-def multiple_coherence_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
-    """Multiple coherence of one output at every random level (linear analysis)."""
+def multiple_coherence_levels(frfs: Sequence["LevelFRF"], out: int,
+                              names: tuple[Sequence[str], Sequence[str]] | None = None
+                              ) -> Figure:
+    """Multiple coherence of one output at every random level (linear analysis); ``names``
+    as for `frf_levels`."""
     fig = Figure(figsize=(FIGSIZE[0], 3.6), dpi=DPI, layout="constrained")
     ax = fig.subplots()
     shown = [f for f in frfs if f.multiple_coherence is not None]
     for frf, colour in zip(shown, _colours_of(shown)):
         ax.plot(frf.freqs, frf.multiple_coherence[:, out], color=colour, lw=1.2, label=frf.label)
-    _coherence_axes(ax, f"Multiple coherence, response DOF {out} (linear analysis)")
+    _coherence_axes(ax, f"Multiple coherence, response {response_name(out, names)} "
+                        "(linear analysis)")
     _level_key(fig, ax, shown)
     _fit_band(ax, shown)
     return fig
 
 
-def level_change(change) -> Figure:
+def level_change(change, names: tuple[Sequence[str], Sequence[str]] | None = None) -> Figure:
     """Change of the FRF between two levels over its noise, per response, in dB, with the
-    line a linear structure exceeds on 1 % of the lines (`analysis.detection._detect.LevelChange`)."""
+    line a linear structure exceeds on 1 % of the lines (`analysis.detection._detect.LevelChange`);
+    ``names`` as for `frf_levels`."""
     fig = Figure(figsize=(FIGSIZE[0], 3.8), dpi=DPI, layout="constrained")
     ax = fig.subplots()
     z = np.maximum(change.z, 1e-6)
     for q, colour in zip(range(z.shape[1]), level_colours(z.shape[1])):
         ax.plot(change.freqs, 10 * np.log10(z[:, q]), color=colour, lw=0.9,
-                label=f"response DOF {q}")
+                label=f"response {response_name(q, names)}")
     ax.axhline(10 * np.log10(change.threshold), color="k", ls="--", lw=1,
                label="linear structure: exceeded on 1 % of lines")
     lo, hi = change.summary["levels"]
@@ -160,7 +171,8 @@ def level_change(change) -> Figure:
     return fig
 
 
-def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
+def bla_levels(frfs: Sequence["LevelFRF"], out: int,
+               names: tuple[Sequence[str], Sequence[str]] | None = None) -> Figure:
     """Robust BLA per periodic-random level: |G|, the total standard deviation of G (noise +
     nonlinear distortion, dashed) and its noise standard deviation (dotted)."""
     fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
@@ -172,7 +184,7 @@ def bla_levels(frfs: Sequence["LevelFRF"], out: int) -> Figure:
                     label="std, total (noise + distortion)" if k == 0 else None)
         ax.semilogy(b.freqs, np.sqrt(b.var_noise[:, out]), ":", color=colour, lw=0.9,
                     label="std, noise" if k == 0 else None)
-    ax.set_title(f"Best linear approximation, {_pair_name(frfs[0], out, 0)}")
+    ax.set_title(f"Best linear approximation, {_pair_name(frfs[0], out, 0, names)}")
     ax.set_xlabel("Frequency [Hz]")
     ax.set_ylabel(f"|G| [{frfs[0].units}]")
     ax.grid(True, which="both", alpha=0.3)

@@ -63,7 +63,8 @@ def frf_sections(frfs: list[LevelFRF], names=None) -> list[Section]:
                       "levels: of the period averages across realizations). A dip near "
                       "resonance that deepens with level is distortion the linear model "
                       "cannot explain.")
-        coh.figures = [(f"coherence_levels_out{q}", figures.multiple_coherence_levels(random, q))
+        coh.figures = [(f"coherence_levels_out{q}",
+                        figures.multiple_coherence_levels(random, q, names))
                        for q in range(n_dof)]
         out.append(coh)
     return out
@@ -132,11 +133,11 @@ def level_change_section(run: RunData) -> Section | None:
                   "N rms, line by line, relative to the variance of their difference; a linear "
                   "structure exceeds the dashed line on 1 % of the lines (chance up to "
                   f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
-    sec.figures = [("level_change", figures.level_change(change))]
+    sec.figures = [("level_change", figures.level_change(change, channel_names(run)))]
     return sec
 
 
-def distortion_section(frfs: list[LevelFRF]) -> Section | None:
+def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
     """Periodic-random levels: BLA with noise and nonlinear-distortion levels, and the
     detection verdict per level and response."""
     # the distortion needs two or more realizations; one gives the period average only
@@ -152,7 +153,8 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
                     f"{db:+.1f} dB over the noise" if share > t["share_limit"] else
                     f"no distortion above the noise ({100 * share:.1f} % of the lines "
                     "flagged, as noise alone gives)")
-            lines.append(f"{frf.label}, response DOF {q}: {what}.")
+            lines.append(f"{frf.label}, response {figures.response_name(q, names)}: "
+                         f"{what}.")
     sec = Section("Best linear approximation and nonlinear distortion (periodic random)",
                   "Robust method (Pintelon & Schoukens): the BLA averaged over the "
                   f"{shown[0].bla.realizations} realizations, the standard deviation of that "
@@ -161,7 +163,7 @@ def distortion_section(frfs: list[LevelFRF]) -> Section | None:
                   "linear model cannot explain the response. A line is flagged when the ratio "
                   "exceeds the 99 % quantile a linear system would give. " + " ".join(lines))
     n_dof = shown[0].H.shape[1]
-    sec.figures = [(f"bla_distortion_out{q}", figures.bla_levels(shown, q))
+    sec.figures = [(f"bla_distortion_out{q}", figures.bla_levels(shown, q, names))
                    for q in range(n_dof)]
     return sec
 
@@ -172,10 +174,11 @@ def modal_fit_section(run: RunData) -> Section | None:
     from analysis.diagnose.prepare import level_name, record_level
     from analysis.errors import EstimationError
     from analysis.modal import fit_linear
+    from analysis.recordings import one_kind
     random = [r for r in run.recordings if r.excitation == "random"]
     if not random:
         return None
-    rec = min(random, key=record_level)
+    rec = one_kind(min(random, key=record_level))      # mixed kinds: as fit-linear reads them
     title = "Modal fit of the lowest level (fit-linear)"
     try:
         fit = fit_linear(rec)
@@ -220,8 +223,10 @@ def sweep_section(run: RunData) -> Section | None:
 
 def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
     """Every section the run has data for, in reading order."""
-    out = frf_sections(frfs, channel_names(run))
-    for extra in (sweep_section(run), level_change_section(run), distortion_section(frfs),
+    names = channel_names(run)
+    out = frf_sections(frfs, names)
+    for extra in (sweep_section(run), level_change_section(run),
+                  distortion_section(frfs, names),
                   modal_fit_section(run)):
         if extra is not None:
             out.append(extra)

@@ -54,10 +54,12 @@ def load_run(path: str | Path) -> RunData:
 
 def all_level_frfs(run: RunData, progress: Callable[[int], None] | None = None
                    ) -> list[LevelFRF]:
-    """`level_frf` of every level, in stored order."""
+    """`level_frf` of every level, in stored order; a sensor map mixing kinds is converted to
+    its highest kind first (`analysis.recordings.one_kind`, as `analyze` and `fit-linear`)."""
+    from analysis.recordings import one_kind
     out = []
     for i, rec in enumerate(run.recordings):
-        out.append(level_frf(rec, i))
+        out.append(level_frf(one_kind(rec), i))
         if progress:
             progress(1)
     return out
