@@ -29,6 +29,7 @@ import scipy.optimize
 
 from ..errors import EstimationError, InputError
 from ..models import Model
+from ._varpro import PoleProjection
 
 
 @dataclass
@@ -281,33 +282,12 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
         extra = [np.sum(kernel * _pseudo_mode(s, fr), axis=-1)
                  for fr, on in zip(pseudo_hz, residuals) if on]
 
-    def to_poles(x):
-        return 2 * np.pi * x[0::2] * (-x[1::2] + 1j * np.sqrt(1 - x[1::2] ** 2))
-
-    def project(x):
-        cols = []
-        for p in to_poles(x):
-            g, gc = 1 / (s - p), 1 / (s - np.conj(p))
-            cols += [np.sum((g + gc) * kernel, axis=-1), np.sum(1j * (g - gc) * kernel, axis=-1)]
-        # residual terms are complex too: (Re, Im) pairs with the second column times 1j;
-        # pseudo-modes have real coefficients (a second column of zeros)
-        pair = 0.0 if pseudo_hz is not None else 1j
-        basis = np.stack(cols + [c * m for c in extra for m in (1.0, pair)], axis=1)
-        res, coef = [], []
-        for y in range(h.shape[1]):
-            a = basis * scale[:, y, None]
-            b = h[:, y] * scale[:, y]
-            a2, b2 = np.concatenate([a.real, a.imag]), np.concatenate([b.real, b.imag])
-            c = np.linalg.lstsq(a2, b2, rcond=None)[0]
-            res.append(a2 @ c - b2)
-            coef.append(c[0::2] + 1j * c[1::2])
-        return np.concatenate(res), np.array(coef).T          # (n_modes + n_extra, n_out)
-
+    vp = PoleProjection(s, kernel, extra, pseudo_hz is not None, h, scale)
     x0 = np.column_stack([fn, np.clip(zeta, 1e-5, 0.5)]).ravel()
-    sol = scipy.optimize.least_squares(lambda x: project(x)[0], x0, x_scale=x0,
+    sol = scipy.optimize.least_squares(vp.residual, x0, jac=vp.jacobian, x_scale=x0,
                                        bounds=(np.tile([0.0, 1e-7], fn.size),
                                                np.tile([np.inf, 0.99], fn.size)))
-    coef = project(sol.x)[1]
+    coef = vp.coefficients(sol.x)
     nm = fn.size
     zero = np.zeros(h.shape[1], dtype=complex)
     lower = coef[nm] if lower_on else zero
@@ -317,8 +297,8 @@ def refine(freqs: np.ndarray, receptance: np.ndarray, fn: np.ndarray, zeta: np.n
         upper = coef[nm + int(lower_on):nm + int(lower_on) + 2] if upper_on \
             else np.stack([zero, zero])
     if full_output:
-        return to_poles(sol.x), coef[:nm], lower, upper, 2 * float(sol.cost), sol.fun.size
-    return to_poles(sol.x), coef[:nm], lower, upper
+        return vp.poles(sol.x), coef[:nm], lower, upper, 2 * float(sol.cost), sol.fun.size
+    return vp.poles(sol.x), coef[:nm], lower, upper
 
 
 def recurring_poles(stab: Stabilisation, known_hz: np.ndarray, *, cluster: float = 0.005,
