@@ -10,8 +10,8 @@ Three steps, each done by what does it best:
    is a physical mode (pyEMA's own selection needs the frequencies given and, measured on an
    FE beam, returned duplicates and a zero for modes its diagram clearly showed).
 3. **Refinement**: poles, residues and lower/upper residual terms fitted to the receptance
-   data by variable projection (poles by `scipy.optimize.least_squares`, everything linear
-   solved inside), optionally through the Welch smoothing kernel of the estimate
+   data by variable projection (poles by `scipy.optimize.least_squares` with the closed-form
+   Jacobian of `analysis.modal._varpro`, everything linear solved inside), optionally through the Welch smoothing kernel of the estimate
    (`analysis.modal.welch_smoothing`), which removes the leakage bias of Welch H1 damping.
 
 With the force at a measured point (the driving point), the residues scale to mass-normalised
