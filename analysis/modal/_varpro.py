@@ -59,7 +59,6 @@ class PoleProjection:
         cols = [c * m for c in extra for m in ((1.0,) if real_extra else (1.0, 1j))]
         self.fixed = np.stack(cols, axis=1) if cols else np.zeros((n_f, 0), dtype=complex)
         self.real_extra = real_extra
-        self.n_extra = len(extra)
         self.scale = np.asarray(scale, dtype=float).T               # (n_out, n_f)
         hs = self.scale * np.asarray(h, dtype=complex).T
         self.b = np.concatenate([hs.real, hs.imag], axis=1)         # (n_out, 2 n_f)
