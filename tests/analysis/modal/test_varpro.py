@@ -6,7 +6,7 @@ from scipy.optimize._numdiff import approx_derivative
 
 from analysis.modal import welch_smoothing
 from analysis.modal._ema import refine
-from analysis.modal._varpro import PoleProjection
+from analysis.modal._varpro import PoleProjection, _range_and_pinv
 
 
 @pytest.fixture
@@ -45,3 +45,28 @@ def test_refine_recovers_exact_poles_and_residues_through_the_kernel(column):
     p, res, _, _ = refine(f, h, 1.01 * fn, 1.2 * zeta, smoothing=(offsets, kernel))
     np.testing.assert_allclose(p, poles, rtol=1e-7)
     np.testing.assert_allclose(res, residues, rtol=1e-5, atol=1e-5 * np.abs(residues).max())
+
+
+@pytest.mark.parametrize("case", ["scaled", "ill-conditioned", "rank-deficient"])
+def test_range_and_pinv_solve_as_lstsq(case):
+    """CholeskyQR2 (columns of very different scale) and the SVD fallback give lstsq's
+    minimum-norm solution and an orthonormal range."""
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=(2, 300, 6)) * np.logspace(-6, 6, 6)
+    if case == "ill-conditioned":
+        a[:, :, 5] = a[:, :, 4] * 1e6 + 1e-4 * a[:, :, 5]
+    elif case == "rank-deficient":
+        a[:, :, 5] = 0.0
+    b = rng.normal(size=(2, 300))
+    q, pinv = _range_and_pinv(a)
+    c = np.einsum("yij,yj->yi", pinv, np.einsum("yfj,yf->yj", q, b))
+    for y in range(2):
+        ref = np.linalg.lstsq(a[y], b[y], rcond=None)[0]
+        # error bound of a backward-stable solver: eps * cond(a) relative
+        cond = np.linalg.cond(a[y] / np.maximum(np.linalg.norm(a[y], axis=0), 1e-300))
+        tol = 100 * np.finfo(float).eps * min(cond, 1e8)
+        np.testing.assert_allclose(c[y] * np.linalg.norm(a[y], axis=0),
+                                   ref * np.linalg.norm(a[y], axis=0), atol=tol * np.abs(b[y]).sum())
+        rank = np.linalg.matrix_rank(a[y])
+        np.testing.assert_allclose(q[y].T @ q[y], np.diag([1.0] * rank + [0.0] * (6 - rank)),
+                                   atol=1e-12)
