@@ -9,6 +9,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..errors import ModelError
 from ..models import Model
 from .candidates import Candidate
 from .compare import FLOOR
@@ -143,7 +144,12 @@ def decide(model: Model, search: Search, pool: list[Fit],
         reduction = (search.chi2_0 - best.chi2) / search.chi2_0
         if not (best.delta_bic > BIC_MIN and reduction > min_red):
             break
-        fixed = corrected_model(model, best)
+        try:
+            fixed = corrected_model(model, best)
+        except ModelError as exc:   # this candidate only: the next one is tried
+            rejected.append({"candidate": best.cand.label, "reason": str(exc)})
+            best.evidence["rejected"] = str(exc)
+            continue
         effect = change(fixed)
         first_effect = first_effect or effect
         if effect < MIN_EFFECT:
