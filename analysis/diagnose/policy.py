@@ -216,7 +216,8 @@ def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[
     dofs = [i for i, v in enumerate(per_dof) if v > c.floor.limit] or [int(np.argmax(per_dof))]
     best = first.pool[0] if first.pool else None
     return {"level": c.label, "band_hz": [float(c.freqs[i0]), float(c.freqs[i1])],
-            "dofs": dofs, "error_by_dof": per_dof,
+            "dofs": dofs, "points": [first.search.model.points[i] for i in dofs],
+            "error_by_dof": per_dof,
             "level_trend": [{"level": x.level, "error": x.error_after, "floor": x.floor.limit}
                             for x in sorted(curves, key=lambda x: x.level)],
             "tried": {"candidates": len(first.search.cands),

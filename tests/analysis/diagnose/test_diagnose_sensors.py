@@ -74,3 +74,12 @@ def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
     assert step.rejected[0]["candidate"] == bad.cand.label
     assert "valid range" in step.rejected[0]["reason"]
     assert bad.evidence["rejected"] == step.rejected[0]["reason"]
+
+
+def test_unexplained_names_the_points():
+    """The misfit location is given by point name (JSON ``location.points`` beside the
+    ``dofs`` indices) and the sentence uses the names."""
+    from analysis.diagnose.report import place
+    assert place([1, 2], ["joint", "payload"]) == "at joint, payload"
+    assert place([1, 2], ["1", "2"]) == "on DOF(s) 1, 2"
+    assert place([1, 2], None) == "on DOF(s) 1, 2"
