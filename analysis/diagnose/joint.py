@@ -18,11 +18,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..errors import ModelError
 from ..models import KINDS, Model
 from .candidates import LINEAR_PARAM
 from .compare import chi2, model_frf
 from .linear_update import Z95
-from .select import Fit, Search, coef_name
+from .select import Fit, Search, coef_name, corrected_model
 
 
 def _name(fit: Fit) -> str:
@@ -54,7 +55,8 @@ def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
     """Refit the coefficients of ``fits`` together on ``search``'s levels (start model).
 
     Returns the fits with the joint estimates, their 95 % intervals and the joint ``chi2``
-    (unchanged when a memory kind is among them or the refit does not lower the misfit).
+    (unchanged when a memory kind is among them, the refit does not lower the misfit or
+    its estimates leave the model's valid range).
     """
     if len(fits) < 2 or any(f.cand.memory for f in fits):
         return fits
@@ -93,4 +95,10 @@ def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
         ci = dict(f.ci95, **{n: [float(t - Z95 * s), float(t + Z95 * s)]})
         ev = dict(f.evidence, estimator="joint FRF fit", sequential_estimate=f.params[n])
         out.append(Fit(f.cand, params, ci, float(x2), f.delta_bic, ev, extra=f.extra))
+    try:   # the joint estimates must leave the model valid (stuck stiffness, linear errors)
+        model = start
+        for f in out:
+            model = corrected_model(model, f)
+    except ModelError:
+        return fits
     return out

@@ -9,6 +9,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..errors import ModelError
 from ..models import Model
 from .candidates import Candidate
 from .compare import FLOOR
@@ -143,7 +144,12 @@ def decide(model: Model, search: Search, pool: list[Fit],
         reduction = (search.chi2_0 - best.chi2) / search.chi2_0
         if not (best.delta_bic > BIC_MIN and reduction > min_red):
             break
-        fixed = corrected_model(model, best)
+        try:
+            fixed = corrected_model(model, best)
+        except ModelError as exc:   # this candidate only: the next one is tried
+            rejected.append({"candidate": best.cand.label, "reason": str(exc)})
+            best.evidence["rejected"] = str(exc)
+            continue
         effect = change(fixed)
         first_effect = first_effect or effect
         if effect < MIN_EFFECT:
@@ -210,7 +216,8 @@ def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[
     dofs = [i for i, v in enumerate(per_dof) if v > c.floor.limit] or [int(np.argmax(per_dof))]
     best = first.pool[0] if first.pool else None
     return {"level": c.label, "band_hz": [float(c.freqs[i0]), float(c.freqs[i1])],
-            "dofs": dofs, "error_by_dof": per_dof,
+            "dofs": dofs, "points": [first.search.model.points[i] for i in dofs],
+            "error_by_dof": per_dof,
             "level_trend": [{"level": x.level, "error": x.error_after, "floor": x.floor.limit}
                             for x in sorted(curves, key=lambda x: x.level)],
             "tried": {"candidates": len(first.search.cands),

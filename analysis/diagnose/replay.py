@@ -79,11 +79,37 @@ def _window_starts(n: int, horizon: int, max_samples: int) -> np.ndarray:
     return np.linspace(margin, margin + room, n_win).astype(int)
 
 
+def state_map(model: Model, weight: np.ndarray) -> np.ndarray:
+    """Map, shape (n_q, n_dof), from motion at the points to internal coordinates.
+
+    The identity for a model over its points. For a modal model (``x = T q``), the ``q``
+    of least ``q^T W q`` that reproduces the measured motion (least squares when there are
+    more points than coordinates): ``W = K`` (least strain energy) for displacements,
+    ``W = M`` (least kinetic energy) for velocities; ``M`` where ``K`` is singular. The
+    modes the points do not observe are set to the smoothest motion consistent with them.
+
+    Parameters
+    ----------
+    model : Model
+    weight : ndarray, shape (n_q, n_q)
+        ``W`` (symmetric; positive definite, else the mass is used).
+    """
+    if not model.is_modal:
+        return np.eye(model.n_q)
+    ev, vec = np.linalg.eigh(weight)
+    if ev.min() <= 1e-12 * ev.max():
+        ev, vec = np.linalg.eigh(model.mass)
+    half = (vec / np.sqrt(ev)) @ vec.T            # W^-1/2
+    return half @ np.linalg.pinv(model.shapes @ half)
+
+
 class _Restarter:
-    """Sets a plant to the measured state at a sample (state, hold history, memory)."""
+    """Sets a plant to the measured state at a sample (state, hold history, memory; a
+    modal model's coordinates from the measured points by `state_map`)."""
 
     def __init__(self, model: Model, plant: Plant, p: Prepared) -> None:
         self.model, self.plant, self.p = model, plant, p
+        self.qx, self.qv = state_map(model, model.stiffness), state_map(model, model.mass)
         self.h = 1.0 / (plant.fs * plant.oversample)
         self.offsets = -(HOLD_DEGREE - 1 - np.arange(HOLD_DEGREE)) * self.h
         self.memory = [i for i, el in enumerate(model.elements) if KINDS[el.kind].memory]
@@ -118,7 +144,8 @@ class _Restarter:
                 restart = KINDS[el.kind].plant_restart
                 if restart is not None:   # the plant's own state slots (slip direction)
                     restart(es[i], el.params, g[-1], vh[-1] @ el.w)
-        self.plant.set_state(dict(self.template, x=p.x[k], v=p.v[k], element_state=es,
+        self.plant.set_state(dict(self.template, x=self.qx @ p.x[k], v=self.qv @ p.v[k],
+                                  element_state=es,
                                   force_history=gh, deformation_history=uh,
                                   force_prev=force_prev))
 

@@ -210,6 +210,13 @@ def explain(d: Diagnosis, cands: list[Candidate]) -> str:
     return _explain(d, cands)
 
 
+def place(dofs: list[int], points: list[str] | None) -> str:
+    """``at joint, payload`` when the points are named, else ``on DOF(s) 1, 2``."""
+    if points and list(points) != [str(i) for i in dofs]:
+        return f"at {', '.join(points)}"
+    return f"on DOF(s) {', '.join(map(str, dofs))}"
+
+
 def _levels_text(d: Diagnosis, after: bool) -> str:
     parts = []
     for lv in sorted(d.fit.get("levels", []), key=lambda lv: lv["level"]):
@@ -264,7 +271,7 @@ def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
         return (lvl + f"The model misfits beyond the noise and model-precision floor and nothing "
                 f"in the library ({tried['candidates']} candidates: {library}) explains enough: "
                 f"the misfit is largest at {m['level']} between {m['band_hz'][0]:.3g} and "
-                f"{m['band_hz'][1]:.3g} Hz on DOF(s) {', '.join(map(str, m['dofs']))}, and it "
+                f"{m['band_hz'][1]:.3g} Hz {place(m['dofs'], m.get('points'))}, and it "
                 f"{how} (FRF error by level: {_levels_text(d, False)}).{best}"
                 + _rejected_text(d) + " The missing physics is outside the library (for "
                 "example a frequency-dependent stiffness, an unmodelled mode or DOF, or another "

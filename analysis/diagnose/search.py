@@ -175,7 +175,8 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
         [_level(model, h, band, nps, floor) for h in held] if hold is not None else []))
     top = max(first.search.levels, key=lambda lf: lf.level)
     loc_band = mismatch_band(top, first.search.H0s[first.search.levels.index(top)])
-    location = {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
+    dofs = sorted({d for f in chosen for d in f.cand.dofs})
+    location = {"dofs": dofs, "points": [model.points[i] for i in dofs],
                 "band_hz": [loc_band[0], loc_band[1]] if chosen else None}
     within = all(c.error_after <= c.floor.limit for c in curves)
     verdict = "discrepancy" if chosen else "adequate" if within else "unexplained"
@@ -183,7 +184,8 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     if not within:
         misfit = misfit_summary(curves, first, rejected)
         if verdict == "unexplained":
-            location = {"dofs": misfit["dofs"], "band_hz": misfit["band_hz"]}
+            location = {"dofs": misfit["dofs"], "points": misfit["points"],
+                        "band_hz": misfit["band_hz"]}
     d = Diagnosis(
         verdict,
         dep.dependent if dep else None,

@@ -369,13 +369,20 @@ class RandomSearch(Search):
 
 
 def corrected_model(model: Model, fit: Fit) -> Model:
-    """The model with the chosen candidate added."""
+    """The model with the chosen candidate added.
+
+    Raises
+    ------
+    ModelError
+        The candidate leaves the model's valid range (a compensated stuck stiffness or a
+        negative linear error that makes the stiffness indefinite): the diagnosis rejects
+        that candidate (`analysis.diagnose.policy.decide`).
+    """
     try:
         return _corrected_model(model, fit)
     except ModelError as exc:
-        raise ModelError(f"the fitted {fit.cand.kind} leaves the model's valid range ({exc}): "
-                         "the starting model is far from the data; check its units and "
-                         "values") from None
+        raise ModelError(f"the fitted {fit.cand.kind} leaves the model's valid range "
+                         f"({exc})") from None
 
 
 def _corrected_model(model: Model, fit: Fit) -> Model:

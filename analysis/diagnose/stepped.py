@@ -324,11 +324,12 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
     dep = level_dependence(all_levels)
     top = int(np.argmax([lf.level for lf in first.search.levels]))
     lo, hi = mismatch_band(first.search.levels[top], first.search.H0s[top])
+    dofs = sorted({d for f in chosen for d in f.cand.dofs})
     d = Diagnosis(
         "discrepancy" if chosen else "adequate" if within else "unexplained",
         dep.dependent if dep else None,
         [f.to_json() for f in chosen], [f.to_json() for f in first.pool[:8]],
-        {"dofs": sorted({d for f in chosen for d in f.cand.dofs}),
+        {"dofs": dofs, "points": [model.points[i] for i in dofs],
          "band_hz": [lo, hi] if chosen else None},
         {"metric": METRIC, "before": held.error_before, "after": held.error_after,
          "held_back": [held.label], "time_residual": time_fit([held]), **level_fit(curves)},
