@@ -18,12 +18,15 @@ demo: $(STAMP)
 
 # The suite runs on every core (pytest-xdist); the cases asserting a wall-clock deadline of the
 # hardware path (`realtime`: watchdogs, pacing) run afterwards on their own, on an unloaded machine.
+# One BLAS thread per worker: the workers already fill the cores (threads would only spin).
 test: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q -n auto -m "not slow and not realtime"
+	QT_QPA_PLATFORM=offscreen OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 \
+	    $(PY) -m pytest -q -n auto -m "not slow and not realtime"
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q -m "realtime and not slow"
 
 test-slow: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q -n auto -m slow
+	QT_QPA_PLATFORM=offscreen OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 \
+	    $(PY) -m pytest -q -n auto -m slow
 
 bench: $(STAMP)
 	for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
