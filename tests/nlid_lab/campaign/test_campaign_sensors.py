@@ -157,6 +157,23 @@ def test_example_runs_end_to_end_through_fit_linear_and_diagnose(tmp_path, capsy
     assert json.loads((tmp_path / "d.json").read_text())["verdict"]
 
 
+def test_the_true_model_is_adequate_over_the_automatic_band(tmp_path):
+    """Three accelerometers of 11 points: diagnosed with the model it was simulated from, over
+    the band chosen from the force, every level lies within its floor (before the integration
+    high-pass followed the residual force below the drive band, 0.5 Hz, and the true model
+    misfit 20 N by 19x its floor)."""
+    import json
+
+    run, out = tmp_path / "sim-sensors.h5", tmp_path / "d.json"
+    assert main(["campaign", "run", str(EXAMPLE), "--out", str(run), "--quiet"]) == 0
+    assert main(["diagnose", str(EXAMPLES / "models" / "beam-payload-modal.toml"), str(run),
+                 "--json", str(out), "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    assert d["evidence"]["band_hz"][0] >= 3.0
+    assert d["verdict"] == "adequate"
+    assert all(lv["before"] <= lv["floor"] for lv in d["fit"]["levels"])
+
+
 def test_one_level_control_loop_for_every_measure():
     """`_Runner.control` (random rms and swept-sine amplitude alike): per try the settle
     blocks, one measured block, a drive step limited to x4 and max_drive; a warning naming the
