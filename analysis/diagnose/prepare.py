@@ -14,19 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..recordings import (KIND_ORDER, Recording, excitation_band, periodic_kinematics, remove_dc,
-                          to_kinematics)
+from ..recordings import Recording, excitation_band, periodic_kinematics, remove_dc, to_kinematics
 from ..spectral import spectral_matrix
 
 EDGE_FRACTION = 0.02
-
-INTEGRATION_FLOOR_DB = -10.0
-"""Force level, relative to the median of the excited bins, above which a bin counts for the
-lower band edge of a record that must be integrated (velocity, acceleration): that edge is the
-integration's high-pass, and below the drive band the residual force (-18 dB on a simulated
-shaker) leaves a response that double integration of the sensor noise swamps (1/omega^4);
-measured on examples/campaign-sim-sensors.toml, a 0.25 Hz edge made the true model misfit
-50x its floor, the drive band's 3.5 Hz edge fits it within the floor."""
 """Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
 
 
@@ -89,14 +80,11 @@ def level_name(rec: Recording) -> str:
 
 
 def analysis_band(rec: Recording, nperseg: int) -> tuple[float, float]:
-    """Excited band of a random recording (from its force spectrum); for a record to be
-    integrated, the lower edge where the force is within `INTEGRATION_FLOOR_DB` of its median."""
+    """Excited band of a random recording (from its force spectrum; for a record to be
+    integrated, the lower edge as `analysis.recordings.excitation_band` gives it)."""
     f = remove_dc(rec.force)
     sp = spectral_matrix(f, rec.fs, nperseg=min(nperseg, f.shape[0]))
-    lo, hi = excitation_band(sp.freqs, sp.auto())
-    if KIND_ORDER[rec.response_kind] > 0:      # the lower edge is the integration's high-pass
-        lo = max(lo, excitation_band(sp.freqs, sp.auto(), floor_db=INTEGRATION_FLOOR_DB)[0])
-    return lo, hi
+    return excitation_band(sp.freqs, sp.auto(), kind=rec.response_kind)
 
 
 def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,

@@ -30,7 +30,7 @@ from scipy.stats import t as student_t
 
 from ..models import Element, Model, _basis as bas, restoring_force
 from ..errors import InputError
-from ..recordings import Recording, signal_bandwidth, to_kinematics
+from ..recordings import KIND_ORDER, Recording, signal_bandwidth, to_kinematics
 from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence
 
 Z95 = 1.959963984540054
@@ -192,6 +192,12 @@ class _Processing:
     antialias: str
     hold: str
     lowpass: float | None
+
+
+def _integrated(recs: Sequence[tuple[Recording, str]]) -> str:
+    """The response kind of ``recs`` integrated most (the automatic band's lower edge is its
+    high-pass, `analysis.recordings.excitation_band`)."""
+    return max((kind for _, kind in recs), key=KIND_ORDER.__getitem__)
 
 
 def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray,

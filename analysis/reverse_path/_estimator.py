@@ -19,8 +19,8 @@ from ..spectral import Spectra, default_nperseg, spectral_matrix
 from ..models import Model
 from ..recordings import excitation_band
 from . import _noise as noise_mod
-from ._core import (ReversePathResult, _channels, _elements, _estimate, _Processing,
-                    _records)
+from ._core import (ReversePathResult, _channels, _elements, _estimate, _integrated,
+                    _Processing, _records)
 from ._stages import sequential
 
 
@@ -194,7 +194,7 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps, window=window,
                                               overlap=overlap) for r, _ in recs])
-        band = excitation_band(fspec.freqs, fspec.auto())
+        band = excitation_band(fspec.freqs, fspec.auto(), kind=_integrated(recs))
     lo, hi = float(band[0]), float(band[1])
     if not 0 <= lo < hi <= fsr / 2:
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "

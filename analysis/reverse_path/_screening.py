@@ -41,7 +41,7 @@ from ..spectral import (Spectra, conditioned_inputs, default_nperseg, h1, multip
                         spectral_matrix)
 from ..recordings import Recording, excitation_band
 from ._core import (N_BATCHES, _Processing, _average, _channels,
-                    _element_estimates, _records)
+                    _element_estimates, _integrated, _records)
 
 MIN_GAIN = 0.1    # decades of incoherence a term must remove to be selected
 FAMILY_ALPHA = 0.05   # chance that any candidate of a linear structure is called significant
@@ -219,7 +219,7 @@ def screen_candidates(data: Any, model: Model,
            else default_nperseg(min(r.force.shape[0] for r, _ in recs)))
     if band is None:
         fspec = Spectra.pool([spectral_matrix(r.force, fsr, nperseg=nps) for r, _ in recs])
-        band = excitation_band(fspec.freqs, fspec.auto())
+        band = excitation_band(fspec.freqs, fspec.auto(), kind=_integrated(recs))
     band = (float(band[0]), float(band[1]))
     parts = []
     for rec, kind in recs:
