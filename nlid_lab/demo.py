@@ -129,11 +129,11 @@ def step_detect(run_path: Path) -> dict:
     from analysis.detection import detect
 
     result = detect(store.open_run(run_path).recordings())
-    (t,) = result["tests"]
+    (t,) = result.tests
     print(f"demo: detection (model-free, `nlid-lab detect`): the FRF changes with level beyond "
-          f"its noise on {100 * t['share_flagged']:.0f} % of the lines (a linear structure: "
-          f"~1 %) -> {result['verdict']}")
-    return result
+          f"its noise on {100 * t.share_flagged:.0f} % of the lines (a linear structure: "
+          f"~1 %) -> {result.verdict}")
+    return result.to_json()
 
 
 def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, dict]:

@@ -2,10 +2,14 @@
 distortion, swept-sine tests). Its own room: it builds on the diagnosis' level preparation,
 which itself builds on the spectral room.
 
-Modules behind this API: ``_detect``, ``_detect_sweep``. Code inside this package imports its
+Modules behind this API: ``_detect``, ``_detect_sweep``, ``_result`` (the typed result and
+its JSON). Code inside this package imports its
 siblings by their private module path.
 """
 
-from ._detect import bla_summary, detect, level_change
+from ._detect import LevelChange, bla_summary, detect, level_change
+from ._result import (SCHEMA_VERSION, Detection, DetectionTest, Jumps, SweepJump, TestMethod,
+                      Verdict)
 
-__all__ = ["bla_summary", "detect", "level_change"]
+__all__ = ["Detection", "DetectionTest", "Jumps", "LevelChange", "SCHEMA_VERSION", "SweepJump",
+           "TestMethod", "Verdict", "bla_summary", "detect", "level_change"]

@@ -26,19 +26,20 @@ structure: `analysis.reverse_path.screen_candidates`, `analysis.diagnose`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 import scipy.stats
 
 from ..spectral import (BLA, DETECT_QUANTILE, best_linear_approximation, default_nperseg, h1,
-                        hold_gain, multiple_coherence, sine_fit, spectral_matrix)
+                        hold_gain, level_name, multiple_coherence, sine_fit, spectral_matrix)
 from ..diagnose.prepare import record_level
 from ..errors import InputError
 from ..recordings import Recording, excitation_band
+from ._result import Detection, DetectionTest, TestMethod
 
 
-def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> dict[str, Any]:
+def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> Detection:
     """Run every test the recordings allow.
 
     Parameters
@@ -50,10 +51,9 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
 
     Returns
     -------
-    dict
-        ``verdict`` ("nonlinear" or "no evidence"), ``tests`` (one entry per test with
-        ``method``, ``nonlinear``, ``share_flagged``, ``share_limit``, ``band_hz``,
-        ``by_output``) and ``notes``.
+    Detection
+        The verdict, one `DetectionTest` per test and the notes (what could not be tested,
+        interference lines left out).
     """
     recs = list(recordings)
     periodic = [r for r in recs if r.excitation == "random" and r.layout is not None]
@@ -62,9 +62,9 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
     swept = [r for r in recs if r.excitation == "swept-sine"]
     notes = []
     single = [r for r in periodic if r.layout.realizations == 1]
-    tests = [_bla_test(r) for r in periodic if r.layout.realizations >= 2]
+    tests = [_bla_test(r, notes) for r in periodic if r.layout.realizations >= 2]
     if len(single) >= 2:
-        tests.append(periodic_level_dependence(single))
+        tests.append(periodic_level_dependence(single, notes))
     elif single:
         notes.append("one periodic level of one realization: the BLA distortion test needs "
                      "two or more realizations, the level-dependence test two or more levels")
@@ -87,8 +87,7 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> di
         notes.append(f"{unknown} level(s) carry no nominal level (e.g. a CSV imported without "
                      "--level): levels ordered by their measured force (rms, or amplitude "
                      "for sines)")
-    return {"verdict": "nonlinear" if any(t["nonlinear"] for t in tests) else "no evidence",
-            "tests": tests, "notes": notes}
+    return Detection(tuple(tests), tuple(notes))
 
 
 @dataclass
@@ -103,18 +102,18 @@ class LevelChange:
         ``|H_lo - H_hi|^2 / (var_lo + var_hi)``, largest over the inputs.
     threshold : float
         Value a linear structure exceeds on 1 % of the lines.
-    summary : dict
+    summary : DetectionTest
         The test's entry of `detect` (``method`` "level-dependence").
     """
 
     freqs: np.ndarray
     z: np.ndarray
     threshold: float
-    summary: dict[str, Any]
+    summary: DetectionTest
 
 
 def level_dependence(recordings: Sequence[Recording], *, nperseg: int | None = None
-                     ) -> dict[str, Any]:
+                     ) -> DetectionTest:
     """Compare the H1 of the lowest and the highest random level (module docstring)."""
     return level_change(recordings, nperseg=nperseg).summary
 
@@ -138,14 +137,13 @@ def level_change(recordings: Sequence[Recording], *, nperseg: int | None = None
     (H0, v0), (H1, v1) = [(e[1][keep], e[2][keep]) for e in est]
     z = (np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)).max(axis=2)   # (n_f, n_out)
     threshold = float(-np.log(1 - DETECT_QUANTILE) + np.log(H0.shape[2]))
-    out = _summary(f[keep], z > threshold, est[0][4], "level-dependence")
-    out.update(levels=[lo.level, hi.level], resolution_hz=lo.fs / nps,
-               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
-                                 for q in range(z.shape[1])])
+    out = _summary(f[keep], z > threshold, est[0][4], TestMethod.LEVEL_DEPENDENCE).with_(
+        levels=[lo.level, hi.level], labels=_labels(lo, hi), resolution_hz=lo.fs / nps,
+        median_change_db=_median_db(z))
     return LevelChange(f[keep], z, threshold, out)
 
 
-def stepped_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
+def stepped_level_dependence(recordings: Sequence[Recording]) -> DetectionTest:
     """Compare the fundamental FRFs of the lowest and the highest stepped-sine level at the
     frequencies both hold (module docstring)."""
     recs = sorted(recordings, key=record_level)
@@ -156,26 +154,22 @@ def stepped_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
     (H0, v0), (H1, v1) = [_step_frf(r, common) for r in (lo, hi)]
     z = (np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)).max(axis=2)     # (n_f, n_out)
     threshold = float(-np.log(1 - DETECT_QUANTILE) + np.log(H0.shape[2]))
-    out = _summary(common, z > threshold, 1.0, "stepped-level-dependence")
-    out.update(levels=[lo.level, hi.level],
-               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
-                                 for q in range(z.shape[1])])
-    return out
+    return _summary(common, z > threshold, 1.0, TestMethod.STEPPED_LEVEL_DEPENDENCE).with_(
+        levels=[lo.level, hi.level], labels=_labels(lo, hi), median_change_db=_median_db(z))
 
 
-def periodic_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]:
+def periodic_level_dependence(recordings: Sequence[Recording],
+                              notes: list[str] | None = None) -> DetectionTest:
     """Compare the period-averaged FRFs (`analysis.spectral._bla`, one realization each) of the lowest
     and the highest periodic level on the lines both excite.
 
     ``|G_lo - G_hi|^2 / (var_lo + var_hi)``, the variances from the spread over the periods,
     is F(2, 2 (P - 1))-distributed for a linear structure (``P`` the fewer steady periods);
-    lines beyond its 99 % quantile are flagged.
+    lines beyond its 99 % quantile are flagged. Interference lines left out of either level
+    are said in ``notes``.
     """
     recs = sorted(recordings, key=record_level)
-    lo, hi = (best_linear_approximation(r.force, r.response, r.fs, r.layout.period,
-                                        transient_periods=r.layout.transient_periods,
-                                        realizations=r.layout.realizations,
-                                        force_hold=r.force_hold) for r in (recs[0], recs[-1]))
+    lo, hi = (_bla(r, notes) for r in (recs[0], recs[-1]))
     common, i0, i1 = np.intersect1d(np.round(lo.freqs, 9), np.round(hi.freqs, 9),
                                     return_indices=True)
     if common.size == 0:
@@ -184,12 +178,31 @@ def periodic_level_dependence(recordings: Sequence[Recording]) -> dict[str, Any]
          / np.maximum(lo.var_noise[i0] + hi.var_noise[i1], 1e-300))
     p = min(lo.periods, hi.periods)
     threshold = float(scipy.stats.f.ppf(DETECT_QUANTILE, 2, 2 * (p - 1)))
-    out = _summary(common, z > threshold, 1.0, "level-dependence")
-    out.update(levels=[recs[0].level, recs[-1].level],
-               resolution_hz=float(recs[0].fs / recs[0].layout.period),
-               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
-                                 for q in range(z.shape[1])])
-    return out
+    return _summary(common, z > threshold, 1.0, TestMethod.LEVEL_DEPENDENCE).with_(
+        levels=[recs[0].level, recs[-1].level], labels=_labels(recs[0], recs[-1]),
+        resolution_hz=float(recs[0].fs / recs[0].layout.period), median_change_db=_median_db(z))
+
+
+def _bla(rec: Recording, notes: list[str] | None) -> BLA:
+    """The period-averaged FRF of a periodic level; interference it left out said in
+    ``notes``."""
+    b = best_linear_approximation(rec.force, rec.response, rec.fs, rec.layout.period,
+                                  transient_periods=rec.layout.transient_periods,
+                                  realizations=rec.layout.realizations,
+                                  force_hold=rec.force_hold)
+    if notes is not None and b.interference:
+        notes.append(f"{level_name(rec)}: " + ", ".join(i.text() for i in b.interference)
+                     + ", left out")
+    return b
+
+
+def _labels(*recs: Recording) -> tuple[str, ...]:
+    return tuple(level_name(r) for r in recs)
+
+
+def _median_db(z: np.ndarray) -> list[float]:
+    """Median per output of a per-line ratio, dB."""
+    return [float(10 * np.log10(np.median(z[:, q]))) for q in range(z.shape[1])]
 
 
 def _step_frf(rec: Recording, freqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -226,29 +239,23 @@ def _h1(rec: Recording, nps: int):
     return spec.freqs, H, var, band, spec.bin_factor
 
 
-def _bla_test(rec: Recording) -> dict[str, Any]:
+def _bla_test(rec: Recording, notes: list[str]) -> DetectionTest:
     if rec.n_in != 1:
         raise InputError("the BLA test takes one force channel")
-    b = best_linear_approximation(rec.force, rec.response, rec.fs, rec.layout.period,
-                                  transient_periods=rec.layout.transient_periods,
-                                  realizations=rec.layout.realizations,
-                                  force_hold=rec.force_hold)
-    return bla_summary(b, rec.level)
+    return bla_summary(_bla(rec, notes), rec.level).with_(labels=_labels(rec))
 
 
-def bla_summary(b: BLA, level: float | None = None) -> dict[str, Any]:
+def bla_summary(b: BLA, level: float | None = None) -> DetectionTest:
     """The BLA test's entry of `detect`: lines whose total variance exceeds the noise beyond
     the linear-system quantile (`analysis.spectral.BLA.threshold`), per response and overall."""
     ratio = b.var_total / np.maximum(b.var_noise, 1e-300)
-    out = _summary(b.freqs, ratio > b.threshold(), 1.0, "bla")
-    out.update(levels=[level], realizations=b.realizations, periods=b.periods,
-               median_change_db=[float(10 * np.log10(np.median(ratio[:, q])))
-                                 for q in range(ratio.shape[1])])
-    return out
+    return _summary(b.freqs, ratio > b.threshold(), 1.0, TestMethod.BLA).with_(
+        levels=[level], realizations=b.realizations, periods=b.periods,
+        median_change_db=_median_db(ratio))
 
 
 def _summary(freqs: np.ndarray, flagged: np.ndarray, bin_factor: float,
-             method: str) -> dict[str, Any]:
+             method: TestMethod) -> DetectionTest:
     """Share of flagged lines against the chance share, band and share per output."""
     p = 1 - DETECT_QUANTILE
     limit = p + 4 * np.sqrt(p * (1 - p) * bin_factor / freqs.size)
@@ -256,7 +263,6 @@ def _summary(freqs: np.ndarray, flagged: np.ndarray, bin_factor: float,
     share = float(flagged.mean())
     lines = freqs[any_line]
     by_out = flagged.mean(axis=0)
-    return {"method": method, "nonlinear": bool(share > limit), "share_flagged": share,
-            "share_limit": float(limit),
-            "band_hz": [float(lines.min()), float(lines.max())] if lines.size else None,
-            "by_output": [float(s) for s in by_out]}
+    return DetectionTest(method, bool(share > limit), share, float(limit),
+                         (float(lines.min()), float(lines.max())) if lines.size else None,
+                         tuple(float(s) for s in by_out))

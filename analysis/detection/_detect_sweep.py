@@ -22,12 +22,13 @@ Levels of one direction
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
-from ..spectral import DETECT_QUANTILE
+from ..spectral import DETECT_QUANTILE, level_name
 from ..recordings import KIND_ORDER, Recording
+from ._result import DetectionTest, Jumps, SweepJump, TestMethod
 from ..spectral._sweep import (NOISE_ORDERS, SweepFRF, _independent, harmonic_distortion,
                                recording_sweep_frf)
 
@@ -37,8 +38,8 @@ JUMP_FACTOR = 4.0
 PAIR_TOLERANCE = 0.1
 
 
-def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., dict[str, Any]]
-                ) -> tuple[list[dict[str, Any]], list[str]]:
+def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., DetectionTest]
+                ) -> tuple[list[DetectionTest], list[str]]:
     """Every sweep test the swept-sine ``recordings`` allow, and notes.
 
     ``summary`` is `analysis.detection._detect._summary` (share of flagged lines against chance), the
@@ -46,7 +47,7 @@ def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., dict[str
 
     Returns
     -------
-    tests : list of dict
+    tests : list of DetectionTest
         `analysis.detection.detect` entries (``method`` "sweep-harmonics", "sweep-hysteresis",
         "sweep-level-dependence"), each with ``levels`` and ``direction`` (or
         ``directions``).
@@ -56,9 +57,11 @@ def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., dict[str
     tests, notes = [], []
     for rec, frf in frfs:
         out = harmonic_distortion(frf)
-        out.update(levels=[frf.level], direction=_name(frf.direction),
-                   by_output=None)
-        tests.append(out)
+        tests.append(DetectionTest(
+            TestMethod.SWEEP_HARMONICS, out["nonlinear"], out["share_flagged"],
+            out["share_limit"], None if out["band_hz"] is None else tuple(out["band_hz"]),
+            levels=(frf.level,), direction=_name(frf.direction), tests=out["tests"],
+            labels=(level_name(rec),)))
     ups = [p for p in frfs if p[1].direction > 0]
     downs = [p for p in frfs if p[1].direction < 0]
     for up in ups:
@@ -70,7 +73,7 @@ def sweep_tests(recordings: Sequence[Recording], summary: Callable[..., dict[str
     for group in (ups, downs):
         if len(group) >= 2:
             tests.append(level_dependence([f for _, f in group], group[0][0].response_kind,
-                                          summary))
+                                          summary, [r for r, _ in group]))
     if len(frfs) == 1:
         notes.append("one sweep: the up/down hysteresis test needs the other direction at the "
                      "same level, the level test a second level")
@@ -82,7 +85,7 @@ def _name(direction: int) -> str:
 
 
 def hysteresis(rec_up: Recording, up: SweepFRF, rec_down: Recording, down: SweepFRF
-               ) -> dict[str, Any]:
+               ) -> DetectionTest:
     """The sweep-direction hysteresis test of an up/down pair (module docstring)."""
     jumps = {}
     for name, rec, frf in (("up", rec_up, up), ("down", rec_down, down)):
@@ -93,21 +96,20 @@ def hysteresis(rec_up: Recording, up: SweepFRF, rec_down: Recording, down: Sweep
         spacing = float(np.median(np.abs(np.diff(frf.freqs))))
         linear_step = spacing / (2 * half_width)          # steepest d ln|H| of a linear mode
         rate = _rate_at(rec, frf.freqs[j])
-        jumps[name] = {"freq_hz": float(0.5 * (frf.freqs[j] + frf.freqs[j + 1])),
-                       "ratio": float(mag[j + 1] / mag[j]),
-                       "jump": bool(drop[j] > JUMP_FACTOR * linear_step),
-                       "delay_hz": float(rate / (2 * np.pi * half_width)),
-                       "spacing_hz": spacing}
-    sep = jumps["up"]["freq_hz"] - jumps["down"]["freq_hz"]
-    allowed = (jumps["up"]["delay_hz"] + jumps["down"]["delay_hz"]
-               + jumps["up"]["spacing_hz"] + jumps["down"]["spacing_hz"])
-    both = jumps["up"]["jump"] and jumps["down"]["jump"]
-    nonlinear = bool(both and abs(sep) > allowed)
-    return {"method": "sweep-hysteresis", "nonlinear": nonlinear, "separation_hz": float(sep),
-            "allowed_hz": float(allowed), "jumps": jumps,
-            "band_hz": sorted([jumps["up"]["freq_hz"], jumps["down"]["freq_hz"]])
-            if nonlinear else None, "levels": [up.level, down.level],
-            "directions": ["up", "down"], "by_output": None}
+        jumps[name] = SweepJump(float(0.5 * (frf.freqs[j] + frf.freqs[j + 1])),
+                                float(mag[j + 1] / mag[j]),
+                                bool(drop[j] > JUMP_FACTOR * linear_step),
+                                float(rate / (2 * np.pi * half_width)), spacing)
+    pair = Jumps(jumps["up"], jumps["down"])
+    sep = pair.up.freq_hz - pair.down.freq_hz
+    allowed = pair.up.delay_hz + pair.down.delay_hz + pair.up.spacing_hz + pair.down.spacing_hz
+    nonlinear = bool(pair.up.jump and pair.down.jump and abs(sep) > allowed)
+    return DetectionTest(TestMethod.SWEEP_HYSTERESIS, nonlinear,
+                         band_hz=tuple(sorted([pair.up.freq_hz, pair.down.freq_hz]))
+                         if nonlinear else None, levels=(up.level, down.level),
+                         separation_hz=float(sep), allowed_hz=float(allowed), jumps=pair,
+                         directions=("up", "down"),
+                         labels=(level_name(rec_up), level_name(rec_down)))
 
 
 def _half_width(freqs: np.ndarray, mag: np.ndarray) -> float:
@@ -134,10 +136,14 @@ def _rate_at(rec: Recording, freq: float) -> float:
 
 
 def level_dependence(frfs: Sequence[SweepFRF], response_kind: str,
-                     summary: Callable[..., dict[str, Any]]) -> dict[str, Any]:
+                     summary: Callable[..., DetectionTest],
+                     recordings: Sequence[Recording]) -> DetectionTest:
     """Tracked fundamental FRFs of the lowest and the highest level of one sweep direction
-    compared on independent windows (module docstring; ``summary`` as in `sweep_tests`)."""
-    lo, hi = sorted(frfs, key=lambda f: f.level)[::len(frfs) - 1]
+    compared on independent windows (module docstring; ``summary`` as in `sweep_tests`;
+    ``recordings`` those of ``frfs``, for the levels' names)."""
+    order = sorted(range(len(frfs)), key=lambda i: frfs[i].level)
+    lo, hi = frfs[order[0]], frfs[order[-1]]
+    labels = (level_name(recordings[order[0]]), level_name(recordings[order[-1]]))
     keep = _independent(lo.times, lo.window_s)
     f = lo.freqs[keep]
     inside = (f >= hi.freqs.min()) & (f <= hi.freqs.max())
@@ -152,11 +158,10 @@ def level_dependence(frfs: Sequence[SweepFRF], response_kind: str,
                    for c in range(hi.frf.shape[1])], axis=1)
     z = np.abs(H0 - H1) ** 2 / np.maximum(v0 + v1, 1e-300)
     threshold = float(-np.log(1 - DETECT_QUANTILE))
-    out = summary(f, z > threshold, 1.0, "sweep-level-dependence")
-    out.update(levels=[lo.level, hi.level], direction=_name(lo.direction),
-               median_change_db=[float(10 * np.log10(np.median(z[:, q])))
-                                 for q in range(z.shape[1])])
-    return out
+    return summary(f, z > threshold, 1.0, TestMethod.SWEEP_LEVEL_DEPENDENCE).with_(
+        levels=[lo.level, hi.level], direction=_name(lo.direction), labels=labels,
+        median_change_db=[float(10 * np.log10(np.median(z[:, q])))
+                          for q in range(z.shape[1])])
 
 
 def _frf_variance(frf: SweepFRF, response_kind: str, smooth: int = 5) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..recordings import Recording, excitation_band, periodic_kinematics, remove_dc, to_kinematics
-from ..spectral import spectral_matrix
+from ..spectral import measured_level, spectral_matrix
 
 EDGE_FRACTION = 0.02
 """Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
@@ -61,12 +61,7 @@ class Prepared:
 
 def record_level(rec: Recording) -> float:
     """Nominal level: the recording's own, else the rms (random) or amplitude (sine) force."""
-    if rec.level is not None:
-        return float(rec.level)
-    f = remove_dc(rec.force.reshape(-1, rec.n_in)) if rec.excitation == "random" else rec.force
-    if rec.excitation == "random":
-        return float(np.sqrt(np.mean(f**2, axis=0)).max())
-    return float(np.abs(f).max())
+    return float(rec.level) if rec.level is not None else measured_level(rec)
 
 
 def level_name(rec: Recording) -> str:

@@ -1,13 +1,15 @@
 """Modal analysis: modal parameters of FRF columns, experimental modal analysis (LSCF,
 refinement, MAC) and the linear modal fit of a measured level.
 
-Modules behind this API: ``_modal``, ``_ema``, ``_linear_fit``. Code inside this package
+Modules behind this API: ``_modal``, ``_ema``, ``_linear_fit``, ``_fit_result`` (fit-linear's
+typed result and its JSON). Code inside this package
 imports its siblings by their private module path.
 """
 
 from ._modal import modal_fit, modal_summary, welch_smoothing
 from ._ema import fit_modes, mac
 from ._linear_fit import LinearFit, fit_linear
+from ._fit_result import LinearFitSummary, ModeSummary
 
-__all__ = ["LinearFit", "fit_linear", "fit_modes", "mac", "modal_fit", "modal_summary",
+__all__ = ["LinearFit", "LinearFitSummary", "ModeSummary", "fit_linear", "fit_modes", "mac", "modal_fit", "modal_summary",
            "welch_smoothing"]

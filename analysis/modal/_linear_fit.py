@@ -21,8 +21,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..spectral import (best_linear_approximation, convert_frf, default_nperseg, h1, hold_gain,
-                        spectral_matrix)
+from ..spectral import (Interference, best_linear_approximation, convert_frf, default_nperseg,
+                        h1, hold_gain, spectral_matrix)
 from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
 from ._modal import welch_smoothing
@@ -58,6 +58,8 @@ class MeasuredReceptance:
     excited_hz : (lo, hi), optional
         Band the force excites (random levels: its autospectrum within `EXCITED_DB` of its
         peak); periodic levels hold only their excited lines.
+    interference : tuple of Interference
+        Steady force lines of a periodic level left out (`analysis.spectral.excited_lines`).
     """
 
     freqs: np.ndarray
@@ -67,6 +69,7 @@ class MeasuredReceptance:
     driving_point: int
     method: str
     excited_hz: tuple[float, float] | None = None
+    interference: tuple[Interference, ...] = ()
 
 
 @dataclass
@@ -80,8 +83,10 @@ class LinearFit:
     frf_error: np.ndarray          # (n_out,) in band, model against the data
 
 
-def measured_receptance(rec: Recording, nperseg: int | None = None) -> MeasuredReceptance:
-    """Receptance column of the (single) force at every response channel of ``rec``."""
+def measured_receptance(rec: Recording, nperseg: int | None = None,
+                        band: tuple[float, float] | None = None) -> MeasuredReceptance:
+    """Receptance column of the (single) force at every response channel of ``rec``; a
+    periodic level's lines picked within ``band`` (Hz) when given."""
     if rec.excitation != "random":
         raise InputError(f"fit-linear takes a random or multisine level, got "
                          f"{rec.excitation}: the modal fit needs uniformly spaced lines")
@@ -96,13 +101,15 @@ def measured_receptance(rec: Recording, nperseg: int | None = None) -> MeasuredR
     if lay is not None and (lay.periods >= 2 or lay.realizations >= 2):
         b = best_linear_approximation(rec.force, rec.response, rec.fs, lay.period,
                                       transient_periods=lay.transient_periods,
-                                      realizations=lay.realizations, force_hold=rec.force_hold)
+                                      realizations=lay.realizations, force_hold=rec.force_hold,
+                                      band=band)
         H = convert_frf(b.G, b.freqs, rec.response_kind, "displacement")
         std = np.abs(convert_frf(np.sqrt(b.var_noise), b.freqs, rec.response_kind,
                                  "displacement"))
         return MeasuredReceptance(b.freqs, H, std, None, d,
                                   f"period-averaged FRF ({b.realizations} x {b.periods} "
-                                  "periods), weighted by its noise from the period spread")
+                                  "periods), weighted by its noise from the period spread",
+                                  interference=b.interference)
     nseg = nperseg or default_nperseg(rec.force.shape[0])
     spec = spectral_matrix(np.concatenate([rec.force, rec.response], axis=1), rec.fs,
                            nperseg=nseg)
@@ -146,7 +153,7 @@ def fit_linear(rec: Recording, band: tuple[float, float] | None = None, *,
     -------
     LinearFit
     """
-    data = measured_receptance(rec, nperseg)
+    data = measured_receptance(rec, nperseg, band)
     if band is None and data.excited_hz is not None:
         band = data.excited_hz
     elif band is None:

@@ -27,6 +27,7 @@ import scipy.stats
 
 from ..errors import InputError
 from ..recordings import steady_periods
+from ._lines import Interference, excited_lines
 from ._sine_fit import hold_gain
 
 DETECT_QUANTILE = 0.99
@@ -51,6 +52,8 @@ class BLA:
         it; with few realizations it is biased high by about ``1 / M``); with one
         realization, that of a single period against the noise from the period spread.
     realizations, periods : int
+    interference : tuple of Interference
+        Steady force lines outside the designed band(s), left out (`analysis.spectral._lines`).
     """
 
     freqs: np.ndarray
@@ -60,6 +63,7 @@ class BLA:
     coherence: np.ndarray
     realizations: int
     periods: int
+    interference: tuple[Interference, ...] = ()
 
     @property
     def var_distortion(self) -> np.ndarray:
@@ -73,7 +77,8 @@ class BLA:
 
 def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float,
                               period: int, *, transient_periods: int = 1,
-                              realizations: int = 1, force_hold: str | None = None) -> BLA:
+                              realizations: int = 1, force_hold: str | None = None,
+                              band: tuple[float, float] | None = None) -> BLA:
     """BLA, noise and total variance of a periodic-random record (module docstring).
 
     Parameters
@@ -87,6 +92,9 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
         Record layout (`analysis.recordings.steady_periods`).
     force_hold : {"none", "linear"}, optional
         How the force acted between its samples (`analysis.spectral.hold_gain`).
+    band : (lo, hi), optional
+        Lines considered, Hz (applied before the excited lines are picked,
+        `analysis.spectral.excited_lines`).
 
     Returns
     -------
@@ -108,13 +116,17 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     mean = spec.mean(axis=1)
     dev = spec - mean[:, None]
     U, Y = mean[..., 0], mean[..., 1:]
-    power = np.abs(U).mean(axis=0) ** 2
-    lines = np.flatnonzero(power > 1e-4 * power.max())     # excited: flat drive lines
-    lines = lines[lines > 0]
-    if lines.size == 0:
-        raise InputError("the force excites no DFT line of the period")
-    U, Y, dev = U[:, lines], Y[:, lines], dev[:, :, lines]
     scale = 1.0 / ((n_p - 1) * n_p)                         # variance of a period mean
+    all_freqs = np.arange(U.shape[1]) * fs / period
+    picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
+                           (np.abs(dev[..., 0]) ** 2).sum(axis=1).mean(axis=0) * scale,
+                           band=band)
+    lines = picked.lines
+    if lines.size == 0:
+        raise InputError("the force excites no DFT line of the period"
+                         + ("" if band is None else f" in {band[0]:g}-{band[1]:g} Hz; check "
+                            "the band"))
+    U, Y, dev = U[:, lines], Y[:, lines], dev[:, :, lines]
     s_uu = (np.abs(dev[..., 0]) ** 2).sum(axis=1) * scale                  # (M, n_f)
     s_yy = (np.abs(dev[..., 1:]) ** 2).sum(axis=1) * scale                 # (M, n_f, n_out)
     s_yu = (dev[..., 1:] * dev[..., :1].conj()).sum(axis=1) * scale
@@ -135,4 +147,5 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
         coherence = signal / np.maximum(signal + n_p * var_noise, 1e-300)
     freqs = lines * fs / period
     gain = hold_gain(freqs, fs, force_hold)[:, None]
-    return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p)
+    return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p,
+               picked.interference)

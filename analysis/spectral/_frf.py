@@ -94,15 +94,30 @@ def default_nperseg(n: int) -> int:
     return int(min(2 ** int(np.floor(np.log2(target))), MAX_NPERSEG))
 
 
-def level_label(rec: Recording, index: int) -> str:
-    """Legend text of a level: its nominal force, else its position (and a swept sine's
-    direction)."""
+def measured_level(rec: Recording) -> float:
+    """The force a level applied: rms of the DC-free force (random, multisine), largest
+    amplitude (sines), largest over the force channels, N."""
+    f = rec.force.reshape(-1, rec.n_in)
+    if rec.excitation == "random":
+        f = f - f.mean(axis=0)
+        return float(np.sqrt(np.mean(f**2, axis=0)).max())
+    return float(np.abs(f).max())
+
+
+def level_name(rec: Recording) -> str:
+    """A level as people read it: its nominal force, else the force it measured (``12.4 N
+    rms``, ``4.8 N`` for sines: exports such as MAT files carry no level), three figures."""
+    unit = "N rms" if rec.excitation == "random" else "N"
+    value = measured_level(rec) if rec.level is None else rec.level
+    return f"{value:.3g} {unit}"
+
+
+def level_label(rec: Recording, index: int | None = None) -> str:
+    """Legend text of a level: `level_name` (and a swept sine's direction); ``index`` (the
+    level's position in its run) is not needed since every level has a force."""
     direction = "" if rec.sweep is None else \
         f", sweep {'up' if rec.sweep.law.direction > 0 else 'down'}"
-    if rec.level is None:
-        return f"level {index + 1}{direction}"
-    unit = "N rms" if rec.excitation == "random" else "N"
-    return f"{rec.level:.3g} {unit}{direction}"
+    return f"{level_name(rec)}{direction}"
 
 
 def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> LevelFRF:

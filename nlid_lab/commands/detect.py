@@ -3,45 +3,55 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_overwrite,
                        summary_stream, write_json)
 from .repair import check_runs, repair_option
 
+if TYPE_CHECKING:
+    from analysis.detection import Detection, DetectionTest
 
-def format_tests(result: dict[str, Any]) -> str:
+
+def _names(t: DetectionTest) -> tuple[str, str]:
+    """The compared levels as people read them (their measured force where no nominal)."""
+    names = list(t.labels) or [level_text(v) for v in t.levels]
+    return (names + [""])[0], (names + ["", ""])[1]
+
+
+def format_tests(result: Detection) -> str:
     """One line per test plus the verdict and the notes."""
+    from analysis.detection import TestMethod
     lines = []
-    for t in result["tests"]:
-        lo, hi = (level_text(v) for v in (t["levels"] + [None])[:2])
-        if t["method"] == "bla":
-            what = (f"BLA distortion (periodic random, {t['realizations']} x {t['periods']} "
-                    f"periods, level {lo})")
-        elif t["method"] == "level-dependence":
+    for t in result.tests:
+        lo, hi = _names(t)
+        if t.method == TestMethod.BLA:
+            what = (f"BLA distortion (periodic random, {t.realizations} x {t.periods} "
+                    f"periods, {lo})")
+        elif t.method == TestMethod.LEVEL_DEPENDENCE:
             what = (f"level dependence (random, {lo} vs {hi}, "
-                    f"{t['resolution_hz']:.3g} Hz lines)")
-        elif t["method"] == "sweep-harmonics":
-            what = f"harmonic distortion (swept sine {t['direction']}, level {lo})"
-        elif t["method"] == "sweep-hysteresis":
-            j = t["jumps"]
-            lines.append(f"sweep-direction hysteresis (level {lo} up, {hi} down): jumps at "
-                         f"{j['up']['freq_hz']:.3f} Hz up{'' if j['up']['jump'] else ' (none)'}"
-                         f" and {j['down']['freq_hz']:.3f} Hz down"
-                         f"{'' if j['down']['jump'] else ' (none)'}, {t['separation_hz']:+.3f} Hz "
-                         f"apart (sweep delay and resolution explain {t['allowed_hz']:.3f} Hz): "
-                         f"{'NONLINEAR' if t['nonlinear'] else 'no evidence'}")
+                    f"{t.resolution_hz:.3g} Hz lines)")
+        elif t.method == TestMethod.SWEEP_HARMONICS:
+            what = f"harmonic distortion (swept sine {t.direction}, {lo})"
+        elif t.method == TestMethod.SWEEP_HYSTERESIS:
+            up, down = t.jumps.up, t.jumps.down
+            lines.append(f"sweep-direction hysteresis ({lo} up, {hi} down): jumps at "
+                         f"{up.freq_hz:.3f} Hz up{'' if up.jump else ' (none)'}"
+                         f" and {down.freq_hz:.3f} Hz down"
+                         f"{'' if down.jump else ' (none)'}, {t.separation_hz:+.3f} Hz "
+                         f"apart (sweep delay and resolution explain {t.allowed_hz:.3f} Hz): "
+                         f"{'NONLINEAR' if t.nonlinear else 'no evidence'}")
             continue
-        elif t["method"] == "sweep-level-dependence":
-            what = f"level dependence (swept sine {t['direction']}, {lo} vs {hi}, fundamental)"
+        elif t.method == TestMethod.SWEEP_LEVEL_DEPENDENCE:
+            what = f"level dependence (swept sine {t.direction}, {lo} vs {hi}, fundamental)"
         else:
             what = f"level dependence (stepped sine, {lo} vs {hi}, fundamental)"
-        band = (f", {t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz" if t["nonlinear"] else "")
-        lines.append(f"{what}: {'NONLINEAR' if t['nonlinear'] else 'no evidence'} - "
-                     f"{100 * t['share_flagged']:.1f} % of the lines beyond the noise "
-                     f"(chance: up to {100 * t['share_limit']:.1f} %){band}")
-    lines.append(f"verdict: {result['verdict']}")
-    lines += [f"note: {n}" for n in result["notes"]]
+        band = (f", {t.band_hz[0]:.1f}-{t.band_hz[1]:.1f} Hz" if t.nonlinear else "")
+        lines.append(f"{what}: {'NONLINEAR' if t.nonlinear else 'no evidence'} - "
+                     f"{100 * t.share_flagged:.1f} % of the lines beyond the noise "
+                     f"(chance: up to {100 * t.share_limit:.1f} %){band}")
+    lines.append(f"verdict: {result.verdict}")
+    lines += [f"note: {n}" for n in result.notes]
     return "\n".join(lines)
 
 
@@ -56,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=summary_stream(args.json, args.quiet))
-    write_json(result, args.json)
+    write_json(result.to_json(), args.json)
     return 0
 
 

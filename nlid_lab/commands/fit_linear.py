@@ -5,11 +5,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from analysis.diagnose.prepare import level_name
 from analysis.errors import InputError
 
 from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
@@ -17,54 +14,33 @@ from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, sum
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
-    from analysis.modal import LinearFit
+    from analysis.modal import LinearFitSummary
 
 
-def summary(fit: LinearFit) -> dict[str, Any]:
-    """JSON of a fit: modes with their quality, residual pseudo-modes, errors."""
-    m = fit.modes
-    mac = m.mac - np.eye(m.mac.shape[0])
-    model = fit.model
-    nr = model.n_residual
-    # the pseudo-modes are the trailing modal coordinates (below and above the band)
-    pseudo = np.sqrt(np.diag(model.stiffness)[model.n_q - nr:]) / (2 * np.pi)
-    return {
-        "method": fit.data.method,
-        "band_hz": list(m.band_hz),
-        "points": list(model.points),
-        "driving_point": model.points[fit.data.driving_point],
-        "modes": [{"freq_hz": float(f), "damping_ratio": float(z), "support": float(s),
-                   "max_mac_other": float(mac[i].max(initial=0.0)),
-                   "shape": [float(v) for v in m.shapes[i]]}
-                  for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support))],
-        "residual_pseudo_modes_hz": [float(f) for f in pseudo],
-        "frf_error": {p: float(e) for p, e in zip(model.points, fit.frf_error)},
-    }
-
-
-def format_summary(s: dict[str, Any], kind: str) -> str:
+def format_summary(s: LinearFitSummary, kind: str) -> str:
     """The fit's summary for people: modes table, residual pseudo-modes, in-band FRF error in
-    the measured response ``kind``."""
-    lines = [f"{len(s['modes'])} mode(s) in {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz from "
-             f"the {s['method']}; shapes mass-normalised at the driving point "
-             f"'{s['driving_point']}'",
+    the measured response ``kind``, interference left out."""
+    lines = [f"{len(s.modes)} mode(s) in {s.band_hz[0]:g}-{s.band_hz[1]:g} Hz from "
+             f"the {s.method}; shapes mass-normalised at the driving point "
+             f"'{s.driving_point}'",
              "  mode   f [Hz]   zeta [%]  stable  max MAC to another mode"]
-    for i, m in enumerate(s["modes"]):
-        lines.append(f"  {i + 1:4d} {m['freq_hz']:8.3f} {100 * m['damping_ratio']:9.3f} "
-                     f"{100 * m['support']:6.0f} % {m['max_mac_other']:8.3f}")
-    if s["residual_pseudo_modes_hz"]:
+    for i, m in enumerate(s.modes):
+        lines.append(f"  {i + 1:4d} {m.freq_hz:8.3f} {100 * m.damping_ratio:9.3f} "
+                     f"{100 * m.support:6.0f} % {m.max_mac_other:8.3f}")
+    if s.residual_pseudo_modes_hz:
         lines.append("residual pseudo-modes at " + ", ".join(
-            f"{f:.4g} Hz" for f in s["residual_pseudo_modes_hz"]) + " (the modes outside the band)")
+            f"{f:.4g} Hz" for f in s.residual_pseudo_modes_hz) + " (the modes outside the band)")
     lines.append(f"in-band FRF error of the model ({kind}): " + ", ".join(
-        f"{p} {100 * e:.1f} %" for p, e in s["frf_error"].items()))
+        f"{p} {100 * e:.1f} %" for p, e in zip(s.points, s.frf_error)))
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
     from analysis.diagnose.prepare import record_level
-    from analysis.modal import fit_linear
+    from analysis.modal import LinearFitSummary, fit_linear
     from analysis.recordings import one_kind
+    from analysis.spectral import level_name
 
     from ..formats import load_recordings
     refuse_overwrite(args.force, args.out, args.json, args.plot)
@@ -87,12 +63,14 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from ..reports import stabilisation
         stabilisation(fit).savefig(args.plot)
-    result = summary(fit)
-    result["level"] = rec.level
-    text = (f"fitted on {level_name(rec)}\n" + format_summary(result, rec.response_kind)
+    result = LinearFitSummary.of(fit, rec.level)
+    said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
+                   for _ in result.interference[:1])
+    text = (f"fitted on {level_name(rec)}{said}\n"
+            + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
-    write_json(result, args.json)
+    write_json(result.to_json(), args.json)
     return 0
 
 

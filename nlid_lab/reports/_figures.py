@@ -161,8 +161,8 @@ def level_change(change, names: tuple[Sequence[str], Sequence[str]] | None = Non
                 label=f"response {response_name(q, names)}")
     ax.axhline(10 * np.log10(change.threshold), color="k", ls="--", lw=1,
                label="linear structure: exceeded on 1 % of lines")
-    lo, hi = change.summary["levels"]
-    ax.set_title(f"FRF change between {lo:g} and {hi:g} N rms over its noise")
+    lo, hi = change.summary.labels
+    ax.set_title(f"FRF change between {lo} and {hi} over its noise")
     ax.set_xlabel("Frequency [Hz]")
     ax.set_ylabel("|ΔH|² / var [dB]")
     ax.grid(True, alpha=0.3)

@@ -18,7 +18,6 @@ from analysis.errors import InputError
 from analysis.spectral import LevelFRF
 
 from . import _figures as figures
-from ..outputs import level_text
 from ._rundata import RunData, Section, all_level_frfs
 
 
@@ -123,16 +122,16 @@ def level_change_section(run: RunData) -> Section | None:
     except InputError:
         return None
     t = change.summary
-    verdict = (f"the FRF changes beyond its noise on {100 * t['share_flagged']:.0f} % of the "
-               f"lines ({t['band_hz'][0]:.1f}-{t['band_hz'][1]:.1f} Hz): the structure is "
-               "nonlinear" if t["nonlinear"] else
-               f"{100 * t['share_flagged']:.1f} % of the lines change beyond the noise, as "
+    verdict = (f"the FRF changes beyond its noise on {100 * t.share_flagged:.0f} % of the "
+               f"lines ({t.band_hz[0]:.1f}-{t.band_hz[1]:.1f} Hz): the structure is "
+               "nonlinear" if t.nonlinear else
+               f"{100 * t.share_flagged:.1f} % of the lines change beyond the noise, as "
                "noise alone gives: no evidence of nonlinearity")
     sec = Section("Level dependence of the FRF (random levels)",
-                  f"H1 at {level_text(t['levels'][0])} against {level_text(t['levels'][1])} "
-                  "N rms, line by line, relative to the variance of their difference; a linear "
+                  f"H1 at {t.labels[0]} against {t.labels[1]}, "
+                  "line by line, relative to the variance of their difference; a linear "
                   "structure exceeds the dashed line on 1 % of the lines (chance up to "
-                  f"{100 * t['share_limit']:.1f} %). Here {verdict} (`nlid-lab detect`).")
+                  f"{100 * t.share_limit:.1f} %). Here {verdict} (`nlid-lab detect`).")
     sec.figures = [("level_change", figures.level_change(change, channel_names(run)))]
     return sec
 
@@ -148,9 +147,9 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
     lines = []
     for frf in shown:
         t = bla_summary(frf.bla, frf.level)
-        for q, (share, db) in enumerate(zip(t["by_output"], t["median_change_db"])):
+        for q, (share, db) in enumerate(zip(t.by_output, t.median_change_db)):
             what = (f"nonlinear distortion on {100 * share:.0f} % of the lines, median "
-                    f"{db:+.1f} dB over the noise" if share > t["share_limit"] else
+                    f"{db:+.1f} dB over the noise" if share > t.share_limit else
                     f"no distortion above the noise ({100 * share:.1f} % of the lines "
                     "flagged, as noise alone gives)")
             lines.append(f"{frf.label}, response {figures.response_name(q, names)}: "

@@ -33,24 +33,24 @@ def _levels(model, levels=(2.0, 20.0), noise=0.02, fs=FS, band=(5, 200), oversam
 def test_linear_structure_shows_no_level_dependence():
     """Linear part only, 2 % noise: about 1 % of the lines by chance (measured 0.9 %)."""
     result = detect(_levels(SDOF.with_elements([])))
-    (t,) = result["tests"]
-    assert result["verdict"] == "no evidence" and not t["nonlinear"]
-    assert t["share_flagged"] < t["share_limit"]
+    (t,) = result.tests
+    assert result.verdict == "no evidence" and not t.nonlinear
+    assert t.share_flagged < t.share_limit
 
 
 def test_cubic_spring_makes_the_frf_level_dependent():
     """Measured: 42 % of the lines flagged, median change +3.8 dB over the noise."""
     result = detect(_levels(SDOF))
-    (t,) = result["tests"]
-    assert result["verdict"] == "nonlinear" and t["share_flagged"] > 0.2
-    assert t["band_hz"][0] < 50.3 < t["band_hz"][1] and t["levels"] == [2.0, 20.0]
+    (t,) = result.tests
+    assert result.verdict == "nonlinear" and t.share_flagged > 0.2
+    assert t.band_hz[0] < 50.3 < t.band_hz[1] and t.levels == (2.0, 20.0)
 
 
 def test_three_dof_paper_system():
     """Paper 3.3.2 system at 1 and 8 N: measured 82 % of the lines (all three responses)."""
     model = Model.load("examples/models/three-dof-paper.toml")
-    (t,) = detect(_levels(model, (1.0, 8.0), fs=2048.0, band=(5, 400), oversample=4))["tests"]
-    assert t["nonlinear"] and min(t["by_output"]) > 0.5
+    (t,) = detect(_levels(model, (1.0, 8.0), fs=2048.0, band=(5, 400), oversample=4)).tests
+    assert t.nonlinear and min(t.by_output) > 0.5
 
 
 def test_cli_detect(tmp_path, capsys):
@@ -90,11 +90,11 @@ def test_stepped_sine_level_dependence(tmp_path):
                         text.replace(f'model = "{root}/models/sdof-cubic-quaddamp.toml"',
                                      f'model = "{model}"'))
         run_campaign(load_campaign(path), tmp_path / f"{name}.h5")
-        (t,) = detect(load_recordings(tmp_path / f"{name}.h5"))["tests"]
-        assert t["method"] == "stepped-level-dependence"
+        (t,) = detect(load_recordings(tmp_path / f"{name}.h5")).tests
+        assert t.method == "stepped-level-dependence"
         verdicts[name] = t
-    assert not verdicts["linear"]["nonlinear"]
-    assert verdicts["cubic"]["nonlinear"] and verdicts["cubic"]["share_flagged"] > 0.8
+    assert not verdicts["linear"].nonlinear
+    assert verdicts["cubic"].nonlinear and verdicts["cubic"].share_flagged > 0.8
 
 
 def test_periodic_levels_of_one_realization_are_period_averaged():
@@ -121,6 +121,6 @@ def test_periodic_levels_of_one_realization_are_period_averaged():
                               elements=elements, seed=int(lev)) for lev in (0.5, 20.0)]
 
     linear = detect(levels(()))
-    assert linear["verdict"] == "no evidence", linear["tests"]
-    assert linear["tests"][0]["method"] == "level-dependence"
-    assert detect(levels(joint))["verdict"] == "nonlinear"
+    assert linear.verdict == "no evidence", linear.tests
+    assert linear.tests[0].method == "level-dependence"
+    assert detect(levels(joint)).verdict == "nonlinear"

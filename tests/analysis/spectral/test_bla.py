@@ -26,7 +26,7 @@ def test_linear_system_bla_is_its_frf_within_the_noise():
     noise (|e| / sigma of a complex Gaussian has median sqrt(ln 2) = 0.83)."""
     lin = SDOF.with_elements([])
     b = _bla(lin, 15.0)
-    assert not bla_summary(b)["nonlinear"]
+    assert not bla_summary(b).nonlinear
     z = np.abs(b.G[:, 0] - lin.linear_frf(b.freqs, [0])[:, 0, 0]) / np.sqrt(b.var_total[:, 0])
     assert 0.7 < np.median(z) < 1.0
     assert np.median(b.var_total / b.var_noise) == pytest.approx(1.0, abs=0.15)
@@ -36,8 +36,8 @@ def test_linear_system_bla_is_its_frf_within_the_noise():
 def test_cubic_spring_distortion_is_detected_around_resonance():
     b = _bla(SDOF, 15.0)
     out = bla_summary(b)
-    assert out["nonlinear"] and out["median_change_db"][0] > 10       # measured +17 dB
-    assert out["band_hz"][0] < 50.3 < out["band_hz"][1]
+    assert out.nonlinear and out.median_change_db[0] > 10       # measured +17 dB
+    assert out.band_hz[0] < 50.3 < out.band_hz[1]
     assert np.all(b.var_distortion >= 0)
     assert b.coherence[np.argmin(np.abs(b.freqs - 52.0)), 0] < 0.9   # distortion at resonance
 

@@ -242,8 +242,8 @@ def test_sweep_tests_pass_a_linear_structure_at_two_levels(tmp_path):
                  force=data["Force"].T, response=noisy, response_kind="acceleration")
         recs.append(rio.read_npz(tmp_path / f"l{k}.npz"))
     result = detect(recs)
-    assert result["verdict"] == "no evidence", result["tests"]
-    assert {t["method"] for t in result["tests"]} == {"sweep-harmonics",
+    assert result.verdict == "no evidence", result.tests
+    assert {t.method for t in result.tests} == {"sweep-harmonics",
                                                       "sweep-level-dependence"}
 
 

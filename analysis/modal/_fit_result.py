@@ -1,0 +1,131 @@
+"""What ``fit-linear`` reports: the modes with their quality, the residual pseudo-modes, the
+in-band FRF error, as a typed record with the command's JSON.
+
+``LinearFitSummary.from_json(s.to_json()) == s``; the JSON is the command's (``nlid-lab
+fit-linear --json``) with ``schema_version`` first and ``interference`` last (only when lines
+were left out).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..spectral import Interference
+
+if TYPE_CHECKING:
+    from ._linear_fit import LinearFit
+
+SCHEMA_VERSION = 1
+"""Version of `LinearFitSummary`'s JSON (``schema_version``)."""
+
+
+@dataclass(frozen=True)
+class ModeSummary:
+    """One fitted mode.
+
+    Attributes
+    ----------
+    freq_hz, damping_ratio : float
+    support : float
+        Share of the upper model orders at which it was stable.
+    max_mac_other : float
+        Largest MAC with another mode (close to 1: a duplicate or a spatially aliased pair).
+    shape : tuple of float
+        Mass-normalised shape at every point.
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    support: float
+    max_mac_other: float
+    shape: tuple[float, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"freq_hz", "damping_ratio", "support", "max_mac_other", "shape"}``."""
+        return {"freq_hz": self.freq_hz, "damping_ratio": self.damping_ratio,
+                "support": self.support, "max_mac_other": self.max_mac_other,
+                "shape": list(self.shape)}
+
+
+@dataclass(frozen=True)
+class LinearFitSummary:
+    """Result of ``nlid-lab fit-linear`` (docs/model-format.md, docs/gvt-workflow.md).
+
+    Attributes
+    ----------
+    method : str
+        How the measured receptance was estimated.
+    band_hz : (lo, hi)
+    points : tuple of str
+    driving_point : str
+    modes : tuple of ModeSummary
+    residual_pseudo_modes_hz : tuple of float
+        The pseudo-modes standing for the modes outside the band.
+    frf_error : tuple of float
+        In-band relative FRF error of the written model per point (measured kind).
+    level : float or None
+        Nominal level of the fitted recording (None: none in the file).
+    interference : tuple of Interference
+        Steady force lines left out of the excited set (`analysis.spectral.excited_lines`).
+    """
+
+    method: str
+    band_hz: tuple[float, float]
+    points: tuple[str, ...]
+    driving_point: str
+    modes: tuple[ModeSummary, ...]
+    residual_pseudo_modes_hz: tuple[float, ...]
+    frf_error: tuple[float, ...]
+    level: float | None = None
+    interference: tuple[Interference, ...] = ()
+
+    @classmethod
+    def of(cls, fit: LinearFit, level: float | None) -> LinearFitSummary:
+        """The summary of a `analysis.modal.fit_linear` result of a level at ``level``."""
+        m = fit.modes
+        mac = m.mac - np.eye(m.mac.shape[0])
+        model = fit.model
+        nr = model.n_residual
+        # the pseudo-modes are the trailing modal coordinates (below and above the band)
+        pseudo = np.sqrt(np.diag(model.stiffness)[model.n_q - nr:]) / (2 * np.pi)
+        modes = tuple(ModeSummary(float(f), float(z), float(s),
+                                  float(mac[i].max(initial=0.0)),
+                                  tuple(float(v) for v in m.shapes[i]))
+                      for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support)))
+        return cls(fit.data.method, (float(m.band_hz[0]), float(m.band_hz[1])),
+                   tuple(model.points), model.points[fit.data.driving_point], modes,
+                   tuple(float(f) for f in pseudo), tuple(float(e) for e in fit.frf_error),
+                   None if level is None else float(level), fit.data.interference)
+
+    def to_json(self) -> dict[str, Any]:
+        """The command's JSON (module docstring)."""
+        out = {"schema_version": SCHEMA_VERSION, "method": self.method,
+               "band_hz": list(self.band_hz), "points": list(self.points),
+               "driving_point": self.driving_point,
+               "modes": [m.to_json() for m in self.modes],
+               "residual_pseudo_modes_hz": list(self.residual_pseudo_modes_hz),
+               "frf_error": dict(zip(self.points, self.frf_error)), "level": self.level}
+        if self.interference:
+            out["interference"] = [{"freq_hz": i.freq_hz, "level_db": i.level_db}
+                                   for i in self.interference]
+        return out
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> LinearFitSummary:
+        """Inverse of `to_json`; refuses another schema version."""
+        got = data.get("schema_version")
+        if got != SCHEMA_VERSION:
+            raise ValueError(f"fit-linear JSON of schema_version {got}, this version reads "
+                             f"{SCHEMA_VERSION}; re-run the command to write it again")
+        points = tuple(data["points"])
+        return cls(data["method"], tuple(data["band_hz"]), points, data["driving_point"],
+                   tuple(ModeSummary(m["freq_hz"], m["damping_ratio"], m["support"],
+                                     m["max_mac_other"], tuple(m["shape"]))
+                         for m in data["modes"]),
+                   tuple(data["residual_pseudo_modes_hz"]),
+                   tuple(data["frf_error"][p] for p in points), data["level"],
+                   tuple(Interference(i["freq_hz"], i["level_db"])
+                         for i in data.get("interference", ())))

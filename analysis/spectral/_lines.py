@@ -1,0 +1,158 @@
+"""The excited lines of a periodic drive, picked as a test engineer picks them.
+
+A multisine excites one or a few designed bands: runs of DFT lines of the period (every line,
+every other line, or with some lines left out) whose force is steady from period to period. A
+measured force also holds lines nobody designed: mains pick-up at 50 or 60 Hz and its
+harmonics, a pump, a fan. Such a line is steady too, but stands alone, far from the band, or
+off the band's grid of lines. It is left out (an FRF there is the interference's, not the
+structure's) and named, so that the engineer sees what was dropped.
+
+Rule, in order:
+
+1. ``band`` (the user's ``--band``), when given, first;
+2. candidates: lines whose force power exceeds `FLOOR` of the strongest line and is steady
+   over the periods (power above `STEADY` times the variance of the period average);
+3. runs: candidates closer than `GAP` times their typical spacing belong to one run; a run of
+   at least `BAND_LINES` lines is a designed band (with none, the largest run is), shorter
+   runs are interference;
+4. within a band whose lines sit on a coarser grid (odd lines, every third line), a line off
+   that grid more than `OFF_GRID_DB` below the band's median power is interference.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FLOOR = 1e-4
+"""Force power, relative to the strongest line, below which a line is not excited."""
+STEADY = 10.0
+"""A line's power over the variance of its period average above which it is steady (a line
+of noise alone exceeds it with probability ``exp(-10)``)."""
+GAP = 8
+"""Candidates further apart than this many times their median spacing start a new run."""
+BAND_LINES = 5
+"""Fewest lines of a designed band; shorter runs are interference."""
+OFF_GRID_DB = -20.0
+"""An off-grid line of a band this far (dB) below the band's median power is interference."""
+
+
+@dataclass(frozen=True)
+class Interference:
+    """A steady line left out of the excited set.
+
+    Attributes
+    ----------
+    freq_hz : float
+    level_db : float
+        Its force power relative to the median of the excited lines, dB.
+    """
+
+    freq_hz: float
+    level_db: float
+
+    def text(self) -> str:
+        """``interference at 50.0 Hz, -40 dB``."""
+        return f"interference at {self.freq_hz:.1f} Hz, {self.level_db:.0f} dB"
+
+
+@dataclass(frozen=True)
+class ExcitedLines:
+    """Excited lines of a periodic drive and the interference left out.
+
+    Attributes
+    ----------
+    lines : ndarray of int
+        Indices of the excited DFT lines of one period, ascending.
+    interference : tuple of Interference
+    """
+
+    lines: np.ndarray
+    interference: tuple[Interference, ...] = ()
+
+    def note(self) -> str | None:
+        """One summary phrase naming the interference left out, or None."""
+        if not self.interference:
+            return None
+        return ", ".join(i.text() for i in self.interference) + ", left out"
+
+
+def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None = None, *,
+                  band: tuple[float, float] | None = None) -> ExcitedLines:
+    """Excited lines of a periodic drive (module docstring).
+
+    Parameters
+    ----------
+    freqs : ndarray, shape (n_lines,)
+        DFT lines of one period, Hz.
+    power : ndarray, shape (n_lines,)
+        Power of the period-averaged force per line.
+    noise : ndarray, shape (n_lines,), optional
+        Variance of that average from the spread over the periods (omitted: every line is
+        steady).
+    band : (lo, hi), optional
+        Lines outside it are not considered.
+
+    Returns
+    -------
+    ExcitedLines
+        No lines when nothing exceeds the floor.
+    """
+    f = np.asarray(freqs, dtype=float)
+    p = np.asarray(power, dtype=float)
+    ok = f > 0
+    if band is not None:
+        ok &= (f >= band[0]) & (f <= band[1])
+    if not np.any(p[ok] > 0):
+        return ExcitedLines(np.zeros(0, dtype=int))
+    cand = ok & (p > FLOOR * p[ok].max())
+    if noise is not None:
+        cand &= p > STEADY * np.asarray(noise, dtype=float)
+    idx = np.flatnonzero(cand)
+    if idx.size == 0:
+        return ExcitedLines(idx)
+    runs = _runs(idx)
+    bands = [r for r in runs if r.size >= BAND_LINES] or [max(runs, key=len)]
+    kept = np.concatenate(bands)
+    ref = float(np.median(p[kept]))
+    stray = [r for r in runs if not any(r is b for b in bands)]
+    off = [_off_grid(b, p, ref) for b in bands]
+    off_idx = np.concatenate([o for o in off] + [np.zeros(0, dtype=int)])
+    kept = np.setdiff1d(kept, off_idx)
+    lines = np.sort(np.concatenate([np.concatenate(stray) if stray else np.zeros(0, int),
+                                    off_idx])).astype(int)
+    named = tuple(Interference(float(f[i]), float(10 * np.log10(p[i] / ref)))
+                  for i in _peaks(lines, p))
+    return ExcitedLines(kept, named)
+
+
+def _runs(idx: np.ndarray) -> list[np.ndarray]:
+    """Split sorted line indices where a gap exceeds `GAP` times their median spacing."""
+    if idx.size == 1:
+        return [idx]
+    gaps = np.diff(idx)
+    cut = np.flatnonzero(gaps > GAP * np.median(gaps)) + 1
+    return np.split(idx, cut)
+
+
+def _off_grid(run: np.ndarray, power: np.ndarray, ref: float) -> np.ndarray:
+    """Lines of ``run`` off its grid (the most common spacing and offset) and weak."""
+    if run.size < BAND_LINES:
+        return np.zeros(0, dtype=int)
+    gaps = np.diff(run)
+    step = int(np.bincount(gaps).argmax())
+    if step <= 1:
+        return np.zeros(0, dtype=int)
+    phase = int(np.bincount(run % step).argmax())
+    off = run[(run % step != phase) & (power[run] < ref * 10 ** (OFF_GRID_DB / 10))]
+    return off
+
+
+def _peaks(lines: np.ndarray, power: np.ndarray) -> list[int]:
+    """The strongest line of each group of adjacent lines (a leaking interference spreads
+    over its neighbours: named once)."""
+    if lines.size == 0:
+        return []
+    groups = np.split(lines, np.flatnonzero(np.diff(lines) > 1) + 1)
+    return [int(g[np.argmax(power[g])]) for g in groups]
