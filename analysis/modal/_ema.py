@@ -3,7 +3,9 @@
 Three steps, each done by what does it best:
 
 1. **Stabilisation diagram**: pyEMA's least-squares complex-frequency (LSCF) common-denominator
-   estimator over increasing model orders (well conditioned in the z-domain, fast).
+   estimator over increasing model orders (well conditioned in the z-domain, fast); lines
+   with gaps (a multisine with lines left out, dips, interference dropped) go to the same
+   estimator on the measured lines (`analysis.modal._lscf`).
 2. **Automatic selection**: a pole is *stable* when the previous order has one within
    ``tol_freq`` in frequency and ``tol_damp`` in damping; stable poles are clustered in
    frequency and a cluster that recurs in at least ``min_share`` of the upper half of the orders
@@ -29,6 +31,7 @@ import scipy.optimize
 
 from ..errors import EstimationError, InputError
 from ..models import Model
+from ._lscf import lscf_poles
 from ._varpro import PoleProjection
 
 
@@ -139,36 +142,33 @@ def stabilisation(freqs: np.ndarray, frf: np.ndarray, band: tuple[float, float],
     Parameters
     ----------
     freqs : ndarray, shape (n_f,)
-        Uniformly spaced frequencies, Hz (as a Welch or multisine FRF has).
+        Frequencies, Hz: a Welch or multisine FRF's lines. Uniform lines on a grid through
+        0 Hz go to pyEMA; lines with gaps (left out by the design, where the force dips or
+        interference sat) to the same estimator on the measured lines
+        (`analysis.modal._lscf`).
     frf : ndarray, shape (n_f, n_out)
         FRF column of any form (receptance, mobility, accelerance: the poles are the same).
     band : (lo, hi)
         Band searched for modes, Hz.
     """
-    from pyEMA import Model as LSCF
-
     f = np.asarray(freqs, dtype=float)
     h = np.asarray(frf, dtype=complex).reshape(f.size, -1)
-    df = np.diff(f)
-    if f.size < 16 or np.any(df <= 0) or np.ptp(df) > 1e-6 * df.mean():
-        raise InputError("the stabilisation diagram needs an FRF on uniformly spaced "
-                         "frequencies (a random or multisine run's lines)")
     lo, hi = band
-    keep = f <= hi
-    if f[0] > 0:                                  # LSCF's z-domain starts at 0 Hz
-        pad = np.arange(0.0, f[0] - 0.5 * df[0], df[0])
-        f = np.concatenate([pad, f])
-        h = np.concatenate([np.zeros((pad.size, h.shape[1])), h])
-        keep = f <= hi
-    lscf = LSCF(frf=h[keep].T, freq=f[keep], lower=lo, upper=f[keep][-1],
-                pol_order_high=max_order // 2, frf_form="receptance")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        lscf.get_poles(method="lscf", show_progress=False)
+    if f.size < 16 or np.any(np.diff(f) <= 0):
+        raise InputError("the stabilisation diagram needs an FRF on 16 or more increasing "
+                         "frequencies (a random or multisine run's lines)")
+    if _fft_grid(f):
+        poles = _pyema_poles(f, h, band, max_order)
+    else:
+        inb = (f >= lo) & (f <= hi) & (f > 0)
+        if inb.sum() < 16:
+            raise InputError(f"{inb.sum()} lines in {lo:g}-{hi:g} Hz: the stabilisation "
+                             "diagram needs 16 or more; widen the band")
+        poles = zip(*lscf_poles(f[inb], h[inb], 2 * (max_order // 2)))
     orders = np.arange(2, 2 * (max_order // 2) + 1, 2)
     fr, zs, st = [], [], []
     prev_f, prev_z = np.array([]), np.array([])
-    for pf, pz in zip(lscf.pole_freq, lscf.pole_xi):
+    for pf, pz in poles:
         pf, pz = np.asarray(pf, dtype=float), np.asarray(pz, dtype=float)
         ok = (pf >= lo) & (pf <= hi) & (pz > 0) & (pz < 0.5)
         pf, pz = pf[ok], pz[ok]
@@ -185,6 +185,35 @@ def stabilisation(freqs: np.ndarray, frf: np.ndarray, band: tuple[float, float],
         st.append(stable)
         prev_f, prev_z = pf, pz
     return Stabilisation(orders[:len(fr)], fr, zs, st)
+
+
+def _fft_grid(f: np.ndarray) -> bool:
+    """Whether lines are uniformly spaced on a grid through 0 Hz (what pyEMA's FFT-based LSCF
+    needs; zeros are padded below the first line)."""
+    df = np.diff(f)
+    k = f[0] / df.mean()
+    return bool(np.ptp(df) <= 1e-6 * df.mean() and abs(k - round(k)) <= 1e-3)
+
+
+def _pyema_poles(f: np.ndarray, h: np.ndarray, band: tuple[float, float], max_order: int):
+    """pyEMA's LSCF poles (frequencies, damping ratios) per order of lines on a grid through
+    0 Hz."""
+    from pyEMA import Model as LSCF
+
+    lo, hi = band
+    df = np.diff(f)
+    keep = f <= hi
+    if f[0] > 0:                                  # LSCF's z-domain starts at 0 Hz
+        pad = np.arange(0.0, f[0] - 0.5 * df[0], df[0])
+        f = np.concatenate([pad, f])
+        h = np.concatenate([np.zeros((pad.size, h.shape[1])), h])
+        keep = f <= hi
+    lscf = LSCF(frf=h[keep].T, freq=f[keep], lower=lo, upper=f[keep][-1],
+                pol_order_high=max_order // 2, frf_form="receptance")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lscf.get_poles(method="lscf", show_progress=False)
+    return zip(lscf.pole_freq, lscf.pole_xi)
 
 
 def select_modes(stab: Stabilisation, *, min_share: float = 0.5, cluster: float = 0.005,
@@ -366,7 +395,7 @@ def fit_modes(freqs: np.ndarray, receptance: np.ndarray, band: tuple[float, floa
     Parameters
     ----------
     freqs : ndarray, shape (n_f,)
-        Uniformly spaced frequencies, Hz.
+        Frequencies, Hz: a Welch or multisine FRF's lines, gaps allowed (`stabilisation`).
     receptance : ndarray, shape (n_f, n_out)
         Displacement per force at every measured point (convert accelerance first).
     band : (lo, hi)
