@@ -79,7 +79,7 @@ def frf_plots(layout: pg.GraphicsLayout, units: str, row: int = 0, col: int = 0,
                   pen=(180, 180, 180))
     ph = layout.addPlot(row=row + 1, col=col)
     style(ph, "Phase", "deg")
-    ph.setYRange(-270, 90)
+    ph.setYRange(-180, 180)
     ph.setXLink(mag)
     return mag, ph
 

@@ -74,9 +74,8 @@ def _level_key(fig: Figure, ax, frfs: Sequence["LevelFRF"], extra: list | None =
 
 
 def phase_deg(h: np.ndarray) -> np.ndarray:
-    """Phase in [-270, 90) degrees: a receptance sits near 0 below a mode and near -180
-    above it, so neither wraps (no +-180 flicker on noisy bins)."""
-    return np.mod(np.degrees(np.angle(h)) + 270.0, 360.0) - 270.0
+    """Phase in [-180, 180] degrees, as test engineers read it (numpy's principal value)."""
+    return np.degrees(np.angle(h))
 
 
 def _frf_axes(title: str) -> tuple[Figure, object, object]:
@@ -87,8 +86,8 @@ def _frf_axes(title: str) -> tuple[Figure, object, object]:
         ax.grid(True, which="both", alpha=0.3)
     ph.set_xlabel("Frequency [Hz]")
     ph.set_ylabel("Phase [deg]")
-    ph.set_ylim(-275, 95)
-    ph.set_yticks([-270, -180, -90, 0, 90])
+    ph.set_ylim(-190, 190)
+    ph.set_yticks([-180, -90, 0, 90, 180])
     return fig, mag, ph
 
 

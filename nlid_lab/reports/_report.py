@@ -179,8 +179,9 @@ def modal_fit_section(run: RunData) -> Section | None:
         return None
     rec = one_kind(min(random, key=record_level))      # mixed kinds: as fit-linear reads them
     title = "Modal fit of the lowest level (fit-linear)"
+    points = None if rec.sensors is None else list(rec.sensors.response_points)
     try:
-        fit = fit_linear(rec)
+        fit = fit_linear(rec, points=points)
     except (InputError, EstimationError) as exc:
         return Section(title, f"No modal fit of {html.escape(level_name(rec))}: "
                        f"{html.escape(str(exc))}.")
@@ -189,13 +190,17 @@ def modal_fit_section(run: RunData) -> Section | None:
     rows = "".join(f"<tr><td>{i + 1}</td><td>{f:.3f}</td><td>{100 * z:.3f}</td>"
                    f"<td>{100 * s:.0f} %</td><td>{mac[i].max(initial=0.0):.3f}</td></tr>"
                    for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support)))
-    errors = ", ".join(f"DOF {p} {100 * e:.1f} %" for p, e in zip(model.points, fit.frf_error))
+    errors = ", ".join(f"{'DOF ' if points is None else ''}{html.escape(p)} {100 * e:.1f} %"
+                       for p, e in zip(model.points, fit.frf_error))
+    left_out = "".join(f" Force line at {i.freq_hz:.1f} Hz ({i.level_db:.0f} dB): "
+                       "interference, left out of the excited lines."
+                       for i in fit.data.interference)
     sec = Section(title,
                   f"The lowest level ({html.escape(level_name(rec))}), the closest to linear: "
                   f"{html.escape(fit.data.method)}, modes in {m.band_hz[0]:.3g}-"
                   f"{m.band_hz[1]:.3g} Hz chosen where the poles stay stable as the model "
                   "order grows. In-band FRF error of the modal model "
-                  f"({html.escape(rec.response_kind)}): {errors}. "
+                  f"({html.escape(rec.response_kind)}): {errors}.{left_out} "
                   "<code>nlid-lab fit-linear RUN --out MODEL.toml</code> writes this model."
                   "<table><tr><th>mode</th><th>f [Hz]</th><th>&zeta; [%]</th>"
                   "<th>stable in</th><th>max MAC to another mode</th></tr>"
