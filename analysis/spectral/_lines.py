@@ -117,14 +117,12 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     kept = np.concatenate(bands)
     ref = float(np.median(p[kept]))
     stray = [r for r in runs if not any(r is b for b in bands)]
-    off = [_off_grid(b, p, ref) for b in bands]
-    off_idx = np.concatenate([o for o in off] + [np.zeros(0, dtype=int)])
-    kept = np.setdiff1d(kept, off_idx)
-    lines = np.sort(np.concatenate([np.concatenate(stray) if stray else np.zeros(0, int),
-                                    off_idx])).astype(int)
+    left = np.concatenate([np.zeros(0, dtype=int)] + stray
+                          + [_off_grid(b, p, ref) for b in bands])
+    left = np.sort(left)
     named = tuple(Interference(float(f[i]), float(10 * np.log10(p[i] / ref)))
-                  for i in _peaks(lines, p))
-    return ExcitedLines(kept, named)
+                  for i in _peaks(left, p))
+    return ExcitedLines(np.setdiff1d(kept, left), named)
 
 
 def _runs(idx: np.ndarray) -> list[np.ndarray]:
@@ -145,8 +143,7 @@ def _off_grid(run: np.ndarray, power: np.ndarray, ref: float) -> np.ndarray:
     if step <= 1:
         return np.zeros(0, dtype=int)
     phase = int(np.bincount(run % step).argmax())
-    off = run[(run % step != phase) & (power[run] < ref * 10 ** (OFF_GRID_DB / 10))]
-    return off
+    return run[(run % step != phase) & (power[run] < ref * 10 ** (OFF_GRID_DB / 10))]
 
 
 def _peaks(lines: np.ndarray, power: np.ndarray) -> list[int]:

@@ -40,7 +40,7 @@ def test_without_a_map_the_figures_say_dof():
     frfs = [sdof_frf(2.0), sdof_frf(8.0)]
     assert "response DOF 0" in figures.multiple_coherence_levels(frfs, 0).axes[0].get_title()
     change = SimpleNamespace(z=frfs[0].multiple_coherence, freqs=frfs[0].freqs, threshold=9.0,
-                             summary={"levels": [2.0, 8.0]})
+                             summary=SimpleNamespace(labels=("2 N rms", "8 N rms")))
     assert legend(figures.level_change(change).axes[0])[0] == "response DOF 0"
     names = (["tip (velocity)"], ["tip"])
     assert legend(figures.level_change(change, names).axes[0])[0] == "response tip (velocity)"
