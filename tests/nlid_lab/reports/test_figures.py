@@ -230,3 +230,18 @@ def test_bla_and_coherence_figures_label_their_axes(n_levels):
     coh = figures.multiple_coherence_levels(frfs, 0).axes[0]
     assert coh.get_ylabel() == "Coherence γ² [-]" and coh.get_ylim() == (0, 1.05)
     assert_text_inside(fig)
+
+
+def test_phase_axis_is_plus_minus_180_and_levels_without_a_value_are_named_by_their_force():
+    """Phase in [-180, 180] (a receptance's -180 above the mode stays there); a level read
+    from a file that names none is its measured force in the legend, not "level 1"."""
+    from analysis.recordings import Recording
+    from analysis.spectral import level_label
+    h = sdof_frf(2.0).H[:, 0, 0]
+    ph = figures.phase_deg(np.r_[h, -h, 1j * h])
+    assert ph.min() >= -180.0 and ph.max() <= 180.0
+    fig = figures.frf_levels([sdof_frf(2.0), sdof_frf(8.0)], 0)
+    assert fig.axes[1].get_ylim() == (-190.0, 190.0)
+    force = 12.4 * np.sqrt(2) * np.sin(np.linspace(0, 200 * np.pi, 4000))[:, None] + 3.0
+    rec = Recording(100.0, "random", [0], force, force.copy())
+    assert level_label(rec, 0) == "12.4 N rms"               # DC removed, rms of the force
