@@ -80,6 +80,7 @@ def frf_plots(layout: pg.GraphicsLayout, units: str, row: int = 0, col: int = 0,
     ph = layout.addPlot(row=row + 1, col=col)
     style(ph, "Phase", "deg")
     ph.setYRange(-180, 180)
+    ph.getAxis("left").setTicks([[(v, f"{v}") for v in (-180, -90, 0, 90, 180)]])
     ph.setXLink(mag)
     return mag, ph
 
