@@ -178,7 +178,11 @@ def channel_labels(rec: "Recording") -> list[str]:
 def one_kind(rec: "Recording") -> "Recording":
     """``rec`` with every response channel in one kind: mixed channels are differentiated to
     the highest kind present (frequency-domain, `analysis.recordings.change_kind`; periodic
-    records period by period, which is exact in steady state). Other recordings unchanged."""
+    records period by period, which is exact in steady state; tables by their phasors). Other
+    recordings unchanged."""
+    from ._table import StepTable
+    if isinstance(rec, StepTable):
+        return rec.one_kind()
     if rec.sensors is None or rec.sensors.kind != MIXED:
         return rec
     target = max(rec.sensors.response_kinds, key=KIND_ORDER.__getitem__)

@@ -14,11 +14,14 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import KIND_ORDER, Recording, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
 from ._sine_fit import hold_gain, sine_fit
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
+
+#: Units of a held amplitude by what was held (a table's `StepTable.control_kind`).
+HELD_UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
 #: Shortest and longest default Welch segment, samples.
 MIN_NPERSEG, MAX_NPERSEG = 64, 8192
@@ -94,9 +97,11 @@ def default_nperseg(n: int) -> int:
     return int(min(2 ** int(np.floor(np.log2(target))), MAX_NPERSEG))
 
 
-def level_label(rec: Recording, index: int) -> str:
-    """Legend text of a level: its nominal force, else its position (and a swept sine's
-    direction)."""
+def level_label(rec: Recording | StepTable, index: int) -> str:
+    """Legend text of a level: its nominal force (a response-controlled table: its held
+    response amplitude), else its position (and a swept sine's direction)."""
+    if isinstance(rec, StepTable):
+        return f"{rec.level:.3g} {HELD_UNITS.get(rec.control_kind, 'N')}"
     direction = "" if rec.sweep is None else \
         f", sweep {'up' if rec.sweep.law.direction > 0 else 'down'}"
     if rec.level is None:
@@ -105,13 +110,14 @@ def level_label(rec: Recording, index: int) -> str:
     return f"{rec.level:.3g} {unit}{direction}"
 
 
-def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> LevelFRF:
+def level_frf(rec: Recording | StepTable, index: int = 0,
+              nperseg: int | None = None) -> LevelFRF:
     """FRFs (and coherences for random data) of one level's recording.
 
     Parameters
     ----------
-    rec : Recording
-        One level.
+    rec : Recording or StepTable
+        One level (a table: its phasor ratios).
     index : int
         Position of the level in its run (for the label of a level without nominal force).
     nperseg : int, optional
@@ -126,6 +132,8 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     """
     common = dict(label=level_label(rec, index), level=rec.level, excitation=rec.excitation,
                   response_kind=rec.response_kind, force_dofs=rec.force_dofs)
+    if isinstance(rec, StepTable):
+        return LevelFRF(freqs=rec.freqs.copy(), H=rec.frf(), n_averages=1, **common)
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
