@@ -10,7 +10,8 @@ from ._spectral import (Spectra, conditioned_inputs, h1, multiple_coherence, ord
 from ._frf import (FRF_UNITS, HELD_UNITS, LevelFRF, convert_frf, default_nperseg, frf_from_bla,
                    frf_from_spectra, level_frf, level_label)
 from ._bla import BLA, DETECT_QUANTILE, best_linear_approximation
-from ._sine_fit import SteppedSineFRF, hold_gain, sine_fit, stepped_sine_frf, table_harmonics
+from ._sine_fit import (SteppedSineFRF, hold_gain, recording_table, sine_fit, stepped_sine_frf,
+                        table_harmonics)
 from ._sweep import (NOISE_ORDERS, SweepFRF, SweepLaw, harmonic_distortion, linear_modes,
                      max_sweep_rate, quasi_steady, recording_sweep_frf, sweep_frf, sweep_rate_check,
                      sweep_signal)
@@ -21,4 +22,4 @@ __all__ = ["BLA", "DETECT_QUANTILE", "FRF_UNITS", "HELD_UNITS", "LevelFRF", "NOI
            "frf_from_spectra", "h1", "harmonic_distortion", "hold_gain", "level_frf", "level_label",
            "linear_modes", "max_sweep_rate", "multiple_coherence", "ordinary_coherence",
            "quasi_steady", "recording_sweep_frf", "sine_fit", "spectral_matrix", "stepped_sine_frf",
-           "sweep_frf", "sweep_rate_check", "sweep_signal", "table_harmonics"]
+           "sweep_frf", "sweep_rate_check", "sweep_signal", "table_harmonics", "recording_table"]

@@ -179,3 +179,28 @@ def table_harmonics(table: StepTable, harmonics: Sequence[int] = (1, 3, 5, 7),
     level = table.level if table.control == "force" else float(np.abs(fc).mean())
     return SteppedSineFRF(table.freqs.copy(), h, np.abs(fc), X, level,
                           int(table.force_dofs[input_index]))
+
+
+def recording_table(rec: Recording) -> StepTable:
+    """The fundamental phasors of a stepped-sine recording's time blocks as a force-controlled
+    `StepTable` (each step sine-fitted, the force as it acted: `hold_gain`).
+
+    Parameters
+    ----------
+    rec : Recording
+        A stepped-sine level.
+
+    Returns
+    -------
+    StepTable
+    """
+    if rec.excitation != "stepped-sine":
+        raise RecordingError(f"a stepped-sine table comes from stepped-sine data, not "
+                             f"{rec.excitation}")
+    gain = hold_gain(rec.freqs, rec.fs, rec.force_hold)
+    force = np.stack([sine_fit(rec.force[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
+    resp = np.stack([sine_fit(rec.response[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
+    level = rec.level if rec.level else float(np.abs(force).mean())
+    return StepTable(rec.freqs, force * gain[:, None], resp, rec.force_dofs, "force", level,
+                     response_kind=rec.response_kind, sensors=rec.sensors,
+                     meta=dict(rec.meta))
