@@ -222,8 +222,8 @@ def _phase_resonance(t: StepTable, linear: ModeFit, fit: ModeFit, j: int) -> Bac
     zeta = float(zeta_steps[i] + s * (zeta_steps[i + 1] - zeta_steps[i]))
     amps = np.abs(t.response_phasor[order, j])
     amp = float(amps[i] + s * (amps[i + 1] - amps[i]))
-    dz = abs(zeta_steps[i + 1] - zeta_steps[i]) / 2
-    df = max(abs(fn_steps[i + 1] - fn_steps[i]) / 2, abs(fn - fn_steps[i:i + 2]).max())
+    dz = float(abs(zeta_steps[i + 1] - zeta_steps[i])) / 2
+    df = float(max(abs(fn_steps[i + 1] - fn_steps[i]) / 2, abs(fn - fn_steps[i:i + 2]).max()))
     disp = amp / (2 * np.pi * fn) ** KIND_ORDER[kind]
     return BackbonePoint(t.level, amp, kind, disp, fn, (fn - df, fn + df), zeta,
                          (zeta - dz, zeta + dz), linear.modal_constant, fit.fit_error,
