@@ -7,9 +7,9 @@ Modules behind this API: ``_single_mode`` (the single-mode rational fit with its
 private module path.
 """
 
-from ._single_mode import ModeFit, fit_single_mode
+from ._single_mode import ModeFit, fit_single_mode, frf_noise
 from ._backbone import (FORCE_METHOD, RESPONSE_METHOD, SCHEMA_VERSION, Backbone, BackbonePoint,
                         backbone, stepwise_modal)
 
 __all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "ModeFit", "RESPONSE_METHOD",
-           "SCHEMA_VERSION", "backbone", "fit_single_mode", "stepwise_modal"]
+           "SCHEMA_VERSION", "backbone", "fit_single_mode", "frf_noise", "stepwise_modal"]

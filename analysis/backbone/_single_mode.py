@@ -144,3 +144,30 @@ def fit_single_mode(freqs: np.ndarray, H: np.ndarray, kind_order: int) -> ModeFi
                    (float(zeta - half[1]), float(zeta + half[1])), complex(coef[0] * scale),
                    complex(coef[1] * scale), float(np.linalg.norm(r) / np.linalg.norm(Hs)),
                    int(f.size))
+
+
+def frf_noise(freqs: np.ndarray, H: np.ndarray, kind_order: int) -> np.ndarray:
+    """Noise variance of each output's FRF values from the residual of its single-mode fit.
+
+    A table carries no repeated measurement of a step, so its noise is read from how far
+    the steps scatter about a single mode (``sum |r|^2 / (n - 3)``: three complex unknowns
+    per output); a level whose curve is not one linear mode gets a larger variance, which
+    only makes a test using it more cautious.
+
+    Parameters
+    ----------
+    freqs : ndarray, shape (n,)
+    H : ndarray, complex, shape (n, n_out)
+    kind_order : int
+
+    Returns
+    -------
+    ndarray, shape (n_out,)
+    """
+    H = np.asarray(H, dtype=complex).reshape(len(freqs), -1)
+    out = np.empty(H.shape[1])
+    for q in range(H.shape[1]):
+        fit = fit_single_mode(freqs, H[:, q], kind_order)
+        r = H[:, q] - fit.frf(freqs, kind_order)
+        out[q] = float(np.sum(np.abs(r) ** 2)) / max(H.shape[0] - 3, 1)
+    return out

@@ -59,6 +59,9 @@ class LevelFRF:
     sweep : analysis.spectral.SweepFRF, optional
         Swept-sine levels: the tracked fundamental and harmonics (``sweep.direction`` +1 up,
         -1 down).
+    level_kind : str
+        What ``level`` measures: ``"force"``, or the held response's kind (a
+        response-controlled table).
     """
 
     label: str
@@ -73,6 +76,7 @@ class LevelFRF:
     n_averages: int = 1
     bla: Any = None
     sweep: Any = None
+    level_kind: str = "force"
 
     @property
     def units(self) -> str:
@@ -133,7 +137,8 @@ def level_frf(rec: Recording | StepTable, index: int = 0,
     common = dict(label=level_label(rec, index), level=rec.level, excitation=rec.excitation,
                   response_kind=rec.response_kind, force_dofs=rec.force_dofs)
     if isinstance(rec, StepTable):
-        return LevelFRF(freqs=rec.freqs.copy(), H=rec.frf(), n_averages=1, **common)
+        return LevelFRF(freqs=rec.freqs.copy(), H=rec.frf(), n_averages=1,
+                        level_kind=rec.control_kind, **common)
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)

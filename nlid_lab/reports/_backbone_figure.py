@@ -1,6 +1,6 @@
 """The backbone figure (`nlid-lab backbone --plot`, docs/backbone.md): natural frequency and
 damping ratio of the mode against its amplitude, each level with its 95 % interval, and the
-levels' FRFs with their single-mode fits."""
+levels' FRFs with their single-mode fits; the report's backbone section."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ._figures import DPI, level_colours
+from ._rundata import RunData, Section
 
 if TYPE_CHECKING:
     from analysis.backbone import Backbone
@@ -65,3 +66,33 @@ def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "") 
     if title:
         fig.suptitle(title)
     return fig
+
+
+def backbone_section(run: RunData) -> Section | None:
+    """Stepped-sine table runs: the backbone (frequency and damping per level, with the
+    figure of `backbone_figure`); None for other runs or a single level."""
+    import html
+
+    from analysis.backbone import backbone
+    from analysis.errors import EstimationError, InputError
+    from analysis.recordings import StepTable, one_kind
+
+    tables = [one_kind(r) for r in run.recordings]
+    if len(tables) < 2 or not all(isinstance(t, StepTable) for t in tables):
+        return None
+    try:
+        bb = backbone(tables)
+    except (EstimationError, InputError) as exc:
+        return Section("Backbone", f"No backbone: {html.escape(str(exc))}.")
+    unit = UNITS.get(bb.points[0].amplitude_kind, "")
+    rows = "".join(f"<tr><td>{p.amplitude:.4g}</td><td>{p.frequency_hz:.4f}</td>"
+                   f"<td>{100 * p.damping_ratio:.4f}</td><td>{100 * p.fit_error:.2f}</td></tr>"
+                   for p in bb.points)
+    return Section("Backbone",
+                   f"Natural frequency and damping of the mode against its amplitude at "
+                   f"channel {bb.channel} ({html.escape(bb.points[0].method)}; "
+                   "docs/backbone.md). <code>nlid-lab backbone RUN --json FILE</code> writes "
+                   "them with their 95 % intervals."
+                   f"<table><tr><th>amplitude [{unit}]</th><th>f [Hz]</th><th>&zeta; [%]</th>"
+                   f"<th>fit error [%]</th></tr>{rows}</table>",
+                   [("backbone", backbone_figure(bb, tables))])
