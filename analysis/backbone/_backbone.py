@@ -30,6 +30,8 @@ from ._single_mode import ModeFit, fit_single_mode
 
 #: version of `Backbone.to_json`'s layout
 SCHEMA_VERSION = 1
+#: relative rounding of the step-wise inversion: the narrowest interval it reports
+ROUNDING = 1e-9
 #: method names written to the JSON
 RESPONSE_METHOD = "single-mode fit at held response amplitude"
 FORCE_METHOD = "phase resonance of the step-wise inverse FRF (single nonlinear mode)"
@@ -215,15 +217,17 @@ def _phase_resonance(t: StepTable, linear: ModeFit, fit: ModeFit, j: int) -> Bac
         raise EstimationError(f"level {t.level:g}: the curve does not pass through phase "
                               "resonance (90 deg lag) within its steps; widen the band")
     i = int(cross[np.argmin(np.abs(H[cross]))]) if cross.size > 1 else int(cross[0])
-    s = D.real[i] / (D.real[i] - D.real[i + 1])          # linear interpolation weight
+    s = D.real[i] / (D.real[i] - D.real[i + 1])   # in w^2, where Re D = wn^2 - w^2 is linear
     fn_steps, zeta_steps = stepwise_modal(t, linear, j)
     fn_steps, zeta_steps = fn_steps[order], zeta_steps[order]
-    fn = float(w[i] + s * (w[i + 1] - w[i])) / (2 * np.pi)
+    fn = float(np.sqrt(w[i] ** 2 + s * (w[i + 1] ** 2 - w[i] ** 2))) / (2 * np.pi)
     zeta = float(zeta_steps[i] + s * (zeta_steps[i + 1] - zeta_steps[i]))
     amps = np.abs(t.response_phasor[order, j])
     amp = float(amps[i] + s * (amps[i + 1] - amps[i]))
-    dz = float(abs(zeta_steps[i + 1] - zeta_steps[i])) / 2
-    df = float(max(abs(fn_steps[i + 1] - fn_steps[i]) / 2, abs(fn - fn_steps[i:i + 2]).max()))
+    # the interval: the bracketing steps' spread, at least the inversion's rounding (RELATIVE)
+    dz = max(float(abs(zeta_steps[i + 1] - zeta_steps[i])) / 2, ROUNDING * abs(zeta))
+    df = max(float(abs(fn_steps[i + 1] - fn_steps[i])) / 2,
+             float(abs(fn - fn_steps[i:i + 2]).max()), ROUNDING * fn)
     disp = amp / (2 * np.pi * fn) ** KIND_ORDER[kind]
     return BackbonePoint(t.level, amp, kind, disp, fn, (fn - df, fn + df), zeta,
                          (zeta - dz, zeta + dz), linear.modal_constant, fit.fit_error,

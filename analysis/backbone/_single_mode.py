@@ -9,8 +9,8 @@ with a complex modal constant ``A`` (receptance, 1/kg for a mass-normalised mode
 absorb a rotated circle) and a complex residual ``R`` for the modes outside the band: the
 rational-fraction form of a circle fit. ``A`` and ``R`` enter linearly and are solved inside
 (variable projection, Golub & Pereyra 1973) for each (wn, zeta), which
-`scipy.optimize.least_squares` adjusts; the intervals come from its Jacobian with the
-residual variance (Gauss-Newton covariance, t quantile).
+`scipy.optimize.least_squares` adjusts; the intervals come from its Jacobian and the
+residuals (heteroscedasticity-consistent sandwich covariance, MacKinnon & White 1985, HC3; t quantile).
 """
 
 from __future__ import annotations
@@ -135,9 +135,19 @@ def fit_single_mode(freqs: np.ndarray, H: np.ndarray, kind_order: int) -> ModeFi
     coef, r = _solve(w, Hs, wn, zeta, kind_order)
     m, p = 2 * f.size, 2 + 2 * N_LINEAR
     dof = max(m - p, 1)
-    s2 = float(r.real @ r.real + r.imag @ r.imag) / dof
     J = sol.jac * np.array([wn0, z0])[None, :] ** -1     # d residual / d (wn, zeta)
-    cov = s2 * np.linalg.pinv(J.T @ J)
+    rows = np.concatenate([r.real, r.imag])
+    bread = np.linalg.pinv(J.T @ J)
+    # heteroscedasticity-consistent (sandwich, HC3) covariance: the noise of an FRF is not
+    # even across a resonance (a held response over a force that dips there), and the few
+    # steps at the peak carry the estimate (their leverage)
+    B = _basis(w, wn, zeta, kind_order)
+    full = np.column_stack([J, np.vstack([np.column_stack([B.real, -B.imag]),
+                                          np.column_stack([B.imag, B.real])])])
+    q = np.linalg.qr(full)[0]
+    lev = np.minimum(np.sum(q**2, axis=1), 0.99)
+    meat = (J * (rows / (1 - lev))[:, None] ** 2).T @ J
+    cov = bread @ meat @ bread
     half = scipy.stats.t.ppf(0.975, dof) * np.sqrt(np.maximum(np.diag(cov), 0.0))
     fn, dfn = wn / (2 * np.pi), half[0] / (2 * np.pi)
     return ModeFit(float(fn), (float(fn - dfn), float(fn + dfn)), float(zeta),
