@@ -5,7 +5,7 @@ A table recording holds per step the frequency and the fundamental phasors (``fr
 optional ``harmonics`` with ``force_harmonics`` / ``response_harmonics``); no ``fs``,
 ``force``, ``response``. NPZ and MAT files hold the keys as they are; CSV writes the scalar
 keys as ``# key = value`` lines and every complex array as ``KEY[i].re`` / ``KEY[i].im``
-columns (``KEY[h,i]`` for the harmonics) beside ``freqs``. Keys no `StepTable` field holds are
+columns (``KEY[h][i]`` for the harmonics) beside ``freqs``. Keys no `StepTable` field holds are
 kept in ``extra`` and written back.
 
 A controller's own export (a MATLAB struct array, one element per level, with amplitude and
@@ -30,7 +30,7 @@ from ._units import lookup
 
 #: complex (n_steps, ...) keys of a table, written as ``.re``/``.im`` columns in CSV
 COMPLEX_KEYS = ("force_phasor", "response_phasor", "force_harmonics", "response_harmonics")
-_COLUMN = re.compile(r"^(?P<key>[a-z_]+)\[(?P<index>[\d,\s]+)\]\.(?P<part>re|im)$")
+_COLUMN = re.compile(r"^(?P<key>[a-z_]+)(?P<index>(\[\d+\])+)\.(?P<part>re|im)$")
 
 
 class TableFileError(InputError):
@@ -129,7 +129,7 @@ def csv_text(table: StepTable) -> str:
         arr = keys[key].reshape(table.n_steps, -1)
         shape = keys[key].shape[1:]
         for flat, index in enumerate(np.ndindex(*shape)):
-            label = ",".join(str(i) for i in index)
+            label = "][".join(str(i) for i in index)
             names += [f"{key}[{label}].re", f"{key}[{label}].im"]
             cols += [arr[:, flat].real, arr[:, flat].imag]
     rows = [",".join(repr(float(v)) for v in row) for row in np.column_stack(cols)]
@@ -159,7 +159,7 @@ def table_from_csv(keys: dict[str, Any], names: list[str], data: np.ndarray,
         if not m or m["key"] not in COMPLEX_KEYS:
             raise TableFileError(f"{path}: column '{name}' is not freqs or KEY[i].re / "
                                  f"KEY[i].im with KEY one of {', '.join(COMPLEX_KEYS)}")
-        index = tuple(int(i) for i in m["index"].split(","))
+        index = tuple(int(i) for i in m["index"][1:-1].split("]["))
         cell = found.setdefault(m["key"], {})
         cell[index] = cell.get(index, 0) + (data[:, j] if m["part"] == "re" else 1j * data[:, j])
     for key, cells in found.items():
