@@ -124,6 +124,7 @@ class StepTable:
 
     @property
     def n_steps(self) -> int:
+        """Steps (drive frequencies)."""
         return self.freqs.size
 
     @property
@@ -133,6 +134,7 @@ class StepTable:
 
     @property
     def n_in(self) -> int:
+        """Force channels."""
         return self.force_phasor.shape[1]
 
     @property

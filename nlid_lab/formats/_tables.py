@@ -194,6 +194,7 @@ class FieldSpec:
 
     @classmethod
     def parse(cls, text: str) -> "FieldSpec":
+        """``FIELD:MOD:MOD`` -> the field and its modifiers."""
         name, *mods = str(text).split(":")
         return cls(name.strip(), tuple(m.strip() for m in mods if m.strip()))
 
