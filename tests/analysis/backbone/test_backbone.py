@@ -110,3 +110,26 @@ def test_bad_tables_are_refused(change, message):
     StepTable(**good)
     with pytest.raises(RecordingError, match=message):
         StepTable(**{**good, **change})
+
+
+def test_time_blocks_give_the_tables_backbone():
+    """A stepped-sine recording (time blocks, no whole number of cycles) sine-fitted into a
+    table (`recording_table`) gives the backbone of the table it was sampled from."""
+    from analysis.recordings import Recording
+    from analysis.spectral import recording_table
+
+    f = np.arange(79.0, 83.0, 0.05)
+    fs, n = 2000.0, 1500
+    t = np.arange(n) / fs
+    tables, recs = [TWIN.held_force(F, f) for F in (0.01, 0.3, 1.0)], []
+    for tab in tables:
+        wave = np.exp(2j * np.pi * f[:, None] * t[None, :])          # (n_steps, n)
+        force = (tab.force_phasor[:, :1] * wave).real[:, :, None]
+        resp = (tab.response_phasor[:, :1] * wave).real[:, :, None]
+        recs.append(Recording(fs, "stepped-sine", [0], force, resp, "acceleration", freqs=f,
+                              level=tab.level))
+    direct, sampled = backbone(tables), backbone([recording_table(r) for r in recs])
+    for a, b in zip(direct.points, sampled.points):
+        assert b.frequency_hz == pytest.approx(a.frequency_hz, rel=1e-9)
+        assert b.damping_ratio == pytest.approx(a.damping_ratio, rel=1e-6)
+        assert b.amplitude == pytest.approx(a.amplitude, rel=1e-9)
