@@ -190,12 +190,12 @@ class SteppedSearch(Search):
 
 
 def _hbm(model: Model, frf: SteppedSineFRF) -> np.ndarray:
-    """Harmonics of a harmonic-balance sweep at the level's mean force, scaled to each step's
-    force amplitude: shape (n_steps, n_h, n_dof)."""
+    """Harmonics of a harmonic-balance sweep at each step's own force amplitude (as the fit,
+    `analysis.hbm.fit_hbm`: a response-controlled level's force varies tenfold across the
+    band, where scaling one solution at the mean force would be far off for a nonlinear
+    model): shape (n_steps, n_h, n_dof)."""
     system = HBMSystem(model, [frf.force_dof], HARMONICS)
-    amp = float(np.mean(frf.force))
-    res = system.sweep(frf.freqs, [amp])
-    return res.X * (frf.force / amp)[:, None, None]
+    return system.sweep(frf.freqs, frf.force[:, None]).X
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
