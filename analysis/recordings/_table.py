@@ -138,6 +138,12 @@ class StepTable:
         return self.force_phasor.shape[1]
 
     @property
+    def force_hold(self) -> str:
+        """``"none"``: a table's force phasors are the force that acted
+        (`Recording.force_hold`)."""
+        return "none"
+
+    @property
     def control_kind(self) -> str:
         """What the held amplitude measures: ``"force"``, or the held channel's kind."""
         if self.control == Control.FORCE:
