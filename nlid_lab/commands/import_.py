@@ -36,10 +36,9 @@ def _read_levels(src: Path, args: argparse.Namespace, found: dict) -> list:
         if src.suffix.lower() != ".mat":
             raise InputError(f"{src}: a table map (table=...) reads a MATLAB struct array; "
                              "give a .mat file")
-        tables = TableMap.from_items(args.map).tables(read_mat_tree(src), str(src))
-        if args.response_kind:
-            tables = [dataclasses.replace(t, response_kind=args.response_kind) for t in tables]
-        return tables
+        items = args.map + ([f"response_kind={args.response_kind}"] if args.response_kind
+                            else [])          # before the phases are read: a convention needs it
+        return TableMap.from_items(items).tables(read_mat_tree(src), str(src))
     return [_read(src, args, found)]
 
 
