@@ -35,7 +35,7 @@ from ..spectral import (BLA, DETECT_QUANTILE, best_linear_approximation, default
                         hold_gain, level_name, multiple_coherence, sine_fit, spectral_matrix)
 from ..diagnose.prepare import record_level
 from ..errors import InputError
-from ..recordings import Recording, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
 from ._result import Detection, DetectionTest, TestMethod
 
 
@@ -205,9 +205,17 @@ def _median_db(z: np.ndarray) -> list[float]:
     return [float(10 * np.log10(np.median(z[:, q]))) for q in range(z.shape[1])]
 
 
-def _step_frf(rec: Recording, freqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _step_frf(rec: Recording | StepTable, freqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fundamental FRF X1/F1 at ``freqs`` (first step at each), shape (n_f, n_out, n_in), and
-    its variance from the two halves of each block, pooled as a median relative variance."""
+    its variance from the two halves of each block, pooled as a median relative variance (a
+    table: its phasor ratios, the variance from the scatter about a single mode,
+    `analysis.backbone.frf_noise`)."""
+    if isinstance(rec, StepTable):
+        from ..backbone import frf_noise
+        idx = [int(np.flatnonzero(np.isclose(rec.freqs, f))[0]) for f in freqs]
+        H = rec.frf()
+        var = frf_noise(rec.freqs, H[:, :, 0], KIND_ORDER[rec.response_kind])
+        return H[idx], np.broadcast_to(var[None, :, None], H[idx].shape).copy()
     n = rec.response.shape[1]
     parts = (slice(0, n), slice(0, n // 2), slice(n - n // 2, n))
     H, rel = [], []

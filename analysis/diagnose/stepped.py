@@ -24,7 +24,7 @@ from scipy.optimize import least_squares
 from ..models import KINDS, Element, Model, restoring_force
 from ..errors import EstimationError, InputError
 from ..hbm import HBMSystem, fit_hbm
-from ..recordings import Recording
+from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
@@ -45,13 +45,17 @@ METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harm
           "simulation on the held-back level")
 
 
-def _noise_var(rec: Recording, frf: SteppedSineFRF) -> np.ndarray:
+def _noise_var(rec: Recording | StepTable, frf: SteppedSineFRF) -> np.ndarray:
     """Variance of each fundamental receptance, (n_steps, n_dof).
 
     Two parts: white noise from the sine-fit residual (``4 sigma^2 / n``), and a steady-state
     check: the fundamentals fitted to the two halves of the block differ when a transient
-    has not died out; ``|X_a - X_b|^2 / 4`` is added for that.
+    has not died out; ``|X_a - X_b|^2 / 4`` is added for that. A table (no block) has the
+    scatter of its steps about a single mode (`analysis.backbone.frf_noise`).
     """
+    if isinstance(rec, StepTable):
+        from ..backbone import frf_noise
+        return np.broadcast_to(frf_noise(frf.freqs, frf.frf, 0), frf.frf.shape).copy()
     out = np.empty(frf.frf.shape)
     n = rec.response.shape[1]
     t = np.arange(n) / rec.fs
@@ -186,12 +190,12 @@ class SteppedSearch(Search):
 
 
 def _hbm(model: Model, frf: SteppedSineFRF) -> np.ndarray:
-    """Harmonics of a harmonic-balance sweep at the level's mean force, scaled to each step's
-    force amplitude: shape (n_steps, n_h, n_dof)."""
+    """Harmonics of a harmonic-balance sweep at each step's own force amplitude (as the fit,
+    `analysis.hbm.fit_hbm`: a response-controlled level's force varies tenfold across the
+    band, where scaling one solution at the mean force would be far off for a nonlinear
+    model): shape (n_steps, n_h, n_dof)."""
     system = HBMSystem(model, [frf.force_dof], HARMONICS)
-    amp = float(np.mean(frf.force))
-    res = system.sweep(frf.freqs, [amp])
-    return res.X * (frf.force / amp)[:, None, None]
+    return system.sweep(frf.freqs, frf.force[:, None]).X
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
@@ -270,11 +274,12 @@ def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
         f, i1 = frfs[i], list(HARMONICS).index(1)
         xb, xa = hbm(start, i), hbm(fixed, i)
         hb, ha = xb[:, i1] / f.force[:, None], xa[:, i1] / f.force[:, None]
+        held = [list(HARMONICS).index(h) for h in f.harmonics]    # a table: its own orders
         return LevelCurves(level_name(recs[i]), f.level, i == hold, f.freqs,
                            f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
                            _error(f, hb), _error(f, ha), None,
-                           periodic_replay(f.freqs, f.harmonics, f.X, xb),
-                           periodic_replay(f.freqs, f.harmonics, f.X, xa))
+                           periodic_replay(f.freqs, f.harmonics, f.X, xb[:, held]),
+                           periodic_replay(f.freqs, f.harmonics, f.X, xa[:, held]))
 
     floors = [level_floor(_level(model, recs[i], frfs[i], {}, floor, ""), floor)
               for i in range(len(frfs))]

@@ -48,6 +48,20 @@ class Branch:
         return np.abs(self.X[:, harmonic_index, dof])
 
 
+#: points of a linear model's curve (no element: nothing to continue, no fold)
+LINEAR_POINTS = 2001
+
+
+def _linear_branch(system: HBMSystem, f_start: float, f_end: float,
+                   force: np.ndarray) -> Branch:
+    """The curve of a model without elements: its receptance times the force, stable."""
+    freqs = np.linspace(f_start, f_end, LINEAR_POINTS)
+    H = system.model.linear_frf(freqs, list(system.force_dofs))        # (n, n_dof, n_in)
+    X = np.zeros((freqs.size, system.harmonics.size, system.model.n_dof), complex)
+    X[:, int(np.flatnonzero(system.harmonics == 1)[0])] = H @ force
+    return Branch(freqs, X, np.ones(freqs.size, bool), np.zeros(0, int))
+
+
 def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float | np.ndarray,
                  *, step: float = 0.02, min_step: float = 1e-5, max_step: float = 0.1,
                  max_points: int = 2000, tol: float = 1e-9, max_iter: int = 12) -> Branch:
@@ -69,6 +83,8 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
     if f_start <= 0 or f_end <= 0 or f_start == f_end:
         raise HBMError("continuation needs two different positive frequencies")
     force = np.atleast_1d(np.asarray(force, dtype=float))
+    if system.n_el == 0:
+        return _linear_branch(system, f_start, f_end, force)
     first = system.sweep([f_start], force)
     if not first.converged[0]:
         raise EstimationError(f"no periodic solution found at the start {f_start} Hz")

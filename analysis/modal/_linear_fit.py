@@ -27,7 +27,7 @@ from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
 from ._modal import welch_smoothing
 from ..models import Model
-from ..recordings import Recording
+from ..recordings import KIND_ORDER, Recording, StepTable
 
 #: A random level's lines count as excited where the force autospectrum is within this many
 #: dB of its peak (a band-limited drive leaves the lines beyond its band to noise).
@@ -83,10 +83,12 @@ class LinearFit:
     frf_error: np.ndarray          # (n_out,) in band, model against the data
 
 
-def measured_receptance(rec: Recording, nperseg: int | None = None,
+def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
                         band: tuple[float, float] | None = None) -> MeasuredReceptance:
     """Receptance column of the (single) force at every response channel of ``rec``; a
     periodic level's lines picked within ``band`` (Hz) when given."""
+    if isinstance(rec, StepTable):
+        return table_receptance(rec)
     if rec.excitation != "random":
         raise InputError(f"fit-linear takes a random or multisine level, got "
                          f"{rec.excitation}: the modal fit needs uniformly spaced lines")
@@ -130,7 +132,27 @@ def measured_receptance(rec: Recording, nperseg: int | None = None,
                               (float(excited.min()), float(excited.max())))
 
 
-def fit_linear(rec: Recording, band: tuple[float, float] | None = None, *,
+def table_receptance(table: StepTable) -> MeasuredReceptance:
+    """Receptance column of a stepped-sine table (its steps' phasor ratios; steps in
+    frequency order). Its steps must be evenly spaced: the stabilisation diagram (LSCF)
+    works on a uniform grid."""
+    if table.n_in != 1:
+        raise InputError(f"fit-linear takes one force channel, the level has {table.n_in}; "
+                         "fit each shaker's run separately")
+    order = np.argsort(table.freqs)
+    f = table.freqs[order]
+    step = np.diff(f)
+    if step.min() <= 0 or np.ptp(step) > 1e-3 * step.mean():
+        raise InputError("fit-linear needs the table's steps evenly spaced in frequency "
+                         f"(steps {step.min():.4g}..{step.max():.4g} Hz)")
+    iw = (2j * np.pi * f)[:, None] ** KIND_ORDER[table.response_kind]
+    H = table.response_phasor[order] / table.force_phasor[order, :1] / iw
+    return MeasuredReceptance(f, H, None, None, int(table.force_dofs[0]),
+                              "stepped-sine table (fundamental phasors, "
+                              f"{table.n_steps} steps)", (float(f[0]), float(f[-1])))
+
+
+def fit_linear(rec: Recording | StepTable, band: tuple[float, float] | None = None, *,
                n_modes: int | None = None, points: list[str] | None = None,
                name: str = "fitted modal model", nperseg: int | None = None) -> LinearFit:
     """Modal model of one level (module docstring).

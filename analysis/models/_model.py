@@ -254,7 +254,7 @@ class Model:
         # files unreadable to the engineers who edit them. The schema is small and fixed.
         lines = [f"name = {toml_str(self.name)}"]
         named = self.points != default_points(self.n_dof)
-        if named:
+        if named or self.is_modal:          # a [modal] file names its points (`from_dict`)
             lines.append(f"points = [{', '.join(toml_str(p) for p in self.points)}]")
         if self.is_modal:
             lines += ["", "[modal]                  # mass-normalised shapes: one row per mode, "

@@ -178,9 +178,13 @@ def channel_labels(rec: "Recording") -> list[str]:
 def one_kind(rec: "Recording") -> "Recording":
     """``rec`` with every response channel in one kind: mixed channels are differentiated to
     the highest kind present (frequency-domain, `analysis.recordings.change_kind`; periodic
-    records period by period, which is exact in steady state). Other recordings unchanged."""
+    records period by period, which is exact in steady state; a stepped-sine table by its own
+    ``one_kind``, on its phasors). Other recordings unchanged."""
     if rec.sensors is None or rec.sensors.kind != MIXED:
         return rec
+    own = getattr(rec, "one_kind", None)      # `StepTable.one_kind` (no import: _table imports us)
+    if own is not None:
+        return own()
     target = max(rec.sensors.response_kinds, key=KIND_ORDER.__getitem__)
     out = rec.response.copy()
     for j, kind in enumerate(rec.sensors.response_kinds):

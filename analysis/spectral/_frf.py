@@ -14,11 +14,14 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import KIND_ORDER, Recording, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
 from ._sine_fit import hold_gain, sine_fit
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
+
+#: Units of a held amplitude by what was held (a table's `StepTable.control_kind`).
+HELD_UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
 #: Shortest and longest default Welch segment, samples.
 MIN_NPERSEG, MAX_NPERSEG = 64, 8192
@@ -56,6 +59,9 @@ class LevelFRF:
     sweep : analysis.spectral.SweepFRF, optional
         Swept-sine levels: the tracked fundamental and harmonics (``sweep.direction`` +1 up,
         -1 down).
+    level_kind : str
+        What ``level`` measures: ``"force"``, or the held response's kind (a
+        response-controlled table).
     """
 
     label: str
@@ -70,6 +76,7 @@ class LevelFRF:
     n_averages: int = 1
     bla: Any = None
     sweep: Any = None
+    level_kind: str = "force"
 
     @property
     def units(self) -> str:
@@ -104,29 +111,35 @@ def measured_level(rec: Recording) -> float:
     return float(np.abs(f).max())
 
 
-def level_name(rec: Recording) -> str:
-    """A level as people read it: its nominal force, else the force it measured (``12.4 N
-    rms``, ``4.8 N`` for sines: exports such as MAT files carry no level), three figures."""
+def level_name(rec: Recording | StepTable) -> str:
+    """A level as people read it: its nominal force (a response-controlled table: its held
+    response amplitude), else the force it measured (``12.4 N rms``, ``4.8 N`` for sines:
+    exports such as MAT files carry no level), three figures."""
+    if isinstance(rec, StepTable):
+        return f"{rec.level:.3g} {HELD_UNITS.get(rec.control_kind, 'N')}"
     unit = "N rms" if rec.excitation == "random" else "N"
     value = measured_level(rec) if rec.level is None else rec.level
     return f"{value:.3g} {unit}"
 
 
-def level_label(rec: Recording, index: int | None = None) -> str:
+def level_label(rec: Recording | StepTable, index: int | None = None) -> str:
     """Legend text of a level: `level_name` (and a swept sine's direction); ``index`` (the
     level's position in its run) is not needed since every level has a force."""
+    if isinstance(rec, StepTable):
+        return level_name(rec)
     direction = "" if rec.sweep is None else \
         f", sweep {'up' if rec.sweep.law.direction > 0 else 'down'}"
     return f"{level_name(rec)}{direction}"
 
 
-def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> LevelFRF:
+def level_frf(rec: Recording | StepTable, index: int = 0,
+              nperseg: int | None = None) -> LevelFRF:
     """FRFs (and coherences for random data) of one level's recording.
 
     Parameters
     ----------
-    rec : Recording
-        One level.
+    rec : Recording or StepTable
+        One level (a table: its phasor ratios).
     index : int
         Position of the level in its run (for the label of a level without nominal force).
     nperseg : int, optional
@@ -141,6 +154,9 @@ def level_frf(rec: Recording, index: int = 0, nperseg: int | None = None) -> Lev
     """
     common = dict(label=level_label(rec, index), level=rec.level, excitation=rec.excitation,
                   response_kind=rec.response_kind, force_dofs=rec.force_dofs)
+    if isinstance(rec, StepTable):
+        return LevelFRF(freqs=rec.freqs.copy(), H=rec.frf(), n_averages=1,
+                        level_kind=rec.control_kind, **common)
     if rec.excitation == "stepped-sine":
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)

@@ -18,7 +18,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import RecordingError
-from ..recordings import Recording
+from ..recordings import KIND_ORDER, Recording, StepTable
 
 
 def sine_fit(block: np.ndarray, fs: float, freq: float,
@@ -102,14 +102,17 @@ class SteppedSineFRF:
         return self.X[:, i1] / self.force[:, None]
 
 
-def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 7),
+def stepped_sine_frf(recording: Recording | StepTable, harmonics: Sequence[int] = (1, 3, 5, 7),
                      input_index: int = 0) -> SteppedSineFRF:
-    """Sine-fit every step of a stepped-sine recording.
+    """Sine-fit every step of a stepped-sine recording (a table: its phasors).
 
     Velocity and acceleration responses are converted to displacement harmonics
     (division by ``j h ω`` or ``-(h ω)^2``); the force amplitude is the one that acted
-    (`hold_gain` of the recording's ``force_hold``).
+    (`hold_gain` of the recording's ``force_hold``). A table gives the fundamental and the
+    orders of ``harmonics`` it holds (`table_harmonics`).
     """
+    if isinstance(recording, StepTable):
+        return table_harmonics(recording, harmonics, input_index)
     if recording.excitation != "stepped-sine":
         raise RecordingError("harmonic balance needs stepped-sine recordings, got "
                              f"{recording.excitation}; record a stepped-sine level")
@@ -140,3 +143,64 @@ def stepped_sine_frf(recording: Recording, harmonics: Sequence[int] = (1, 3, 5, 
     level = float(recording.level) if recording.level else float(force.mean())
     return SteppedSineFRF(recording.freqs.copy(), h, force, X, level,
                           int(recording.force_dofs[input_index]))
+
+
+def table_harmonics(table: StepTable, harmonics: Sequence[int] = (1, 3, 5, 7),
+                    input_index: int = 0) -> SteppedSineFRF:
+    """`SteppedSineFRF` of a stepped-sine table: the fundamental, and the requested orders
+    the table holds (``table.harmonics``), as displacement referenced to the force
+    fundamental's phase.
+
+    Parameters
+    ----------
+    table : StepTable
+    harmonics : sequence of int
+        Orders wanted; those the table does not hold are left out (never zero-filled).
+    input_index : int
+        Force channel whose fundamental is the reference.
+
+    Returns
+    -------
+    SteppedSineFRF
+    """
+    if not 0 <= input_index < table.n_in:
+        raise RecordingError(f"input {input_index} does not exist; the table has "
+                             f"{table.n_in} force channel(s)")
+    held = [int(k) for k in harmonics if int(k) in table.harmonics and int(k) != 1]
+    h = np.asarray([1] + sorted(set(held)), dtype=int)
+    X = np.empty((table.n_steps, h.size, table.n_dof), dtype=complex)
+    X[:, 0] = table.response_phasor
+    for i, k in enumerate(h[1:], 1):
+        X[:, i] = table.response_harmonics[:, table.harmonics.index(int(k))]
+    fc = table.force_phasor[:, input_index]
+    X = X * np.exp(-1j * h[None, :] * np.angle(fc)[:, None])[:, :, None]
+    order = KIND_ORDER[table.response_kind]
+    X = X / ((1j * 2 * np.pi * table.freqs[:, None] * h[None, :]) ** order)[:, :, None]
+    level = table.level if table.control == "force" else float(np.abs(fc).mean())
+    return SteppedSineFRF(table.freqs.copy(), h, np.abs(fc), X, level,
+                          int(table.force_dofs[input_index]))
+
+
+def recording_table(rec: Recording) -> StepTable:
+    """The fundamental phasors of a stepped-sine recording's time blocks as a force-controlled
+    `StepTable` (each step sine-fitted, the force as it acted: `hold_gain`).
+
+    Parameters
+    ----------
+    rec : Recording
+        A stepped-sine level.
+
+    Returns
+    -------
+    StepTable
+    """
+    if rec.excitation != "stepped-sine":
+        raise RecordingError(f"a stepped-sine table comes from stepped-sine data, not "
+                             f"{rec.excitation}")
+    gain = hold_gain(rec.freqs, rec.fs, rec.force_hold)
+    force = np.stack([sine_fit(rec.force[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
+    resp = np.stack([sine_fit(rec.response[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
+    level = rec.level if rec.level else float(np.abs(force).mean())
+    return StepTable(rec.freqs, force * gain[:, None], resp, rec.force_dofs, "force", level,
+                     response_kind=rec.response_kind, sensors=rec.sensors,
+                     meta=dict(rec.meta))

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS, PeriodicLayout, find_period
+from analysis.recordings import RESPONSE_KINDS, PeriodicLayout, StepTable, find_period
+from analysis.spectral import HELD_UNITS
 
 from ..formats import _recordings_io as recordings_io, _sensor_files, describe, parse_sweep_option
 from .. import store
@@ -26,6 +27,19 @@ def _sweep_keys(args: argparse.Namespace) -> dict:
                              f"swept-sine (not {args.excitation})")
         keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep)}
     return keys
+
+
+def _read_levels(src: Path, args: argparse.Namespace, found: dict) -> list:
+    """The levels one file holds: one, or a table map's one per struct-array element."""
+    if args.map and any(item.startswith("table=") for item in args.map):
+        from ..formats import TableMap, read_mat_tree
+        if src.suffix.lower() != ".mat":
+            raise InputError(f"{src}: a table map (table=...) reads a MATLAB struct array; "
+                             "give a .mat file")
+        items = args.map + ([f"response_kind={args.response_kind}"] if args.response_kind
+                            else [])          # before the phases are read: a convention needs it
+        return TableMap.from_items(items).tables(read_mat_tree(src), str(src))
+    return [_read(src, args, found)]
 
 
 def _read(src: Path, args: argparse.Namespace, found: dict):
@@ -180,8 +194,15 @@ def run(args: argparse.Namespace) -> int:
                          "level comes from its file (a level key, else the force)")
     found: dict = {}
     args.period_given = given = set()
-    recs = [_read(src, args, found) for src in sources]
-    recs = _common_transient(recs, sources, found)
+    levels = [_read_levels(src, args, found) for src in sources]
+    if any(len(lv) != 1 for lv in levels):
+        if args.sensors or args.level is not None:
+            raise InputError("--sensors and --level apply to one-level files; a table map "
+                             "gives each struct element's own level")
+        return _store_tables(sources, [t for lv in levels for t in lv], out, args)
+    if any(isinstance(lv[0], StepTable) for lv in levels):
+        return _store_tables(sources, [lv[0] for lv in levels], out, args)
+    recs = _common_transient([lv[0] for lv in levels], sources, found)
     if args.sensors:
         keys = _sensor_files.read_sensors(args.sensors)
         recs = [_sensor_files.with_sensors(r, keys) for r in recs]
@@ -226,6 +247,34 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _store_tables(sources: list[Path], tables: list, out: Path,
+                  args: argparse.Namespace) -> int:
+    """Store stepped-sine tables as the levels of a table run; print and write the summary."""
+    if args.sensors:
+        keys = _sensor_files.read_sensors(args.sensors)
+        tables = [_sensor_files.with_sensors(t, keys) for t in tables]
+    if args.level is not None:
+        tables[0] = dataclasses.replace(tables[0], level=args.level)
+    store.save_recording(out, tables, source="import",
+                         settings={"imported_from": [str(s) for s in sources]})
+    t = tables[0]
+    unit = HELD_UNITS.get(t.control_kind, "")
+    result = {"out": str(out), "source": [str(s) for s in sources], "levels": len(tables),
+              "excitation": "stepped-sine", "table": True, "control": str(t.control),
+              "control_dof": t.control_dof, "force_dofs": t.force_dofs, "n_dof": t.n_dof,
+              "response_kind": t.response_kind,
+              "level": [tb.level for tb in tables], "n_steps": [tb.n_steps for tb in tables]}
+    if args.json != "-":
+        what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
+        print(f"imported {what} (stepped-sine table, {t.control}-controlled, {t.n_dof} "
+              f"{t.response_kind} channel(s), {len(tables)} level(s)) -> {out}")
+        for i, tb in enumerate(tables):
+            print(f"  level {i}: held {tb.level:.4g} {unit}, {tb.n_steps} steps "
+                  f"{tb.freqs.min():g}-{tb.freqs.max():g} Hz")
+    write_json(result, args.json)
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``import`` sub-command and its options to ``sub``."""
     p = sub.add_parser("import", help="store NPZ, CSV or MAT recordings as an HDF5 run")
@@ -247,7 +296,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "response=Acc1,Acc2 fs=400; NAME[cols]@A,B,C names the model point of "
                    "each column: a sensor map; monitor=Voltage:V names channels kept beside "
                    "force and response, default every channel the map does not use, "
-                   "monitor=none drops them), or one MAP.toml")
+                   "monitor=none drops them), or one MAP.toml; a stepped-sine table "
+                   "exported as a MATLAB struct array: table=STRUCT freqs=FIELD "
+                   "force_amplitude=FIELD response_amplitude=FIELD:UNIT "
+                   "response_phase=FIELD:lead|lag|receptance[:deg] control=response|force "
+                   "(one level per element; docs/recording-formats.md)")
     p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: the model point "
                    "and kind of each response channel, the point of each force "
                    "(response_points, response_kinds, force_points; docs/model-format.md"

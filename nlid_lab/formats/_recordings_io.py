@@ -22,12 +22,13 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, PeriodicLayout,
-                                 Recording, SensorMap, names, sensor_map)
+                                 Recording, SensorMap, StepTable, names, sensor_map)
 from analysis.models import read_text
 
 from ._monitors import (MONITOR_KEYS, csv_monitor_columns, monitor_fields, monitor_keys,
                         trimmed)
 from ._sweep_keys import sweep_fields
+from ._tables import csv_text, is_table, step_table_keys, table_from_csv, table_from_keys
 from ._units import lookup, split_label
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -97,8 +98,9 @@ def level_key(excitation: str) -> str:
     return "force_rms" if excitation == "random" else "force_amplitude"
 
 
-def read_npz(path: str | os.PathLike) -> Recording:
-    """Read an NPZ recording (keys of contracts sections 3 and 5; others kept in ``extra``)."""
+def read_npz(path: str | os.PathLike) -> Recording | StepTable:
+    """Read an NPZ recording (keys of contracts sections 3, 5 and 6; others kept in
+    ``extra``)."""
     path = Path(path)
     return recording_from_keys(load_npz_keys(path), path)
 
@@ -108,10 +110,14 @@ def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
     return _load_npz(Path(path), "recording")
 
 
-def recording_from_keys(data: dict[str, Any], path: str | os.PathLike) -> Recording:
-    """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's); ``path`` names
-    the source in messages and ``meta["source"]``."""
+def recording_from_keys(data: dict[str, Any], path: str | os.PathLike
+                        ) -> Recording | StepTable:
+    """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's), or a
+    `StepTable` when they hold phasors; ``path`` names the source in messages and
+    ``meta["source"]``."""
     path = Path(path)
+    if is_table(data):
+        return table_from_keys(data, path)
     missing = {"fs", "force", "response", "force_dofs"} - set(data)
     if missing == {"force_dofs"} and "force_points" in data:
         missing = set()
@@ -200,8 +206,11 @@ def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.
     return {k: np.asarray(v) for k, v in data.items() if k not in known}
 
 
-def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
-    """Every key of ``rec`` as written to NPZ (contracts sections 3 and 5, then ``extra``)."""
+def recording_keys(rec: Recording | StepTable) -> dict[str, np.ndarray]:
+    """Every key of ``rec`` as written to NPZ (contracts sections 3, 5 and 6, then
+    ``extra``)."""
+    if isinstance(rec, StepTable):
+        return step_table_keys(rec)
     out = {k: np.asarray(v) for k, v in rec.extra.items()}
     out.update({"fs": np.float64(rec.fs), "excitation": np.str_(rec.excitation),
                 "force_dofs": rec.force_dofs, "force": rec.force, "response": rec.response,
@@ -221,7 +230,7 @@ def recording_keys(rec: Recording) -> dict[str, np.ndarray]:
     return out
 
 
-def write_npz(path: str | os.PathLike, rec: Recording) -> None:
+def write_npz(path: str | os.PathLike, rec: Recording | StepTable) -> None:
     """Write ``rec`` as an NPZ recording (every key of `recording_keys`)."""
     with open(path, "wb") as fh:  # np.savez would append ".npz" to other names
         np.savez(fh, **recording_keys(rec))
@@ -333,9 +342,11 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
     keys = {**_csv_keys(text, path), **{k: np.asarray(v) for k, v in (keys or {}).items()}}
+    names, data = _csv_table(text, path)
+    if "freqs" in (n.strip() for n in names):        # a stepped-sine table
+        return table_from_csv(keys, names, data, path)
     if force_dofs is not None:
         keys["force_dofs"] = np.asarray(force_dofs)
-    names, data = _csv_table(text, path)
     if data.shape[0] < 2:
         raise RecordingFileError(f"{path}: needs a header row and at least two data rows")
     if data.shape[1] != len(names):
@@ -527,9 +538,12 @@ def _csv_value(key: str, value: np.ndarray) -> str:
                              "to CSV (numbers and strings only); export as NPZ")
 
 
-def write_csv(path: str | os.PathLike, rec: Recording) -> None:
+def write_csv(path: str | os.PathLike, rec: Recording | StepTable) -> None:
     """Write a random ``rec`` as CSV: ``# key = value`` lines for its keys, then header
-    ``t,f0@DOF,...,x0@0,...`` and the samples."""
+    ``t,f0@DOF,...,x0@0,...`` and the samples (a table: `nlid_lab.formats._tables.csv_text`)."""
+    if isinstance(rec, StepTable):
+        Path(path).write_text(csv_text(rec))
+        return
     if rec.excitation == "stepped-sine":
         raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
                                  "sine as NPZ")
@@ -548,8 +562,9 @@ def write_csv(path: str | os.PathLike, rec: Recording) -> None:
                header="\n".join(lines + [",".join(names)]), comments="", fmt="%.17g")
 
 
-def load_recordings(path: str | os.PathLike) -> list[Recording]:
-    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``."""
+def load_recordings(path: str | os.PathLike) -> list[Recording | StepTable]:
+    """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``
+    (stepped-sine tables as `StepTable`)."""
     from ..store import StoreError, open_run
 
     path = Path(path)

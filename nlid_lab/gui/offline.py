@@ -12,7 +12,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
-from analysis.recordings import Recording
+from analysis.recordings import Recording, StepTable
 
 from ..reports import RunData, estimate_rows
 from . import plots
@@ -180,7 +180,7 @@ class OfflineView(QtWidgets.QWidget):
                 shown_coh = True
             if stepped:
                 thd = self.distortion(r, i)
-                if q < thd.shape[1]:
+                if q < thd.shape[1] and not np.all(np.isnan(thd[:, q])):
                     self.dist.plot(frf.freqs, thd[:, q], pen=plots.pen(colour), symbol="o",
                                    symbolSize=5, symbolBrush=colour, symbolPen=colour)
                     shown_dist = True
@@ -206,11 +206,18 @@ class OfflineView(QtWidgets.QWidget):
         return self._distortion[(r, i)]
 
 
-def harmonic_distortion(rec: Recording, max_order: int = 7) -> np.ndarray:
+def harmonic_distortion(rec: Recording | StepTable, max_order: int = 7) -> np.ndarray:
     """``20 log10(sqrt(sum_k>=2 |X_k|^2) / |X_1|)`` of each step's response, over the orders
     below Nyquist (at most ``max_order``), shape (n_steps, n_dof); NaN when only the
-    fundamental fits below Nyquist."""
+    fundamental fits below Nyquist (a table: over the harmonics it holds, NaN without)."""
     out = np.full((rec.freqs.size, rec.n_dof), np.nan)
+    if isinstance(rec, StepTable):
+        if rec.harmonics:
+            X = np.abs(rec.response_harmonics) ** 2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[:] = 10 * np.log10(X[:, [h >= 2 for h in rec.harmonics]].sum(axis=1)
+                                       / np.abs(rec.response_phasor) ** 2)
+        return out
     for k, f in enumerate(rec.freqs):
         top = min(max_order, int(np.ceil(rec.fs / 2 / f)) - 1)
         if top < 2:

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 
 from analysis.errors import InputError
+from analysis.recordings import StepTable
 
 from .registry import ESTIMATOR_KEY, Method, option, register
 
@@ -67,7 +68,11 @@ def _stepped(recs: Sequence[Recording], force_hold: str | None = None) -> list[R
                          "use analyze reverse-path for random excitation")
     if force_hold is not None:
         for rec in recs:
-            rec.force_hold = force_hold
+            if isinstance(rec, StepTable) and force_hold != "none":
+                raise InputError("--force-hold: a stepped-sine table's force phasors are the "
+                                 "force that acted; drop the option for table runs")
+            if not isinstance(rec, StepTable):
+                rec.force_hold = force_hold
     return list(recs)
 
 

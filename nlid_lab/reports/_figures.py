@@ -44,8 +44,17 @@ def level_colours(n: int, levels: Sequence[float | None] | None = None
 
 
 def level_unit(frf: "LevelFRF") -> str:
-    """Unit of a level's nominal force: rms for random, amplitude for sine excitation."""
+    """Unit of a level's nominal force: rms for random, amplitude for sine excitation (a
+    response-controlled level: its held response's unit)."""
+    from analysis.spectral import HELD_UNITS
+    if frf.level_kind != "force":
+        return HELD_UNITS[frf.level_kind]
     return "N rms" if frf.excitation == "random" else "N"
+
+
+def _level_title(frf: "LevelFRF") -> str:
+    """What a level is: its force, or the response amplitude a controller held."""
+    return "force level" if frf.level_kind == "force" else "held response amplitude"
 
 
 def _level_key(fig: Figure, ax, frfs: Sequence["LevelFRF"], extra: list | None = None) -> None:
@@ -63,13 +72,13 @@ def _level_key(fig: Figure, ax, frfs: Sequence["LevelFRF"], extra: list | None =
         bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, ticks=np.arange(len(frfs)),
                            fraction=0.05, pad=0.02)
         bar.ax.set_yticklabels([f"{levels[i]:.3g}" for i in order])
-        bar.set_label(f"force level [{level_unit(frfs[0])}]")
+        bar.set_label(f"{_level_title(frfs[0])} [{level_unit(frfs[0])}]")
         handles, labels = [h for h, _ in keep], [lab for _, lab in keep]
     for h in extra or []:
         handles.append(h)
         labels.append(h.get_label())
     if handles:
-        ax.legend(handles, labels, title="force level" if len(frfs) <= MAX_LEGEND_LEVELS
+        ax.legend(handles, labels, title=_level_title(frfs[0]) if len(frfs) <= MAX_LEGEND_LEVELS
                   else None, fontsize="small")
 
 

@@ -214,7 +214,8 @@ def sweep_section(run: RunData) -> Section | None:
     from analysis.spectral import level_label
 
     from ..formats import describe
-    swept = [(i, r) for i, r in enumerate(run.recordings) if r.sweep is not None]
+    swept = [(i, r) for i, r in enumerate(run.recordings)
+             if r.excitation == "swept-sine" and r.sweep is not None]
     if not swept:
         return None
     said = "; ".join(f"{level_label(r, i)}: {describe(r.sweep)}" for i, r in swept)
@@ -229,7 +230,8 @@ def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section
     """Every section the run has data for, in reading order."""
     names = channel_names(run)
     out = frf_sections(frfs, names)
-    for extra in (sweep_section(run), level_change_section(run),
+    from ._backbone_figure import backbone_section
+    for extra in (sweep_section(run), backbone_section(run), level_change_section(run),
                   distortion_section(frfs, names),
                   modal_fit_section(run)):
         if extra is not None:

@@ -10,12 +10,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from analysis.recordings import PeriodicLayout, Recording, SensorMap, Sweep
+from analysis.recordings import PeriodicLayout, Recording, SensorMap, StepTable, Sweep
 
-from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, StoreError, _append_log, _crc,
+from ._common import (FORMAT, StoreError, _append_log, _crc,
                       _json_at, _open, _open_swmr_write, _read_extra, _read_status, _valid_segments,
                       writer_left_open)
 from .writer import RunWriter, _repair
+from ._steptables import TABLES_SCHEMA_VERSION, is_table_run, read_table, save_tables, table_steps
 
 # --- read side -------------------------------------------------------------------------------
 
@@ -104,13 +105,17 @@ class Run:
                              f"{with_data}")
         return level
 
-    def recording(self, level: int | None = None) -> Recording:
-        """The data of one level as a `Recording` (blocks concatenated in sequence order).
+    def recording(self, level: int | None = None) -> Recording | StepTable:
+        """The data of one level as a `Recording` (blocks concatenated in sequence order), or
+        as a `StepTable` in a table run.
 
         Stepped-sine steps of different lengths are cut to the shortest, keeping each step's
         last samples (the most settled ones).
         """
         index = self.level_index(level)
+        if is_table_run(self.meta):
+            with _open(self.path, "r") as f:
+                return read_table(f, index, self.meta, self.sensors)
         seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
         lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
         units = self.monitor_units
@@ -192,7 +197,7 @@ class Run:
             return False
         return layout
 
-    def recordings(self) -> list[Recording]:
+    def recordings(self) -> list[Recording | StepTable]:
         """One `Recording` per level holding data, in level order."""
         return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
 
@@ -204,9 +209,9 @@ def open_run(path: str | os.PathLike) -> Run:
         if f.attrs.get("format") != FORMAT:
             raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
         version = int(f.attrs["schema_version"])
-        if version > MONITORS_SCHEMA_VERSION:
+        if version > TABLES_SCHEMA_VERSION:
             raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
-                             f"{MONITORS_SCHEMA_VERSION}: upgrade nlid-lab")
+                             f"{TABLES_SCHEMA_VERSION}: upgrade nlid-lab")
         meta = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
         for key in ("excitation_settings", "settings"):
             meta[key] = json.loads(meta[key])
@@ -222,8 +227,10 @@ def open_run(path: str | os.PathLike) -> Run:
                 **_json_at(text, row["start"], row["length"])}
                for row in f["log"][:] if row["start"] + row["length"] <= text.size]
         extra = _read_extra(f)
+        steps = table_steps(f)      # a table run's levels count their steps
         levels = [Level(int(lv["index"]), float(lv["nominal"]), bool(lv["complete"]),
-                        int(np.count_nonzero(segments["level"] == lv["index"])),
+                        steps.get(int(lv["index"]),
+                                  int(np.count_nonzero(segments["level"] == lv["index"]))),
                         int(segments["length"][segments["level"] == lv["index"]].sum()))
                   for lv in np.sort(f["levels"][:], order="index")]
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
@@ -259,9 +266,11 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
         _append_log(f, "result", {"name": name, "value": result})
 
 
-def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording],
+def save_recording(path: str | os.PathLike,
+                   rec: Recording | StepTable | Sequence[Recording | StepTable],
                    **meta: Any) -> None:
-    """Write recordings as the levels of one complete run file (overwriting ``path``).
+    """Write recordings as the levels of one complete run file (overwriting ``path``);
+    stepped-sine tables as a table run (`nlid_lab.store._steptables`).
 
     Levels in separate files (one recording each) become one run: they must agree on what a
     run file holds once (sample rate, excitation, force DOFs, channels, response kind, force
@@ -269,7 +278,14 @@ def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording]
     own monitor samples). ``meta`` goes to `RunWriter` (``source``,
     ``model_toml``, ``settings``, ``channels``).
     """
-    recs = [rec] if isinstance(rec, Recording) else list(rec)
+    recs = [rec] if isinstance(rec, (Recording, StepTable)) else list(rec)
+    tables = [isinstance(r, StepTable) for r in recs]
+    if any(tables):
+        if not all(tables):
+            raise StoreError("stepped-sine tables and time records cannot be levels of one "
+                             "run; import them as separate runs")
+        save_tables(path, recs, **meta)
+        return
     first = recs[0]
     for i, other in enumerate(recs[1:], 1):
         _check_same_run(first, other, i)
