@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
@@ -19,6 +20,7 @@ from ._common import (CHUNK_ROWS, FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSIO
                       _channel_table, _crc, _default_channels, _json_default, _open,
                       _open_swmr_write, _valid_segments, _write_extra, _write_text, in_use,
                       utc_now, writer_left_open)
+from ._space import BLOCK_OVERHEAD, DiskFullError, Reserve, is_disk_full, require
 
 
 class LevelWriter:
@@ -64,12 +66,13 @@ class LevelWriter:
 
     def complete(self) -> None:
         """Mark this level as fully measured."""
-        ds = self._run._file["levels"]
-        pos = int(np.nonzero(ds["index"] == self.index)[0][0])
-        row = ds[pos]
-        row["complete"] = 1
-        ds[pos] = row
-        self._run._file.flush()
+        with self._run._writing(f"the end of level {self.index}"):
+            ds = self._run._file["levels"]
+            pos = int(np.nonzero(ds["index"] == self.index)[0][0])
+            row = ds[pos]
+            row["complete"] = 1
+            ds[pos] = row
+            self._run._file.flush()
 
     def _append(self, force, response, seq, t, freq, amp, extra, monitor=None) -> int:
         run = self._run
@@ -96,16 +99,20 @@ class LevelWriter:
                 blocks.append(("monitor", monitor))
         seq = self.next_seq if seq is None else int(seq)
         f = run._file
-        start = f["data/force"].shape[0]
-        for name, block in blocks:
-            f[f"data/{name}"].resize((start + len(block), block.shape[1]))
-            f[f"data/{name}"][start:] = block
-        f.flush()  # data on disk before the index row that makes them visible
-        ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
-        crc = _crc(force, response, monitor if n_mon else None)
-        _append_row(f, "segments", (self.index, seq, time.time() if t is None else float(t),
-                                    start, len(force), freq, amp, crc, ex_start, ex_len))
-        f.flush()
+        nbytes = sum(b.nbytes for _, b in blocks) + BLOCK_OVERHEAD
+        require(run.path, nbytes, f"block {seq} of level {self.index} of {run.path}")
+        with run._writing(f"block {seq} of level {self.index}"):
+            start = f["data/force"].shape[0]
+            for name, block in blocks:
+                f[f"data/{name}"].resize((start + len(block), block.shape[1]))
+                f[f"data/{name}"][start:] = block
+            f.flush()  # data on disk before the index row that makes them visible
+            ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
+            crc = _crc(force, response, monitor if n_mon else None)
+            _append_row(f, "segments", (self.index, seq, time.time() if t is None
+                                        else float(t), start, len(force), freq, amp, crc,
+                                        ex_start, ex_len))
+            f.flush()
         self.n_segments += 1
         self.n_samples += len(force)
         self.next_seq = seq + 1
@@ -199,14 +206,23 @@ class RunWriter:
         chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind,
                                               sensors)
         table = _channel_table(chans, self.force_dofs, self.n_dof)
-        if mode == "resume" and self.path.exists():
-            self._file = self._resume(attrs)
-        else:
-            if mode == "create" and self.path.exists():
-                raise StoreError(f"{self.path} already exists; resume it or choose a new name")
-            _create(self.path, attrs, table,
-                    (lambda f: _write_extra(f, extra)) if extra else None)
-            self._file = _open_swmr_write(self.path)
+        if mode == "create" and self.path.exists():
+            raise StoreError(f"{self.path} already exists; resume it or choose a new name")
+        self._reserve = Reserve(self.path)
+        try:
+            if mode == "resume" and self.path.exists():
+                self._file = self._resume(attrs)
+            else:
+                _create(self.path, attrs, table,
+                        (lambda f: _write_extra(f, extra)) if extra else None)
+                self._file = _open_swmr_write(self.path)
+        except BaseException:
+            self._reserve.release()
+            raise
+        # every dataset held open while writing: a chunk cache is then written by the
+        # file's flush, which raises on a failed write, never by a dataset handle's
+        # deallocation, which h5py reports as "Exception ignored" and goes on
+        self._held = [self._file[name] for name in _held_datasets(self._file)]
         self._lock = WriterLock(self.path)
         self.set_status("running")
 
@@ -266,10 +282,11 @@ class RunWriter:
         """Set the run status (one of `STATUSES`)."""
         if status not in STATUSES:
             raise StoreError(f"status {status!r} is not one of {', '.join(STATUSES)}")
-        state = self._file["state"]
-        state["status"][()] = status.encode()
-        state["reason"][()] = reason.encode()[:256]
-        state["updated_utc"][()] = utc_now().encode()
+        with self._writing("the run's status"):
+            state = self._file["state"]
+            state["status"][()] = status.encode()
+            state["reason"][()] = reason.encode()[:256]
+            state["updated_utc"][()] = utc_now().encode()
         self.status = status
         self.log("status", {"status": status, "reason": reason})
 
@@ -279,25 +296,64 @@ class RunWriter:
 
     def log(self, kind: str, payload: dict) -> None:
         """Append an event to the run's log."""
-        _append_log(self._file, kind, payload)
+        with self._writing(f"a {kind} event"):
+            _append_log(self._file, kind, payload)
+
+    @contextlib.contextmanager
+    def _writing(self, what: str) -> Iterator[None]:
+        """Turn a full disk during the writes of the ``with`` body into `DiskFullError`:
+        the reserve is given back and the file flushed again, so that the blocks stored so
+        far stay intact and the file can be marked and closed."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:
+            if not is_disk_full(exc):
+                raise
+            if self._reserve.release():
+                with contextlib.suppress(OSError, RuntimeError):
+                    self._file.flush()
+            raise DiskFullError(f"disk full while writing {what} to {self.path}") from None
 
     def close(self) -> None:
-        if self._file.id.valid:
-            self._file.close()
-        self._lock.release()
+        """Close the file (flushing it) and give back its reserve and lock."""
+        try:
+            if self._file.id.valid:
+                self._held.clear()
+                try:
+                    self._file.close()
+                except (OSError, RuntimeError) as exc:  # no room for the last flush
+                    if not (is_disk_full(exc) and self._reserve.release()):
+                        raise
+                    self._file.close()
+        finally:
+            self._reserve.release()
+            self._lock.release()
 
     def __enter__(self) -> "RunWriter":
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if self._file.id.valid:
-            if exc_type is KeyboardInterrupt:
-                self.set_status("interrupted", "interrupted by the user")
-            elif exc_type is not None:
-                self.set_status("aborted", f"{exc_type.__name__}: {exc}")
-            elif self.status == "running":
-                self.set_status("complete")
-        self.close()
+        try:
+            if self._file.id.valid:
+                if exc_type is KeyboardInterrupt:
+                    self.set_status("interrupted", "interrupted by the user")
+                elif exc_type is not None and issubclass(exc_type, DiskFullError):
+                    self._reserve.release()     # room for the status and the close
+                    self.set_status("interrupted", f"disk full: {exc}")
+                elif exc_type is not None:
+                    self.set_status("aborted", f"{exc_type.__name__}: {exc}")
+                elif self.status == "running":
+                    self.set_status("complete")
+        finally:
+            self.close()
+
+
+def _held_datasets(f: h5py.File) -> list[str]:
+    """Paths of every dataset of an open run file."""
+    names: list[str] = []
+    f.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset)
+                 else None)
+    return names
 
 
 def _create(path: Path, attrs: dict, channels: np.ndarray,
@@ -324,7 +380,13 @@ def _create(path: Path, attrs: dict, channels: np.ndarray,
                                      chunks=(CHUNK_ROWS, width), dtype="<f8")
             if fill:
                 fill(f)
-    except OSError as exc:
+    except (OSError, RuntimeError) as exc:
+        tmp.unlink(missing_ok=True)
+        if is_disk_full(exc):
+            raise DiskFullError(f"disk full while writing {path}; nothing was written: free "
+                                "space or write to another disk") from None
+        if isinstance(exc, RuntimeError):
+            raise
         raise StoreError(f"cannot write {path}: {' '.join(str(exc).split())}") from None
     os.replace(tmp, path)
 
