@@ -27,7 +27,7 @@ from drivers.errors import CommsError
 from ._campaign_bench import Bench, open_bench
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
-from ..store import LevelWriter, RunWriter
+from ..store import DiskFullError, LevelWriter, RunWriter, require_room
 
 
 MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
@@ -436,7 +436,10 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
     emulators). Setting ``stop`` (from another thread) ends the campaign at the next DAQ
     chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
-    `KeyboardInterrupt` raised. Raises `CampaignAborted` on a safety limit and
+    `KeyboardInterrupt` raised. The disk must hold the plan's data before the devices are
+    opened, and each block before it is written: otherwise (or when a write fails on a full
+    disk) `nlid_lab.store.DiskFullError` is raised, the drive ramped to zero and the run
+    marked interrupted with every stored block intact (resumable). Raises `CampaignAborted` on a safety limit and
     `drivers.errors.CommsError` on communication failure; the run file is marked aborted
     and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
     it) or ``overwrite`` (replace it).
@@ -444,6 +447,9 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     out = Path(out)
     observer = Watchers(*observer) if isinstance(observer, Sequence) else Watchers(observer)
     status = "aborted"
+    stored = out.stat().st_size if resume and out.is_file() else 0
+    require_room(out, max(c.stored_bytes() - stored, 0),
+                 "the rest of the plan" if stored else "the plan")
     with open_bench(c) as bench:
         if on_bench is not None:
             on_bench(bench)
@@ -463,7 +469,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
             try:
                 runner.run()
                 status = "complete"
-            except KeyboardInterrupt:
+            except (KeyboardInterrupt, DiskFullError):
                 status = "interrupted"
                 raise
             finally:

@@ -24,6 +24,8 @@ from ._common import StoreError
 RESERVE_BYTES = 1 << 20
 #: metadata written with a block besides its samples (index row, chunk index, log), bounded
 BLOCK_OVERHEAD = 64 << 10
+#: a run file's header, tables and the rounding of its last data chunk, bounded
+HEADER_BYTES = 256 << 10
 _FULL_ERRNOS = (errno.ENOSPC, errno.EDQUOT)
 
 
@@ -52,6 +54,15 @@ def require(path: Path, nbytes: int, what: str) -> None:
         raise DiskFullError(f"not enough free space for {what}: {mb(nbytes)} needed, "
                             f"{mb(free)} free on the disk of {path}; free space or write "
                             "to another disk")
+
+
+def require_room(path: Path, data_bytes: int, what: str) -> None:
+    """Raise `DiskFullError` unless a run file that will hold ``data_bytes`` of samples fits
+    on the disk of ``path``: with its header, the last chunk's rounding and the writer's
+    reserve (``what`` names the data in the message)."""
+    require(path, data_bytes + RESERVE_BYTES + HEADER_BYTES,
+            f"{what} ({mb(data_bytes)} of data, {mb(RESERVE_BYTES + HEADER_BYTES)} of file "
+            "header and reserve)")
 
 
 def is_disk_full(exc: BaseException) -> bool:

@@ -339,7 +339,7 @@ class RunWriter:
                     self.set_status("interrupted", "interrupted by the user")
                 elif exc_type is not None and issubclass(exc_type, DiskFullError):
                     self._reserve.release()     # room for the status and the close
-                    self.set_status("interrupted", f"disk full: {exc}")
+                    self.set_status("interrupted", str(exc))
                 elif exc_type is not None:
                     self.set_status("aborted", f"{exc_type.__name__}: {exc}")
                 elif self.status == "running":
