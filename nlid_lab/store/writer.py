@@ -7,7 +7,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator
 
 import h5py
 import numpy as np
@@ -15,11 +15,11 @@ import numpy as np
 from analysis.recordings import (EXCITATIONS, FORCE_HOLDS, KEYS as SENSOR_KEYS, MIXED,
                                  RESPONSE_KINDS, PeriodicLayout, SensorMap)
 
-from ._common import (CHUNK_ROWS, FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE,
-                      STATUSES, _TABLES, StoreError, WriterLock, _append_log, _append_row,
-                      _channel_table, _crc, _default_channels, _json_default, _open,
-                      _open_swmr_write, _valid_segments, _write_extra, _write_text, in_use,
-                      utc_now, writer_left_open)
+from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE, STATUSES,
+                      StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
+                      _default_channels, _json_default, _open_swmr_write, _write_extra,
+                      _write_text, utc_now)
+from ._rebuild import _create, _repair
 from ._space import BLOCK_OVERHEAD, DiskFullError, Reserve, is_disk_full, require
 
 
@@ -54,6 +54,11 @@ class LevelWriter:
             raise StoreError(f"step frequency must be a positive number, got {freq}")
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, float(freq), amp, extra, monitor)
+
+    def stored_seqs(self) -> set[int]:
+        """Sequence numbers of this level's stored blocks or steps."""
+        seg = self._run._file["segments"][:]
+        return set(seg["seq"][seg["level"] == self.index].tolist())
 
     def stored_force(self) -> Iterator[tuple[np.ndarray, float]]:
         """Force samples of each stored block/step of this level in ``seq`` order (read one
@@ -197,6 +202,7 @@ class RunWriter:
         if sensors is not None:
             attrs["sensors"] = json.dumps({k: list(getattr(sensors, k)) for k in SENSOR_KEYS})
         self.monitors = dict(monitors or {})
+        self.dropped: tuple = ()   # damaged blocks a resume dropped (`LeftOut`)
         if self.monitors:
             attrs["monitors"] = json.dumps([[k, v] for k, v in self.monitors.items()])
             attrs["schema_version"] = MONITORS_SCHEMA_VERSION
@@ -241,7 +247,7 @@ class RunWriter:
                              f"below n_dof={self.n_dof}")
 
     def _resume(self, attrs: dict) -> h5py.File:
-        rebuilt = _repair(self.path)
+        rebuilt = _repair(self.path, verify=True)
         f = _open_swmr_write(self.path)
         if json.loads(f.attrs.get("monitors", "[]")) != json.loads(attrs.get("monitors", "[]")):
             f.close()
@@ -254,7 +260,9 @@ class RunWriter:
                 raise StoreError(f"cannot resume {self.path}: its {key} is {have!r}, not "
                                  f"{attrs[key]!r}; use the same settings or a new file")
         self._file = f
-        self.log("resume", {"rebuilt_after_crash": rebuilt})
+        self.log("resume", {"rebuilt_after_crash": bool(rebuilt),
+                            "dropped": [b.as_dict() for b in rebuilt.dropped]})
+        self.dropped = rebuilt.dropped
         return f
 
     # --- public API ------------------------------------------------------------------------
@@ -354,85 +362,3 @@ def _held_datasets(f: h5py.File) -> list[str]:
     f.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset)
                  else None)
     return names
-
-
-def _create(path: Path, attrs: dict, channels: np.ndarray,
-            fill: Callable[[h5py.File], None] | None = None) -> None:
-    """Build a run file (header, empty tables, then ``fill``) in ``path.tmp``, rename it."""
-    tmp = path.with_name(path.name + ".tmp")
-    n_in, n_dof = len(attrs["force_dofs"]), int(attrs["n_dof"])
-    try:
-        with h5py.File(tmp, "w", libver="latest", locking="best-effort") as f:
-            f.attrs.update(attrs)
-            f.create_dataset("channels", data=channels)
-            st = f.create_group("state")
-            st.create_dataset("status", data=np.bytes_("running"), dtype="S16")
-            st.create_dataset("reason", data=np.bytes_(""), dtype="S256")
-            st.create_dataset("updated_utc", data=np.bytes_(attrs["created_utc"]), dtype="S32")
-            st.create_dataset("losses", data=np.zeros(2, "<i8"))
-            for name, dtype in _TABLES.items():
-                f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(256,), dtype=dtype)
-            f.create_dataset("text", shape=(0,), maxshape=(None,), chunks=(65536,), dtype="u1")
-            n_mon = len(json.loads(attrs.get("monitors", "[]")))
-            for name, width in (("force", n_in), ("response", n_dof), ("monitor", n_mon)):
-                if width:
-                    f.create_dataset(f"data/{name}", shape=(0, width), maxshape=(None, width),
-                                     chunks=(CHUNK_ROWS, width), dtype="<f8")
-            if fill:
-                fill(f)
-    except (OSError, RuntimeError) as exc:
-        tmp.unlink(missing_ok=True)
-        if is_disk_full(exc):
-            raise DiskFullError(f"disk full while writing {path}; nothing was written: free "
-                                "space or write to another disk") from None
-        if isinstance(exc, RuntimeError):
-            raise
-        raise StoreError(f"cannot write {path}: {' '.join(str(exc).split())}") from None
-    os.replace(tmp, path)
-
-
-def _repair(path: Path) -> bool:
-    """Make a crashed run file writable (and readable by any HDF5 tool) again; returns True
-    if it had to be rebuilt.
-
-    The file is read in SWMR mode, its valid content (every indexed, checksum-correct segment
-    and complete log entry) copied into a fresh file, which then replaces the original. A file
-    a live process still writes is refused.
-    """
-    if not path.exists():
-        raise StoreError(f"run file {path} not found; check the path")
-    if not writer_left_open(path):
-        return False
-    if in_use(path):
-        raise StoreError(f"{path} is open in another process (a campaign still writing it?); "
-                         "let it finish or stop it first")
-    with _open(path, "r") as old:
-        seg_ok = _valid_segments(old)
-        force, response = old["data/force"], old["data/response"]
-        monitor = old["data/monitor"] if "data/monitor" in old else None
-        seg_ok = seg_ok[[_crc(force[s:s + n], response[s:s + n],
-                              None if monitor is None else monitor[s:s + n]) == c
-                         for s, n, c in zip(seg_ok["start"], seg_ok["length"], seg_ok["crc"])]]
-        end = int((seg_ok["start"] + seg_ok["length"]).max()) if len(seg_ok) else 0
-        log = old["log"][:]
-        text_n = old["text"].shape[0]
-        log = log[log["start"] + log["length"] <= text_n]
-
-        def copy(f: h5py.File) -> None:
-            st = f["state"]
-            for key in ("status", "reason", "updated_utc", "losses"):
-                st[key][()] = old["state"][key][()]
-            for name, rows in (("levels", old["levels"][:]), ("segments", seg_ok), ("log", log)):
-                f[name].resize((len(rows),))
-                f[name][:] = rows
-            if "extra" in old:
-                old.copy("extra", f)
-            f["text"].resize((text_n,))
-            f["text"][:] = old["text"][:text_n]
-            for name in ("force", "response") + (("monitor",) if monitor is not None else ()):
-                src, dst = old[f"data/{name}"], f[f"data/{name}"]
-                dst.resize((end, src.shape[1]))
-                for i in range(0, end, 1 << 20):
-                    dst[i:i + (1 << 20)] = src[i:min(end, i + (1 << 20))]
-        _create(path, dict(old.attrs), old["channels"][:], copy)
-    return True
