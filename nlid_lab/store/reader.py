@@ -286,7 +286,8 @@ def _meta(f, path: Path) -> dict[str, Any]:
         raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
     for key in ("excitation_settings", "settings", "sensors", "monitors"):
         if key in meta:
-            json_text(str(meta[key]).encode(), f"its attribute '{key}'", key in REBUILT_ATTRS)
+            json_text(str(meta[key]).encode(errors="surrogateescape"),
+                      f"its attribute '{key}'", key in REBUILT_ATTRS)
     for key in ("excitation_settings", "settings"):
         meta[key] = json.loads(meta.get(key) or "{}")
     meta["force_dofs"] = np.asarray(meta["force_dofs"], dtype=int)
