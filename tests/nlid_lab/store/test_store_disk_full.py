@@ -176,3 +176,29 @@ def test_campaign_cli_says_what_was_kept_and_how_to_resume(small_disk, tmp_path,
     assert "kept 3 blocks" in err[0] and "marked interrupted" in err[0]
     assert f"--out {out} --resume" in err[0]
     assert check_valid_interrupted(out) == 3
+
+
+def test_command_outputs_near_a_full_disk_are_whole_or_absent(small_disk, tmp_path, capsys):
+    """`simulate` leaves no half ``.npz``, `import` no half run (and no crash), `report` no
+    figures without their page: each exits 2 with one line, the disk holding only what was
+    there before."""
+    rng = np.random.default_rng(0)
+    drive = tmp_path / "drive.npz"
+    np.savez(drive, fs=1024.0, force=5.0 * rng.normal(size=(65536, 1)), force_dofs=[0],
+             force_rms=5.0)
+    model = EXAMPLES / "models" / "sdof-cubic-quaddamp.toml"
+    small = tmp_path / "small.h5"
+    assert main(["simulate", str(model), "--drive", str(drive), "--out", str(small)]) == 0
+    assert main(["simulate", str(model), "--drive", str(drive), "--out",
+                 str(tmp_path / "rec.npz")]) == 0
+    capsys.readouterr()
+    disk = small_disk("2m")
+    filler = fill(disk, 300_000)
+    for argv in (["simulate", str(model), "--drive", str(drive), "--out", str(disk / "o.npz")],
+                 ["import", str(tmp_path / "rec.npz"), "--out", str(disk / "run.h5")],
+                 ["report", str(small), "--out", str(disk / "rep")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and ("no room on the disk" in err[0]
+                                  or "not enough free space" in err[0]), err
+        assert sorted(disk.iterdir()) == [filler], argv
