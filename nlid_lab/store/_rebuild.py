@@ -99,8 +99,9 @@ def _repair(path: Path, verify: bool = False) -> Repaired:
                 f[name][:] = rows
             if "extra" in old:
                 old.copy("extra", f)
-            f["text"].resize((text_n,))
-            f["text"][:] = old["text"][:text_n]
+            if text_n:
+                f["text"].resize((text_n,))
+                f["text"][:] = old["text"][:text_n]
             for name in ("force", "response") + (("monitor",) if monitor else ()):
                 src, dst = old[f"data/{name}"], f[f"data/{name}"]
                 dst.resize((end, src.shape[1]))

@@ -310,7 +310,7 @@ def _log(f) -> list[dict[str, Any]]:
     return out
 
 
-def _levels(f, segments: np.ndarray, path: Path) -> tuple[list[Level], list[str]]:
+def _levels(f, segments: np.ndarray) -> tuple[list[Level], list[str]]:
     """The run's levels, and a level of unknown nominal for each level its segments name
     that ``/levels`` does not list (with a note saying so)."""
     rows = np.sort(_table(f, "levels")[:], order="index")
@@ -368,7 +368,7 @@ def _read_run(f, path: Path) -> Run:
                for s in every[~on_disk]]
     log = _log(f)
     extra = _read_extra(f)
-    levels, notes = _levels(f, segments, path)
+    levels, notes = _levels(f, segments)
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
     return Run(path, meta, channels, status, reason, updated,
                {"frames": int(lost[0]), "samples": int(lost[1])}, levels, segments, log,
