@@ -440,9 +440,9 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     `KeyboardInterrupt` raised. The disk must hold the plan's data before the devices are
     opened, and each block before it is written: otherwise (or when a write fails on a full
     disk) `nlid_lab.store.DiskFullError` is raised, the drive ramped to zero and the run
-    marked interrupted with every stored block intact (resumable). Raises `CampaignAborted` on a safety limit and
-    `drivers.errors.CommsError` on communication failure; the run file is marked aborted
-    and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
+    marked interrupted with every stored block intact (resumable). Raises `CampaignAborted`
+    on a safety limit and `drivers.errors.CommsError` on communication failure; the run file
+    is marked aborted and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
     it) or ``overwrite`` (replace it).
     """
     out = Path(out)

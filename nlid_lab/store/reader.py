@@ -13,11 +13,12 @@ import numpy as np
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, Sweep
 
 from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, StoreError, _append_log, _crc,
-                      _json_at, _open, _open_swmr_write, _read_extra, _read_status, _valid_segments,
-                      writer_left_open)
+                      _json_at, _json_default, _open, _open_swmr_write, _read_extra,
+                      _read_status, _valid_segments, writer_left_open)
 from ._integrity import (Damage, LeftOut, LeftOutReason, Repaired, RunCheck, json_text,
                          planned_blocks)
 from ._rebuild import REBUILT_ATTRS, _repair
+from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
 from .writer import RunWriter
 
 # --- read side -------------------------------------------------------------------------------
@@ -399,8 +400,17 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
     """Add an analysis result to an existing run file (crash-safely, in SWMR mode)."""
     path = Path(path)
     _repair(path)
+    payload = {"name": name, "value": result}
+    require(path, len(json.dumps(payload, default=_json_default)) + BLOCK_OVERHEAD,
+            f"the result '{name}' in {path}")
     with _open_swmr_write(path) as f:
-        _append_log(f, "result", {"name": name, "value": result})
+        try:
+            _append_log(f, "result", payload)
+        except (OSError, RuntimeError) as exc:
+            if is_disk_full(exc):
+                raise DiskFullError(f"disk full while storing the result '{name}' in {path}"
+                                    "; free space and store it again") from None
+            raise
 
 
 def save_recording(path: str | os.PathLike, rec: Recording | Sequence[Recording],
