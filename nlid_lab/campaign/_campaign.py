@@ -442,8 +442,8 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     disk) `nlid_lab.store.DiskFullError` is raised, the drive ramped to zero and the run
     marked interrupted with every stored block intact (resumable). Raises `CampaignAborted`
     on a safety limit and `drivers.errors.CommsError` on communication failure; the run file
-    is marked aborted and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
-    it) or ``overwrite`` (replace it).
+    is marked aborted and keeps its data either way. An existing ``out`` is refused unless
+    ``resume`` (continue it) or ``overwrite`` (replace it).
     """
     out = Path(out)
     observer = Watchers(*observer) if isinstance(observer, Sequence) else Watchers(observer)
