@@ -385,7 +385,11 @@ def repair_run(path: str | os.PathLike, verify: bool = False) -> Repaired:
     fresh file that atomically replaces the original. A file still open in a live writer is
     refused (`StoreError`).
     """
-    return _repair(Path(path), verify)
+    path = Path(path)
+    done = _repair(path, verify)
+    if done:                    # the reserve a killed writer left (docs/reliability-store.md)
+        path.with_name(path.name + ".reserve").unlink(missing_ok=True)
+    return done
 
 
 def check_result_target(path: str | os.PathLike) -> None:
