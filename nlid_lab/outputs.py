@@ -71,6 +71,8 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
         if _is_full(exc):
             raise _full(target, exc if isinstance(exc, OSError) else
                         OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))) from None
+        if isinstance(exc, OSError) and exc.filename == str(tmp):
+            exc.filename = str(target)      # name the file the user asked for
         raise
 
 
