@@ -275,15 +275,17 @@ class RunWriter:
                 raise StoreError(f"level {index} exists with nominal {hit['nominal'][0]}, "
                                  f"not {nominal}")
         else:
-            _append_row(self._file, "levels", (int(index), float(nominal), 0))
-            self._file.flush()
+            with self._writing(f"level {index}"):
+                _append_row(self._file, "levels", (int(index), float(nominal), 0))
+                self._file.flush()
         return LevelWriter(self, int(index))
 
     def count_loss(self, frames: int = 0, samples: int = 0, note: str = "",
                    level: int | None = None) -> None:
         """Add lost/dropped frames and samples to the run's counters (and log them)."""
-        counts = self._file["state/losses"]
-        counts[...] = counts[...] + np.array([frames, samples])
+        with self._writing("the loss counters"):
+            counts = self._file["state/losses"]
+            counts[...] = counts[...] + np.array([frames, samples])
         self.log("loss", {"frames": frames, "samples": samples, "note": note, "level": level})
 
     def set_status(self, status: str, reason: str = "") -> None:
