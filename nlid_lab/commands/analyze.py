@@ -36,10 +36,10 @@ def run(args: argparse.Namespace) -> int:
     model = model_at_sensors(model, recs, f"analyze {args.method} (it forms each unknown "
                              "element's basis from the measured responses)")
     estimate = method.estimate(recs, model, options)
-    out = estimate.to_json()
+    out = with_checks(estimate.to_json(), checks)   # stored too: which blocks it used
     # with --json - the table goes to stderr so stdout stays pure JSON
     print(estimate.table(), file=summary_stream(args.json, args.quiet))
-    write_json(with_checks(out, checks), args.json)
+    write_json(out, args.json)
     if args.store:
         save_result(args.store, method.result_name, out)
     estimate.write_files()

@@ -106,10 +106,10 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         with atomic_dir(args.report) as tmp:
             write_report(d, tmp)
-    result = d.to_json()
+    result = with_checks(d.to_json(), checks)   # stored too: which blocks it used
     if args.store:
         save_result(args.store, RESULT_NAME, result)
-    write_json(with_checks(result, checks), args.json)
+    write_json(result, args.json)
     stream = summary_stream(args.json, args.quiet)
     print(f"{d.verdict}: {d.explanation}", file=stream)
     rows = d.evidence.get("locations") or []

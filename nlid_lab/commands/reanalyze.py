@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out and not Path(args.out).resolve().parent.is_dir():
         raise ReanalysisError(f"--out {args.out}: its directory does not exist; create it "
                               "first (checked before the runs are analysed)")
-    checks = check_runs(runs)
+    checks = check_runs(runs, skip_unreadable=True)
     with dask_client(args.workers, args.scheduler) as client:
         result = reanalyze(runs, model, client, args.method, options,
                            progress=not (args.no_progress or args.quiet),

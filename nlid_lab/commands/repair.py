@@ -20,17 +20,25 @@ def repair_option(p: argparse.ArgumentParser) -> None:
                    "(same as `nlid-lab repair`), so that other HDF5 tools can open it")
 
 
-def check_runs(paths: Sequence[str], repair: bool = False) -> list:
+def check_runs(paths: Sequence[str], repair: bool = False, skip_unreadable: bool = False
+               ) -> list:
     """What a reader says about the runs among ``paths`` before using them, on stderr: an
     incomplete run ("run is incomplete: 3 of 8 blocks"), the blocks left out and why
     (checksums verified); runs still flagged by a killed writer are repaired (or, at a
     terminal, offered a repair). Returns the `nlid_lab.store.RunCheck` of each run, whose
-    ``as_dict`` commands add to their JSON (`nlid_lab.outputs.with_checks`)."""
-    from ..store import open_run, repair_run
+    ``as_dict`` commands add to their JSON (`nlid_lab.outputs.with_checks`). With
+    ``skip_unreadable`` a run that cannot be opened is left to the command (reanalysis
+    reports it as a failed run) instead of raising."""
+    from ..store import StoreError, open_run, repair_run
     checks = []
     for path in (p for p in paths if Path(p).suffix.lower() in RUN_SUFFIXES
                  and Path(p).is_file()):
-        run = open_run(path)
+        try:
+            run = open_run(path)
+        except StoreError:
+            if skip_unreadable:
+                continue
+            raise
         if run.left_open and (repair or _ask(f"{path}: left open by its writer (killed?); "
                                              "repair it now [y/N]? ")):
             repair_run(path)
