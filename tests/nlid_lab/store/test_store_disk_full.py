@@ -202,3 +202,30 @@ def test_command_outputs_near_a_full_disk_are_whole_or_absent(small_disk, tmp_pa
         assert len(err) == 1 and ("no room on the disk" in err[0]
                                   or "not enough free space" in err[0]), err
         assert sorted(disk.iterdir()) == [filler], argv
+
+
+def test_stepped_campaign_on_a_filling_disk_resumes_at_the_missing_steps(small_disk):
+    """The same for a stepped-sine campaign: stopped after its second step, resumed with
+    room: every step once, in frequency order."""
+    disk = small_disk("4m")
+    out = disk / "run.h5"
+    data = copy.deepcopy(BASE)
+    del data["random"]
+    data["kind"] = "stepped-sine"
+    data["stepped"] = {"levels": [8.0], "start": 44.0, "stop": 56.0, "step": 4.0,
+                       "block_size": 512, "harmonics": 3}
+    c = parse_campaign(data, EXAMPLES)
+    filler = []
+
+    class FillAfterTwo:
+        def step(self, level, k, *rest):
+            if k == 1:
+                filler.append(fill(disk, 50_000))
+
+    with pytest.raises(DiskFullError, match="block 2 of level 0"):
+        run_campaign(c, out, observer=FillAfterTwo())
+    assert check_valid_interrupted(out) == 2
+    filler[0].unlink()
+    assert run_campaign(c, out, resume=True).status == "complete"
+    rec = open_run(out).recording(0)
+    np.testing.assert_array_equal(rec.freqs, [44.0, 48.0, 52.0, 56.0])
