@@ -20,7 +20,7 @@ from analysis.models import Model
 
 from . import store
 from .methods.reverse_path import ReversePathOptions, estimate, format_table
-from .outputs import write_json
+from .outputs import atomic_dir, atomic_path, write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
     / "sdof-cubic-quaddamp.toml"
@@ -119,7 +119,8 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     png = cfg.out / "frf-levels.png"
-    fig.savefig(png, dpi=120, bbox_inches="tight")
+    with atomic_path(png) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return png, peaks
 
@@ -163,7 +164,9 @@ def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     from .reports import load_run
 
     run = load_run(run_path)
-    return Path(write_report(run, cfg.out / "report")["html"])
+    with atomic_dir(cfg.out / "report") as tmp:     # figures and page whole, or none
+        write_report(run, tmp)
+    return cfg.out / "report" / "index.html"
 
 
 def run_demo(cfg: DemoConfig) -> dict:

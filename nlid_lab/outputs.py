@@ -1,9 +1,13 @@
-"""Writing command outputs: the no-overwrite guard and JSON results.
+"""Writing command outputs: the no-overwrite guard, whole-or-nothing files and JSON results.
 
 Every command that writes a file checks its targets with `refuse_overwrite` before it starts
 working, so that an existing file is never replaced without ``--force`` (the command exits 2
 with one line naming the file, and the file is left as it was). ``-`` (stdout) is never a file.
 A directory target (``report --out DIR``) is refused when it exists and is not empty.
+Every output is written through `atomic_path` (a directory of files through `atomic_dir`):
+to a temporary name in the same directory, renamed over the target only when whole, so that a
+full disk or a failure leaves the old file (or none), never half a file; a full disk is one
+line naming the file (exit 2).
 Commands print a summary for people on `summary_stream` (stderr with ``--json -``, nothing
 with ``--quiet``).
 """
@@ -11,10 +15,14 @@ with ``--quiet``).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import json
+import os
+import shutil
 import sys
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, Iterator, Sequence, TextIO
 
 import numpy as np
 
@@ -25,6 +33,76 @@ STDOUT = "-"
 
 class OverwriteError(InputError):
     """An output file exists and ``--force`` was not given."""
+
+
+class OutputFullError(InputError):
+    """The disk had no room for an output file; nothing was written."""
+
+
+def _temporary(target: Path) -> Path:
+    """A hidden name beside ``target`` keeping its suffix (writers choose formats by it)."""
+    return target.with_name(f".{target.stem}.part-{os.getpid()}{target.suffix}")
+
+
+def _full(target: Path, exc: OSError) -> OutputFullError:
+    return OutputFullError(f"no room on the disk for {target} ({exc.strerror}); nothing was "
+                           "written: free space or write to another disk")
+
+
+def _is_full(exc: BaseException) -> bool:
+    """A full disk or quota, as an OSError or as the text of a library's error."""
+    return (isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)) \
+        or "No space left" in str(exc) or "errno = 28," in str(exc)
+
+
+@contextlib.contextmanager
+def atomic_path(target: str | Path) -> Iterator[Path]:
+    """Yield a temporary path beside ``target`` to write the output to; when the ``with``
+    body ends without error it is renamed over ``target`` (atomic on one file system),
+    otherwise it is removed and ``target`` left as it was. A full disk becomes
+    `OutputFullError`."""
+    target = Path(target)
+    tmp = _temporary(target)
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    except BaseException as exc:
+        tmp.unlink(missing_ok=True)
+        if _is_full(exc):
+            raise _full(target, exc if isinstance(exc, OSError) else
+                        OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))) from None
+        if isinstance(exc, OSError) and exc.filename == str(tmp):
+            exc.filename = str(target)      # name the file the user asked for
+        raise
+
+
+@contextlib.contextmanager
+def atomic_dir(target: str | Path) -> Iterator[Path]:
+    """Like `atomic_path` for a directory of files (a report): written into a temporary
+    directory beside ``target``; when whole, renamed to ``target`` (an empty or missing
+    one), or its files moved into ``target`` (``--force`` into a full one; renames need no
+    room). On error the temporary directory is removed and ``target`` left as it was."""
+    target = Path(target)
+    tmp = _temporary(target)
+    tmp.mkdir(parents=True, exist_ok=True)
+    try:
+        yield tmp
+        if target.is_dir() and not any(target.iterdir()):
+            target.rmdir()
+        if not target.exists():
+            os.replace(tmp, target)
+            return
+        for item in sorted(tmp.iterdir(), key=lambda p: p.suffix == ".html"):  # page last
+            if (target / item.name).is_dir():
+                shutil.rmtree(target / item.name)
+            os.replace(item, target / item.name)
+        tmp.rmdir()
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if _is_full(exc):
+            raise _full(target, exc if isinstance(exc, OSError) else
+                        OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))) from None
+        raise
 
 
 def add_force_option(p: argparse.ArgumentParser) -> None:
@@ -111,4 +189,12 @@ def write_json(result: dict[str, Any], dest: str | None) -> None:
     if dest == STDOUT:
         print(text)
     else:
-        Path(dest).write_text(text + "\n")
+        with atomic_path(dest) as tmp:
+            tmp.write_text(text + "\n")
+
+
+def with_checks(result: dict[str, Any], checks: Sequence[Any]) -> dict[str, Any]:
+    """``result`` with the data checks of its input runs (`nlid_lab.store.RunCheck`, from
+    `nlid_lab.commands.repair.check_runs`) under ``"data_checks"``: each run's status,
+    blocks stored and planned, whether it is incomplete, and the blocks left out and why."""
+    return {**result, "data_checks": [c.as_dict() for c in checks]}

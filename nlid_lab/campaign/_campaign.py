@@ -27,7 +27,7 @@ from drivers.errors import CommsError
 from ._campaign_bench import Bench, open_bench
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
-from ..store import LevelWriter, RunWriter
+from ..store import DiskFullError, LevelWriter, RunWriter, left_out_text, require_room
 
 
 MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
@@ -175,7 +175,7 @@ class _Runner:
                 self._level_end(lw, level, plan.averages)
                 continue
             drive = min(level / self.gain, self.c.max_drive)
-            seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.n_segments
+            seed = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i + lw.next_seq
             self._start(RandomOutput(plan.band, seed), drive)
             drive, data, t0 = self._control_rms(plan, level, drive)
             while lw.n_segments < plan.averages:
@@ -201,7 +201,7 @@ class _Runner:
             base = (self.c.plant.seed if self.c.plant else 0) * 1000 + 100 * i
             controlled = False
             while lw.n_segments < plan.averages:
-                self._start(MultisineOutput(plan.band, plan.block_size, base + lw.n_segments),
+                self._start(MultisineOutput(plan.band, plan.block_size, base + lw.next_seq),
                             drive)
                 if not controlled:   # on whole periods: a period's rms is the level's
                     drive = self._control_rms(plan, level, drive)[0]
@@ -256,12 +256,13 @@ class _Runner:
         for i, amp in enumerate(plan.levels):
             self.level = i
             lw = self._level_start(i, amp, n_steps)
-            first = lw.n_segments
-            if first < n_steps:
+            stored = lw.stored_seqs()     # step k is stored as seq k: resume records the rest
+            todo = [k for k in range(n_steps) if k not in stored]
+            if todo:
                 drive = min(amp / self.gain, self.c.max_drive)
-                self._start(SineOutput(plan.freqs[first]), drive)
-                for k in range(first, n_steps):
-                    if k > first:
+                self._start(SineOutput(plan.freqs[todo[0]]), drive)
+                for k in todo:
+                    if k != todo[0]:
                         self.bench.shaker.set_frequency(plan.freqs[k])
                     drive, famp = self._step(lw, i, k, plan, amp, drive)
                     self._stored(lw, amp, n_steps, famp, drive)
@@ -307,7 +308,7 @@ class _Runner:
                  "channels": [ch.name for ch in self.c.channels],
                  "control_error": famp / amp - 1, "settle_blocks": blocks,
                  "settled": bool(settled), "drive": drive}
-        lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0)
+        lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0, seq=k)
         self.observer.step(level, k, freq, force, resp, famp / amp - 1,
                            hs[:, self.resp_cols])
         return drive, famp
@@ -436,14 +437,20 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
     ``on_bench(bench)`` is called once the devices are open (tests use it to reach the
     emulators). Setting ``stop`` (from another thread) ends the campaign at the next DAQ
     chunk like Ctrl-C: drive ramped to zero, run marked interrupted (resumable),
-    `KeyboardInterrupt` raised. Raises `CampaignAborted` on a safety limit and
-    `drivers.errors.CommsError` on communication failure; the run file is marked aborted
-    and keeps its data either way. An existing ``out`` is refused unless ``resume`` (continue
-    it) or ``overwrite`` (replace it).
+    `KeyboardInterrupt` raised. The disk must hold the plan's data before the devices are
+    opened, and each block before it is written: otherwise (or when a write fails on a full
+    disk) `nlid_lab.store.DiskFullError` is raised, the drive ramped to zero and the run
+    marked interrupted with every stored block intact (resumable). Raises `CampaignAborted`
+    on a safety limit and `drivers.errors.CommsError` on communication failure; the run file
+    is marked aborted and keeps its data either way. An existing ``out`` is refused unless
+    ``resume`` (continue it) or ``overwrite`` (replace it).
     """
     out = Path(out)
     observer = Watchers(*observer) if isinstance(observer, Sequence) else Watchers(observer)
     status = "aborted"
+    stored = out.stat().st_size if resume and out.is_file() else 0
+    require_room(out, max(c.stored_bytes() - stored, 0),
+                 "the rest of the plan" if stored else "the plan")
     with open_bench(c) as bench:
         if on_bench is not None:
             on_bench(bench)
@@ -460,10 +467,14 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
                        mode="resume" if resume else "overwrite" if overwrite else "create"
                        ) as writer:
             runner = _Runner(c, bench, writer, observer, stop)
+            if writer.dropped:
+                runner.warnings.append(f"resume: {len(writer.dropped)} damaged block(s) "
+                                       f"dropped and recorded again "
+                                       f"({left_out_text(writer.dropped)})")
             try:
                 runner.run()
                 status = "complete"
-            except KeyboardInterrupt:
+            except (KeyboardInterrupt, DiskFullError):
                 status = "interrupted"
                 raise
             finally:

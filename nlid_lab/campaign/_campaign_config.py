@@ -136,6 +136,19 @@ class Campaign:
         return samples / self.fs, len(self.levels) * hi * self.plan.block_size / self.fs, \
             samples * len(self.channels) * 8
 
+    def stored_bytes(self) -> int:
+        """Bytes the run file holds at the end of the plan: the samples of every stored
+        block or step on every channel (float64) and each step's harmonics (JSON) in
+        stepped-sine runs."""
+        p, n_ch = self.plan, len(self.channels)
+        per_level = p.averages * (p.transient_periods + p.periods if p.periodic else 1) \
+            if isinstance(p, RandomSpec) else len(p.freqs) if isinstance(p, SteppedSpec) \
+            else self.blocks_per_level()[0] - 2
+        samples = per_level * p.block_size
+        text = len(p.freqs) * 48 * n_ch * (p.harmonics + 1) \
+            if isinstance(p, SteppedSpec) else 0
+        return len(self.levels) * (samples * n_ch * 8 + text)
+
     def plan_summary(self) -> str:
         """One line: the planned measurement time and recorded data."""
         lo, hi, nbytes = self.plan_size()

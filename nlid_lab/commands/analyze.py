@@ -15,7 +15,8 @@ def run(args: argparse.Namespace) -> int:
     from analysis.recordings import model_at_sensors, one_kind
 
     from .. import methods
-    from ..outputs import refuse_overwrite, summary_stream, write_json
+    from ..outputs import refuse_overwrite, summary_stream, with_checks, write_json
+    from .repair import check_runs
     from ..formats import load_recordings
     from ..store import check_result_target, save_result
 
@@ -29,12 +30,13 @@ def run(args: argparse.Namespace) -> int:
     if args.store and all(el.known for el in model.elements):
         raise InputError(f"--store saves estimated parameters but {args.model} has none to "
                          "estimate; drop --store (screening results go to --json)")
+    checks = check_runs(args.runs)
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     # the model at the measured points, in channel order (sensor maps, analysis.sensors)
     model = model_at_sensors(model, recs, f"analyze {args.method} (it forms each unknown "
                              "element's basis from the measured responses)")
     estimate = method.estimate(recs, model, options)
-    out = estimate.to_json()
+    out = with_checks(estimate.to_json(), checks)   # stored too: which blocks it used
     # with --json - the table goes to stderr so stdout stays pure JSON
     print(estimate.table(), file=summary_stream(args.json, args.quiet))
     write_json(out, args.json)

@@ -134,27 +134,30 @@ def resume_command(args: argparse.Namespace) -> str:
     return shlex.join(argv + ["--quiet"] * args.quiet)
 
 
+def _kept(args: argparse.Namespace, unit: str, planned: int) -> str:
+    """What a stopped campaign kept in its run file, in a few words."""
+    from ..store import open_run
+
+    try:
+        run = open_run(args.out)
+    except Exception as exc:  # noqa: BLE001 - the interruption is the news, not this
+        return (f"{args.out} could not be read ({exc}); `nlid-lab repair "
+                f"{shlex.quote(args.out)}` may recover it")
+    done = sum(lv.complete for lv in run.levels)
+    levels = ", ".join(f"level {lv.index + 1}: {lv.n_segments}/{planned}"
+                       f"{' (complete)' if lv.complete else ''}" for lv in run.levels)
+    return (f"kept {sum(lv.n_segments for lv in run.levels)} {unit}s ({levels}; {done} of "
+            f"{len(run.levels)} level(s) complete) in {args.out}, marked {run.status}")
+
+
 def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
                      started: bool) -> None:
     """What an interrupted campaign kept, and how to continue it (stderr, even --quiet)."""
-    from ..store import open_run
-
     if not started:
         print(f"campaign interrupted before {args.out} was opened: nothing recorded; run the "
               "same command again", file=sys.stderr)
         return
-    try:
-        run = open_run(args.out)
-    except Exception as exc:  # noqa: BLE001 - the interruption is the news, not this
-        print(f"campaign interrupted; {args.out} could not be read ({exc}); "
-              f"`nlid-lab repair {shlex.quote(args.out)}` may recover it", file=sys.stderr)
-        return
-    done = sum(lv.complete for lv in run.levels)
-    levels = ", ".join(f"level {lv.index + 1}: {lv.n_segments}/{planned}"
-                       f"{' (complete)' if lv.complete else ''}" for lv in run.levels)
-    print(f"campaign interrupted: kept {sum(lv.n_segments for lv in run.levels)} {unit}s "
-          f"({levels}; {done} of {len(run.levels)} level(s) complete) in {args.out}, marked "
-          f"{run.status}", file=sys.stderr)
+    print(f"campaign interrupted: {_kept(args, unit, planned)}", file=sys.stderr)
     print(f"continue it with: {resume_command(args)}", file=sys.stderr)
 
 
@@ -163,6 +166,7 @@ def _run(args: argparse.Namespace) -> int:
     from ..campaign import load_campaign, load_plant_model
     from ..outputs import refuse_overwrite, summary_stream, write_json
     from ..progress import CampaignProgress
+    from ..store import DiskFullError
 
     refuse_overwrite(args.force, None if args.resume else args.out, args.json)
     campaign = load_campaign(args.campaign)
@@ -190,6 +194,12 @@ def _run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         _say_interrupted(args, unit, planned, started.started)
         raise
+    except DiskFullError as exc:
+        if not started.started:
+            raise
+        raise DiskFullError(f"{exc}; campaign stopped, drive at zero: "
+                            f"{_kept(args, unit, planned)}; free space, then continue with: "
+                            f"{resume_command(args)}") from None
     write_json(result.as_dict(), args.json)
     lost = (f", lost {result.lost_samples} samples in {result.lost_frames} frames (counted in "
             "the run)" if result.lost_samples or result.lost_frames else "")

@@ -6,7 +6,7 @@ import argparse
 from typing import TYPE_CHECKING
 
 from ..outputs import (add_force_option, add_quiet_option, level_text, refuse_overwrite,
-                       summary_stream, write_json)
+                       summary_stream, with_checks, write_json)
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
@@ -62,11 +62,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..formats import load_recordings
     refuse_overwrite(args.force, args.json)
-    check_runs(args.runs, args.repair)
+    checks = check_runs(args.runs, args.repair)
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     result = detect(recs, nperseg=args.nperseg)
     print(format_tests(result), file=summary_stream(args.json, args.quiet))
-    write_json(result.to_json(), args.json)
+    write_json(with_checks(result.to_json(), checks), args.json)
     return 0
 
 

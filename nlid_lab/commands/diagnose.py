@@ -66,7 +66,9 @@ def run(args: argparse.Namespace) -> int:
     from analysis.models import Model
     from analysis.recordings import at_points, model_at_sensors, one_kind
 
-    from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
+    from nlid_lab.commands.repair import check_runs
+    from nlid_lab.outputs import (atomic_dir, atomic_path, refuse_overwrite, summary_stream,
+                                  with_checks, write_json)
     from nlid_lab.progress import progress
     from nlid_lab.formats import load_recordings
     from nlid_lab.store import open_run, save_result
@@ -78,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
                                      "an HDF5 run (.h5); pass one of the runs")
         open_run(args.store)     # fails early (exit 2) when it is not a run file
     model = Model.load(args.model)
+    checks = check_runs(args.runs)
     recs = [one_kind(r) for path in args.runs for r in load_recordings(path)]
     if any(r.excitation == "swept-sine" for r in recs):
         raise DiagnoseInputError("diagnose takes random, multisine or stepped-sine runs, "
@@ -98,10 +101,12 @@ def run(args: argparse.Namespace) -> int:
                      period=period, progress=lambda done, total, stage: _show(bar, done, total,
                                                                               stage))
     if args.model_out:
-        at_points(d.model, full).save(args.model_out)
+        with atomic_path(args.model_out) as tmp:
+            at_points(d.model, full).save(tmp)
     if args.report:
-        write_report(d, Path(args.report))
-    result = d.to_json()
+        with atomic_dir(args.report) as tmp:
+            write_report(d, tmp)
+    result = with_checks(d.to_json(), checks)   # stored too: which blocks it used
     if args.store:
         save_result(args.store, RESULT_NAME, result)
     write_json(result, args.json)

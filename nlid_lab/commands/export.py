@@ -9,7 +9,8 @@ from pathlib import Path
 from analysis.errors import InputError
 
 from ..formats import _recordings_io as recordings_io
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import add_force_option, atomic_path, refuse_overwrite, with_checks, write_json
+from .repair import check_runs
 
 
 def run(args: argparse.Namespace) -> int:
@@ -21,17 +22,21 @@ def run(args: argparse.Namespace) -> int:
     if suffix not in (".npz", ".csv", ".mat"):
         raise InputError(f"--out {out}: export to a .npz, .csv or .mat recording")
     refuse_overwrite(args.force, out, args.json)
+    checks = check_runs([args.run])
     rec = open_run(args.run).recording(args.level)
-    if suffix == ".mat":
-        from ..formats import write_mat
-        write_mat(out, rec)
-    else:
-        (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(out, rec)
+    with atomic_path(out) as tmp:
+        if suffix == ".mat":
+            from ..formats import write_mat
+            write_mat(tmp, rec)
+        else:
+            (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(tmp, rec)
     if args.json != "-":
         print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
               f"-> {out}")
-    write_json({"out": str(out), "run": str(args.run), "level": rec.meta["level_index"],
-                "keys": sorted(recordings_io.recording_keys(rec))}, args.json)
+    write_json(with_checks({"out": str(out), "run": str(args.run),
+                            "level": rec.meta["level_index"],
+                            "keys": sorted(recordings_io.recording_keys(rec))}, checks),
+               args.json)
     return 0
 
 

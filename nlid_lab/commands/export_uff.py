@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import (add_force_option, atomic_path, refuse_overwrite, with_checks,
+                       write_json)
 from ..progress import progress
+from .repair import check_runs
 
 
 def run(args: argparse.Namespace) -> int:
@@ -14,18 +16,21 @@ def run(args: argparse.Namespace) -> int:
     from ..reports import _uff as uff
     refuse_overwrite(args.force, args.out, args.json)
     from ..reports import all_level_frfs, load_run
+    checks = check_runs([args.run])
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)
     sets = uff.datasets(frfs, data.name)
     with progress(total=len(sets), desc="export-uff: write", unit="set") as bar:
-        uff.write_uff(args.out, sets, bar.update)
+        with atomic_path(args.out) as tmp:
+            uff.write_uff(tmp, sets, bar.update)
     kinds = {uff.FUNC_FRF: "frf", uff.FUNC_COHERENCE: "coherence"}
     counts = {name: sum(s["func_type"] == t for s in sets) for t, name in kinds.items()}
     if args.json != "-":
         print(f"wrote {len(sets)} UFF58 datasets ({counts['frf']} FRF, {counts['coherence']} "
               f"coherence) to {args.out}")
-    write_json({"uff": str(Path(args.out)), "datasets": len(sets), **counts}, args.json)
+    write_json(with_checks({"uff": str(Path(args.out)), "datasets": len(sets), **counts},
+                           checks), args.json)
     return 0
 
 

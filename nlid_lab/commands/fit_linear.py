@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 from analysis.errors import InputError
 
-from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
-                       write_json)
+from ..outputs import (add_force_option, add_quiet_option, atomic_path, refuse_overwrite,
+                       summary_stream, with_checks, write_json)
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..formats import load_recordings
     refuse_overwrite(args.force, args.out, args.json, args.plot)
-    check_runs(args.runs, args.repair)
+    checks = check_runs(args.runs, args.repair)
     recs = [one_kind(rec) for path in args.runs for rec in load_recordings(path)]
     if args.level is None:
         rec = min(recs, key=record_level)
@@ -59,18 +59,22 @@ def run(args: argparse.Namespace) -> int:
     n_modes = None if args.modes == "auto" else _modes(args.modes)
     fit = fit_linear(rec, None if args.band is None else tuple(args.band), n_modes=n_modes,
                      points=points, name=f"fit-linear of {Path(args.runs[0]).name}")
-    fit.model.save(args.out)
+    with atomic_path(args.out) as tmp:
+        fit.model.save(tmp)
     if args.plot:
         from ..reports import stabilisation
-        stabilisation(fit).savefig(args.plot)
+        with atomic_path(args.plot) as tmp:
+            stabilisation(fit).savefig(tmp)
     result = LinearFitSummary.of(fit, rec.level)
     said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
                    for _ in result.interference[:1])
-    text = (f"fitted on {level_name(rec)}{said}\n"
+    text = (f"fitted on {level_name(rec)}{said}
+"
             + format_summary(result, rec.response_kind)
-            + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
+            + f"
+wrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
-    write_json(result.to_json(), args.json)
+    write_json(with_checks(result.to_json(), checks), args.json)
     return 0
 
 

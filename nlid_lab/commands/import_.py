@@ -15,7 +15,7 @@ from analysis.spectral import HELD_UNITS
 
 from ..formats import _recordings_io as recordings_io, _sensor_files, describe, parse_sweep_option
 from .. import store
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import add_force_option, atomic_path, refuse_overwrite, write_json
 
 
 def _sweep_keys(args: argparse.Namespace) -> dict:
@@ -208,8 +208,9 @@ def run(args: argparse.Namespace) -> int:
         recs = [_sensor_files.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
-    store.save_recording(out, recs, source="import",
-                         settings={"imported_from": [str(s) for s in sources]})
+    with atomic_path(out) as tmp:         # no half run on a full disk
+        store.save_recording(tmp, recs, source="import",
+                             settings={"imported_from": [str(s) for s in sources]})
     rec = recs[0]
     result = {"out": str(out), "source": [str(s) for s in sources], "levels": len(recs),
               "excitation": rec.excitation, "fs": rec.fs, "force_dofs": rec.force_dofs,

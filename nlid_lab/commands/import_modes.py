@@ -12,8 +12,8 @@ import numpy as np
 from analysis.models import Model
 
 from ..formats import FEModes, parse_point, read_modes, to_model
-from ..outputs import add_force_option, add_quiet_option, refuse_overwrite, summary_stream, \
-    write_json
+from ..outputs import (add_force_option, add_quiet_option, atomic_path, refuse_overwrite,
+                       summary_stream, write_json)
 
 _NORMALISATION = {
     "modal mass": "shapes divided by the square root of the file's modal mass",
@@ -68,7 +68,8 @@ def run(args: argparse.Namespace) -> int:
     modes = read_modes(args.file, args.load_case)
     model, index = to_model(modes, points, None if args.band is None else tuple(args.band),
                      args.damping, name=f"FE modes of {Path(args.file).name}")
-    model.save(args.out)
+    with atomic_path(args.out) as tmp:
+        model.save(tmp)
     result = summary(modes, model, index, args.damping)
     print(format_summary(result) + f"\nwrote {args.out}", file=summary_stream(args.json,
                                                                              args.quiet))

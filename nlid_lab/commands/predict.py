@@ -12,8 +12,8 @@ import numpy as np
 
 from analysis.errors import InputError
 
-from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
-                       write_json)
+from ..outputs import (add_force_option, add_quiet_option, atomic_path, refuse_overwrite,
+                       summary_stream, write_json)
 
 if TYPE_CHECKING:
     from analysis.hbm import Branch
@@ -78,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     print(_summary(curves, shown), file=out)
     if args.plot:
         from ..reports import response_curves as figure
-        figure(branches, args.amplitude, shown, model.name, (lo, hi)).savefig(args.plot)
+        with atomic_path(args.plot) as tmp:
+            figure(branches, args.amplitude, shown, model.name, (lo, hi)).savefig(tmp)
         print(f"figure: {args.plot}", file=out)
     write_json(result, args.json)
     return 0

@@ -14,7 +14,9 @@ def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab reanalyze`` on the parsed ``args``; returns the exit code."""
     from analysis.models import Model
     from nlid_lab import methods
-    from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
+    from nlid_lab.commands.repair import check_runs
+    from nlid_lab.outputs import (atomic_path, refuse_overwrite, summary_stream, with_checks,
+                                  write_json)
     from nlid_lab.reanalyze import (ReanalysisError, check_request, dask_client,
                                     expand_runs, reanalyze, write_results)
 
@@ -28,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out and not Path(args.out).resolve().parent.is_dir():
         raise ReanalysisError(f"--out {args.out}: its directory does not exist; create it "
                               "first (checked before the runs are analysed)")
+    checks = check_runs(runs, skip_unreadable=True)
     with dask_client(args.workers, args.scheduler) as client:
         result = reanalyze(runs, model, client, args.method, options,
                            progress=not (args.no_progress or args.quiet),
@@ -35,9 +38,10 @@ def run(args: argparse.Namespace) -> int:
     to = summary_stream(args.json, args.quiet)  # stderr with --json -: stdout stays JSON
     print(result.summary(), file=to)
     if args.out:
-        write_results(result, args.out)
+        with atomic_path(args.out) as tmp:
+            write_results(result, tmp)
         print(f"results: {args.out}", file=to)
-    write_json({"out": args.out, **result.to_json()}, args.json)
+    write_json(with_checks({"out": args.out, **result.to_json()}, checks), args.json)
     return 0 if result.n_failed == 0 else 1
 
 

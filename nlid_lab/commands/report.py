@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import add_force_option, atomic_dir, refuse_overwrite, with_checks, write_json
 from ..progress import progress
 from .repair import check_runs, repair_option
 
@@ -16,15 +17,16 @@ def run(args: argparse.Namespace) -> int:
     from ..reports import write_report
     from ..reports import all_level_frfs, load_run
     refuse_overwrite(args.force, args.json, directories=(args.out,))
-    check_runs([args.run], args.repair)
+    checks = check_runs([args.run], args.repair)
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="report: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)
     candidate = Model.load(args.model) if args.model else None
-    with progress(desc="report: figures", unit="fig") as bar:
-        result = write_report(data, args.out, bar.update, frfs=frfs, candidate=candidate)
+    with progress(desc="report: figures", unit="fig") as bar, atomic_dir(args.out) as tmp:
+        result = write_report(data, tmp, bar.update, frfs=frfs, candidate=candidate)
+    result["html"] = str(Path(args.out) / "index.html")   # figures and page moved there whole
     print(result["html"])
-    write_json(result, args.json)
+    write_json(with_checks(result, checks), args.json)
     return 0
 
 

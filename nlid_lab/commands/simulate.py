@@ -15,7 +15,7 @@ from analysis.recordings import RESPONSE_KINDS, Recording, SensorMap
 from ..formats import _recordings_io as recordings_io, _sensor_files
 from ..formats import read_drive
 from .. import sim_budget
-from ..outputs import add_force_option, refuse_overwrite, write_json
+from ..outputs import add_force_option, atomic_path, refuse_overwrite, write_json
 from ..progress import progress
 
 if TYPE_CHECKING:
@@ -129,13 +129,14 @@ def run(args: argparse.Namespace) -> int:
         drive["sensors"] = _sensor_files.read_sensors(args.sensors)
     rec = simulate_drive(model, drive, response_kind=args.response_kind,
                          noise_std=args.noise, seed=args.seed, oversample=args.oversample)
-    if out.suffix.lower() == ".npz":
-        recordings_io.write_npz(out, rec)
-    else:
-        store.save_recording(out, rec, source="sim", model_toml=model_path.read_text(),
-                             settings={"drive": str(args.drive), "noise_std": args.noise,
-                                       "seed": args.seed,
-                                       "oversample": rec.meta["oversample"]})
+    with atomic_path(out) as tmp:         # no half file on a full disk
+        if out.suffix.lower() == ".npz":
+            recordings_io.write_npz(tmp, rec)
+        else:
+            store.save_recording(tmp, rec, source="sim", model_toml=model_path.read_text(),
+                                 settings={"drive": str(args.drive), "noise_std": args.noise,
+                                           "seed": args.seed,
+                                           "oversample": rec.meta["oversample"]})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,

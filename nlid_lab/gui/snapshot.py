@@ -7,6 +7,8 @@ from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
 
+from ..outputs import atomic_path
+
 
 def application() -> QtWidgets.QApplication:
     """The running QApplication, or a new one (offscreen when no display is available)."""
@@ -28,8 +30,9 @@ def render(widget: QtWidgets.QWidget, path: str | Path, size: tuple[int, int] = 
         app.processEvents()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if not widget.grab().save(str(path), "PNG"):
-        raise OSError(f"could not write {path}")
+    with atomic_path(path) as tmp:
+        if not widget.grab().save(str(tmp), "PNG"):
+            raise OSError(f"could not write {path}")
     return path
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from analysis.errors import InputError
 from analysis.recordings import StepTable
 
+from ..outputs import atomic_path
 from .registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
@@ -214,7 +215,8 @@ def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarr
                                  H=lv.frf[:, :, None]))
         curves.append(model_curve(system, lv.freqs, amp, "displacement"))
     dest.parent.mkdir(parents=True, exist_ok=True)
-    report_figures.fitted_frfs(measured, curves, dof).savefig(dest)
+    with atomic_path(dest) as tmp:
+        report_figures.fitted_frfs(measured, curves, dof).savefig(tmp)
     written = [dest]
     amp = max(float(np.abs(c.H).max()) * float(np.median(lv.force))
               for c, lv in zip(curves, levels))
@@ -224,7 +226,8 @@ def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarr
             loops[f"{label} element {e} ({el.kind})"] = loop(el.kind, el.params, amp)
     if loops and amp > 0:
         loop_path = dest.with_name(dest.stem + "-loop.png")
-        report_figures.hysteresis_loops(loops).savefig(loop_path)
+        with atomic_path(loop_path) as tmp:
+            report_figures.hysteresis_loops(loops).savefig(tmp)
         written.append(loop_path)
     return written
 

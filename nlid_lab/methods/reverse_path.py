@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from analysis.errors import EstimationError, InputError
 
+from ..outputs import atomic_path
 from .registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
@@ -164,8 +165,8 @@ class ReversePathEstimate:
         if (not self.candidate_out or self.screening is None or self.model is None
                 or not self.screening.snippet()):
             return []
-        with open(self.candidate_out, "w") as fh:
-            fh.write(self.model.dumps() + "\n" + self.screening.snippet())
+        with atomic_path(self.candidate_out) as tmp:
+            tmp.write_text(self.model.dumps() + "\n" + self.screening.snippet())
         return [self.candidate_out]
 
 

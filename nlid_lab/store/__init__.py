@@ -17,13 +17,17 @@ Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recor
 """
 
 from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
-from .reader import (Level, Run, check_result_target, open_run, repair_run, save_recording,
-                     save_result)
+from .reader import (DamagedRunError, Level, Run, check_result_target, open_run,
+                     repair_run, save_recording, save_result)
+from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_text
+from ._space import DiskFullError, require_room
 from .tables import TableError, read_table, write_table
 from .writer import LevelWriter, RunWriter
 
 __all__ = [
-    "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now",
+    "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now", "DiskFullError", "require_room",
+    "DamagedRunError", "LeftOut", "LeftOutReason", "Repaired", "RunCheck",
+    "left_out_text",
     "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
     "save_result",
     "TableError", "read_table", "write_table",

@@ -214,9 +214,13 @@ def _write_text(f: h5py.File, payload: Any) -> tuple[int, int]:
 
 
 def _append_log(f: h5py.File, kind: str, payload: dict) -> None:
+    # both datasets held open until the flush: a chunk that fails to be written (full disk)
+    # then raises at the flush, not in a handle's deallocation, where h5py only prints it
+    held = (f["text"], f["log"])
     start, length = _write_text(f, payload)
     _append_row(f, "log", (time.time(), kind.encode()[:16], start, length))
     f.flush()
+    del held
 
 
 def _json_default(obj: Any) -> Any:

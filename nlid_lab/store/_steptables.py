@@ -84,7 +84,7 @@ def save_tables(path: str | os.PathLike, tables: Sequence[StepTable], *, source:
     kind = first.response_kind if first.sensors is None else first.sensors.response_kinds[0]
     chans = _channel_table(_default_channels(first.force_dofs, first.n_dof, kind,
                                              first.sensors), first.force_dofs, first.n_dof)
-    from .writer import _create
+    from ._rebuild import _create
 
     def fill(f: h5py.File) -> None:
         f["levels"].resize((len(tables),))

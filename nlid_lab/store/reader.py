@@ -13,10 +13,14 @@ import numpy as np
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, StepTable, Sweep
 
 from ._common import (FORMAT, StoreError, _append_log, _crc,
-                      _json_at, _open, _open_swmr_write, _read_extra, _read_status, _valid_segments,
-                      writer_left_open)
-from .writer import RunWriter, _repair
+                      _json_at, _json_default, _open, _open_swmr_write, _read_extra,
+                      _read_status, _valid_segments, writer_left_open)
+from ._integrity import (Damage, LeftOut, LeftOutReason, Repaired, RunCheck, json_text,
+                         planned_blocks)
+from ._rebuild import REBUILT_ATTRS, _repair
+from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
 from ._steptables import TABLES_SCHEMA_VERSION, is_table_run, read_table, save_tables, table_steps
+from .writer import RunWriter
 
 # --- read side -------------------------------------------------------------------------------
 
@@ -60,6 +64,12 @@ class Run:
     left_open: bool = False
     """The file still carries its writer's "open for write" flag: the writer is running or
     was killed. Plain HDF5 tools cannot open it until `repair_run` rebuilds it."""
+    left_out: list[LeftOut] = field(default_factory=list)
+    """Blocks left out so far: samples not on disk (found when opening), failing their
+    checksum (found by `recording`, or by `check` for the whole run)."""
+    notes: list[str] = field(default_factory=list)
+    """Facts about the file readers say (blocks naming a level ``/levels`` lacks)."""
+    _checked: set[int] = field(default_factory=set, repr=False)
 
     @property
     def sensors(self) -> SensorMap | None:
@@ -81,17 +91,43 @@ class Run:
             "force_hold") or "none"
 
     @property
+    def planned(self) -> int | None:
+        """Blocks, steps or sweeps the campaign planned (None when the run does not say)."""
+        return planned_blocks(self.meta.get("excitation_settings") or {})
+
+    @property
     def incomplete(self) -> str:
-        """Why the run is incomplete, in a few words; ``""`` for a complete run."""
+        """Why the run is incomplete, after "run is" (``incomplete: 3 of 8 blocks; ...``);
+        ``""`` for a complete run."""
+        stored, planned = len(self.segments), self.planned
+        count = f"{stored} of {planned} blocks" if planned else f"{stored} blocks"
         done = sum(lv.complete for lv in self.levels)
-        levels = f"{done} of {len(self.levels)} level(s) complete, {len(self.segments)} blocks"
+        levels = f"{done} of {len(self.levels)} level(s) complete"
         if self.status == "running":
             how = ("its writer is still running or was killed" if self.left_open else
                    "its writer stopped without closing it")
-            return f"incomplete ({how}; {levels})"
+            return f"incomplete: {count} ({how}; {levels})"
         if self.status != "complete":
-            return f"incomplete ({self.status}: {self.reason or 'no reason given'}; {levels})"
+            return (f"incomplete: {count} ({self.status}: {self.reason or 'no reason given'};"
+                    f" {levels})")
         return ""
+
+    def check(self) -> RunCheck:
+        """Verify every block's checksum (reading each level once) and say what readers
+        leave out and how much of its plan the run holds."""
+        for lv in self.levels:
+            if lv.n_segments and lv.index not in self._checked:
+                if is_table_run(self.meta):     # a damaged table raises, naming the fix
+                    self.recording(lv.index)
+                    self._checked.add(lv.index)
+                else:
+                    self._verified(lv.index)
+        return RunCheck(str(self.path), self.status,
+                        len(self.segments) - sum(b.reason is LeftOutReason.CHECKSUM
+                                                 for b in self.left_out),
+                        self.planned, self.incomplete,
+                        tuple(sorted(self.left_out, key=lambda b: (b.level, b.seq))),
+                        tuple(self.notes))
 
     def level_index(self, level: int | None) -> int:
         """Resolve ``level`` (None: the only level with data) to a stored level index."""
@@ -107,7 +143,7 @@ class Run:
 
     def recording(self, level: int | None = None) -> Recording | StepTable:
         """The data of one level as a `Recording` (blocks concatenated in sequence order), or
-        as a `StepTable` in a table run.
+        as a `StepTable` in a table run (its checksum verified).
 
         Stepped-sine steps of different lengths are cut to the shortest, keeping each step's
         last samples (the most settled ones).
@@ -116,23 +152,11 @@ class Run:
         if is_table_run(self.meta):
             with _open(self.path, "r") as f:
                 return read_table(f, index, self.meta, self.sensors)
-        seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
-        lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
+        seg, parts, extra = self._verified(index)
         units = self.monitor_units
-        with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
-            force, response, text = f["data/force"][lo:hi], f["data/response"][lo:hi], f["text"]
-            monitor = f["data/monitor"][lo:hi] if units else None
-            extra = [_json_at(text, s["extra_start"], s["extra_length"]) for s in seg]
-        parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n],
-                  None if monitor is None else monitor[s - lo:s - lo + n])
-                 for s, n in zip(seg["start"], seg["length"])]
-        keep = [i for i, p in enumerate(parts) if _crc(*p) == seg["crc"][i]]
-        if len(keep) < len(seg):
-            self.warnings.append(f"level {index}: {len(seg) - len(keep)} block(s) failed their "
-                                 "checksum and were skipped")
-        seg, parts, extra = seg[keep], [parts[i] for i in keep], [extra[i] for i in keep]
         if not parts:
-            raise StoreError(f"{self.path} level {index}: no intact block")
+            raise StoreError(f"{self.path} level {index}: no intact block (every block failed "
+                             "its checksum)")
         nominal = next(lv.nominal for lv in self.levels if lv.index == index)
         meta = {"run": str(self.path), "level_index": index, "source": self.meta.get("source"),
                 "status": self.status, "seq": seg["seq"], "t": seg["t"],
@@ -178,6 +202,31 @@ class Run:
                          monitors=monitors(lambda cols: np.stack([c[-n:] for c in cols])),
                          **common)
 
+    def _verified(self, index: int) -> tuple[np.ndarray, list, list]:
+        """Segments of level ``index`` in ``seq`` order whose checksum holds, their samples
+        (force, response, monitor) and extra JSON; the others are noted in ``left_out`` and
+        ``warnings`` (once per level)."""
+        seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
+        lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
+        with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
+            force, response, text = f["data/force"][lo:hi], f["data/response"][lo:hi], f["text"]
+            monitor = f["data/monitor"][lo:hi] if self.monitor_units else None
+            extra = [_extra_json(text, s) for s in seg]
+        parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n],
+                  None if monitor is None else monitor[s - lo:s - lo + n])
+                 for s, n in zip(seg["start"], seg["length"])]
+        why = [LeftOutReason.CHECKSUM if _crc(*p) != seg["crc"][i] else
+               LeftOutReason.TEXT_DAMAGED if extra[i] is Damage else None
+               for i, p in enumerate(parts)]
+        keep = [i for i, w in enumerate(why) if w is None]
+        if len(keep) < len(seg) and index not in self._checked:
+            bad = [LeftOut(index, int(seg["seq"][i]), w) for i, w in enumerate(why) if w]
+            self.left_out += bad
+            self.warnings += [f"level {index}: block {b.seq} {b.reason}; left out"
+                              for b in bad]
+        self._checked.add(index)
+        return seg[keep], [parts[i] for i in keep], [extra[i] for i in keep]
+
     def _layout(self, parts: list) -> PeriodicLayout | None | bool:
         """Periodic layout of a level, one block per realization (the reverse path splits
         the record into periods); None for plain random runs, False when a block does not
@@ -202,52 +251,155 @@ class Run:
         return [self.recording(lv.index) for lv in self.levels if lv.n_segments]
 
 
+def _extra_json(text, s) -> Any:
+    """A segment's extra JSON (None: none), `Damage` (the class) when its text is
+    damaged."""
+    try:
+        return _json_at(text, s["extra_start"], s["extra_length"])
+    except ValueError:
+        return Damage
+
+
+class DamagedRunError(StoreError):
+    """A run file's structure or metadata is damaged (a table missing, text or JSON that
+    does not parse): named with the fix, never an internal error."""
+
+
+REPAIRABLE = "`nlid-lab repair {path}` rebuilds it without the damaged part, keeping every " \
+    "intact block"
+UNREPAIRABLE = "no tool can recover its blocks from it: restore the file from a copy or " \
+    "record the run again"
+
+
+def _table(f, name: str):
+    """Dataset ``name`` of a run file; `Damage` when it is missing."""
+    if name not in f:
+        raise Damage(f"its /{name} is missing", name in ("log", "text"))
+    return f[name]
+
+
+def _meta(f, path: Path) -> dict[str, Any]:
+    """Root attributes, JSON ones parsed; `Damage` naming a damaged one."""
+    meta = {}
+    for key in f.attrs:
+        try:
+            value = f.attrs[key]
+        except (UnicodeDecodeError, OSError) as exc:
+            raise Damage(f"its attribute '{key}' is unreadable ({type(exc).__name__})",
+                          key in REBUILT_ATTRS) from None
+        meta[key] = value.item() if isinstance(value, np.generic) else value
+    missing = [k for k in ("format", "schema_version", "fs", "excitation", "force_dofs",
+                           "n_dof", "response_kind") if k not in meta]
+    if missing:
+        raise Damage(f"its attribute(s) {', '.join(missing)} are missing", False)
+    if meta.get("format") != FORMAT:
+        raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
+    for key in ("excitation_settings", "settings", "sensors", "monitors"):
+        if key in meta:
+            json_text(str(meta[key]).encode(errors="surrogateescape"),
+                      f"its attribute '{key}'", key in REBUILT_ATTRS)
+    for key in ("excitation_settings", "settings"):
+        meta[key] = json.loads(meta.get(key) or "{}")
+    meta["force_dofs"] = np.asarray(meta["force_dofs"], dtype=int)
+    return meta
+
+
+def _log(f) -> list[dict[str, Any]]:
+    """The log's complete entries; `Damage` naming an entry whose text is damaged."""
+    text = _table(f, "text")[:]
+    out = []
+    for i, row in enumerate(_table(f, "log")[:]):
+        if row["start"] + row["length"] > text.size:
+            continue                # its text never reached the disk: not an entry yet
+        payload = json_text(text[row["start"]:row["start"] + row["length"]].tobytes(),
+                            f"its log entry {i}")
+        if not isinstance(payload, dict):
+            raise Damage(f"its log entry {i} is damaged (not a JSON object)", True)
+        out.append({"t": float(row["t"]), "kind": row["kind"].decode(errors="replace"),
+                    **payload})
+    return out
+
+
+def _levels(f, segments: np.ndarray) -> tuple[list[Level], list[str]]:
+    """The run's levels (a table run's count their steps), and a level of unknown nominal for
+    each level its segments name that ``/levels`` does not list (with a note saying so)."""
+    steps = table_steps(f)
+    rows = np.sort(_table(f, "levels")[:], order="index")
+    listed = [(int(lv["index"]), float(lv["nominal"]), bool(lv["complete"])) for lv in rows]
+    notes = []
+    for index in sorted(set(segments["level"].tolist()) - {i for i, _, _ in listed}):
+        n = int(np.count_nonzero(segments["level"] == index))
+        notes.append(f"{n} block(s) name level {index}, which the run's /levels table does "
+                     "not list: read as a level of unknown nominal, marked incomplete")
+        listed.append((int(index), np.nan, False))
+    levels = [Level(i, nominal, complete,
+                    steps.get(i, int(np.count_nonzero(segments["level"] == i))),
+                    int(segments["length"][segments["level"] == i].sum()))
+              for i, nominal, complete in sorted(listed)]
+    return levels, notes
+
+
 def open_run(path: str | os.PathLike) -> Run:
-    """Read a run file's metadata and block index (works on crashed files too)."""
+    """Read a run file's metadata and block index (works on crashed files too). A damaged
+    file raises `DamagedRunError` naming what is damaged and the fix."""
     path = Path(path)
     with _open(path, "r") as f:
-        if f.attrs.get("format") != FORMAT:
-            raise StoreError(f"{path} is an HDF5 file but not an nlid-lab run")
-        version = int(f.attrs["schema_version"])
-        if version > TABLES_SCHEMA_VERSION:
-            raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
-                             f"{TABLES_SCHEMA_VERSION}: upgrade nlid-lab")
-        meta = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
-        for key in ("excitation_settings", "settings"):
-            meta[key] = json.loads(meta[key])
-        meta["force_dofs"] = np.asarray(meta["force_dofs"], dtype=int)
-        channels = [{"name": c["name"].decode(), "unit": c["unit"].decode(),
-                     "dof": int(c["dof"]), "sensitivity": float(c["sensitivity"]),
-                     "kind": c["kind"].decode()} for c in f["channels"][:]]
-        status, reason, updated = _read_status(f)
-        lost = f["state/losses"][:]
-        segments = _valid_segments(f)
-        text = f["text"][:]
-        log = [{"t": float(row["t"]), "kind": row["kind"].decode(),
-                **_json_at(text, row["start"], row["length"])}
-               for row in f["log"][:] if row["start"] + row["length"] <= text.size]
-        extra = _read_extra(f)
-        steps = table_steps(f)      # a table run's levels count their steps
-        levels = [Level(int(lv["index"]), float(lv["nominal"]), bool(lv["complete"]),
-                        steps.get(int(lv["index"]),
-                                  int(np.count_nonzero(segments["level"] == lv["index"]))),
-                        int(segments["length"][segments["level"] == lv["index"]].sum()))
-                  for lv in np.sort(f["levels"][:], order="index")]
+        try:
+            run = _read_run(f, path)
+        except StoreError:
+            raise
+        except (Damage, KeyError, ValueError, TypeError, OSError, RuntimeError) as exc:
+            repairable = getattr(exc, "repairable", False)
+            what = str(exc) if isinstance(exc, Damage) else \
+                f"{type(exc).__name__}: {' '.join(str(exc).split())[:120]}"
+            fix = (REPAIRABLE if repairable else UNREPAIRABLE).format(path=path)
+            raise DamagedRunError(f"{path} is damaged: {what}; {fix}") from None
+    run.left_open = writer_left_open(path)   # once closed here: a plain open tells
+    return run
+
+
+def _read_run(f, path: Path) -> Run:
+    meta = _meta(f, path)
+    version = int(meta["schema_version"])
+    if version > TABLES_SCHEMA_VERSION:
+        raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
+                         f"{TABLES_SCHEMA_VERSION}: upgrade nlid-lab")
+    channels = [{"name": c["name"].decode(errors="replace"),
+                 "unit": c["unit"].decode(errors="replace"), "dof": int(c["dof"]),
+                 "sensitivity": float(c["sensitivity"]), "kind": c["kind"].decode()}
+                for c in _table(f, "channels")[:]]
+    _table(f, "state")
+    status, reason, updated = _read_status(f)
+    lost = f["state/losses"][:]
+    every = _table(f, "segments")[:]
+    rows = min(_table(f, f"data/{k}").shape[0] for k in ("force", "response"))
+    on_disk = every["start"] + every["length"] <= rows
+    segments = _valid_segments(f)
+    missing = [LeftOut(int(s["level"]), int(s["seq"]), LeftOutReason.NOT_ON_DISK)
+               for s in every[~on_disk]]
+    log = _log(f)
+    extra = _read_extra(f)
+    levels, notes = _levels(f, segments)
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}
     return Run(path, meta, channels, status, reason, updated,
                {"frames": int(lost[0]), "samples": int(lost[1])}, levels, segments, log,
-               results, extra=extra, left_open=writer_left_open(path))
+               results, warnings=list(notes), extra=extra, left_out=missing, notes=notes)
 
 
-def repair_run(path: str | os.PathLike) -> bool:
+def repair_run(path: str | os.PathLike, verify: bool = False) -> Repaired:
     """Clear the "open for write" flag a killed writer left on ``path``, so that any HDF5
-    tool opens it; returns False if there was nothing to repair.
+    tool opens it; with ``verify`` also rebuild a closed run holding damaged blocks, log
+    entries or free-form attributes. Returns what was done (false: nothing to repair).
 
     Every block is checked (index row flushed, checksum correct) and only those are kept, in a
     fresh file that atomically replaces the original. A file still open in a live writer is
     refused (`StoreError`).
     """
-    return _repair(Path(path))
+    path = Path(path)
+    done = _repair(path, verify)
+    if done:                    # the reserve a killed writer left (docs/reliability-store.md)
+        path.with_name(path.name + ".reserve").unlink(missing_ok=True)
+    return done
 
 
 def check_result_target(path: str | os.PathLike) -> None:
@@ -262,8 +414,17 @@ def save_result(path: str | os.PathLike, name: str, result: dict) -> None:
     """Add an analysis result to an existing run file (crash-safely, in SWMR mode)."""
     path = Path(path)
     _repair(path)
+    payload = {"name": name, "value": result}
+    require(path, len(json.dumps(payload, default=_json_default)) + BLOCK_OVERHEAD,
+            f"the result '{name}' in {path}")
     with _open_swmr_write(path) as f:
-        _append_log(f, "result", {"name": name, "value": result})
+        try:
+            _append_log(f, "result", payload)
+        except (OSError, RuntimeError) as exc:
+            if is_disk_full(exc):
+                raise DiskFullError(f"disk full while storing the result '{name}' in {path}"
+                                    "; free space and store it again") from None
+            raise
 
 
 def save_recording(path: str | os.PathLike,

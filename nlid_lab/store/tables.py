@@ -23,6 +23,8 @@ import numpy as np
 
 from analysis.errors import InputError
 
+from ._space import HEADER_BYTES, require
+
 GROUP = "table"
 
 
@@ -35,10 +37,15 @@ def write_table(path: str | Path, rows: list[dict[str, Any]], attrs: dict[str, A
     columns: list[str] = []
     for row in rows:
         columns += [key for key in row if key not in columns]
+    data = {name: _column([row.get(name) for row in rows]) for name in columns}
+    # checked before HDF5 writes anything: a write failing on a full disk leaves h5py unable
+    # to close the file (docs/reliability-store.md)
+    require(Path(path), sum(np.asarray(d).nbytes for d in data.values()) + HEADER_BYTES,
+            f"the results table {path}")
     with h5py.File(path, "w") as f:
         group = f.create_group(GROUP)
         for name in columns:
-            group.create_dataset(name, data=_column([row.get(name) for row in rows]))
+            group.create_dataset(name, data=data[name])
         group.attrs["columns"] = json.dumps(columns)
         group.attrs["n_rows"] = len(rows)
         for key, value in attrs.items():

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator
 
 import h5py
 import numpy as np
@@ -14,11 +15,12 @@ import numpy as np
 from analysis.recordings import (EXCITATIONS, FORCE_HOLDS, KEYS as SENSOR_KEYS, MIXED,
                                  RESPONSE_KINDS, PeriodicLayout, SensorMap)
 
-from ._common import (CHUNK_ROWS, FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE,
-                      STATUSES, _TABLES, StoreError, WriterLock, _append_log, _append_row,
-                      _channel_table, _crc, _default_channels, _json_default, _open,
-                      _open_swmr_write, _valid_segments, _write_extra, _write_text, in_use,
-                      utc_now, writer_left_open)
+from ._common import (FORMAT, MONITORS_SCHEMA_VERSION, SCHEMA_VERSION, SOFTWARE, STATUSES,
+                      StoreError, WriterLock, _append_log, _append_row, _channel_table, _crc,
+                      _default_channels, _json_default, _open_swmr_write, _write_extra,
+                      _write_text, utc_now)
+from ._rebuild import _create, _repair
+from ._space import BLOCK_OVERHEAD, DiskFullError, Reserve, is_disk_full, require
 
 
 class LevelWriter:
@@ -53,6 +55,11 @@ class LevelWriter:
         amp = np.nan if amplitude is None else float(amplitude)
         return self._append(force, response, seq, t, float(freq), amp, extra, monitor)
 
+    def stored_seqs(self) -> set[int]:
+        """Sequence numbers of this level's stored blocks or steps."""
+        seg = self._run._file["segments"][:]
+        return set(seg["seq"][seg["level"] == self.index].tolist())
+
     def stored_force(self) -> Iterator[tuple[np.ndarray, float]]:
         """Force samples of each stored block/step of this level in ``seq`` order (read one
         at a time) with the step's force amplitude (NaN for random blocks): what a level
@@ -64,12 +71,13 @@ class LevelWriter:
 
     def complete(self) -> None:
         """Mark this level as fully measured."""
-        ds = self._run._file["levels"]
-        pos = int(np.nonzero(ds["index"] == self.index)[0][0])
-        row = ds[pos]
-        row["complete"] = 1
-        ds[pos] = row
-        self._run._file.flush()
+        with self._run._writing(f"the end of level {self.index}"):
+            ds = self._run._file["levels"]
+            pos = int(np.nonzero(ds["index"] == self.index)[0][0])
+            row = ds[pos]
+            row["complete"] = 1
+            ds[pos] = row
+            self._run._file.flush()
 
     def _append(self, force, response, seq, t, freq, amp, extra, monitor=None) -> int:
         run = self._run
@@ -96,16 +104,20 @@ class LevelWriter:
                 blocks.append(("monitor", monitor))
         seq = self.next_seq if seq is None else int(seq)
         f = run._file
-        start = f["data/force"].shape[0]
-        for name, block in blocks:
-            f[f"data/{name}"].resize((start + len(block), block.shape[1]))
-            f[f"data/{name}"][start:] = block
-        f.flush()  # data on disk before the index row that makes them visible
-        ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
-        crc = _crc(force, response, monitor if n_mon else None)
-        _append_row(f, "segments", (self.index, seq, time.time() if t is None else float(t),
-                                    start, len(force), freq, amp, crc, ex_start, ex_len))
-        f.flush()
+        nbytes = sum(b.nbytes for _, b in blocks) + BLOCK_OVERHEAD
+        require(run.path, nbytes, f"block {seq} of level {self.index} of {run.path}")
+        with run._writing(f"block {seq} of level {self.index}"):
+            start = f["data/force"].shape[0]
+            for name, block in blocks:
+                f[f"data/{name}"].resize((start + len(block), block.shape[1]))
+                f[f"data/{name}"][start:] = block
+            f.flush()  # data on disk before the index row that makes them visible
+            ex_start, ex_len = _write_text(f, extra) if extra is not None else (0, 0)
+            crc = _crc(force, response, monitor if n_mon else None)
+            _append_row(f, "segments", (self.index, seq, time.time() if t is None
+                                        else float(t), start, len(force), freq, amp, crc,
+                                        ex_start, ex_len))
+            f.flush()
         self.n_segments += 1
         self.n_samples += len(force)
         self.next_seq = seq + 1
@@ -190,6 +202,7 @@ class RunWriter:
         if sensors is not None:
             attrs["sensors"] = json.dumps({k: list(getattr(sensors, k)) for k in SENSOR_KEYS})
         self.monitors = dict(monitors or {})
+        self.dropped: tuple = ()   # damaged blocks a resume dropped (`LeftOut`)
         if self.monitors:
             attrs["monitors"] = json.dumps([[k, v] for k, v in self.monitors.items()])
             attrs["schema_version"] = MONITORS_SCHEMA_VERSION
@@ -199,14 +212,23 @@ class RunWriter:
         chans = channels or _default_channels(self.force_dofs, self.n_dof, response_kind,
                                               sensors)
         table = _channel_table(chans, self.force_dofs, self.n_dof)
-        if mode == "resume" and self.path.exists():
-            self._file = self._resume(attrs)
-        else:
-            if mode == "create" and self.path.exists():
-                raise StoreError(f"{self.path} already exists; resume it or choose a new name")
-            _create(self.path, attrs, table,
-                    (lambda f: _write_extra(f, extra)) if extra else None)
-            self._file = _open_swmr_write(self.path)
+        if mode == "create" and self.path.exists():
+            raise StoreError(f"{self.path} already exists; resume it or choose a new name")
+        self._reserve = Reserve(self.path)
+        try:
+            if mode == "resume" and self.path.exists():
+                self._file = self._resume(attrs)
+            else:
+                _create(self.path, attrs, table,
+                        (lambda f: _write_extra(f, extra)) if extra else None)
+                self._file = _open_swmr_write(self.path)
+        except BaseException:
+            self._reserve.release()
+            raise
+        # every dataset held open while writing: a chunk cache is then written by the
+        # file's flush, which raises on a failed write, never by a dataset handle's
+        # deallocation, which h5py reports as "Exception ignored" and goes on
+        self._held = [self._file[name] for name in _held_datasets(self._file)]
         self._lock = WriterLock(self.path)
         self.set_status("running")
 
@@ -225,7 +247,7 @@ class RunWriter:
                              f"below n_dof={self.n_dof}")
 
     def _resume(self, attrs: dict) -> h5py.File:
-        rebuilt = _repair(self.path)
+        rebuilt = _repair(self.path, verify=True)
         f = _open_swmr_write(self.path)
         if json.loads(f.attrs.get("monitors", "[]")) != json.loads(attrs.get("monitors", "[]")):
             f.close()
@@ -238,7 +260,9 @@ class RunWriter:
                 raise StoreError(f"cannot resume {self.path}: its {key} is {have!r}, not "
                                  f"{attrs[key]!r}; use the same settings or a new file")
         self._file = f
-        self.log("resume", {"rebuilt_after_crash": rebuilt})
+        self.log("resume", {"rebuilt_after_crash": bool(rebuilt),
+                            "dropped": [b.as_dict() for b in rebuilt.dropped]})
+        self.dropped = rebuilt.dropped
         return f
 
     # --- public API ------------------------------------------------------------------------
@@ -251,25 +275,28 @@ class RunWriter:
                 raise StoreError(f"level {index} exists with nominal {hit['nominal'][0]}, "
                                  f"not {nominal}")
         else:
-            _append_row(self._file, "levels", (int(index), float(nominal), 0))
-            self._file.flush()
+            with self._writing(f"level {index}"):
+                _append_row(self._file, "levels", (int(index), float(nominal), 0))
+                self._file.flush()
         return LevelWriter(self, int(index))
 
     def count_loss(self, frames: int = 0, samples: int = 0, note: str = "",
                    level: int | None = None) -> None:
         """Add lost/dropped frames and samples to the run's counters (and log them)."""
-        counts = self._file["state/losses"]
-        counts[...] = counts[...] + np.array([frames, samples])
+        with self._writing("the loss counters"):
+            counts = self._file["state/losses"]
+            counts[...] = counts[...] + np.array([frames, samples])
         self.log("loss", {"frames": frames, "samples": samples, "note": note, "level": level})
 
     def set_status(self, status: str, reason: str = "") -> None:
         """Set the run status (one of `STATUSES`)."""
         if status not in STATUSES:
             raise StoreError(f"status {status!r} is not one of {', '.join(STATUSES)}")
-        state = self._file["state"]
-        state["status"][()] = status.encode()
-        state["reason"][()] = reason.encode()[:256]
-        state["updated_utc"][()] = utc_now().encode()
+        with self._writing("the run's status"):
+            state = self._file["state"]
+            state["status"][()] = status.encode()
+            state["reason"][()] = reason.encode()[:256]
+            state["updated_utc"][()] = utc_now().encode()
         self.status = status
         self.log("status", {"status": status, "reason": reason})
 
@@ -279,98 +306,61 @@ class RunWriter:
 
     def log(self, kind: str, payload: dict) -> None:
         """Append an event to the run's log."""
-        _append_log(self._file, kind, payload)
+        with self._writing(f"a {kind} event"):
+            _append_log(self._file, kind, payload)
+
+    @contextlib.contextmanager
+    def _writing(self, what: str) -> Iterator[None]:
+        """Turn a full disk during the writes of the ``with`` body into `DiskFullError`:
+        the reserve is given back and the file flushed again, so that the blocks stored so
+        far stay intact and the file can be marked and closed."""
+        try:
+            yield
+        except (OSError, RuntimeError) as exc:
+            if not is_disk_full(exc):
+                raise
+            if self._reserve.release():
+                with contextlib.suppress(OSError, RuntimeError):
+                    self._file.flush()
+            raise DiskFullError(f"disk full while writing {what} to {self.path}") from None
 
     def close(self) -> None:
-        if self._file.id.valid:
-            self._file.close()
-        self._lock.release()
+        """Close the file (flushing it) and give back its reserve and lock."""
+        try:
+            if self._file.id.valid:
+                self._held.clear()
+                try:
+                    self._file.close()
+                except (OSError, RuntimeError) as exc:  # no room for the last flush
+                    if not (is_disk_full(exc) and self._reserve.release()):
+                        raise
+                    self._file.close()
+        finally:
+            self._reserve.release()
+            self._lock.release()
 
     def __enter__(self) -> "RunWriter":
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if self._file.id.valid:
-            if exc_type is KeyboardInterrupt:
-                self.set_status("interrupted", "interrupted by the user")
-            elif exc_type is not None:
-                self.set_status("aborted", f"{exc_type.__name__}: {exc}")
-            elif self.status == "running":
-                self.set_status("complete")
-        self.close()
+        try:
+            if self._file.id.valid:
+                if exc_type is KeyboardInterrupt:
+                    self.set_status("interrupted", "interrupted by the user")
+                elif exc_type is not None and issubclass(exc_type, DiskFullError):
+                    self._reserve.release()     # room for the status and the close
+                    self.set_status("interrupted", str(exc))
+                elif exc_type is not None:
+                    self.set_status("aborted", f"{exc_type.__name__}: {exc}")
+                elif self.status == "running":
+                    self.set_status("complete")
+        finally:
+            self.close()
 
 
-def _create(path: Path, attrs: dict, channels: np.ndarray,
-            fill: Callable[[h5py.File], None] | None = None) -> None:
-    """Build a run file (header, empty tables, then ``fill``) in ``path.tmp``, rename it."""
-    tmp = path.with_name(path.name + ".tmp")
-    n_in, n_dof = len(attrs["force_dofs"]), int(attrs["n_dof"])
-    try:
-        with h5py.File(tmp, "w", libver="latest", locking="best-effort") as f:
-            f.attrs.update(attrs)
-            f.create_dataset("channels", data=channels)
-            st = f.create_group("state")
-            st.create_dataset("status", data=np.bytes_("running"), dtype="S16")
-            st.create_dataset("reason", data=np.bytes_(""), dtype="S256")
-            st.create_dataset("updated_utc", data=np.bytes_(attrs["created_utc"]), dtype="S32")
-            st.create_dataset("losses", data=np.zeros(2, "<i8"))
-            for name, dtype in _TABLES.items():
-                f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(256,), dtype=dtype)
-            f.create_dataset("text", shape=(0,), maxshape=(None,), chunks=(65536,), dtype="u1")
-            n_mon = len(json.loads(attrs.get("monitors", "[]")))
-            for name, width in (("force", n_in), ("response", n_dof), ("monitor", n_mon)):
-                if width:
-                    f.create_dataset(f"data/{name}", shape=(0, width), maxshape=(None, width),
-                                     chunks=(CHUNK_ROWS, width), dtype="<f8")
-            if fill:
-                fill(f)
-    except OSError as exc:
-        raise StoreError(f"cannot write {path}: {' '.join(str(exc).split())}") from None
-    os.replace(tmp, path)
-
-
-def _repair(path: Path) -> bool:
-    """Make a crashed run file writable (and readable by any HDF5 tool) again; returns True
-    if it had to be rebuilt.
-
-    The file is read in SWMR mode, its valid content (every indexed, checksum-correct segment
-    and complete log entry) copied into a fresh file, which then replaces the original. A file
-    a live process still writes is refused.
-    """
-    if not path.exists():
-        raise StoreError(f"run file {path} not found; check the path")
-    if not writer_left_open(path):
-        return False
-    if in_use(path):
-        raise StoreError(f"{path} is open in another process (a campaign still writing it?); "
-                         "let it finish or stop it first")
-    with _open(path, "r") as old:
-        seg_ok = _valid_segments(old)
-        force, response = old["data/force"], old["data/response"]
-        monitor = old["data/monitor"] if "data/monitor" in old else None
-        seg_ok = seg_ok[[_crc(force[s:s + n], response[s:s + n],
-                              None if monitor is None else monitor[s:s + n]) == c
-                         for s, n, c in zip(seg_ok["start"], seg_ok["length"], seg_ok["crc"])]]
-        end = int((seg_ok["start"] + seg_ok["length"]).max()) if len(seg_ok) else 0
-        log = old["log"][:]
-        text_n = old["text"].shape[0]
-        log = log[log["start"] + log["length"] <= text_n]
-
-        def copy(f: h5py.File) -> None:
-            st = f["state"]
-            for key in ("status", "reason", "updated_utc", "losses"):
-                st[key][()] = old["state"][key][()]
-            for name, rows in (("levels", old["levels"][:]), ("segments", seg_ok), ("log", log)):
-                f[name].resize((len(rows),))
-                f[name][:] = rows
-            if "extra" in old:
-                old.copy("extra", f)
-            f["text"].resize((text_n,))
-            f["text"][:] = old["text"][:text_n]
-            for name in ("force", "response") + (("monitor",) if monitor is not None else ()):
-                src, dst = old[f"data/{name}"], f[f"data/{name}"]
-                dst.resize((end, src.shape[1]))
-                for i in range(0, end, 1 << 20):
-                    dst[i:i + (1 << 20)] = src[i:min(end, i + (1 << 20))]
-        _create(path, dict(old.attrs), old["channels"][:], copy)
-    return True
+def _held_datasets(f: h5py.File) -> list[str]:
+    """Paths of every dataset of an open run file."""
+    names: list[str] = []
+    f.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset)
+                 else None)
+    return names

@@ -1,4 +1,5 @@
-"""No command replaces an existing output file without --force (exit 2, one line, file kept)."""
+"""No command replaces an existing output file without --force (exit 2, one line, file kept);
+outputs are written whole or not at all."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import pytest
 
 from nlid_lab import store
 from nlid_lab.cli import main
-from nlid_lab.outputs import OverwriteError, refuse_overwrite
+from nlid_lab.outputs import OverwriteError, atomic_dir, atomic_path, refuse_overwrite
 
 MODELS = Path(__file__).resolve().parents[2] / "examples" / "models"
 SDOF = MODELS / "sdof-cubic-quaddamp.toml"
@@ -156,3 +157,41 @@ def test_detect_and_report_on_csv_imports_without_level(tmp_path, capsys):
     assert unknown["share_flagged"] == known["share_flagged"]
     assert unknown["median_change_db"] == known["median_change_db"]
     assert main(["report", runs[0], "--out", str(tmp_path / "rep")]) == 0
+
+
+def test_atomic_path_replaces_only_when_whole(tmp_path):
+    """A failure while writing leaves the old file as it was and no temporary behind; success
+    replaces it; a missing directory is named by the target's name."""
+    target = tmp_path / "out.json"
+    target.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            assert tmp.parent == tmp_path and tmp.suffix == ".json"
+            tmp.write_text("half")
+            raise RuntimeError("writer failed")
+    assert target.read_text() == "old" and sorted(tmp_path.iterdir()) == [target]
+    with atomic_path(target) as tmp:
+        tmp.write_text("new")
+    assert target.read_text() == "new" and sorted(tmp_path.iterdir()) == [target]
+    with pytest.raises(FileNotFoundError) as info:
+        with atomic_path(tmp_path / "no" / "x.json") as tmp:
+            tmp.write_text("x")
+    assert info.value.filename == str(tmp_path / "no" / "x.json")
+
+
+def test_atomic_dir_moves_a_whole_report_or_nothing(tmp_path):
+    out = tmp_path / "rep"
+    with pytest.raises(RuntimeError):
+        with atomic_dir(out) as tmp:
+            (tmp / "a.png").write_bytes(b"png")
+            raise RuntimeError("figure failed")
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    with atomic_dir(out) as tmp:                         # new directory: renamed whole
+        (tmp / "a.png").write_bytes(b"png")
+        (tmp / "index.html").write_text("page")
+    assert sorted(p.name for p in out.iterdir()) == ["a.png", "index.html"]
+    (out / "old.txt").write_text("kept")
+    with atomic_dir(out) as tmp:                         # --force into a full one: moved in
+        (tmp / "index.html").write_text("page 2")
+    assert (out / "index.html").read_text() == "page 2" and (out / "old.txt").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]

@@ -70,7 +70,7 @@ def test_killed_run_is_reported_incomplete_and_repaired(tmp_path, capsys):
     capsys.readouterr()
     assert main(["report", str(path), "--out", str(tmp_path / "rep")]) == 0
     err = capsys.readouterr().err
-    assert "run incomplete" in err and f"nlid-lab repair {path}" in err
+    assert "run is incomplete: 5 blocks" in err and f"nlid-lab repair {path}" in err
 
     assert main(["repair", str(path)]) == 0
     assert f"{BLOCKS} of {BLOCKS} indexed blocks intact" in capsys.readouterr().out
