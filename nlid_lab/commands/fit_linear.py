@@ -68,11 +68,9 @@ def run(args: argparse.Namespace) -> int:
     result = LinearFitSummary.of(fit, rec.level)
     said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
                    for _ in result.interference[:1])
-    text = (f"fitted on {level_name(rec)}{said}
-"
+    text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
-            + f"
-wrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
+            + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0
