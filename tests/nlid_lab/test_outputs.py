@@ -149,7 +149,7 @@ def test_detect_and_report_on_csv_imports_without_level(tmp_path, capsys):
     # given in descending force order: ordered by measured force they compare the same pair
     assert main(["detect", *runs[::-1], "--json", str(tmp_path / "d.json")]) == 0
     text = capsys.readouterr().out
-    assert "unknown vs unknown" in text and "no nominal level" in text
+    assert "1 N rms vs 29.6 N rms" in text and "no nominal level" in text   # measured force
     assert main(["detect", *with_level, "--json", str(tmp_path / "e.json")]) == 0
     unknown, known = (json.loads((tmp_path / n).read_text())["tests"][0]
                       for n in ("d.json", "e.json"))
