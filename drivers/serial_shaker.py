@@ -20,6 +20,9 @@ from .serial_link import SerialLink
 
 FEEDS_PER_PERIOD = 5
 MIN_WATCHDOG = 0.02  # s; shorter periods leave no room for a feed round trip
+#: s; with the controller's 10 ms emergency ramp the drive is zero within 100 ms of a cut or
+#: hung link (docs/drivers.md "Drive-zero latency"); a feed goes out every 16 ms
+DEFAULT_WATCHDOG = 0.08
 
 
 class SerialShaker(SignalGenerator):
@@ -35,11 +38,11 @@ class SerialShaker(SignalGenerator):
         Seconds over which `stop` ramps the drive down.
     watchdog : float
         Link watchdog period, seconds (0 disables it): the controller zeroes the drive when
-        it hears nothing from the host for this long.
+        it hears nothing from the host for this long (default `DEFAULT_WATCHDOG`).
     """
 
     def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = 0.05,
-                 watchdog: float = 0.5) -> None:
+                 watchdog: float = DEFAULT_WATCHDOG) -> None:
         if not (isinstance(watchdog, (int, float)) and math.isfinite(watchdog)
                 and (watchdog == 0 or MIN_WATCHDOG <= watchdog <= 60)):
             raise DriverConfigError(f"shaker watchdog must be 0 (off) or {MIN_WATCHDOG:g}..60 "

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
-from drivers.base import Acquirer, Channel, SignalGenerator
+from drivers.base import Acquirer, Channel, SignalGenerator, default_stall_timeout
 from drivers.errors import DriverConfigError
 from drivers.registry import open_daq, open_shaker
 from drivers.rig import SimRig
@@ -116,9 +116,13 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
     faults = c.fault_spec()
     if kind == "serial-emu":
         from drivers.emulators.serial_emu import SerialDaqEmulator
-        emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=_pace(c, c.daq_url),
-                                                  faults=faults), emulators, stack)
-        return open_daq(f"serial://{emu.port}", stall_timeout=c.comms_timeout)
+        pace = _pace(c, c.daq_url)
+        emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=pace, faults=faults),
+                                emulators, stack)
+        # its frames come `pace` times as often as a real device's
+        interval = c.frame_size / (c.fs * pace) if pace > 0 else 0.0
+        return open_daq(f"serial://{emu.port}",
+                        stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     if kind == "can-emu":
         from drivers.emulators.can_emu import CanDaqEmulator
         parts = urlsplit(c.daq_url)
