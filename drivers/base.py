@@ -23,7 +23,7 @@ from .errors import CommsError, DriverConfigError, StateError
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
 #: s of silence beyond a transport frame's interval that count as a stalled stream: the
 #: drive must be zero within 100 ms of a stall (docs/drivers.md "Drive-zero latency")
-STALL_MARGIN = 0.05
+STALL_MARGIN = 0.06
 UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 

@@ -206,7 +206,9 @@ def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
 
     try:
         raw = scipy.io.loadmat(path, simplify_cells=True)
-    except (MatReadError, ValueError, OSError, TypeError) as exc:
+    # a cut or damaged file makes scipy's reader fail in many ways (IndexError, EOFError,
+    # struct and zlib errors...): whatever it raises, the file is not readable
+    except (MatReadError, Exception) as exc:  # noqa: BLE001
         raise MatFileError(f"{path} is not a readable MAT file ({exc}); save it with MATLAB's "
                            "save or scipy.io.savemat") from None
     out: dict[str, Any] = {}

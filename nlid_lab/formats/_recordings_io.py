@@ -618,7 +618,7 @@ def _csv_fs(t: np.ndarray, keys: dict, path: Path) -> float:
                                      f"{fs:g} Hz; fix one of them")
         fs = given
     grid = t[0] + np.arange(len(t)) / fs
-    if not np.isfinite(fs) or np.max(np.abs(t - grid)) > 0.01 / fs:
+    if not np.isfinite(fs) or not np.all(np.abs(t - grid) <= 0.01 / fs):   # NaN too
         raise RecordingFileError(f"{path}: the time column must increase in equal steps "
                                  "(uniform sampling, jitter below 1 % of a sample)")
     return fs
