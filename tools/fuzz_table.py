@@ -48,6 +48,8 @@ def run(name: str, n: int) -> tuple[Counter, list]:
         done = [json.loads(ln) for ln in proc.stdout.splitlines() if ln.startswith("[")]
         for i, outcome, what, said in done:
             counts[outcome] += 1
+            if outcome == Outcome.ACCEPTED and "(a line end)" in what:
+                counts["line-end cuts accepted"] += 1
             if outcome not in (Outcome.ACCEPTED, Outcome.REFUSED):
                 bad.append((i, outcome, what, said))
         skip = (done[-1][0] + 1) if done else skip
@@ -72,8 +74,11 @@ def main() -> None:
     for name in names:
         n = max(1, round(TABLE[name] * args.scale))
         counts, bad = run(name, n)
-        print("| " + " | ".join([name, str(sum(counts.values()))]
+        print("| " + " | ".join([name, str(sum(counts[o.value] for o in Outcome))]
                                 + [str(counts[o.value]) for o in Outcome]) + " |", flush=True)
+        if counts["line-end cuts accepted"]:
+            print(f"    {name}: {counts['line-end cuts accepted']} of the accepted inputs are "
+                  "files cut at a line end (undetectable)", file=sys.stderr)
         for case in bad:
             print(f"    {name} case {case[0]}: {case[1]}: {case[2]} -> {case[3]}",
                   file=sys.stderr)
