@@ -32,8 +32,8 @@ class SerialDaq(Acquirer):
     def __init__(self, port: str, baud: int = 115200, *,
                  stall_timeout: float | None = None) -> None:
         super().__init__()
-        self.link = SerialLink(port, baud, what="DAQ")
         self._stall_given = check_stall_timeout(stall_timeout)
+        self.link = SerialLink(port, baud, what="DAQ")
         self.stall_timeout = self._stall_given or STALL_MARGIN  # set again by configure
         self.frame_size = 64
         self._parser = FrameParser()

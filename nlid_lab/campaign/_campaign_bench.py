@@ -124,14 +124,17 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
         return open_daq(f"serial://{emu.port}",
                         stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     if kind == "can-emu":
-        from drivers.emulators.can_emu import CanDaqEmulator
+        from drivers.emulators.can_emu import ROWS_PER_TICK, CanDaqEmulator
         parts = urlsplit(c.daq_url)
         channel = parts.path.strip("/")
         if not parts.netloc or not channel:
             raise DriverConfigError(f"'{c.daq_url}': write can-emu://INTERFACE/CHANNEL, e.g. "
                                     "can-emu://virtual/nlid0")
-        _closing_emulator(CanDaqEmulator(rig, c.channels, parts.netloc, channel,
-                                         pace=_pace(c, c.daq_url), faults=faults),
-                          emulators, stack)
-        return open_daq(f"can://{parts.netloc}/{channel}", stall_timeout=c.comms_timeout)
+        pace = _pace(c, c.daq_url)
+        _closing_emulator(CanDaqEmulator(rig, c.channels, parts.netloc, channel, pace=pace,
+                                         faults=faults), emulators, stack)
+        # it sends sample rows in bursts of ROWS_PER_TICK, `pace` times as often as real time
+        interval = ROWS_PER_TICK / (c.fs * pace)
+        return open_daq(f"can://{parts.netloc}/{channel}",
+                        stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     return open_daq(c.daq_url, stall_timeout=c.comms_timeout)

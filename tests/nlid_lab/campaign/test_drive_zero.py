@@ -50,3 +50,33 @@ def test_normal_pacing_does_not_trip(backend, pace, tmp_path):
     watchdog never trips."""
     status, trips = normal_run(backend, tmp_path / f"n{backend}{pace}.h5", pace)
     assert (status, trips) == ("complete", 0)
+
+
+def test_drivers_derive_their_stall_timeout_from_the_frame_interval():
+    """Serial: a frame of ``frame_size`` samples; CAN: one sample row per frame; a given
+    ``stall_timeout`` wins; nonsense is refused in one line."""
+    from analysis.models import Model
+    from drivers import open_daq
+    from drivers.base import Channel
+    from drivers.emulators.serial_emu import SerialDaqEmulator
+    from drivers.errors import DriverConfigError
+    from drivers.rig import SimRig
+
+    rig = SimRig(Model.load(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml"), 1024.0, 0)
+    channels = [Channel("F0", "force", 0, 0.01), Channel("x0", "displacement", 0, 1000.0)]
+    emu = SerialDaqEmulator(rig, channels)
+    emu.start()
+    try:
+        with open_daq(f"serial://{emu.port}") as daq:
+            daq.configure(1024.0, channels, frame_size=128)
+            assert daq.stall_timeout == pytest.approx(128 / 1024 + STALL_MARGIN)
+        with open_daq(f"serial://{emu.port}?stall_timeout=0.3") as daq:
+            daq.configure(1024.0, channels, frame_size=128)
+            assert daq.stall_timeout == 0.3
+        with pytest.raises(DriverConfigError, match="stall_timeout"):
+            open_daq(f"serial://{emu.port}", stall_timeout=float("nan"))
+    finally:
+        emu.close()
+    with open_daq("can://virtual/stall-default") as daq:
+        daq.configure(2048.0, channels, frame_size=64)
+        assert daq.stall_timeout == pytest.approx(1 / 2048 + STALL_MARGIN)
