@@ -333,7 +333,8 @@ class _Rows:
     it lost, in this order, its exponent digits, its exponent, its fraction digits, its
     decimal point. Rows are otherwise never cut. The rule (`check_last`): a last row without
     a newline must hold every field, and its last field must be written as fully as the least
-    complete field of its column elsewhere (decimal point, fraction and exponent digits) and
+    complete nonzero field of its column elsewhere (decimal point, fraction and exponent
+    digits; ``%g`` writes a zero as ``0``) and
     lie within ten times that column's largest magnitude (a lost exponent ``e-05`` makes the
     value 1e5 too large, a lost exponent digit as much as 1e9). A cut losing fraction digits
     only, in a column written with varying precision, changes one sample below its last kept
@@ -382,7 +383,7 @@ class _Rows:
         if not self.unterminated:
             return
         last = self.body[-1].rsplit(self.delim, 1)[-1].strip()
-        why = self._incomplete(last)
+        why = self._incomplete(last, data[:-1, -1])
         column = np.abs(data[:-1, -1])
         if why is None and not abs(data[-1, -1]) <= 10 * column.max():
             why = (f"{data[-1, -1]:.4g} is over ten times the column's largest value "
@@ -396,11 +397,13 @@ class _Rows:
             f"newline and its last number '{last}' looks cut ({why}); export the file "
             "again, or delete that line (end it with a newline if it is whole)")
 
-    def _incomplete(self, last: str) -> str | None:
-        """What ``last`` lacks that every other field of its column has, if anything."""
-        others = [_FIELD.match(ln.rsplit(self.delim, 1)[-1]) for ln in self.body[:-1]]
+    def _incomplete(self, last: str, column: np.ndarray) -> str | None:
+        """What ``last`` lacks that every other nonzero field of its column (values
+        ``column``) has, if anything; zeros say nothing of the format (``%g`` writes ``0``)."""
+        others = [_FIELD.match(ln.rsplit(self.delim, 1)[-1])
+                  for ln, value in zip(self.body[:-1], column) if value != 0]
         mine = _FIELD.match(last)
-        if mine is None or any(m is None for m in others):
+        if mine is None or not others or any(m is None for m in others):
             return None  # not plain numbers: loadtxt has read them, nothing to compare
 
         def size(m: re.Match, k: int) -> int:   # groups 1, 3: present; 2, 4: digit count

@@ -169,3 +169,17 @@ def test_infinite_stall_is_a_valid_fault():
     doc = copy.deepcopy(CAMPAIGN)
     doc["emulator"] = {"faults": {"stall_at": 10, "stall_seconds": float("inf")}}
     assert parse_campaign(doc).fault_spec().stall_seconds == float("inf")
+
+
+def test_zeros_in_the_column_do_not_hide_a_cut(tmp_path):
+    """A record padded with exact zeros (``%.17g`` writes ``0``): a force column cut to a
+    few of its fraction digits is still refused."""
+    rng = np.random.default_rng(5)
+    t = np.arange(300) / 256.0
+    f = rng.normal(size=300) * 10
+    f[:20] = 0.0
+    rows = [f"{a:.17g},{b:.17g},{c:.17g}" for a, b, c in zip(t, 1e-5 * rng.normal(size=300), f)]
+    text = "t,x0@0,f0@0\n" + "\n".join(rows)
+    assert rows[5].endswith(",0")
+    code, err = _import(tmp_path, text[:-9], "zeros")
+    assert code == 2 and "fewer fraction digits" in err
