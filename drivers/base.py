@@ -21,6 +21,9 @@ import numpy as np
 from .errors import CommsError, DriverConfigError, StateError
 
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
+#: s of silence beyond a transport frame's interval that count as a stalled stream: the
+#: drive must be zero within 100 ms of a stall (docs/drivers.md "Drive-zero latency")
+STALL_MARGIN = 0.06
 UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 
@@ -247,12 +250,47 @@ class SignalGenerator(_Lifecycle, ABC):
         return float(level)
 
 
+def default_stall_timeout(interval: float) -> float:
+    """Seconds without data after which a stream counts as stalled.
+
+    Parameters
+    ----------
+    interval : float
+        Seconds between the device's transport frames (0 if it streams continuously).
+
+    Returns
+    -------
+    float
+        ``interval + STALL_MARGIN``: a stream that is on time never stays silent that long,
+        and a stall is seen `STALL_MARGIN` after the frame that did not come.
+    """
+    return max(float(interval), 0.0) + STALL_MARGIN
+
+
+def check_stall_timeout(value: float | None) -> float | None:
+    """``value`` as a float if it is a stall timeout (finite, > 0 s), None if None.
+
+    Raises
+    ------
+    DriverConfigError
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not (math.isfinite(value) and value > 0):
+        raise DriverConfigError(f"stall_timeout must be a number of seconds > 0, got {value!r}")
+    return float(value)
+
+
 class Acquirer(_Lifecycle, ABC):
     """A DAQ streaming blocks of samples with sequence numbers and timestamps."""
 
     fs: float = 0.0
     channels: tuple[Channel, ...] = ()
     stats: AcqStats
+    #: seconds without data after which `read` reports a stalled stream (0: the backend
+    #: cannot stall, e.g. the in-process ``sim://`` DAQ)
+    stall_timeout: float = 0.0
 
     def __init__(self) -> None:
         self.stats = AcqStats()

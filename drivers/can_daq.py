@@ -13,7 +13,8 @@ import can
 import numpy as np
 
 from . import can_protocol as proto
-from .base import Acquirer, Block, Channel
+from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
+                   default_stall_timeout)
 from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
 
 
@@ -24,21 +25,23 @@ class CanDaq(Acquirer):
     ----------
     interface, channel : str
         python-can interface name and channel.
-    stall_timeout : float
-        Seconds without a sample frame after which the stream counts as stalled.
+    stall_timeout : float, optional
+        Seconds without a sample frame after which the stream counts as stalled; default: one
+        sample interval (a frame carries one sample row) plus `drivers.base.STALL_MARGIN`.
     **bus_kwargs
         Passed to `can.Bus` (``bitrate``, ``fd``...).
     """
 
-    def __init__(self, interface: str, channel: str, *, stall_timeout: float = 0.25,
+    def __init__(self, interface: str, channel: str, *, stall_timeout: float | None = None,
                  **bus_kwargs) -> None:
         super().__init__()
+        self._stall_given = check_stall_timeout(stall_timeout)
         try:
             self.bus = can.Bus(interface=interface, channel=channel, **bus_kwargs)
         except (can.CanError, ImportError, OSError, ValueError, TypeError) as exc:
             raise DriverConfigError(f"cannot open CAN interface '{interface}' channel "
                                     f"'{channel}': {exc}") from None
-        self.stall_timeout = stall_timeout
+        self.stall_timeout = self._stall_given or STALL_MARGIN  # set again by configure
         self.frame_size = 64
         self._db = proto.database()
         self._decode = {proto.SAMPLES_ID + g: self._db.get_message_by_frame_id(
@@ -68,6 +71,7 @@ class CanDaq(Acquirer):
             raise DriverConfigError(f"the CAN DAQ carries at most {2 * proto.MAX_GROUPS} "
                                     f"channels, got {len(channels)}")
         self.fs, self.channels, self.frame_size = float(fs), tuple(channels), frame_size
+        self.stall_timeout = self._stall_given or default_stall_timeout(1.0 / self.fs)
         self._groups = proto.n_groups(len(channels))
         self._scale = proto.volt_scale() / np.array([c.sensitivity for c in channels])
         self._state = "configured"

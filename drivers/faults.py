@@ -56,6 +56,26 @@ class FaultSpec:
             raise DriverConfigError(f"{where}: unknown fault key(s) {sorted(unknown)}; use "
                                     f"{', '.join(sorted(names))}")
         for key, value in data.items():
-            if not isinstance(value, (int, float)) or value < 0:
-                raise DriverConfigError(f"{where}.{key} must be a number >= 0, got {value!r}")
+            check_fault_value(key, value, where)
         return cls(**data)
+
+
+#: fault keys holding a duration in seconds; every other key counts frames or bytes
+DURATIONS = ("stall_seconds",)
+MAX_GARBAGE_BYTES = 1 << 16  # random bytes written before a frame
+
+
+def check_fault_value(key: str, value: Any, where: str = "faults") -> None:
+    """Raise `DriverConfigError` unless ``value`` suits fault key ``key``: a whole number
+    >= 0 for counts, or a duration in seconds >= 0 (``inf``: for good, never NaN)."""
+    if key in DURATIONS:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0
+        if not ok:  # False for NaN
+            raise DriverConfigError(f"{where}.{key} must be a duration in seconds >= 0 (inf: "
+                                    f"for good), got {value!r}")
+    elif not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+        raise DriverConfigError(f"{where}.{key} must be a whole number >= 0 (a frame number or "
+                                f"count; 0 = never), got {value!r}")
+    elif key == "garbage_bytes" and value > MAX_GARBAGE_BYTES:
+        raise DriverConfigError(f"{where}.{key} must be at most {MAX_GARBAGE_BYTES}, got "
+                                f"{value!r}")

@@ -31,6 +31,7 @@ from .errors import DriverConfigError
 # Random drive is generated in chunks of this many samples, independent of the DAQ frame
 # size, so that the drive sequence depends only on the seed.
 RANDOM_CHUNK = 8192
+WARM_VOLTS = (0.1, 1.0, 3.0)  # drive rms of the warm-up, V (`SimRig._warm_up`)
 
 
 @dataclass
@@ -102,8 +103,6 @@ class SimRig:
         self.seed = seed
         self.plant = Plant(model, self.fs, self.force_dofs, oversample=oversample,
                            noise_std=noise_std, response_kind=response_kind, seed=seed)
-        self.plant.run(np.zeros((4, 1)))  # compile/load the integrator now, not mid-stream
-        self.plant.reset()
         self.lock = threading.RLock()
         self._output: Output | None = None
         self._level = 0.0
@@ -121,6 +120,21 @@ class SimRig:
         self.sample_index = 0
         self.zero_commanded_at: float | None = None
         self._past_force = np.zeros((HOLD_IMAGE_LOOKAHEAD, 1))   # before the start: at rest
+        self._warm_up()
+        self.sample_index = 0
+        self._past_force = np.zeros((HOLD_IMAGE_LOOKAHEAD, 1))
+
+    def _warm_up(self) -> None:
+        """Load the integrator, discretise it for the substeps drives up to `WARM_VOLTS` ask
+        and build the hold-image filters now, not mid-stream: each costs 20-130 ms on a
+        loaded machine with the GIL held, long enough for an emulated DAQ to look stalled
+        and a watchdog to go unfed. Kernels stay cached; the state is reset."""
+        rng = np.random.default_rng(0)
+        for volts in WARM_VOLTS:
+            self.plant.run(volts * self.shaker_gain * rng.standard_normal((256, 1)))
+        self.plant.reset()
+        self.advance(4)
+        self.plant.reset()
 
     # --- shaker side ---------------------------------------------------------------------
     def set_output(self, output: Output) -> None:

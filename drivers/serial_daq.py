@@ -7,7 +7,8 @@ from collections import deque
 
 import numpy as np
 
-from .base import Acquirer, Block, Channel
+from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
+                   default_stall_timeout)
 from .errors import DriverTimeout, ProtocolError
 from .frame import Frame, FrameParser
 from .serial_link import SerialLink
@@ -22,15 +23,18 @@ class SerialDaq(Acquirer):
         Device path or pyserial URL.
     baud : int
         Baud rate (ignored by pseudo-terminals).
-    stall_timeout : float
+    stall_timeout : float, optional
         Seconds without any byte after which the stream counts as stalled (`DriverTimeout`),
-        whatever the ``timeout`` given to `read`.
+        whatever the ``timeout`` given to `read`; default: one frame interval plus
+        `drivers.base.STALL_MARGIN` (set at `configure`).
     """
 
-    def __init__(self, port: str, baud: int = 115200, *, stall_timeout: float = 0.25) -> None:
+    def __init__(self, port: str, baud: int = 115200, *,
+                 stall_timeout: float | None = None) -> None:
         super().__init__()
+        self._stall_given = check_stall_timeout(stall_timeout)
         self.link = SerialLink(port, baud, what="DAQ")
-        self.stall_timeout = stall_timeout
+        self.stall_timeout = self._stall_given or STALL_MARGIN  # set again by configure
         self.frame_size = 64
         self._parser = FrameParser()
         self._pending: deque[Frame] = deque()
@@ -48,6 +52,7 @@ class SerialDaq(Acquirer):
                     f"CONF:FRAM {frame_size}"):
             self.link.command(cmd, timeout)
         self.fs, self.channels, self.frame_size = float(fs), tuple(channels), frame_size
+        self.stall_timeout = self._stall_given or default_stall_timeout(frame_size / self.fs)
         self._scale = 1.0 / np.array([c.sensitivity for c in channels])
         self._state = "configured"
 

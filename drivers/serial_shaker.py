@@ -1,7 +1,7 @@
 """``serial://`` shaker controller speaking the SCPI-style command set of docs/drivers.md.
 
 Link watchdog: the driver arms the controller's watchdog (``SYST:WDOG <s>``) and a daemon
-thread feeds it (``SYST:WDOG:FEED``) whenever no other command went out for a fifth of the
+thread feeds it (``SYST:WDOG:FEED``) whenever no other command went out for an eighth of the
 period. If the host dies (even by SIGKILL) or the cable is pulled, the feeds stop and the
 controller ramps the drive to zero on its own once the period has passed.
 """
@@ -18,8 +18,14 @@ from .base import (MultisineOutput, Output, RandomOutput, SignalGenerator, SineO
 from .errors import CommsError, DeviceError, DriverConfigError
 from .serial_link import SerialLink
 
-FEEDS_PER_PERIOD = 5
+FEEDS_PER_PERIOD = 8
 MIN_WATCHDOG = 0.02  # s; shorter periods leave no room for a feed round trip
+#: s; with the controller's 10 ms emergency ramp the drive is zero within 100 ms of a cut or
+#: hung link (docs/drivers.md "Drive-zero latency"); a feed goes out every 10 ms
+DEFAULT_WATCHDOG = 0.08
+#: s a feed's reply may take before the link counts as dead; longer than the period, as the
+#: controller was fed when the line arrived and zeroes the drive by itself if none does
+FEED_REPLY_TIMEOUT = 0.25
 
 
 class SerialShaker(SignalGenerator):
@@ -35,11 +41,11 @@ class SerialShaker(SignalGenerator):
         Seconds over which `stop` ramps the drive down.
     watchdog : float
         Link watchdog period, seconds (0 disables it): the controller zeroes the drive when
-        it hears nothing from the host for this long.
+        it hears nothing from the host for this long (default `DEFAULT_WATCHDOG`).
     """
 
     def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = 0.05,
-                 watchdog: float = 0.5) -> None:
+                 watchdog: float = DEFAULT_WATCHDOG) -> None:
         if not (isinstance(watchdog, (int, float)) and math.isfinite(watchdog)
                 and (watchdog == 0 or MIN_WATCHDOG <= watchdog <= 60)):
             raise DriverConfigError(f"shaker watchdog must be 0 (off) or {MIN_WATCHDOG:g}..60 "
@@ -76,8 +82,8 @@ class SerialShaker(SignalGenerator):
         while not self._halt.wait(period):
             if self.link.lock.locked() or time.monotonic() - self.link.last_command < period:
                 continue  # a command is going out or just went out: that feeds it
-            try:  # a reply slower than a whole period means the link is dead
-                self.link.command("SYST:WDOG:FEED", self.watchdog)
+            try:
+                self.link.command("SYST:WDOG:FEED", max(self.watchdog, FEED_REPLY_TIMEOUT))
             except CommsError as exc:
                 self.feed_error = exc
                 return

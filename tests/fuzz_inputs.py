@@ -12,12 +12,19 @@ import io
 import json
 import math
 import signal
+import tomllib
 import warnings
+from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from hypothesis import strategies as st
 
+from analysis.models import MAX_ENTRY, MAX_PARAM
 from nlid_lab.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 #: values that no numeric, string or table entry of our formats accepts as given
 BAD_VALUES = ["1e4", True, False, [], [True], [["1"]], {"a": 1.0}, "", float("nan"),
@@ -25,6 +32,57 @@ BAD_VALUES = ["1e4", True, False, [], [True], [["1"]], {"a": 1.0}, "", float("na
 #: numbers that are of the right type but may be out of the physical range
 EDGE_NUMBERS = [0, 0.0, -1.0, 1, 2**63 - 1, -(2**63), 1e308, -1e308, 1e-300, 1e-12, 1e15,
                 1e16, 3.5, 500]
+
+
+# --- the valid documents the mutations start from, and their documented ranges -----------
+MODEL = {
+    "name": "two dof",
+    "linear": {"mass": [[1.0, 0.0], [0.0, 2.0]], "damping": [[20.0, -10.0], [-10.0, 20.0]],
+               "stiffness": [[2e4, -1e4], [-1e4, 2e4]]},
+    "element": [{"kind": "cubic_spring", "w": [1.0, 0.0], "p": 1e9},
+                {"kind": "gap", "w": [-1.0, 1.0], "k": 1e4, "g": 1e-3},
+                {"kind": "hysteresis", "w": [0.0, 1.0], "kd": 1e4, "fd": 2.0, "n": 2.0},
+                {"kind": "coulomb_friction", "w": [0.0, 1.0], "fc": 0.5, "v_reg": 1e-2}],
+}
+POSITIVE = {"g", "k", "kd", "fd", "n", "v_reg"}
+
+
+def model_number_invalid(path: tuple, value: float) -> bool:
+    """Numbers that break a rule of docs/model-format.md for certain in `MODEL`."""
+    if path[0] == "linear":
+        matrix, r, c = path[1], path[2], path[3]
+        old = MODEL["linear"][matrix][r][c]
+        return (abs(value) > MAX_ENTRY or (r != c and abs(value - old) > 1e-6)
+                or (r == c and value < 0) or (matrix == "mass" and r == c and value < 1e-6))
+    if path[2] == "w":
+        return abs(value) > MAX_ENTRY
+    return abs(value) > MAX_PARAM or (path[2] in POSITIVE and value <= 0)
+
+
+CAMPAIGN = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
+CAMPAIGN["plant"]["model"] = str(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml")
+NOT_NEGATIVE = {"fs", "levels", "averages", "block_size", "sensitivity", "shaker_gain",
+                "noise_std", "gain_guess", "seed", "band", "x0"}
+INTEGERS = {"averages", "block_size", "seed", "dof"}
+
+
+def campaign_number_invalid(path: tuple, value: float) -> bool:
+    """Numbers that break a rule of docs/campaign-format.md for certain."""
+    key = next(k for k in reversed(path) if isinstance(k, str))
+    return ((key in NOT_NEGATIVE and value < 0) or (key in INTEGERS and value == 3.5)
+            or (key == "fs" and value > 1e6) or (key == "averages" and value > 100000)
+            or (key == "levels" and value == 0))
+
+
+def bad_arrays(value: np.ndarray) -> dict[str, tuple[np.ndarray, bool]]:
+    """Replacements of one NPZ entry, and whether each breaks a documented rule for sure."""
+    arr = np.asarray(value)
+    return {"complex": (arr + 1j, True), "text": (np.full(arr.shape, "abc"), True),
+            "bool": (arr != 0, True), "nan": (np.full(arr.shape, np.nan), True),
+            "huge": (np.full(arr.shape, 1e300), True), "tiny": (arr * 1e-300, False),
+            "negative": (-np.abs(arr) - 1, False), "empty": (arr.reshape(-1)[:0], True),
+            "first sample": (arr[..., :1, :] if arr.ndim >= 2 else arr, arr.ndim >= 2),
+            "transposed": (arr.T, False), "zeros": (np.zeros_like(arr), False)}
 
 
 class TimeLimit(Exception):

@@ -13,11 +13,11 @@ from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tang
                         unregister_kind)
 from ._basis import (FAMILIES, LIBRARY, alias_error, aliasing_factor, deformation, element_basis,
                      evaluate)
-from ._textfile import MAX_TOML_BYTES, read_text, unknown_keys
+from ._textfile import MAX_TOML_BYTES, MAX_TOML_DEPTH, parse_toml, read_text, unknown_keys
 
 __all__ = ["Element", "FAMILIES", "KINDS", "Kind", "LIBRARY", "MAX_DOF", "MAX_ELEMENTS",
-           "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "Model", "N_BUILTIN", "N_PARAM", "N_STATE",
+           "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "Model", "N_BUILTIN", "N_PARAM", "N_STATE",
            "Param", "Refs", "alias_error", "aliasing_factor", "coefficient_units", "deformation",
            "element_basis", "element_force", "element_tangent", "evaluate", "lookup",
-           "memoryless_force", "pack_params", "read_text", "register_kind", "restoring_force",
+           "memoryless_force", "pack_params", "parse_toml", "read_text", "register_kind", "restoring_force",
            "search_order", "unknown_keys", "unregister_kind"]

@@ -25,7 +25,7 @@ from ._model_file import (check_keys, check_toml_matrix, default_points, point_i
                           short, toml_element, toml_list, toml_num, toml_str, toml_where)
 from ._model_tables import (MAX_DOF, MAX_ENTRY, MAX_MODES, MAX_RATE_HZ, matrix,
                             modal_table, points_table, shapes_table)
-from ._textfile import read_text
+from ._textfile import parse_toml, read_text
 
 TOP_KEYS = ("name", "points", "linear", "modal", "element")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
@@ -370,11 +370,7 @@ class Model:
         ModelError
             Invalid TOML or schema.
         """
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ModelError(f"{source}: not valid TOML ({exc}); fix the syntax") from None
-        return cls.from_dict(data, source)
+        return cls.from_dict(parse_toml(text, source, ModelError), source)
 
     @classmethod
     def load(cls, path: str | Path) -> "Model":

@@ -9,13 +9,16 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 import stat
+import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 
 from ..errors import InputError
 
 MAX_TOML_BYTES = 16 * 2**20  # a model or campaign file; the largest example is a few kB
+MAX_TOML_DEPTH = 32  # nested arrays/inline tables; a model matrix needs 2, a campaign 3
 
 
 def read_text(path: str | os.PathLike, what: str, error: type[InputError] = InputError,
@@ -62,6 +65,56 @@ def read_text(path: str | os.PathLike, what: str, error: type[InputError] = Inpu
     except UnicodeDecodeError as exc:
         raise error(f"{what} {path} is not UTF-8 text ({exc.reason} at byte {exc.start}); "
                     "save it as UTF-8") from None
+
+
+def parse_toml(text: str, what: str, error: type[InputError] = InputError) -> dict:
+    """The TOML document ``text``, its nesting depth bounded before it is parsed.
+
+    Parameters
+    ----------
+    text : str
+    what : str
+        What the text is, for the messages ("model file m.toml").
+    error : type
+        `InputError` subclass raised for invalid TOML or too deep nesting.
+
+    Returns
+    -------
+    dict
+    """
+    depth, line = toml_depth(text)
+    if depth > MAX_TOML_DEPTH:
+        raise error(f"{what}: arrays or inline tables nested {depth} deep on line {line}, "
+                    f"more than the {MAX_TOML_DEPTH} any of our formats needs; check that "
+                    "line's brackets")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{what}: not valid TOML ({exc}); fix the syntax") from None
+
+
+# strings (which may hold brackets), comments, and the brackets themselves
+_TOML_TOKEN = re.compile(r'"""(?:[^"\\]|\\.|"(?!""))*"{3,5}|\'\'\'.*?\'{3,5}'
+                         r'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*|[\[\]{}]', re.S)
+
+
+def toml_depth(text: str) -> tuple[int, int]:
+    """Deepest nesting of ``[`` / ``{`` outside strings and comments, and its line (1-based).
+
+    Scanned by hand because tomllib parses each level by recursion with no bound of its own
+    (RecursionError past ~1000 levels); this linear scan bounds the depth first. Unbalanced or
+    invalid text is left for tomllib to report.
+    """
+    depth = deepest = where = 0
+    for m in _TOML_TOKEN.finditer(text):
+        tok = m.group()
+        if tok in ("[", "{"):
+            depth += 1
+            if depth > deepest:
+                deepest, where = depth, m.start()
+        elif tok in ("]", "}"):
+            depth = max(depth - 1, 0)
+    return deepest, text.count("\n", 0, where) + 1
 
 
 def nearest(word: str, choices: Iterable[str]) -> str | None:

@@ -219,6 +219,10 @@ class Recording:
         if self.force.shape[:-1] != self.response.shape[:-1]:
             raise RecordingError(f"force {self.force.shape} and response "
                                  f"{self.response.shape} differ in length")
+        if self.force_dofs.ndim != 1:
+            raise RecordingError(f"force_dofs must be a flat list of DOF indices, one per "
+                                 f"force channel, got shape {self.force_dofs.shape}; write "
+                                 f"e.g. [0] or [0, 2]")
         if self.force.shape[-1] != self.force_dofs.size:
             raise RecordingError(f"force has {self.force.shape[-1]} channels but force_dofs "
                                  f"names {self.force_dofs.size}")

@@ -106,7 +106,7 @@ class _Runner:
         if self.stop is not None and self.stop.is_set():
             raise KeyboardInterrupt("campaign stopped by the user")
         self.bench.shaker.check_link()
-        block = daq.read(timeout=max(self.c.comms_timeout, 4 * self.c.frame_size / self.c.fs))
+        block = daq.read(timeout=max(daq.stall_timeout, 4 * self.c.frame_size / self.c.fs))
         for col, name, limit in self.limits:
             peak = float(np.max(np.abs(block.data[:, col])))
             if peak > limit:

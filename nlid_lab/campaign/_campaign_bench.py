@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
-from drivers.base import Acquirer, Channel, SignalGenerator
+from drivers.base import Acquirer, Channel, SignalGenerator, default_stall_timeout
 from drivers.errors import DriverConfigError
 from drivers.registry import open_daq, open_shaker
 from drivers.rig import SimRig
@@ -116,18 +116,25 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
     faults = c.fault_spec()
     if kind == "serial-emu":
         from drivers.emulators.serial_emu import SerialDaqEmulator
-        emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=_pace(c, c.daq_url),
-                                                  faults=faults), emulators, stack)
-        return open_daq(f"serial://{emu.port}", stall_timeout=c.comms_timeout)
+        pace = _pace(c, c.daq_url)
+        emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=pace, faults=faults),
+                                emulators, stack)
+        # its frames come `pace` times as often as a real device's
+        interval = c.frame_size / (c.fs * pace) if pace > 0 else 0.0
+        return open_daq(f"serial://{emu.port}",
+                        stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     if kind == "can-emu":
-        from drivers.emulators.can_emu import CanDaqEmulator
+        from drivers.emulators.can_emu import ROWS_PER_TICK, CanDaqEmulator
         parts = urlsplit(c.daq_url)
         channel = parts.path.strip("/")
         if not parts.netloc or not channel:
             raise DriverConfigError(f"'{c.daq_url}': write can-emu://INTERFACE/CHANNEL, e.g. "
                                     "can-emu://virtual/nlid0")
-        _closing_emulator(CanDaqEmulator(rig, c.channels, parts.netloc, channel,
-                                         pace=_pace(c, c.daq_url), faults=faults),
-                          emulators, stack)
-        return open_daq(f"can://{parts.netloc}/{channel}", stall_timeout=c.comms_timeout)
+        pace = _pace(c, c.daq_url)
+        _closing_emulator(CanDaqEmulator(rig, c.channels, parts.netloc, channel, pace=pace,
+                                         faults=faults), emulators, stack)
+        # it sends sample rows in bursts of ROWS_PER_TICK, `pace` times as often as real time
+        interval = ROWS_PER_TICK / (c.fs * pace)
+        return open_daq(f"can://{parts.netloc}/{channel}",
+                        stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     return open_daq(c.daq_url, stall_timeout=c.comms_timeout)

@@ -7,7 +7,6 @@ the fix. Relative paths are resolved against the campaign file's folder.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,7 @@ from urllib.parse import urlsplit
 
 from analysis.errors import InputError, RecordingError
 from analysis.recordings import KIND_ORDER, MIXED, RESPONSE_KINDS, SensorMap, table_keys
-from analysis.models import read_text, unknown_keys
+from analysis.models import parse_toml, read_text, unknown_keys
 from drivers.base import Channel
 from drivers.errors import DriverConfigError
 from drivers.faults import FaultSpec
@@ -95,7 +94,7 @@ class Campaign:
     plan: RandomSpec | SteppedSpec | SweepSpec
     plant: PlantSpec | None = None
     frame_size: int = 32
-    comms_timeout: float = 0.25
+    comms_timeout: float | None = None   # None: the DAQ driver's frame interval + margin
     ramp_time: float = 0.05
     gain_guess: float = 1.0
     max_drive: float = 10.0
@@ -565,8 +564,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
                         integer=True),
-        comms_timeout=_num(daq, "comms_timeout", "daq", default=0.25, lo=0.001,
-                           open_lo=False, hi=60),
+        comms_timeout=_num(daq, "comms_timeout", "daq", default=None, lo=0.001, hi=60),
         ramp_time=_num(shaker, "ramp_time", "shaker", default=0.05, lo=0.0, hi=10),
         gain_guess=_num(shaker, "gain_guess", "shaker", default=1.0, lo=0.0, open_lo=True),
         max_drive=_num(shaker, "max_drive", "shaker", default=10.0, lo=0.0, open_lo=True),
@@ -597,10 +595,7 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read and validate a campaign TOML file."""
     path = Path(path)
     text = read_text(path, "campaign file", CampaignError)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise CampaignError(f"{path}: not valid TOML ({exc}); fix the syntax") from None
+    data = parse_toml(text, str(path), CampaignError)
     try:
         campaign = parse_campaign(data, path.resolve().parent)
     except CampaignError as exc:

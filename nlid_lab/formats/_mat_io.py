@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import os
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from analysis.errors import InputError
+from analysis.models import parse_toml, read_text
 
 from ._units import lookup
 
@@ -127,10 +127,8 @@ class ChannelMap:
         path = Path(path)
         if not path.is_file() or path.stat().st_size > MAX_MAP_BYTES:
             raise MatFileError(f"channel map {path}: not a (small) regular file")
-        try:
-            data = tomllib.loads(path.read_text())
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise MatFileError(f"channel map {path}: not valid TOML ({exc})") from None
+        text = read_text(path, "channel map", MatFileError, max_bytes=MAX_MAP_BYTES)
+        data = parse_toml(text, f"channel map {path}", MatFileError)
         return cls.from_dict(data, str(path))
 
     @classmethod
@@ -185,8 +183,8 @@ def _selections(text: str, role: str) -> list[Selection]:
 def _literal(text: str) -> Any:
     """A map value as TOML reads it (``0``, ``2.5``, ``[0, 1]``), else the text itself."""
     try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+        return parse_toml(f"v = {text}", "map value")["v"]
+    except InputError:
         return text
 
 
@@ -208,7 +206,9 @@ def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
 
     try:
         raw = scipy.io.loadmat(path, simplify_cells=True)
-    except (MatReadError, ValueError, OSError, TypeError) as exc:
+    # a cut or damaged file makes scipy's reader fail in many ways (IndexError, EOFError,
+    # struct and zlib errors...): whatever it raises, the file is not readable
+    except (MatReadError, Exception) as exc:  # noqa: BLE001
         raise MatFileError(f"{path} is not a readable MAT file ({exc}); save it with MATLAB's "
                            "save or scipy.io.savemat") from None
     out: dict[str, Any] = {}

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import RecordingError
-from analysis.models import read_text
+from analysis.models import parse_toml, read_text
 from analysis.recordings import Recording, SensorMap, sensor_map, table_keys
 
 from ._recordings_io import RecordingFileError
@@ -18,14 +18,9 @@ from ._recordings_io import RecordingFileError
 def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:
     """A sensor-map TOML file (``response_points``, ``response_kinds``, ``force_points``:
     lists of names; docs/model-format.md#sensor-maps) as recording keys."""
-    import tomllib
-
     path = Path(path)
     text = read_text(path, "sensor map", RecordingFileError, max_bytes=1 << 16)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise RecordingFileError(f"{path}: not valid TOML ({exc})") from None
+    data = parse_toml(text, str(path), RecordingFileError)
     try:
         return table_keys(data, "a sensor map")
     except RecordingError as exc:

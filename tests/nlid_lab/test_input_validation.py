@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import copy
 import os
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +16,8 @@ from analysis.errors import ModelError
 from analysis.models import MAX_ENTRY, MAX_PARAM, Model
 from nlid_lab.campaign import CampaignError, parse_campaign
 
-from fuzz_inputs import check_outcome, mutations, run_cli, toml_text
+from fuzz_inputs import (CAMPAIGN, MODEL, bad_arrays, campaign_number_invalid, check_outcome,
+                         model_number_invalid, mutations, run_cli, toml_text)
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 FS = 1024.0
@@ -27,30 +27,6 @@ FUZZ = settings(max_examples=int(os.environ.get("NLID_FUZZ_EXAMPLES", 25)), dead
                                                          HealthCheck.too_slow])
 
 # --- model files -----------------------------------------------------------------------------
-MODEL = {
-    "name": "two dof",
-    "linear": {"mass": [[1.0, 0.0], [0.0, 2.0]], "damping": [[20.0, -10.0], [-10.0, 20.0]],
-               "stiffness": [[2e4, -1e4], [-1e4, 2e4]]},
-    "element": [{"kind": "cubic_spring", "w": [1.0, 0.0], "p": 1e9},
-                {"kind": "gap", "w": [-1.0, 1.0], "k": 1e4, "g": 1e-3},
-                {"kind": "hysteresis", "w": [0.0, 1.0], "kd": 1e4, "fd": 2.0, "n": 2.0},
-                {"kind": "coulomb_friction", "w": [0.0, 1.0], "fc": 0.5, "v_reg": 1e-2}],
-}
-POSITIVE = {"g", "k", "kd", "fd", "n", "v_reg"}
-
-
-def model_number_invalid(path: tuple, value: float) -> bool:
-    """Numbers that break a rule of docs/model-format.md for certain in `MODEL`."""
-    if path[0] == "linear":
-        matrix, r, c = path[1], path[2], path[3]
-        old = MODEL["linear"][matrix][r][c]
-        return (abs(value) > MAX_ENTRY or (r != c and abs(value - old) > 1e-6)
-                or (r == c and value < 0) or (matrix == "mass" and r == c and value < 1e-6))
-    if path[2] == "w":
-        return abs(value) > MAX_ENTRY
-    return abs(value) > MAX_PARAM or (path[2] in POSITIVE and value <= 0)
-
-
 @pytest.fixture(scope="module")
 def drive(tmp_path_factory):
     path = tmp_path_factory.mktemp("drive") / "drive.npz"
@@ -123,27 +99,16 @@ def recordings(tmp_path_factory):
     return d, {"random": random, "stepped": stepped}
 
 
-def _bad_arrays(value: np.ndarray) -> dict[str, tuple[np.ndarray, bool]]:
-    """Replacements of one NPZ entry, and whether each breaks a documented rule for sure."""
-    arr = np.asarray(value)
-    return {"complex": (arr + 1j, True), "text": (np.full(arr.shape, "abc"), True),
-            "bool": (arr != 0, True), "nan": (np.full(arr.shape, np.nan), True),
-            "huge": (np.full(arr.shape, 1e300), True), "tiny": (arr * 1e-300, False),
-            "negative": (-np.abs(arr) - 1, False), "empty": (arr.reshape(-1)[:0], True),
-            "first sample": (arr[..., :1, :] if arr.ndim >= 2 else arr, arr.ndim >= 2),
-            "transposed": (arr.T, False), "zeros": (np.zeros_like(arr), False)}
-
-
 @st.composite
 def npz_mutations(draw, recs: dict) -> tuple[str, dict, str, bool]:
     kind = draw(st.sampled_from(sorted(recs)))
     data = dict(recs[kind])
     key = draw(st.sampled_from(sorted(data)))
-    change = draw(st.sampled_from(["delete"] + sorted(_bad_arrays(data[key]))))
+    change = draw(st.sampled_from(["delete"] + sorted(bad_arrays(data[key]))))
     if change == "delete":
         del data[key]
         return kind, data, f"{kind}: {key} deleted", key in REQUIRED
-    data[key], invalid = _bad_arrays(data[key])[change]
+    data[key], invalid = bad_arrays(data[key])[change]
     if key in ("force_rms", "force_amplitude") and change in ("negative", "zeros"):
         invalid = True
     return kind, data, f"{kind}: {key} {change}", invalid
@@ -247,21 +212,6 @@ def test_mutated_csv_recordings_are_refused_in_one_line(row, col, cell, recordin
 
 
 # --- campaign files ---------------------------------------------------------------------------
-CAMPAIGN = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
-CAMPAIGN["plant"]["model"] = str(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml")
-NOT_NEGATIVE = {"fs", "levels", "averages", "block_size", "sensitivity", "shaker_gain",
-                "noise_std", "gain_guess", "seed", "band", "x0"}
-INTEGERS = {"averages", "block_size", "seed", "dof"}
-
-
-def campaign_number_invalid(path: tuple, value: float) -> bool:
-    """Numbers that break a rule of docs/campaign-format.md for certain."""
-    key = next(k for k in reversed(path) if isinstance(k, str))
-    return ((key in NOT_NEGATIVE and value < 0) or (key in INTEGERS and value == 3.5)
-            or (key == "fs" and value > 1e6) or (key == "averages" and value > 100000)
-            or (key == "levels" and value == 0))
-
-
 def _write_campaign(tmp_path, doc: dict) -> Path:
     path = tmp_path / "c.toml"
     path.write_text(toml_text(doc))

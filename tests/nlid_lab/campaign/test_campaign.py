@@ -45,6 +45,8 @@ def campaign(backend="sim", kind="random", name="c", **changes):
     data = copy.deepcopy(BASE)
     shaker, daq = URLS[backend]
     data["shaker"]["url"], data["daq"]["url"] = shaker, daq.format(name=name)
+    if backend != "sim":   # room for a busy machine; the defaults: test_drive_zero.py
+        data["shaker"]["watchdog"], data["daq"]["comms_timeout"] = 0.5, 0.25
     data["random"].update(levels=[30.0], averages=4, block_size=4096)
     if kind == "stepped-sine":
         del data["random"]

@@ -202,7 +202,8 @@ def test_sigkill_host_watchdog_zeroes_drive(tmp_path):
         text = (tmp_path / "campaign.toml").read_text()
         text = text.replace('url = "sim://"', f'url = "serial://{shaker.port}"\nwatchdog = '
                             f'{WATCHDOG}', 1).replace('url = "sim://"',
-                                                      f'url = "serial://{daq.port}"', 1)
+                                                      f'url = "serial://{daq.port}"\n'
+                                                      'comms_timeout = 0.25', 1)
         text = text[:text.index("[plant]")] + text[text.index("[shaker]"):]
         real = tmp_path / "real.toml"
         real.write_text(text)

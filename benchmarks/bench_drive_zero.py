@@ -1,0 +1,67 @@
+"""Drive-zero latency with default settings (issue 26 item 5): a random campaign on the
+serial shaker emulator and a serial (pseudo-terminal) or CAN (python-can virtual bus) DAQ
+emulator, one fault each run, from the fault to the drive at zero (tests/drive_zero.py).
+The goal is 100 ms for every fault. Baseline timed in the same run: the previous defaults
+(stall 0.25 s, watchdog 0.5 s). A run the defaults stopped before its fault is a false trip:
+counted and repeated.
+
+    python benchmarks/bench_drive_zero.py [--trials 3] [--baseline]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+
+from drive_zero import BACKENDS, FAULTS, FalseTrip, measure  # noqa: E402
+
+OLD = {"daq": {"comms_timeout": 0.25}, "shaker": {"watchdog": 0.5}}
+MAX_ATTEMPTS = 6
+
+
+def trials(backend: str, fault: str, n: int, folder: Path, tag: str = "new",
+           **changes) -> tuple[list, int]:
+    """``n`` latencies (s) and the false trips met on the way (at most `MAX_ATTEMPTS` n
+    attempts)."""
+    out, false = [], 0
+    for k in range(MAX_ATTEMPTS * n):
+        if len(out) == n:
+            break
+        try:
+            out.append(measure(backend, fault, folder / f"{tag}-{backend}-{fault}-{k}.h5",
+                               **changes).seconds)
+        except FalseTrip:
+            false += 1
+    return out, false
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--trials", type=int, default=3)
+    ap.add_argument("--baseline", action="store_true", help="also time the old defaults")
+    args = ap.parse_args()
+    folder = Path(tempfile.mkdtemp())
+    print(f"{'backend':8s}{'fault':16s}{'latency, ms (default)':30s}{'false trips':12s}"
+          + ("old defaults, ms" if args.baseline else ""))
+    for backend in BACKENDS:
+        for fault in FAULTS:
+            lat, false = trials(backend, fault, args.trials, folder)
+            text = " ".join(f"{1000 * x:5.0f}" for x in lat) or "no run reached its fault"
+            flag = "  > 100 ms" if lat and max(lat) > 0.1 else ""
+            line = f"{backend:8s}{fault:16s}{text + flag:30s}{false:<12d}"
+            if args.baseline:
+                old, _ = trials(backend, fault, args.trials, folder, "old", **OLD)
+                ratio = np.median(old) / np.median(lat) if lat and old else float("nan")
+                line += " ".join(f"{1000 * x:5.0f}" for x in old) + f"  ({ratio:.1f}x)"
+            print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
