@@ -21,8 +21,8 @@ def test_stick_slip_masked_by_ten_percent_noise_on_stepped_sine():
     sc = masked_friction(noise=0.10)
     d = diagnose(sc.start, sc.recordings)
     check(sc, d, rel_tol=0.05)
-    assert d.evidence["odd_harmonic_ratio"] > 0.01     # harmonic signature of the friction
-    assert d.ranking[0]["evidence"]["estimator"] == "harmonic-balance fit"
+    assert d.evidence.odd_harmonic_ratio > 0.01     # harmonic signature of the friction
+    assert d.ranking[0].evidence["estimator"] == "harmonic-balance fit"
 
 
 def test_level_independent_stiffness_error_on_stepped_sine():
