@@ -12,11 +12,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from ..models import Model
 from .leakage import Floor
 from .locate import LevelDependence
+
+if TYPE_CHECKING:
+    from .report import LevelCurves
 
 SCHEMA_VERSION = 1
 """Version of the diagnosis JSON; results stored without one are read as the earlier
@@ -526,7 +529,7 @@ class Diagnosis:
     residuals: tuple[LevelResiduals, ...] = ()
     warnings: tuple[str, ...] = ()
     model: Model | None = field(default=None, compare=False)
-    curves: tuple = field(default=(), compare=False)
+    curves: tuple[LevelCurves, ...] = field(default=(), compare=False)
 
     def to_json(self) -> Json:
         """The command's JSON (contracts sections 4, 5, 7) with ``schema_version``."""

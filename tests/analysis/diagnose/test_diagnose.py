@@ -131,7 +131,7 @@ def test_two_missing_effects_found_by_a_second_pass():
     # a third pass may stand in for the first estimate's sequential error; the joint refit
     # makes it irrelevant and it is pruned (measured: a -3 N/m stiffness at DOF 1)
     ev = d.evidence
-    assert sum(p["accepted"] for p in ev["passes"]) - len(ev["pruned_after_joint_refit"]) == 2
+    assert sum(p.accepted for p in ev.passes) - len(ev.pruned_after_joint_refit) == 2
     assert d.location.dofs == (0, 1, 2)
     assert d.fit.after <= 0.5 * d.fit.before
     check_residuals(d)
