@@ -12,11 +12,13 @@ import pytest
 from analysis.diagnose import SCHEMA_VERSION, Diagnosis, Verdict
 from golden_cases import CASES, GOLDEN, run_case, without_schema_version
 
-SLOW = {"modal-sensors", "stepped-friction"}
+FAST = {"stepped-stiffness"}
+"""Cases in `make test` (the others take 20-40 s each; random-cubic is also compared in
+`test_diagnose_stepped_cli.test_cli_diagnose_runs_on_npz_and_hdf5`)."""
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c in SLOW
-                                  else c for c in CASES])
+@pytest.mark.parametrize("case", [c if c in FAST else pytest.param(c, marks=pytest.mark.slow)
+                                  for c in CASES])
 def test_command_json_is_the_golden_one_plus_its_schema_version(case, tmp_path):
     text = run_case(case, tmp_path)
     data = json.loads(text)
@@ -93,3 +95,29 @@ def test_the_result_is_frozen():
         d.verdict = Verdict.ADEQUATE
     with pytest.raises(AttributeError):
         d.fit.after = 0.0
+
+
+def test_a_run_holding_an_earlier_layout_reports_it(tmp_path):
+    """A diagnosis stored in a run before the schema version is found by its name and read
+    typed by the report: its per-level bars come from the top-level rows."""
+    import numpy as np
+
+    from analysis.recordings import Recording
+    from nlid_lab.reports import DIAGNOSIS_RESULT, load_run, stored_diagnosis
+    from nlid_lab.reports._report import diagnosis_levels, diagnosis_section
+    from nlid_lab.store import save_recording, save_result
+
+    rng = np.random.default_rng(1)
+    rec = Recording(256.0, "random", [0], rng.standard_normal((2048, 1)),
+                    rng.standard_normal((2048, 2)), level=1.0)
+    path = tmp_path / "run.h5"
+    save_recording(path, rec)
+    save_result(path, DIAGNOSIS_RESULT, LEGACY_LEVELS)
+    run = load_run(path)
+    d = stored_diagnosis(run)
+    assert d.verdict is Verdict.ADEQUATE and d.explanation == "adequate"
+    bars = diagnosis_levels(d, "N rms")
+    assert [(b["label"], b["before"], b["held_back"]) for b in bars] == [
+        ("1 N rms", 0.01, False), ("2 N rms", 0.02, True)]
+    sec = diagnosis_section(run)
+    assert [name for name, _ in sec.figures] == ["diagnosis_fit"]
