@@ -14,7 +14,7 @@ docs/diagnose.md.
 
 from .candidates import Candidate, library
 from .prepare import DiagnoseInputError
-from .result import (SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
+from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
                      FitSummary, LevelError, LevelResiduals, Location, LocationRow, Misfit,
                      PassSummary, Rejection, TimeResidual, Verdict)
 from .search import diagnose
@@ -23,7 +23,7 @@ __all__ = [
     # entry point and input errors
     "diagnose", "DiagnoseInputError", "Candidate", "library",
     # the result (frozen dataclasses; Diagnosis.to_json / from_json)
-    "Diagnosis", "SCHEMA_VERSION", "Verdict", "Location", "Alternative", "CandidateFit",
+    "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
     "LocationRow", "Misfit", "LevelResiduals",
 ]

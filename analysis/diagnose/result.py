@@ -25,6 +25,10 @@ SCHEMA_VERSION = 1
 """Version of the diagnosis JSON; results stored without one are read as the earlier
 layouts (contracts section 4 alone, or per-level errors at the top level only)."""
 
+RESULT_NAME = "diagnose"
+"""Name under which a run stores its diagnosis (``nlid-lab diagnose --store``), where
+``nlid-lab report`` finds it."""
+
 Json = dict[str, Any]
 
 

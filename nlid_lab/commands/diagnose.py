@@ -59,13 +59,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose the runs against the model; write JSON, corrected model and report."""
-    from analysis.diagnose import DiagnoseInputError, diagnose
+    from analysis.diagnose import RESULT_NAME, DiagnoseInputError, diagnose
     from analysis.models import Model
     from analysis.recordings import at_points, model_at_sensors, one_kind
 
     from nlid_lab.outputs import refuse_overwrite, summary_stream, write_json
     from nlid_lab.progress import progress
-    from nlid_lab.reports import DIAGNOSIS_RESULT
     from nlid_lab.formats import load_recordings
     from nlid_lab.store import open_run, save_result
 
@@ -101,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
         write_report(d, Path(args.report))
     result = d.to_json()
     if args.store:
-        save_result(args.store, DIAGNOSIS_RESULT, result)
+        save_result(args.store, RESULT_NAME, result)
     write_json(result, args.json)
     stream = summary_stream(args.json, args.quiet)
     print(f"{d.verdict}: {d.explanation}", file=stream)

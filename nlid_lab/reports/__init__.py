@@ -4,12 +4,12 @@ Modules behind this API: ``_report``, ``_figures``, ``_uff``, ``_rundata``. Code
 package imports its siblings by their private module path.
 """
 
-from ._report import (DIAGNOSIS_RESULT, estimate_rows, modal_fit_section, stored_diagnosis,
+from ._report import (estimate_rows, modal_fit_section, stored_diagnosis,
                       write_report)
 from ._figures import ModelCurve, phase_deg, response_curves, stabilisation
 from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_model, load_run,
                        reference_model)
 
-__all__ = ["DIAGNOSIS_RESULT", "ModelCurve", "PARAM_UNITS", "RunData", "Section", "all_level_frfs", "candidate_model",
+__all__ = ["ModelCurve", "PARAM_UNITS", "RunData", "Section", "all_level_frfs", "candidate_model",
            "estimate_rows", "load_run", "modal_fit_section", "phase_deg", "reference_model",
            "response_curves", "stabilisation", "stored_diagnosis", "write_report"]

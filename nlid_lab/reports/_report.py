@@ -10,17 +10,19 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
-from analysis.diagnose import Diagnosis
 from analysis.errors import InputError
 from analysis.spectral import LevelFRF
 
 from . import _figures as figures
 from ..outputs import level_text
 from ._rundata import RunData, Section, all_level_frfs
+
+if TYPE_CHECKING:
+    from analysis.diagnose import Diagnosis
 
 
 # --- report sections ----------------------------------------------------------------------
@@ -36,13 +38,10 @@ def channel_names(run: RunData) -> tuple[list[str], list[str]] | None:
     return channel_labels(rec), list(rec.sensors.force_points)
 
 
-DIAGNOSIS_RESULT = "diagnose"
-"""Name under which ``nlid-lab diagnose --store`` saves its result in a run."""
-
-
 def stored_diagnosis(run: RunData) -> Diagnosis | None:
     """The run's stored diagnosis, in any layout nlid-lab wrote (None without one)."""
-    res = run.results.get(DIAGNOSIS_RESULT)
+    from analysis.diagnose import RESULT_NAME, Diagnosis   # the diagnosis room loads on use
+    res = run.results.get(RESULT_NAME)
     if res is None:
         return None
     try:

@@ -103,7 +103,8 @@ def test_a_run_holding_an_earlier_layout_reports_it(tmp_path):
     import numpy as np
 
     from analysis.recordings import Recording
-    from nlid_lab.reports import DIAGNOSIS_RESULT, load_run, stored_diagnosis
+    from analysis.diagnose import RESULT_NAME
+    from nlid_lab.reports import load_run, stored_diagnosis
     from nlid_lab.reports._report import diagnosis_levels, diagnosis_section
     from nlid_lab.store import save_recording, save_result
 
@@ -112,7 +113,7 @@ def test_a_run_holding_an_earlier_layout_reports_it(tmp_path):
                     rng.standard_normal((2048, 2)), level=1.0)
     path = tmp_path / "run.h5"
     save_recording(path, rec)
-    save_result(path, DIAGNOSIS_RESULT, LEGACY_LEVELS)
+    save_result(path, RESULT_NAME, LEGACY_LEVELS)
     run = load_run(path)
     d = stored_diagnosis(run)
     assert d.verdict is Verdict.ADEQUATE and d.explanation == "adequate"
