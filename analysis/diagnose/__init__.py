@@ -7,12 +7,23 @@ and DOF pair) by information criterion, estimates the chosen candidate's paramet
 path for random data, harmonic-balance fit for stepped sine), searches again on the corrected
 model for a further effect (accepted ones are refitted jointly) and shows the improvement on
 a recording held back from fitting: FRFs per level and time residuals of replays of the
-measured force (`replay`). See docs/diagnose.md.
+measured force (`replay`). The stages are one engine for random and stepped-sine data
+(`engine`); the result is typed (`result.Diagnosis`, ``to_json`` / ``from_json``). See
+docs/diagnose.md.
 """
 
 from .candidates import Candidate, library
 from .prepare import DiagnoseInputError
-from .report import Diagnosis
+from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
+                     FitSummary, LevelError, LevelResiduals, Location, LocationRow, Misfit,
+                     PassSummary, Rejection, TimeResidual, Verdict)
 from .search import diagnose
 
-__all__ = ["diagnose", "Diagnosis", "Candidate", "library", "DiagnoseInputError"]
+__all__ = [
+    # entry point and input errors
+    "diagnose", "DiagnoseInputError", "Candidate", "library",
+    # the result (frozen dataclasses; Diagnosis.to_json / from_json)
+    "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
+    "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
+    "LocationRow", "Misfit", "LevelResiduals",
+]

@@ -100,7 +100,7 @@ def leakage_bias(model: Model, lf: LevelFRF,
     return bias
 
 
-@dataclass
+@dataclass(frozen=True)
 class Floor:
     """Expected FRF error of an exact model at one level (the `weighted_error` metric).
 
@@ -124,6 +124,10 @@ class Floor:
 
     def to_json(self) -> dict[str, float]:
         return {"noise": self.noise, "precision": self.precision, "limit": self.limit}
+
+    @classmethod
+    def from_json(cls, data: dict[str, float]) -> Floor:
+        return cls(data["noise"], data["precision"], data["limit"])
 
 
 def level_floor(lf: LevelFRF, precision: float = FLOOR) -> Floor:

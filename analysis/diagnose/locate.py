@@ -12,6 +12,7 @@ The per-DOF share of ``q`` tells which FRFs move with level (paper chapter 2).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
@@ -21,21 +22,27 @@ from .compare import LevelFRF
 ALPHA = 1e-4
 
 
-@dataclass
+@dataclass(frozen=True)
 class LevelDependence:
-    """Outcome of the homogeneity test between the lowest and highest level."""
+    """Outcome of the homogeneity test between the lowest and highest level: the chi-square
+    statistic per degree of freedom (about 1 for a linear structure), its p-value, and the
+    response DOFs that move most with their share of the statistic."""
 
     dependent: bool
     p_value: float
-    statistic: float
-    dof: float
-    moving_dofs: list[int]
-    share_by_dof: list[float]
+    statistic_per_dof: float
+    moving_dofs: tuple[int, ...]
+    share_by_dof: tuple[float, ...]
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return {"dependent": self.dependent, "p_value": self.p_value,
-                "statistic_per_dof": self.statistic / max(self.dof, 1.0),
-                "moving_dofs": self.moving_dofs, "share_by_dof": self.share_by_dof}
+                "statistic_per_dof": self.statistic_per_dof,
+                "moving_dofs": list(self.moving_dofs), "share_by_dof": list(self.share_by_dof)}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> LevelDependence:
+        return cls(data["dependent"], data["p_value"], data["statistic_per_dof"],
+                   tuple(data["moving_dofs"]), tuple(data["share_by_dof"]))
 
 
 def level_dependence(levels: list[LevelFRF]) -> LevelDependence | None:
@@ -56,7 +63,8 @@ def level_dependence(levels: list[LevelFRF]) -> LevelDependence | None:
     share = by_dof / max(by_dof.sum(), 1e-300)
     excess = by_dof / (2 * z.shape[0] * z.shape[2]) - 1.0   # mean normalised change - 1
     moving = [int(i) for i in np.flatnonzero(excess > 0.5 * excess.max())] if p < ALPHA else []
-    return LevelDependence(p < ALPHA, p, q, dof, moving, [float(s) for s in share])
+    return LevelDependence(p < ALPHA, p, q / max(dof, 1.0), tuple(moving),
+                           tuple(float(s) for s in share))
 
 
 def mismatch_band(lf: LevelFRF, H_model: np.ndarray, *, mass: float = 0.9

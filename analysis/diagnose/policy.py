@@ -17,6 +17,7 @@ from .joint import joint_refit
 from .locate import level_dependence
 from .prepare import DiagnoseInputError
 from .report import LevelCurves
+from .result import GroundedEnd, LocationRow, Misfit, PassSummary, Rejection, Tried, TrendPoint
 from .select import Fit, Search, corrected_model
 
 BIC_MIN = 10.0
@@ -42,7 +43,7 @@ MAX_EFFECTS = 3
 (a candidate already accepted is not offered again: the joint refit corrects its estimate)."""
 
 
-def _pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] | None:
+def pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] | None:
     """Indices (into ascending levels) held back; None means a held-back segment.
 
     Default: the lowest of two levels, the middle one of three, and every other interior
@@ -70,12 +71,12 @@ def _pick_holdout(levels: list[float], holdout: float | str | None) -> list[int]
 
 
 def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
-    """Labels of accepted candidates that `_pruned` dropped."""
+    """Labels of accepted candidates that `pruned` dropped."""
     kept = [f.cand for f in chosen]
     return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
 
 
-def _pruned(model: Model, search: Search, fits: list[Fit],
+def pruned(model: Model, search: Search, fits: list[Fit],
             change: Callable[[Model, list[Fit]], float]) -> list[Fit]:
     """Joint refit, then drop a later effect that the joint estimate makes irrelevant (its
     removal changes the model FRFs by less than `MIN_EFFECT`: it only stood in for the
@@ -83,13 +84,13 @@ def _pruned(model: Model, search: Search, fits: list[Fit],
     chosen = joint_refit(model, search, fits)
     for k in range(len(chosen) - 1, 0, -1):
         others = chosen[:k] + chosen[k + 1:]
-        if change(_apply(model, others), chosen) < MIN_EFFECT:
-            return _pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
+        if change(apply_fits(model, others), chosen) < MIN_EFFECT:
+            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
                            change)
     return chosen
 
 
-def _apply(model: Model, fits: list[Fit]) -> Model:
+def apply_fits(model: Model, fits: Sequence[Fit]) -> Model:
     """The model with every accepted candidate added, in order."""
     for f in fits:
         model = corrected_model(model, f)
@@ -106,20 +107,18 @@ class SearchPass:
     found: bool
     fixed: Model
     effect: float
-    rejected: list[dict] = field(default_factory=list)
+    rejected: list[Rejection] = field(default_factory=list)
 
     @property
     def best(self) -> Fit:
         return self.pool[0]
 
-    def to_json(self) -> dict:
+    def summary(self) -> PassSummary:
+        """The pass as a result row."""
         b = self.pool[0] if self.pool else None
-        return {"best": b.cand.label if b else None,
-                "delta_bic": float(b.delta_bic) if b else None,
-                "chi2_start": float(self.search.chi2_0),
-                "chi2_reduction": float(self.reduction),
-                "model_change": float(self.effect), "accepted": bool(self.found),
-                "rejected": self.rejected}
+        return PassSummary(b.cand.label if b else None, float(b.delta_bic) if b else None,
+                           float(self.search.chi2_0), float(self.reduction),
+                           float(self.effect), bool(self.found), tuple(self.rejected))
 
 
 MAX_TRIED = 4
@@ -137,7 +136,7 @@ def decide(model: Model, search: Search, pool: list[Fit],
     `MAX_TRIED`)."""
     pool = [f for f in pool if f.cand not in accepted]
     min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
-    rejected: list[dict] = []
+    rejected: list[Rejection] = []
     first = (search.chi2_0 - pool[0].chi2) / search.chi2_0 if pool else 0.0
     first_effect = 0.0
     for best in pool[:MAX_TRIED]:
@@ -147,7 +146,7 @@ def decide(model: Model, search: Search, pool: list[Fit],
         try:
             fixed = corrected_model(model, best)
         except ModelError as exc:   # this candidate only: the next one is tried
-            rejected.append({"candidate": best.cand.label, "reason": str(exc)})
+            rejected.append(Rejection(best.cand.label, str(exc)))
             best.evidence["rejected"] = str(exc)
             continue
         effect = change(fixed)
@@ -158,12 +157,12 @@ def decide(model: Model, search: Search, pool: list[Fit],
         if reason is None:
             rest = [f for f in pool if f is not best]
             return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
-        rejected.append({"candidate": best.cand.label, "reason": reason})
+        rejected.append(Rejection(best.cand.label, reason))
         best.evidence["rejected"] = reason
     return SearchPass(search, pool, first, False, model, first_effect, rejected)
 
 
-def location_table(search: Search, pool: list[Fit], top: int = 8) -> list[dict]:
+def location_table(search: Search, pool: list[Fit], top: int = 8) -> tuple[LocationRow, ...]:
     """Locations ranked by the best candidate at each (points and point pairs), with the
     numbers behind each rank: its kind, misfit reduction and BIC gain; for a pair, the best
     grounded candidate at either end, so that a joint (pair) is told from a grounded
@@ -174,17 +173,16 @@ def location_table(search: Search, pool: list[Fit], top: int = 8) -> list[dict]:
             best[f.cand.dofs] = f
     rows = []
     for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic)[:top]:
-        row = {"points": f.cand.points, "dofs": list(dofs), "kind": f.cand.kind,
-               "chi2_reduction": float((search.chi2_0 - f.chi2) / search.chi2_0),
-               "delta_bic": float(f.delta_bic)}
         ends = [best[(d,)] for d in dofs if len(dofs) == 2 and (d,) in best]
+        end = None
         if ends:
             g = max(ends, key=lambda e: e.delta_bic)
-            row["best_grounded_end"] = {"points": g.cand.points, "kind": g.cand.kind,
-                                        "chi2_reduction": float((search.chi2_0 - g.chi2)
-                                                                / search.chi2_0)}
-        rows.append(row)
-    return rows
+            end = GroundedEnd(tuple(g.cand.points), g.cand.kind,
+                              float((search.chi2_0 - g.chi2) / search.chi2_0))
+        rows.append(LocationRow(tuple(f.cand.points), dofs, f.cand.kind,
+                                float((search.chi2_0 - f.chi2) / search.chi2_0),
+                                float(f.delta_bic), end))
+    return tuple(rows)
 
 
 def linear_only(search: Search) -> bool:
@@ -201,7 +199,8 @@ def model_change(curves: list[LevelCurves]) -> float:
     return float(np.sqrt(num / den))
 
 
-def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[dict]) -> dict:
+def misfit_summary(curves: Sequence[LevelCurves], first: SearchPass,
+                   rejected: Sequence[Rejection]) -> Misfit:
     """Where the model still misfits beyond the floor: the worst level (error over floor),
     the band holding the central 90 % of its coherence-weighted squared error, its DOFs above
     the floor, the error at every level, and what the search tried."""
@@ -215,17 +214,13 @@ def misfit_summary(curves: list[LevelCurves], first: SearchPass, rejected: list[
     per_dof = c.frequency_residual(c.after)
     dofs = [i for i, v in enumerate(per_dof) if v > c.floor.limit] or [int(np.argmax(per_dof))]
     best = first.pool[0] if first.pool else None
-    return {"level": c.label, "band_hz": [float(c.freqs[i0]), float(c.freqs[i1])],
-            "dofs": dofs, "points": [first.search.model.points[i] for i in dofs],
-            "error_by_dof": per_dof,
-            "level_trend": [{"level": x.level, "error": x.error_after, "floor": x.floor.limit}
-                            for x in sorted(curves, key=lambda x: x.level)],
-            "tried": {"candidates": len(first.search.cands),
-                      "best": best.cand.label if best else None,
-                      "best_chi2_reduction": float(first.reduction),
-                      "best_delta_bic": float(best.delta_bic) if best else None,
-                      "required_chi2_reduction": MIN_REDUCTION, "required_delta_bic": BIC_MIN,
-                      "rejected": [r["candidate"] for r in rejected]}}
+    tried = Tried(len(first.search.cands), best.cand.label if best else None,
+                  float(first.reduction), float(best.delta_bic) if best else None,
+                  MIN_REDUCTION, BIC_MIN, tuple(r.candidate for r in rejected))
+    return Misfit(c.label, (float(c.freqs[i0]), float(c.freqs[i1])), tuple(dofs),
+                  tuple(first.search.model.points[i] for i in dofs), tuple(per_dof),
+                  tuple(TrendPoint(x.level, x.error_after, x.floor.limit)
+                        for x in sorted(curves, key=lambda x: x.level)), tried)
 
 
 def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
@@ -237,6 +232,6 @@ def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
     model is not what is judged."""
     if not accepted:
         return lambda fit: judge(model, corrected_model(model, fit))
-    previous = _apply(model, joint_refit(model, first(), accepted))
-    return lambda fit: judge(previous, _apply(model, joint_refit(model, first(),
+    previous = apply_fits(model, joint_refit(model, first(), accepted))
+    return lambda fit: judge(previous, apply_fits(model, joint_refit(model, first(),
                                                                  accepted + [fit])))

@@ -1,19 +1,18 @@
-"""The diagnosis result, its JSON (contracts section 4) and the explanation paragraph."""
+"""Per-level curves of a diagnosis, its held-back fit, the rejection test and the
+explanation paragraph (the result types: `.result`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..models import Model
 from .candidates import Candidate
 from .leakage import Floor
 from .replay import Replay
+from .result import Diagnosis, FitSummary, LevelError, LevelResiduals, TimeResidual, Verdict
 
-METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
-          "analysis band) on the held-back recording")
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
                 "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
                 "coherence and number of Welch averages (Bendat & Piersol), or for a one-input "
@@ -27,7 +26,7 @@ TIME_METRIC = ("relative rms of the response residual of replays of the measured
                "in displacement), mean over DOFs, on the held-back recording")
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class LevelCurves:
     """Measured and modelled FRFs of one level, for before/after overlays."""
 
@@ -45,16 +44,10 @@ class LevelCurves:
     replay_after: Replay | None = None
     floor: Floor | None = None
 
-    def level_json(self) -> dict[str, Any]:
+    def level_error(self) -> LevelError:
         """Error before/after the correction and the level's floor."""
-        out: dict[str, Any] = {"label": self.label, "level": self.level,
-                               "held_back": self.held_back, "before": self.error_before,
-                               "after": self.error_after}
-        if self.floor is not None:
-            out.update(floor=self.floor.limit, floor_parts=self.floor.to_json(),
-                       within_floor_before=bool(self.error_before <= self.floor.limit),
-                       within_floor=bool(self.error_after <= self.floor.limit))
-        return out
+        return LevelError(self.label, self.level, self.held_back, self.error_before,
+                          self.error_after, self.floor)
 
     def frequency_residual(self, model: np.ndarray) -> list[float]:
         """Relative (coherence-weighted) FRF error per response DOF."""
@@ -63,99 +56,32 @@ class LevelCurves:
         den = np.sum(g * np.abs(self.measured) ** 2, axis=(0, 2))
         return [float(v) for v in np.sqrt(num / np.maximum(den, 1e-300))]
 
-    def residuals(self) -> dict[str, Any]:
+    def residuals(self) -> LevelResiduals:
         """Time and frequency residuals per DOF, before and after the correction."""
-        out: dict[str, Any] = {"label": self.label, "level": self.level,
-                               "held_back": self.held_back,
-                               "frequency": {"before": self.frequency_residual(self.before),
-                                             "after": self.frequency_residual(self.after)}}
-        if self.replay_before is not None and self.replay_after is not None:
-            out["time"] = {"before": self.replay_before.residual.tolist(),
-                           "after": self.replay_after.residual.tolist()}
-        return out
+        time = self.replay_before is not None and self.replay_after is not None
+        return LevelResiduals(
+            self.label, self.level, self.held_back,
+            tuple(self.frequency_residual(self.before)),
+            tuple(self.frequency_residual(self.after)),
+            tuple(self.replay_before.residual.tolist()) if time else None,
+            tuple(self.replay_after.residual.tolist()) if time else None)
 
 
-@dataclass
-class Diagnosis:
-    """Outcome of `analysis.diagnose.diagnose`.
-
-    Attributes
-    ----------
-    verdict : {"adequate", "discrepancy", "unexplained"}
-        ``adequate``: every level within its floor (`FLOOR_METHOD`) and nothing found;
-        ``discrepancy``: a correction found that worsens no level; ``unexplained``: the
-        model misfits and nothing in the library explains enough (``evidence["misfit"]``).
-    level_dependent : bool or None
-        Whether the measured FRFs change with level beyond their random error.
-    chosen : list of dict
-        The accepted candidates as JSON (kind, w, dofs, params, ci95, evidence), in the
-        order the search passes found them (empty when adequate).
-    ranking : list of dict
-        Best candidates with their evidence, best first.
-    location : dict
-        ``dofs`` and ``band_hz``.
-    fit : dict
-        ``metric``, ``before``, ``after`` on the held-back recording, and
-        ``time_residual`` (the replay residual before/after, `TIME_METRIC`).
-    model : Model
-        The corrected model (the starting one when adequate).
-    curves : list of LevelCurves
-    """
-
-    verdict: str
-    level_dependent: bool | None
-    chosen: list[dict[str, Any]]
-    ranking: list[dict[str, Any]]
-    location: dict[str, Any]
-    fit: dict[str, Any]
-    model: Model
-    curves: list[LevelCurves] = field(default_factory=list)
-    evidence: dict[str, Any] = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-    explanation: str = ""
-
-    def missing_physics(self) -> list[dict[str, Any]]:
-        out = []
-        for c in self.chosen:
-            m = {"kind": c["kind"], "w": c["w"], "dofs": c["dofs"], "params": c["params"],
-                 "ci95": c.get("ci95", {})}
-            if "points" in c:
-                m["points"] = c["points"]
-            if c.get("stuck_stiffness_from_linear_part"):
-                # the corrected model's linear part lost the slider's stuck stiffness
-                m["stuck_stiffness_from_linear_part"] = True
-            out.append(m)
-        return out
-
-    def to_json(self) -> dict[str, Any]:
-        """Contracts section 4 dictionary (plus ranking, evidence and per-level errors)."""
-        return {
-            "verdict": self.verdict,
-            "level_dependent": self.level_dependent,
-            "location": self.location,
-            "missing_physics": self.missing_physics(),
-            "fit": self.fit,
-            "explanation": self.explanation,
-            "ranking": self.ranking,
-            "evidence": self.evidence,
-            "levels": [dict(c.level_json(), error_before=c.error_before,
-                             error_after=c.error_after) for c in self.curves],
-            "residuals": [c.residuals() for c in self.curves],
-            "warnings": self.warnings,
-        }
-
-
-def level_fit(curves: list[LevelCurves]) -> dict[str, Any]:
-    """``fit`` keys per level: errors before/after with floors, and the explained share."""
+def fit_summary(metric: str, curves: Sequence[LevelCurves]) -> FitSummary:
+    """The held-back fit in ``metric`` (mean over the held-back levels), with every level's
+    errors and floor and the explained share of the squared error."""
+    held = [c for c in curves if c.held_back]
     b2 = sum(c.error_before**2 for c in curves)
     a2 = sum(c.error_after**2 for c in curves)
-    return {"levels": [c.level_json() for c in curves], "floor_method": FLOOR_METHOD,
-            "within_floor": all(c.floor is None or c.error_after <= c.floor.limit
-                                for c in curves),
-            "explained": float(1 - a2 / b2) if b2 > 0 else 0.0}
+    return FitSummary(
+        metric, float(np.mean([c.error_before for c in held])),
+        float(np.mean([c.error_after for c in held])), tuple(c.label for c in held),
+        time_fit(held), tuple(c.level_error() for c in curves), FLOOR_METHOD,
+        all(c.floor is None or c.error_after <= c.floor.limit for c in curves),
+        float(1 - a2 / b2) if b2 > 0 else 0.0)
 
 
-def worsened(curves: list[LevelCurves], floors: list[Floor]) -> str | None:
+def worsened(curves: Sequence[LevelCurves], floors: Sequence[Floor]) -> str | None:
     """Why a correction is rejected: a level whose error rises above both its former value
     and its floor (None when no level is worsened)."""
     bad = [(c, f) for c, f in zip(curves, floors)
@@ -174,43 +100,43 @@ def change(before: float, after: float) -> str:
     return f"{'rises' if after > before else 'falls'} from {before:.3g} to {after:.3g}"
 
 
-def time_fit(held: list[LevelCurves]) -> dict[str, Any] | None:
+def time_fit(held: Sequence[LevelCurves]) -> TimeResidual | None:
     """Mean replay residual (over DOFs and held-back recordings) before and after."""
     reps = [(c.replay_before, c.replay_after) for c in held
             if c.replay_before is not None and c.replay_after is not None]
     if not reps:
         return None
-    return {"metric": TIME_METRIC,
-            "before": float(np.mean([b.residual.mean() for b, _ in reps])),
-            "after": float(np.mean([a.residual.mean() for _, a in reps]))}
+    return TimeResidual(TIME_METRIC, float(np.mean([b.residual.mean() for b, _ in reps])),
+                        float(np.mean([a.residual.mean() for _, a in reps])))
 
 
-def _fmt(params: dict[str, float]) -> str:
+def _fmt(params: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
 
 
 UNCONFIRMED = 0.5   # held-back error kept above this fraction: the found physics is tentative
 
 
-def explain(d: Diagnosis, cands: list[Candidate]) -> str:
-    """One paragraph a test engineer can act on, built from the numbers.
+def explain(d: Diagnosis, cands: Sequence[Candidate]) -> Diagnosis:
+    """``d`` with its explanation: one paragraph a test engineer can act on, built from the
+    numbers (``cands``: the chosen candidates).
 
     When the corrected model does not at least halve the held-back error, a warning is added to
     ``d.warnings`` and the paragraph says the finding is tentative.
     """
     fit = d.fit
-    if d.verdict == "discrepancy" and fit["after"] > UNCONFIRMED * fit["before"]:
-        d.warnings.append(
-            f"the held-back recording does not confirm the finding (error "
-            f"{change(fit['before'], fit['after'])}): the fitting levels cannot tell the "
-            "candidates apart")
-        return (_explain(d, cands) + " The held-back recording does not confirm this, so treat "
-                "it as tentative: record more levels spanning the nonlinearity (the held-back "
-                "level should exercise it) and diagnose again.")
-    return _explain(d, cands)
+    if d.verdict == Verdict.DISCREPANCY and fit.after > UNCONFIRMED * fit.before:
+        warning = (f"the held-back recording does not confirm the finding (error "
+                   f"{change(fit.before, fit.after)}): the fitting levels cannot tell the "
+                   "candidates apart")
+        return replace(d, warnings=d.warnings + (warning,), explanation=_explain(d, cands)
+                       + " The held-back recording does not confirm this, so treat it as "
+                       "tentative: record more levels spanning the nonlinearity (the held-back "
+                       "level should exercise it) and diagnose again.")
+    return replace(d, explanation=_explain(d, cands))
 
 
-def place(dofs: list[int], points: list[str] | None) -> str:
+def place(dofs: Sequence[int], points: Sequence[str] | None) -> str:
     """``at joint, payload`` when the points are named, else ``on DOF(s) 1, 2``."""
     if points and list(points) != [str(i) for i in dofs]:
         return f"at {', '.join(points)}"
@@ -219,18 +145,18 @@ def place(dofs: list[int], points: list[str] | None) -> str:
 
 def _levels_text(d: Diagnosis, after: bool) -> str:
     parts = []
-    for lv in sorted(d.fit.get("levels", []), key=lambda lv: lv["level"]):
-        err = (change(lv["before"], lv["after"]) if after else f"{lv['before']:.3g}")
-        fl = f", floor {lv['floor']:.3g}" if "floor" in lv else ""
-        parts.append(f"{lv['label']}{' (held back)' if lv['held_back'] else ''} {err}{fl}")
+    for lv in sorted(d.fit.levels, key=lambda lv: lv.level):
+        err = (change(lv.before, lv.after) if after else f"{lv.before:.3g}")
+        fl = f", floor {lv.floor.limit:.3g}" if lv.floor is not None else ""
+        parts.append(f"{lv.label}{' (held back)' if lv.held_back else ''} {err}{fl}")
     return "; ".join(parts)
 
 
 def _rejected_text(d: Diagnosis) -> str:
-    rej = d.evidence.get("rejected") or []
+    rej = d.evidence.rejected
     if not rej:
         return ""
-    return " Rejected: " + "; ".join(f"{r['candidate']} ({r['reason']})" for r in rej) + "."
+    return " Rejected: " + "; ".join(f"{r.candidate} ({r.reason})" for r in rej) + "."
 
 
 def _trend(errors: list[float]) -> str:
@@ -245,66 +171,76 @@ def _trend(errors: list[float]) -> str:
     return "changes from level to level without a monotonic trend"
 
 
-def _explain(d: Diagnosis, cands: list[Candidate]) -> str:
-    band = d.location.get("band_hz")
+LIBRARY = ("nonlinear stiffness, damping and friction elements and linear mass, "
+           "stiffness and damping errors at every DOF and DOF pair")
+
+
+def _explain(d: Diagnosis, cands: Sequence[Candidate]) -> str:
     lvl = ("The measured FRFs change with excitation level beyond their random error, so the "
            "structure is nonlinear. " if d.level_dependent else
            "The measured FRFs do not change with level beyond their random error. "
            if d.level_dependent is False else "")
-    fit = d.fit
-    library = ("nonlinear stiffness, damping and friction elements and linear mass, "
-               "stiffness and damping errors at every DOF and DOF pair")
-    if d.verdict == "adequate":
+    if d.verdict == Verdict.ADEQUATE:
         return (lvl + f"Every level lies within its noise and model-precision floor (FRF error "
                 f"by level: {_levels_text(d, False)}) and no candidate in the library "
-                f"({library}) improves the fit significantly: the model is adequate for these "
+                f"({LIBRARY}) improves the fit significantly: the model is adequate for these "
                 "recordings." + _rejected_text(d))
-    if d.verdict == "unexplained":
-        m = d.evidence["misfit"]
-        tried = m["tried"]
-        how = _trend([t["error"] for t in m["level_trend"]])
-        best = (f" The best candidate ({tried['best']}) removes "
-                f"{100 * max(tried['best_chi2_reduction'], 0.0):.3g} % of the weighted misfit "
-                f"(needed: {100 * tried['required_chi2_reduction']:.3g} % and "
-                f"{tried['required_delta_bic']:.3g} BIC points; it gains "
-                f"{tried['best_delta_bic']:.3g})." if tried["best"] else "")
-        return (lvl + f"The model misfits beyond the noise and model-precision floor and nothing "
-                f"in the library ({tried['candidates']} candidates: {library}) explains enough: "
-                f"the misfit is largest at {m['level']} between {m['band_hz'][0]:.3g} and "
-                f"{m['band_hz'][1]:.3g} Hz {place(m['dofs'], m.get('points'))}, and it "
-                f"{how} (FRF error by level: {_levels_text(d, False)}).{best}"
-                + _rejected_text(d) + " The missing physics is outside the library (for "
-                "example a frequency-dependent stiffness, an unmodelled mode or DOF, or another "
-                "nonlinear law): check the structure there and extend the model by hand.")
+    if d.verdict == Verdict.UNEXPLAINED:
+        return lvl + _unexplained(d)
+    return lvl + _discrepancy(d, cands)
+
+
+def _unexplained(d: Diagnosis) -> str:
+    m = d.evidence.misfit
+    tried = m.tried
+    how = _trend([t.error for t in m.level_trend])
+    best = (f" The best candidate ({tried.best}) removes "
+            f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit "
+            f"(needed: {100 * tried.required_chi2_reduction:.3g} % and "
+            f"{tried.required_delta_bic:.3g} BIC points; it gains "
+            f"{tried.best_delta_bic:.3g})." if tried.best else "")
+    return (f"The model misfits beyond the noise and model-precision floor and nothing "
+            f"in the library ({tried.candidates} candidates: {LIBRARY}) explains enough: "
+            f"the misfit is largest at {m.level} between {m.band_hz[0]:.3g} and "
+            f"{m.band_hz[1]:.3g} Hz {place(m.dofs, m.points)}, and it "
+            f"{how} (FRF error by level: {_levels_text(d, False)}).{best}"
+            + _rejected_text(d) + " The missing physics is outside the library (for "
+            "example a frequency-dependent stiffness, an unmodelled mode or DOF, or another "
+            "nonlinear law): check the structure there and extend the model by hand.")
+
+
+def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
+    band = d.location.band_hz
+    fit = d.fit
     what = " and ".join(dict.fromkeys("a linear model error" if c.linear else
                                       "missing nonlinear physics" for c in cands))
     band_txt = f" between {band[0]:.3g} and {band[1]:.3g} Hz" if band else ""
-    found = "; ".join(f"{c.kind.replace('_', ' ')} {c.where} ({_fmt(ch['params'])}"
+    found = "; ".join(f"{c.kind.replace('_', ' ')} {c.where} ({_fmt(ch.params)}"
                       + ("; its stuck stiffness moved out of the linear part)"
                          if c.compensated else ")")
                       for c, ch in zip(cands, d.chosen))
     runner = ""
     chosen = d.chosen[0]
-    others = [r for r in d.ranking if (r["kind"], r["dofs"]) != (chosen["kind"], chosen["dofs"])]
+    others = [r for r in d.ranking if (r.kind, r.dofs) != (chosen.kind, chosen.dofs)]
     if others:
         r = others[0]
-        at = ", ".join(r.get("points", map(str, r["dofs"])))
-        runner = (f" The next-best explanation ({r['kind']} at {at}) gains "
-                  f"{r['delta_bic']:.3g} BIC points against {chosen['delta_bic']:.3g}.")
+        at = ", ".join(r.points if r.points is not None else map(str, r.dofs))
+        runner = (f" The next-best explanation ({r.kind} at {at}) gains "
+                  f"{r.delta_bic:.3g} BIC points against {chosen.delta_bic:.3g}.")
     second = (" A second search on the corrected model found the further effect."
               if len(cands) > 1 else "")
-    tres = fit.get("time_residual")
-    time_txt = (f" (time residual of the replays {change(tres['before'], tres['after'])})"
+    tres = fit.time_residual
+    time_txt = (f" (time residual of the replays {change(tres.before, tres.after)})"
                 if tres else "")
     where = " and ".join(dict.fromkeys(c.where for c in cands))
     rest = ""
-    if not fit.get("within_floor", True):
-        out = [lv["label"] for lv in fit["levels"] if not lv.get("within_floor", True)]
+    if fit.within_floor is False:
+        out = [lv.label for lv in fit.levels if lv.within_floor is False]
         rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
-                f"explains {100 * fit['explained']:.3g} % of the squared FRF error, the rest is "
+                f"explains {100 * fit.explained:.3g} % of the squared FRF error, the rest is "
                 "unexplained (see evidence.misfit).")
-    return (lvl + f"The mismatch is {what}{band_txt}: {found}.{runner}{second} With it the "
-            f"held-back FRF error {change(fit['before'], fit['after'])}{time_txt}; by level: "
+    return (f"The mismatch is {what}{band_txt}: {found}.{runner}{second} With it the "
+            f"held-back FRF error {change(fit.before, fit.after)}{time_txt}; by level: "
             f"{_levels_text(d, True)}.{rest}" + _rejected_text(d) + f" Check the structure "
             f"{where} (joint, support or added mass) and keep the corrected model file for "
             "further simulation.")

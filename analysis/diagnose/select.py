@@ -36,6 +36,7 @@ from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law
 from .leakage import leakage_bias
 from .linear_update import Z95, fit_linear_error, updated_frf
 from .prepare import Prepared
+from .result import CandidateFit
 
 SHORTLIST = 4
 REACH = 1.5
@@ -59,13 +60,12 @@ class Fit:
     extra: float | None = None
     """Grid value of the basis the fit used (its key in ``LevelFRF.T`` is ``(cand, extra)``)."""
 
-    def to_json(self) -> dict[str, Any]:
-        out = {"kind": self.cand.kind, "w": self.cand.w.tolist(), "dofs": list(self.cand.dofs),
-               "points": self.cand.points, "params": self.params, "ci95": self.ci95, "chi2": self.chi2,
-               "delta_bic": self.delta_bic, "evidence": self.evidence}
-        if self.cand.compensated:
-            out["stuck_stiffness_from_linear_part"] = True
-        return out
+    def result(self) -> CandidateFit:
+        """The fit as a result row (`result.CandidateFit`)."""
+        c = self.cand
+        return CandidateFit(c.kind, tuple(c.w.tolist()), c.dofs, tuple(c.points), dict(self.params),
+                            {k: (v[0], v[1]) for k, v in self.ci95.items()}, self.chi2,
+                            self.delta_bic, dict(self.evidence), c.compensated)
 
 
 def unit_params(kind: str, extra: float | None) -> dict[str, float]:

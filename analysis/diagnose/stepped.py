@@ -16,6 +16,7 @@ and the held-back level is compared with a harmonic-balance simulation of the co
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
@@ -28,14 +29,13 @@ from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
-from .locate import level_dependence, mismatch_band
 from .prepare import level_name
-from .policy import (BIC_MIN, MAX_EFFECTS, MIN_REDUCTION, _apply, _pick_holdout, _pruned,
-                     joint_veto, misfit_summary,
-                     decide, linear_only, model_change, pruned_labels)
+from .engine import Flow
+from .policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdout
 from .replay import periodic_replay
 from .leakage import level_floor
-from .report import Diagnosis, LevelCurves, explain, level_fit, time_fit, worsened
+from .report import LevelCurves
+from .result import Evidence
 from .select import Fit, Search, candidate_extras, unit_params
 
 HARMONICS = (1, 3, 5, 7)
@@ -252,104 +252,58 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
             + [f for f in pool if all(f.cand != r.cand for r in refitted)])
 
 
-def diagnose_stepped(model: Model, recs: Sequence[Recording], *,
-                     holdout: float | str | None, floor: float) -> Diagnosis:
-    """Stepped-sine counterpart of `analysis.diagnose.diagnose` (same selection rules)."""
-    frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
-    order = np.argsort([f.level for f in frfs])
-    frfs, recs = [frfs[i] for i in order], [recs[i] for i in order]
-    if len(frfs) < 2 or holdout == "segment":
-        raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
-                         "back); record another level")
-    hold = _pick_holdout([f.level for f in frfs], holdout)[0]   # one held-back level
-    fit_idx = [i for i in range(len(frfs)) if i != hold]
-    cache: dict[tuple[int, int], np.ndarray] = {}
+class SteppedFlow(Flow):
+    """Stepped-sine levels in ascending order, one held back; the model's curves by
+    harmonic balance, with periodic replays from the fitted harmonics."""
 
-    def hbm(m: Model, i: int) -> np.ndarray:
-        if (id(m), i) not in cache:
-            cache[(id(m), i)] = _hbm(m, frfs[i])
-        return cache[(id(m), i)]
+    metric = METRIC
 
-    def curve(start: Model, fixed: Model, i: int) -> LevelCurves:
-        f, i1 = frfs[i], list(HARMONICS).index(1)
-        xb, xa = hbm(start, i), hbm(fixed, i)
+    def __init__(self, model: Model, recs: Sequence[Recording], *,
+                 holdout: float | str | None, floor: float) -> None:
+        super().__init__()
+        frfs = [stepped_sine_frf(r, HARMONICS) for r in recs]
+        order = np.argsort([f.level for f in frfs])
+        self.frfs, self.recs = [frfs[i] for i in order], [recs[i] for i in order]
+        if len(frfs) < 2 or holdout == "segment":
+            raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
+                             "back); record another level")
+        self.hold = pick_holdout([f.level for f in self.frfs], holdout)[0]   # one level
+        self.model, self.floor = model, floor
+        self.held = tuple(i == self.hold for i in range(len(self.frfs)))
+        self._cache: dict[tuple[int, int], tuple[Model, np.ndarray]] = {}
+        self.floors = [level_floor(_level(model, r, f, {}, floor, ""), floor)
+                       for r, f in zip(self.recs, self.frfs)]
+
+    def _hbm(self, m: Model, i: int) -> np.ndarray:
+        """`_hbm` of level ``i``, cached per model (the entry keeps the model, so that its
+        id is not reused by another one)."""
+        hit = self._cache.get((id(m), i))
+        if hit is None or hit[0] is not m:
+            hit = self._cache[(id(m), i)] = (m, _hbm(m, self.frfs[i]))
+        return hit[1]
+
+    def curve(self, start: Model, fixed: Model, i: int) -> LevelCurves:
+        f, i1 = self.frfs[i], list(HARMONICS).index(1)
+        xb, xa = self._hbm(start, i), self._hbm(fixed, i)
         hb, ha = xb[:, i1] / f.force[:, None], xa[:, i1] / f.force[:, None]
         held = [list(HARMONICS).index(h) for h in f.harmonics]    # a table: its own orders
-        return LevelCurves(level_name(recs[i]), f.level, i == hold, f.freqs,
+        return LevelCurves(level_name(self.recs[i]), f.level, self.held[i], f.freqs,
                            f.frf[:, :, None], hb[:, :, None], ha[:, :, None],
                            _error(f, hb), _error(f, ha), None,
                            periodic_replay(f.freqs, f.harmonics, f.X, xb[:, held]),
                            periodic_replay(f.freqs, f.harmonics, f.X, xa[:, held]))
 
-    floors = [level_floor(_level(model, recs[i], frfs[i], {}, floor, ""), floor)
-              for i in range(len(frfs))]
-    every = fit_idx + [hold]
-    warnings: list[str] = []
-    passes = []
-    current = model
-    for _ in range(MAX_EFFECTS):
-        search = SteppedSearch(current, [frfs[i] for i in fit_idx],
-                               [recs[i] for i in fit_idx], floor)
-        pool = _pool(current, search, warnings)
-        start = current
-        accepted = [s.best.cand for s in passes if s.found]
-        step = decide(current, search, pool, lambda fixed: model_change(
-            [curve(start, fixed, i) for i in fit_idx]), further=bool(accepted),
-            accepted=accepted, veto=joint_veto(
-                model, lambda: passes[0].search, [s.best for s in passes if s.found],
-                lambda prev, fixed: worsened([curve(prev, fixed, i) for i in every],
-                                             [floors[i] for i in every])))
-        passes.append(step)
-        if not step.found:
-            break
-        current = step.fixed
-    first = passes[0]
-    found = [s.best for s in passes if s.found]
-    chosen = _pruned(model, first.search, found, lambda without, fits: model_change(
-        [curve(without, _apply(model, fits), i) for i in fit_idx]))
-    if len(chosen) > 1 or len(chosen) < len(found):
-        current = _apply(model, chosen)
-    rejected = [dict(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes)
-                for r in s.rejected]
-    while True:   # the final correction must not worsen a level
-        curves = [curve(model, current, i) for i in range(len(frfs))]
-        reason = worsened(curves, floors) if chosen else None
-        if reason is None:
-            break
-        rejected.append({"candidate": chosen[-1].cand.label, "reason": reason,
-                         "stage": "joint correction"})
-        chosen = chosen[:-1]
-        current = _apply(model, chosen)
-    for c, fl in zip(curves, floors):
-        c.floor = fl
-    within = all(c.error_after <= c.floor.limit for c in curves)
-    held = curves[hold]
-    all_levels = first.search.levels + [_level(model, recs[hold], frfs[hold], {}, floor,
-                                               "held")]
-    dep = level_dependence(all_levels)
-    top = int(np.argmax([lf.level for lf in first.search.levels]))
-    lo, hi = mismatch_band(first.search.levels[top], first.search.H0s[top])
-    dofs = sorted({d for f in chosen for d in f.cand.dofs})
-    d = Diagnosis(
-        "discrepancy" if chosen else "adequate" if within else "unexplained",
-        dep.dependent if dep else None,
-        [f.to_json() for f in chosen], [f.to_json() for f in first.pool[:8]],
-        {"dofs": dofs, "points": [model.points[i] for i in dofs],
-         "band_hz": [lo, hi] if chosen else None},
-        {"metric": METRIC, "before": held.error_before, "after": held.error_after,
-         "held_back": [held.label], "time_residual": time_fit([held]), **level_fit(curves)},
-        current, curves,
-        {"chi2_start": first.search.chi2_0, "n_values": first.search.n_values,
-         "chi2_reduction": first.reduction, "model_change": first.effect,
-         "passes": [s.to_json() for s in passes],
-         "pruned_after_joint_refit": pruned_labels(passes, chosen),
-         "rejected": rejected,
-         "misfit": None if within else misfit_summary(curves, first, rejected),
-         "level_dependence": dep.to_json() if dep else None,
-         "odd_harmonic_ratio": _odd_ratio(first.search.frfs[-1])},
-        warnings)
-    d.explanation = explain(d, [f.cand for f in chosen])
-    return d
+    def pool(self, current: Model, memoryless: bool) -> tuple[SteppedSearch, list[Fit]]:
+        search = SteppedSearch(current, [self.frfs[i] for i in self.fit_idx],
+                               [self.recs[i] for i in self.fit_idx], self.floor)
+        return search, _pool(current, search, self.warnings)
+
+    def held_levels(self) -> list[LevelFRF]:
+        return [_level(self.model, self.recs[self.hold], self.frfs[self.hold], {}, self.floor,
+                       "held")]
+
+    def evidence(self, first: SearchPass, common: Evidence) -> Evidence:
+        return replace(common, odd_harmonic_ratio=_odd_ratio(first.search.frfs[-1]))
 
 
 def _odd_ratio(frf: SteppedSineFRF) -> float:

@@ -17,9 +17,6 @@ import numpy as np
 if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
 
-RESULT_NAME = "diagnose"
-"""Name of the stored result (run results are stored by command name; see nlid_lab.reports._report)."""
-
 
 def _holdout(text: str) -> float | str:
     if text == "segment":
@@ -62,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose the runs against the model; write JSON, corrected model and report."""
-    from analysis.diagnose import DiagnoseInputError, diagnose
+    from analysis.diagnose import RESULT_NAME, DiagnoseInputError, diagnose
     from analysis.models import Model
     from analysis.recordings import at_points, model_at_sensors, one_kind
 
@@ -112,15 +109,15 @@ def run(args: argparse.Namespace) -> int:
     write_json(result, args.json)
     stream = summary_stream(args.json, args.quiet)
     print(f"{d.verdict}: {d.explanation}", file=stream)
-    rows = d.evidence.get("locations") or []
+    rows = d.evidence.locations or ()
     if rows:
         print("\nwhere (best candidate per location, first search pass):", file=stream)
         for r in rows[:5]:
-            end = r.get("best_grounded_end")
-            vs = (f"; grounded at {end['points'][0]} alone: {100 * end['chi2_reduction']:.3g} %"
+            end = r.best_grounded_end
+            vs = (f"; grounded at {end.points[0]} alone: {100 * end.chi2_reduction:.3g} %"
                   if end else "")
-            print(f"  {' - '.join(r['points']):<24} {r['kind']:<18} misfit -"
-                  f"{100 * r['chi2_reduction']:.3g} %, BIC +{r['delta_bic']:.3g}{vs}", file=stream)
+            print(f"  {' - '.join(r.points):<24} {r.kind:<18} misfit -"
+                  f"{100 * r.chi2_reduction:.3g} %, BIC +{r.delta_bic:.3g}{vs}", file=stream)
     return 0
 
 
@@ -142,9 +139,9 @@ def write_report(d: Diagnosis, out: Path) -> None:
              "|---|---|---|---|---|---|---|"]
     figs = []
     for i, c in enumerate(d.curves):
-        res = c.residuals().get("time")
-        tb, ta = ((f"{np.mean(res['before']):.4g}", f"{np.mean(res['after']):.4g}") if res
-                  else ("-", "-"))
+        res = c.residuals()
+        tb, ta = ((f"{np.mean(res.time_before):.4g}", f"{np.mean(res.time_after):.4g}")
+                  if res.time_before is not None else ("-", "-"))
         lines.append(f"| {c.level:g} | {'yes' if c.held_back else 'no'} | "
                      f"{c.error_before:.4g} | {c.error_after:.4g} | "
                      f"{f'{c.floor.limit:.4g}' if c.floor else '-'} | {tb} | {ta} |")
@@ -155,15 +152,15 @@ def write_report(d: Diagnosis, out: Path) -> None:
     lines += figs
     lines += ["", "## Where", "", "| location | best kind | misfit reduction | BIC gain | "
               "best grounded at an end |", "|---|---|---|---|---|"]
-    for r in d.evidence.get("locations") or []:
-        end = r.get("best_grounded_end")
-        lines.append(f"| {' - '.join(r['points'])} | {r['kind']} | "
-                     f"{100 * r['chi2_reduction']:.3g} % | {r['delta_bic']:.4g} | "
-                     + (f"{end['kind']} at {end['points'][0]}: {100 * end['chi2_reduction']:.3g} %"
+    for r in d.evidence.locations or ():
+        end = r.best_grounded_end
+        lines.append(f"| {' - '.join(r.points)} | {r.kind} | "
+                     f"{100 * r.chi2_reduction:.3g} % | {r.delta_bic:.4g} | "
+                     + (f"{end.kind} at {end.points[0]}: {100 * end.chi2_reduction:.3g} %"
                         if end else "-") + " |")
     lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |",
               "|---|---|---|---|"]
     for r in d.ranking:
-        params = ", ".join(f"{k}={v:.4g}" for k, v in r["params"].items())
-        lines.append(f"| {r['kind']} | {r['dofs']} | {params} | {r['delta_bic']:.4g} |")
+        params = ", ".join(f"{k}={v:.4g}" for k, v in r.params.items())
+        lines.append(f"| {r.kind} | {list(r.dofs)} | {params} | {r.delta_bic:.4g} |")
     (out / "report.md").write_text("\n".join(lines) + "\n")

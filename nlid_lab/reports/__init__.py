@@ -5,7 +5,8 @@ Modules behind this API: ``_report``, ``_figures``, ``_uff``, ``_rundata``,
 package imports its siblings by their private module path.
 """
 
-from ._report import estimate_rows, modal_fit_section, write_report
+from ._report import (estimate_rows, modal_fit_section, stored_diagnosis,
+                      write_report)
 from ._backbone_figure import backbone_figure
 from ._figures import ModelCurve, phase_deg, response_curves, stabilisation
 from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_model, load_run,
@@ -13,4 +14,4 @@ from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_
 
 __all__ = ["ModelCurve", "backbone_figure", "PARAM_UNITS", "RunData", "Section", "all_level_frfs", "candidate_model",
            "estimate_rows", "load_run", "modal_fit_section", "phase_deg", "reference_model",
-           "response_curves", "stabilisation", "write_report"]
+           "response_curves", "stabilisation", "stored_diagnosis", "write_report"]

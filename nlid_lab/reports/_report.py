@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -19,6 +19,9 @@ from analysis.spectral import LevelFRF
 
 from . import _figures as figures
 from ._rundata import RunData, Section, all_level_frfs
+
+if TYPE_CHECKING:
+    from analysis.diagnose import Diagnosis
 
 
 # --- report sections ----------------------------------------------------------------------
@@ -34,14 +37,17 @@ def channel_names(run: RunData) -> tuple[list[str], list[str]] | None:
     return channel_labels(rec), list(rec.sensors.force_points)
 
 
-def find_result(results: dict[str, Any], *keys: str) -> tuple[str, dict] | None:
-    """The last stored result holding all ``keys`` (a diagnosis; estimates are found by their
-    ``"estimator"``, `nlid_lab.methods.find_stored`)."""
-    found = None
-    for name, res in results.items():
-        if isinstance(res, dict) and all(k in res for k in keys):
-            found = (name, res)
-    return found
+def stored_diagnosis(run: RunData) -> Diagnosis | None:
+    """The run's stored diagnosis, in any layout nlid-lab wrote (None without one)."""
+    from analysis.diagnose import RESULT_NAME, Diagnosis   # the diagnosis room loads on use
+    res = run.results.get(RESULT_NAME)
+    if res is None:
+        return None
+    try:
+        return Diagnosis.from_json(res)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise InputError(f"the run's stored diagnosis cannot be read ({exc!r}); store it "
+                         "again with `nlid-lab diagnose ... --store RUN.h5`") from None
 
 
 def frf_sections(frfs: list[LevelFRF], names=None) -> list[Section]:
@@ -72,40 +78,36 @@ def frf_sections(frfs: list[LevelFRF], names=None) -> list[Section]:
 def diagnosis_section(run: RunData) -> Section | None:
     """The stored diagnosis: FRF error per level and time residual, before and after the
     correction (None without one)."""
-    found = find_result(run.results, "verdict", "fit")
-    if found is None:
+    d = stored_diagnosis(run)
+    if d is None:
         return None
-    name, res = found
-    fit = res["fit"]
-    sec = Section("Diagnosis", html.escape(str(res.get("explanation", ""))))
-    if fit.get("before") is not None and fit.get("after") is not None:
+    fit = d.fit
+    sec = Section("Diagnosis", html.escape(d.explanation))
+    if fit.before is not None and fit.after is not None:
         sec.figures.append(("diagnosis_fit", figures.diagnosis_fit(
-            str(fit.get("metric", "misfit")), float(fit["before"]), float(fit["after"]),
-            f"FRF error before and after the correction (verdict: {res['verdict']})",
-            diagnosis_levels(res, "N rms" if run.recordings and
+            fit.metric, float(fit.before), float(fit.after),
+            f"FRF error before and after the correction (verdict: {d.verdict})",
+            diagnosis_levels(d, "N rms" if run.recordings and
                              run.recordings[0].excitation == "random" else "N"))))
-    tr = fit.get("time_residual")
-    if tr and tr.get("before") is not None and tr.get("after") is not None:
+    tr = fit.time_residual
+    if tr is not None:
         sec.figures.append(("diagnosis_time", figures.diagnosis_fit(
-            str(tr.get("metric", "time residual")), float(tr["before"]), float(tr["after"]),
+            tr.metric, float(tr.before), float(tr.after),
             "Time residual of replays before and after the correction")))
     return sec
 
 
-def diagnosis_levels(res: dict[str, Any], unit: str = "N") -> list[dict[str, Any]] | None:
-    """Per-level FRF errors of a stored diagnosis (``fit.levels``, else the top-level
-    ``levels`` with ``error_before``/``error_after``) as label (the level in ``unit``),
-    before, after, held_back."""
+def diagnosis_levels(d: Diagnosis, unit: str = "N") -> list[dict[str, Any]] | None:
+    """Per-level FRF errors of a diagnosis as the figure's bars: label (the level in
+    ``unit``), before, after, held_back."""
     out = []
-    for i, lv in enumerate(res.get("fit", {}).get("levels") or res.get("levels") or []):
-        before = lv.get("before", lv.get("error_before"))
-        after = lv.get("after", lv.get("error_after"))
-        if before is None or after is None:
+    for i, lv in enumerate(d.fit.levels):
+        if lv.before is None or lv.after is None:
             return None
-        label = (f"{lv['level']:.3g} {unit}" if lv.get("level") is not None
-                 else lv.get("label") or f"level {i + 1}")
-        out.append({"label": label, "before": before, "after": after,
-                    "held_back": bool(lv.get("held_back"))})
+        label = (f"{lv.level:.3g} {unit}" if lv.level is not None
+                 else lv.label or f"level {i + 1}")
+        out.append({"label": label, "before": lv.before, "after": lv.after,
+                    "held_back": lv.held_back})
     return out or None
 
 

@@ -28,11 +28,11 @@ def check_residuals(d) -> None:
     for r in res:
         for part in ("time", "frequency"):
             assert len(r[part]["before"]) == len(r[part]["after"]) == d.model.n_dof
-    tr = d.fit["time_residual"]
+    tr = d.fit.time_residual
     if d.verdict == "adequate":
-        assert tr["after"] == tr["before"]
+        assert tr.after == tr.before
     else:
-        assert tr["after"] <= 0.5 * tr["before"]
+        assert tr.after <= 0.5 * tr.before
 
 
 def check(sc, d, rel_tol: float = 0.08) -> None:
@@ -42,17 +42,17 @@ def check(sc, d, rel_tol: float = 0.08) -> None:
         assert d.level_dependent == sc.level_dependent
     check_residuals(d)
     if sc.verdict == "adequate":
-        assert d.missing_physics() == []
-        assert d.fit["after"] == d.fit["before"]
+        assert d.chosen == ()
+        assert d.fit.after == d.fit.before
         return
-    (mp,) = d.missing_physics()
-    assert mp["kind"] == sc.kind
-    assert mp["dofs"] == sc.dofs
-    assert d.location["dofs"] == sc.dofs
+    (mp,) = d.chosen
+    assert mp.kind == sc.kind
+    assert list(mp.dofs) == sc.dofs
+    assert list(d.location.dofs) == sc.dofs
     for name, true in sc.params.items():
-        assert mp["params"][name] == pytest.approx(true, rel=rel_tol), name
-    assert d.fit["after"] <= 0.5 * d.fit["before"]
-    assert d.fit["held_back"]
+        assert mp.params[name] == pytest.approx(true, rel=rel_tol), name
+    assert d.fit.after <= 0.5 * d.fit.before
+    assert d.fit.held_back
 
 
 @pytest.fixture(scope="module")
@@ -63,9 +63,9 @@ def cubic():
 def test_hidden_grounded_cubic_at_unforced_dof(cubic):
     d = diagnose(cubic.start, cubic.recordings)
     check(cubic, d)
-    lo, hi = d.location["band_hz"]
+    lo, hi = d.location.band_hz
     assert lo < cubic.start.natural_frequencies()[0] < hi   # the stiffened first mode
-    assert d.evidence["level_dependence"]["dependent"]
+    assert d.evidence.level_dependence.dependent
 
 
 def test_relative_quadratic_damping_between_dofs():
@@ -99,9 +99,9 @@ def test_real_recording_issues_multisine_acceleration_dc():
 def test_held_back_segment_with_single_level(cubic):
     d = diagnose(cubic.start, cubic.recordings[-1:])
     assert d.level_dependent is None
-    assert d.missing_physics()[0]["kind"] == "cubic_spring"
-    assert d.missing_physics()[0]["dofs"] == [2]
-    assert "segment" in d.fit["held_back"][0]
+    assert d.chosen[0].kind == "cubic_spring"
+    assert d.chosen[0].dofs == (2,)
+    assert "segment" in d.fit.held_back[0]
 
 
 def test_library_is_the_same_cross_product_for_every_model():
@@ -123,7 +123,7 @@ def test_two_missing_effects_found_by_a_second_pass():
     sc = two_effects()
     d = diagnose(sc.start, sc.recordings)
     assert d.verdict == "discrepancy", d.explanation
-    found = {(m["kind"], tuple(m["dofs"])): m["params"] for m in d.missing_physics()}
+    found = {(m.kind, m.dofs): m.params for m in d.chosen}
     assert set(found) == {("cubic_spring", (0, 1)), ("stiffness_error", (2,))}
     assert found[("cubic_spring", (0, 1))]["p"] == pytest.approx(sc.params["p"], rel=0.05)
     assert found[("stiffness_error", (2,))]["delta_stiffness"] == pytest.approx(
@@ -131,9 +131,9 @@ def test_two_missing_effects_found_by_a_second_pass():
     # a third pass may stand in for the first estimate's sequential error; the joint refit
     # makes it irrelevant and it is pruned (measured: a -3 N/m stiffness at DOF 1)
     ev = d.evidence
-    assert sum(p["accepted"] for p in ev["passes"]) - len(ev["pruned_after_joint_refit"]) == 2
-    assert d.location["dofs"] == [0, 1, 2]
-    assert d.fit["after"] <= 0.5 * d.fit["before"]
+    assert sum(p.accepted for p in ev.passes) - len(ev.pruned_after_joint_refit) == 2
+    assert d.location.dofs == (0, 1, 2)
+    assert d.fit.after <= 0.5 * d.fit.before
     check_residuals(d)
 
 
@@ -143,14 +143,14 @@ def test_three_missing_effects():
     +2.0 %; held-back error 1.48 -> 0.16)."""
     sc = three_effects()
     d = diagnose(sc.start, sc.recordings)
-    found = {(m["kind"], tuple(m["dofs"])): m["params"] for m in d.missing_physics()}
+    found = {(m.kind, m.dofs): m.params for m in d.chosen}
     assert set(found) == {("cubic_spring", (0, 1)), ("stiffness_error", (2,)),
                           ("quadratic_damping", (1, 2))}
     assert found[("cubic_spring", (0, 1))]["p"] == pytest.approx(3.0e9, rel=0.05)
     assert found[("stiffness_error", (2,))]["delta_stiffness"] == pytest.approx(
         TWO_EFFECTS_STIFFNESS, rel=0.05)
     assert found[("quadratic_damping", (1, 2))]["p"] == pytest.approx(30.0, rel=0.1)
-    assert d.fit["after"] <= 0.2 * d.fit["before"]
+    assert d.fit.after <= 0.2 * d.fit.before
 
 
 def test_replay_restarts_reproduce_the_exact_model():
@@ -188,7 +188,7 @@ def test_unconfirmed_finding_is_flagged(tmp_path):
     full = Model.load(examples / "models" / "sdof-cubic-quaddamp.toml")
     d = diagnose(full.with_elements([]), load_recordings(run))
     assert d.verdict == "discrepancy" and d.level_dependent
-    confirmed = d.fit["after"] <= 0.5 * d.fit["before"]
+    confirmed = d.fit.after <= 0.5 * d.fit.before
     flagged = any("does not confirm" in w for w in d.warnings)
     assert confirmed != flagged
     assert flagged == ("tentative" in d.explanation)

@@ -27,22 +27,22 @@ def check_discrepancy(case):
     d = diagnose(case.start, case.recordings, band=BAND)
     truth = case.truth
     assert d.verdict == "discrepancy", d.explanation
-    found = d.missing_physics()
+    found = d.chosen
     assert len(found) == 1, found
     m = found[0]
-    assert m["kind"] in FAMILY[truth["kind"]] and m["dofs"] == truth["dofs"], m
-    for name, rel in RTOL[m["kind"]].items():
-        assert m["params"][name] == pytest.approx(truth["params"][name], rel=rel), name
-    assert d.fit["after"] <= 0.5 * d.fit["before"], d.fit
-    for lv in d.fit["levels"]:      # no level worse beyond its noise and precision floor
-        assert lv["after"] <= max(lv["before"], lv["floor"]), lv
-    assert d.location["dofs"] == truth["dofs"]
+    assert m.kind in FAMILY[truth["kind"]] and list(m.dofs) == truth["dofs"], m
+    for name, rel in RTOL[m.kind].items():
+        assert m.params[name] == pytest.approx(truth["params"][name], rel=rel), name
+    assert d.fit.after <= 0.5 * d.fit.before, d.fit
+    for lv in d.fit.levels:      # no level worse beyond its noise and precision floor
+        assert lv.after <= max(lv.before, lv.floor.limit), lv
+    assert list(d.location.dofs) == truth["dofs"]
     return d
 
 
 def test_friction_joint_between_two_sensors():
     d = check_discrepancy(friction_joint())
-    assert d.missing_physics()[0]["stuck_stiffness_from_linear_part"]
+    assert d.chosen[0].stuck_stiffness_from_linear_part
 
 
 @pytest.mark.slow
@@ -64,9 +64,9 @@ def test_no_discrepancy_is_adequate():
     case = no_discrepancy()
     d = diagnose(case.start, case.recordings, band=BAND)
     assert d.verdict == "adequate", d.explanation
-    assert d.level_dependent is False and not d.missing_physics()
-    assert all(lv["within_floor"] for lv in d.fit["levels"])
-    assert np.isfinite(d.fit["time_residual"]["before"])   # steady-state replays of modal
+    assert d.level_dependent is False and not d.chosen
+    assert all(lv.within_floor for lv in d.fit.levels)
+    assert np.isfinite(d.fit.time_residual.before)   # steady-state replays of modal
 
 
 @pytest.mark.slow
@@ -76,5 +76,5 @@ def test_physics_outside_the_library_is_unexplained():
     case = loose_part()
     d = diagnose(case.start, case.recordings, band=BAND)
     assert d.verdict == "unexplained", d.explanation
-    assert not d.missing_physics() and d.fit["after"] == d.fit["before"]
-    assert d.evidence["misfit"]["tried"]["best_chi2_reduction"] < 0.25
+    assert not d.chosen and d.fit.after == d.fit.before
+    assert d.evidence.misfit.tried.best_chi2_reduction < 0.25

@@ -71,9 +71,9 @@ def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
                2.0, 1e4)
     step = decide(m, _Search(), [bad, good], lambda fixed: 1.0)
     assert step.found and step.best is good
-    assert step.rejected[0]["candidate"] == bad.cand.label
-    assert "valid range" in step.rejected[0]["reason"]
-    assert bad.evidence["rejected"] == step.rejected[0]["reason"]
+    assert step.rejected[0].candidate == bad.cand.label
+    assert "valid range" in step.rejected[0].reason
+    assert bad.evidence["rejected"] == step.rejected[0].reason
 
 
 def test_unexplained_names_the_points():

@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 
 import analysis.diagnose.search as search_mod
-from analysis.diagnose import diagnose
+from analysis.diagnose import (CandidateFit, Diagnosis, FitSummary, LevelError, Location,
+                               Verdict, diagnose)
 from analysis.diagnose.candidates import Candidate
 from analysis.diagnose.compare import weighted_error
-from analysis.diagnose.policy import _pick_holdout
+from analysis.diagnose.policy import pick_holdout
 from analysis.diagnose.prepare import prepare_random
 from analysis.diagnose.replay import horizon_samples, replay
-from analysis.diagnose.report import Diagnosis, explain
+from analysis.diagnose.leakage import Floor
+from analysis.diagnose.report import explain
 from analysis.diagnose.search import _predicted
 from analysis.diagnose.select import MARGIN, RandomSearch
 from analysis.models import Element, Model
@@ -28,8 +30,8 @@ EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 
 
 def no_level_worsened(d) -> None:
-    for lv in d.fit["levels"]:
-        assert lv["after"] <= max(lv["before"], lv["floor"]), lv
+    for lv in d.fit.levels:
+        assert lv.after <= max(lv.before, lv.floor.limit), lv
 
 
 @pytest.fixture(scope="module")
@@ -52,15 +54,14 @@ def test_true_model_of_the_two_level_example_is_adequate(example_runs):
     assert calls[0] == (0, calls[0][1], "search pass 1")
     assert calls[-1] == (calls[-1][1], calls[-1][1], "done")
     assert [c[0] for c in calls] == sorted(c[0] for c in calls)
-    assert d.missing_physics() == []
-    assert d.fit["within_floor"]
-    assert len(d.fit["levels"]) == 2
-    for lv in d.fit["levels"]:
-        assert lv["after"] == lv["before"] <= lv["floor"]
-        assert lv["floor_parts"]["precision"] == 0.01
+    assert d.chosen == ()
+    assert d.fit.within_floor
+    assert len(d.fit.levels) == 2
+    for lv in d.fit.levels:
+        assert lv.after == lv.before <= lv.floor.limit
+        assert lv.floor.precision == 0.01
     assert "within its noise and model-precision floor" in d.explanation
-    assert d.evidence["rejected"] == [] or all("worsens" in r["reason"] or "replay" in
-                                               r["reason"] for r in d.evidence["rejected"])
+    assert all("worsens" in r.reason or "replay" in r.reason for r in d.evidence.rejected)
 
 
 def test_leakage_of_the_welch_estimate_is_what_the_true_model_misses(example_runs):
@@ -80,13 +81,13 @@ def test_physics_outside_the_library_is_unexplained():
     sc = hidden_absorber()
     d = diagnose(sc.start, sc.recordings)
     assert d.verdict == "unexplained", d.explanation
-    assert d.missing_physics() == []
-    assert not d.fit["within_floor"]
-    m = d.evidence["misfit"]
-    assert m["tried"]["candidates"] > 20 and m["tried"]["best"]
-    lo, hi = m["band_hz"]
-    assert lo <= hi and d.location["band_hz"] == [lo, hi]
-    assert [t["level"] for t in m["level_trend"]] == [2.0, 6.0, 18.0]
+    assert d.chosen == ()
+    assert not d.fit.within_floor
+    m = d.evidence.misfit
+    assert m.tried.candidates > 20 and m.tried.best
+    lo, hi = m.band_hz
+    assert lo <= hi and d.location.band_hz == (lo, hi)
+    assert [t.level for t in m.level_trend] == [2.0, 6.0, 18.0]
     assert "outside the library" in d.explanation and "about the same" in d.explanation
     assert d.to_json()["verdict"] == "unexplained"
 
@@ -97,39 +98,38 @@ def test_a_correction_that_worsens_a_level_is_never_offered():
     reason and nothing else explains the misfit."""
     sc = drifting_structure()
     d = diagnose(sc.start, sc.recordings)
-    assert d.fit["held_back"] == ["level 4"]
+    assert d.fit.held_back == ("level 4",)
     no_level_worsened(d)
     assert d.verdict == "unexplained", d.explanation
-    first = d.evidence["rejected"][0]
-    assert first["candidate"] == "stiffness_error DOF 0 to ground"
-    assert "level 8: FRF error rises" in first["reason"]          # a fitting level
-    assert "level 4 (held back): FRF error rises" in first["reason"]
+    first = d.evidence.rejected[0]
+    assert first.candidate == "stiffness_error DOF 0 to ground"
+    assert "level 8: FRF error rises" in first.reason          # a fitting level
+    assert "level 4 (held back): FRF error rises" in first.reason
     assert "reduces" not in d.explanation
 
 
 def test_alternate_levels_are_held_back_from_four_levels():
-    assert _pick_holdout([1.0, 2.0], None) == [0]
-    assert _pick_holdout([1.0, 2.0, 3.0], None) == [1]
-    assert _pick_holdout([1.0, 2.0, 3.0, 4.0], None) == [1]
-    assert _pick_holdout([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], None) == [1, 3, 5]
-    assert _pick_holdout([1.0, 2.0, 3.0, 4.0], 3.0) == [2]
+    assert pick_holdout([1.0, 2.0], None) == [0]
+    assert pick_holdout([1.0, 2.0, 3.0], None) == [1]
+    assert pick_holdout([1.0, 2.0, 3.0, 4.0], None) == [1]
+    assert pick_holdout([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], None) == [1, 3, 5]
+    assert pick_holdout([1.0, 2.0, 3.0, 4.0], 3.0) == [2]
 
 
 def test_the_sentence_on_an_increase_does_not_say_reduces():
     cand = Candidate("mass_error", (1,), 2)
-    levels = [{"label": "level 5", "level": 5.0, "held_back": True, "before": 0.18,
-               "after": 0.66, "floor": 0.1},
-              {"label": "level 20", "level": 20.0, "held_back": False, "before": 0.5,
-               "after": 0.2, "floor": 0.1}]
-    d = Diagnosis("discrepancy", False,
-                  [{"kind": "mass_error", "dofs": [1], "w": [0, 1],
-                    "params": {"delta_mass": 0.1}}], [], {"dofs": [1], "band_hz": [5, 50]},
-                  {"before": 0.18, "after": 0.66, "levels": levels, "within_floor": False,
-                   "explained": 0.2}, Model(np.eye(2), np.eye(2), np.eye(2), []))
-    text = explain(d, [cand])
+    floor = Floor(0.05, 0.01, 0.1)
+    levels = (LevelError("level 5", 5.0, True, 0.18, 0.66, floor),
+              LevelError("level 20", 20.0, False, 0.5, 0.2, floor))
+    d = Diagnosis(Verdict.DISCREPANCY, False, Location((1,), None, (5.0, 50.0)),
+                  (CandidateFit("mass_error", (0.0, 1.0), (1,), None, {"delta_mass": 0.1}, {}),),
+                  FitSummary("m", 0.18, 0.66, ("level 5",), None, levels, None, False, 0.2))
+    d = explain(d, [cand])
+    text = d.explanation
     assert "reduces" not in text and "falls from 0.18" not in text
     assert "held-back FRF error rises from 0.18 to 0.66" in text
     assert "level 20 falls from 0.5 to 0.2" in text
+    assert "still misfits level 5, level 20 beyond the floor" in text
     assert any("rises from 0.18 to 0.66" in w for w in d.warnings)
 
 
@@ -163,9 +163,9 @@ def test_a_candidate_whose_replay_diverges_is_rejected_and_the_diagnosis_finishe
         return real(model, p, horizon, **kw)
     monkeypatch.setattr(search_mod, "replay", diverging)
     d = diagnose(sc.start, sc.recordings)
-    assert d.missing_physics() == []
+    assert d.chosen == ()
     assert d.verdict == "unexplained", d.explanation
-    (rej,) = [r for r in d.evidence["rejected"] if r["stage"] == "joint correction"]
-    assert rej["candidate"] == "cubic_spring DOF 2 to ground"
-    assert "replay fails (the simulation diverged" in rej["reason"]
+    (rej,) = [r for r in d.evidence.rejected if r.stage == "joint correction"]
+    assert rej.candidate == "cubic_spring DOF 2 to ground"
+    assert "replay fails (the simulation diverged" in rej.reason
     assert "cubic_spring DOF 2 to ground (the corrected model's replay fails" in d.explanation

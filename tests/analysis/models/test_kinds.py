@@ -283,10 +283,10 @@ def test_registered_kind_is_diagnosed(quintic):
     assert ("quintic_spring", (0, 1)) in {(c.kind, c.dofs) for c in library(2)}
     recs = random_runs(truth, 1, [2.0, 8.0, 16.0], seed=51)
     d = diagnose(base, recs)
-    (mp,) = d.missing_physics()
-    assert (mp["kind"], mp["dofs"]) == ("quintic_spring", [0, 1]), d.explanation
-    assert mp["params"]["p"] == pytest.approx(P5, rel=0.08)
-    assert d.fit["after"] <= 0.5 * d.fit["before"]
+    (mp,) = d.chosen
+    assert (mp.kind, mp.dofs) == ("quintic_spring", (0, 1)), d.explanation
+    assert mp.params["p"] == pytest.approx(P5, rel=0.08)
+    assert d.fit.after <= 0.5 * d.fit.before
 
 
 @pytest.mark.slow

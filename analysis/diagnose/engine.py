@@ -1,0 +1,266 @@
+"""The diagnosis engine: one sequence of typed stages for random and stepped-sine data.
+
+1. prepare: a `Flow` holds the levels in its order, which are held back and their floors
+   (`.search.RandomFlow`, `.stepped.SteppedFlow`);
+2. `search_passes`: each pass screens and locates every candidate of the library on the
+   current model (`Flow.pool`) and `policy.decide`s; a found effect is added and the library
+   searched again (at most `policy.MAX_EFFECTS`);
+3. `correct`: joint refit and pruning of the found effects, then the final correction, which
+   must worsen no level (and, with replays, must replay);
+4. `conclude`: verdict, location, held-back fit, evidence and the explanation.
+
+What differs between the data types is passed in by the flow, as scipy.signal's
+``_spectral_helper`` serves ``csd`` and ``welch``: how a level's model FRFs are computed
+(`Flow.curve`), how a pass builds its ranked pool, the replays and the flow's own evidence.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+from ..models import Model
+from ..plant import PlantError
+from .compare import LevelFRF
+from .leakage import Floor
+from .locate import level_dependence, mismatch_band
+from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, joint_veto, misfit_summary,
+                     model_change, pruned, pruned_labels)
+from .joint import joint_refit
+from .replay import Replay
+from .report import LevelCurves, explain, fit_summary, worsened
+from .result import Diagnosis, Evidence, Location, Rejection, Verdict
+from .select import Fit, Search
+
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, stage)``: called as the diagnosis advances (search passes, joint
+refit, replays of each level)."""
+
+Tick = Callable[..., None]
+"""``tick(stage)`` reports the start of the next step; ``tick(stage, finished=True)`` the end."""
+
+
+class Flow(ABC):
+    """What one kind of data brings to the engine: its levels (in the order the result lists
+    them), which are held back, their floors, and the hooks below.
+
+    Attributes
+    ----------
+    model : Model
+        The starting model.
+    held : tuple of bool
+        Per level, whether it is held back from fitting.
+    floors : list of Floor
+        Per level, the FRF error an exact model would show (`leakage.level_floor`).
+    metric : str
+        What the held-back ``before`` / ``after`` measure.
+    settle : bool
+        Once the fitting levels lie within their floors, offer no further memory kind (a
+        memory element would only absorb the sequential estimation error of the others).
+    refit_on_reject : bool
+        When the final correction's last effect is rejected, prune and refit the rest jointly
+        again (else keep their joint estimates).
+    steps : int
+        Progress steps of the whole diagnosis.
+    warnings : list of str
+        Collected while the flow runs.
+    """
+
+    model: Model
+    held: tuple[bool, ...]
+    floors: list[Floor]
+    metric: str
+    settle: bool = False
+    refit_on_reject: bool = False
+    steps: int = MAX_EFFECTS + 1
+
+    def __init__(self) -> None:
+        self.warnings: list[str] = []
+
+    @property
+    def fit_idx(self) -> list[int]:
+        """Indices of the fitting levels."""
+        return [i for i, h in enumerate(self.held) if not h]
+
+    @property
+    def judged(self) -> list[int]:
+        """Level order of a rejection's reason: fitting levels, then the held-back ones."""
+        return self.fit_idx + [i for i, h in enumerate(self.held) if h]
+
+    @abstractmethod
+    def curve(self, start: Model, fixed: Model, i: int) -> LevelCurves:
+        """Level ``i`` measured and modelled by ``start`` (before) and ``fixed`` (after)."""
+
+    @abstractmethod
+    def pool(self, current: Model, memoryless: bool) -> tuple[Search, list[Fit]]:
+        """A search of the library on ``current`` over the fitting levels and its ranked
+        candidates, best first (``memoryless``: memory kinds withheld)."""
+
+    @abstractmethod
+    def held_levels(self) -> list[LevelFRF]:
+        """The held-back levels' FRFs for the homogeneity test."""
+
+    @abstractmethod
+    def evidence(self, first: SearchPass, common: Evidence) -> Evidence:
+        """``common`` with the flow's own evidence added."""
+
+    def start_replays(self, tick: Tick) -> list[Replay | None] | None:
+        """Replays of the starting model per level (None: the curves hold their own)."""
+        return None
+
+    def corrected_replays(self, fixed: Model, tick: Tick) -> list[Replay] | None:
+        """Replays of the corrected model per level; raises `PlantError` when one fails."""
+        return None
+
+
+@dataclass(frozen=True)
+class Passes:
+    """The search passes (stage 2): the first one ranks the library on the starting model."""
+
+    passes: tuple[SearchPass, ...]
+
+    @property
+    def first(self) -> SearchPass:
+        return self.passes[0]
+
+    @property
+    def found(self) -> list[Fit]:
+        """The effects accepted, in the order found."""
+        return [s.best for s in self.passes if s.found]
+
+
+@dataclass(frozen=True)
+class Correction:
+    """The final correction (stage 3): its effects, the corrected model, every level's
+    curves (floors and replays set) and every rejected candidate with its stage."""
+
+    chosen: tuple[Fit, ...]
+    model: Model
+    curves: tuple[LevelCurves, ...]
+    rejected: tuple[Rejection, ...]
+
+
+def ticker(progress: Progress | None, total: int) -> Tick:
+    """``tick(stage)`` reports the start of the next step; ``finished=True`` the end."""
+    done = [0]
+
+    def tick(stage: str, finished: bool = False) -> None:
+        done[0] = total if finished else done[0]
+        if progress is not None:
+            progress(done[0], total, stage)
+        done[0] += 1
+    return tick
+
+
+def run(flow: Flow, progress: Progress | None = None) -> Diagnosis:
+    """Every stage on a prepared flow."""
+    tick = ticker(progress, flow.steps)
+    passes = search_passes(flow, tick)
+    return conclude(flow, passes, correct(flow, passes, tick), tick)
+
+
+def search_passes(flow: Flow, tick: Tick) -> Passes:
+    """Search passes until one finds nothing (at most `MAX_EFFECTS`); a further candidate
+    is vetoed when the effects refitted jointly with it worsen a level."""
+    model, judged = flow.model, flow.judged
+
+    def judge(previous: Model, fixed: Model) -> str | None:
+        return worsened([flow.curve(previous, fixed, i) for i in judged],
+                        [flow.floors[i] for i in judged])
+    passes: list[SearchPass] = []
+    current, settled = model, False
+    for k in range(MAX_EFFECTS):
+        tick(f"search pass {k + 1}")
+        found = [s.best for s in passes if s.found]
+        search, pool = flow.pool(current, settled)
+        start = current
+        step = decide(current, search, pool, lambda fixed: model_change(
+            [flow.curve(start, fixed, i) for i in flow.fit_idx]), further=bool(found),
+            accepted=[f.cand for f in found],
+            veto=joint_veto(model, lambda: passes[0].search, found, judge))
+        passes.append(step)
+        if not step.found:
+            break
+        current = step.fixed
+        if flow.settle:
+            joint = apply_fits(model, joint_refit(model, passes[0].search,
+                                                  [s.best for s in passes if s.found]))
+            settled = all(flow.curve(model, joint, i).error_after <= flow.floors[i].limit
+                          for i in flow.fit_idx)
+    return Passes(tuple(passes))
+
+
+def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
+    """Joint refit and pruning of the found effects; the last effect is dropped while the
+    correction worsens a level beyond its floor or its replay fails."""
+    model, first = flow.model, passes.first
+
+    def change(without: Model, fits: list[Fit]) -> float:
+        return model_change([flow.curve(without, apply_fits(model, fits), i)
+                             for i in flow.fit_idx])
+    tick("joint refit")
+    chosen = pruned(model, first.search, passes.found, change)
+    rejected = [replace(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes.passes)
+                for r in s.rejected]
+    before = flow.start_replays(tick)
+    while True:
+        current = apply_fits(model, chosen)
+        curves = [flow.curve(model, current, i) for i in range(len(flow.held))]
+        reason = worsened(curves, flow.floors) if chosen else None
+        after = None
+        if reason is None and chosen:
+            try:
+                after = flow.corrected_replays(current, tick)
+            except PlantError as exc:
+                reason = f"the corrected model's replay fails ({exc})"
+        if reason is None:
+            break
+        rejected.append(Rejection(chosen[-1].cand.label, reason, "joint correction"))
+        if flow.refit_on_reject:
+            chosen = pruned(model, first.search, chosen[:-1], change) if chosen[1:] else []
+        else:
+            chosen = chosen[:-1]
+    curves = [replace(c, floor=fl) for c, fl in zip(curves, flow.floors)]
+    if before is not None:
+        curves = [replace(c, replay_before=b, replay_after=after[i] if chosen else b)
+                  for i, (c, b) in enumerate(zip(curves, before))]
+    return Correction(tuple(chosen), current, tuple(curves), tuple(rejected))
+
+
+def conclude(flow: Flow, passes: Passes, corr: Correction, tick: Tick) -> Diagnosis:
+    """Verdict, location, held-back fit, evidence and explanation."""
+    tick("done", finished=True)
+    first, chosen, curves = passes.first, corr.chosen, corr.curves
+    dep = level_dependence(first.search.levels + flow.held_levels())
+    within = all(c.error_after <= c.floor.limit for c in curves)
+    verdict = (Verdict.DISCREPANCY if chosen else Verdict.ADEQUATE if within
+               else Verdict.UNEXPLAINED)
+    misfit = None if within else misfit_summary(curves, first, corr.rejected)
+    if verdict == Verdict.UNEXPLAINED:
+        location = Location(misfit.dofs, misfit.points, misfit.band_hz)
+    else:
+        location = _location(flow.model, first.search, chosen)
+    evidence = flow.evidence(first, Evidence(
+        chi2_start=first.search.chi2_0, n_values=first.search.n_values,
+        chi2_reduction=first.reduction, model_change=first.effect,
+        passes=tuple(s.summary() for s in passes.passes),
+        pruned_after_joint_refit=tuple(pruned_labels(list(passes.passes), list(chosen))),
+        rejected=corr.rejected, misfit=misfit, level_dependence=dep))
+    d = Diagnosis(verdict, dep.dependent if dep else None, location,
+                  tuple(f.result() for f in chosen), fit_summary(flow.metric, curves),
+                  ranking=tuple(f.result() for f in first.pool[:8]), evidence=evidence,
+                  residuals=tuple(c.residuals() for c in curves),
+                  warnings=tuple(flow.warnings), model=corr.model, curves=curves)
+    return explain(d, [f.cand for f in chosen])
+
+
+def _location(model: Model, search: Search, chosen: Sequence[Fit]) -> Location:
+    """The chosen effects' DOFs and the band of the excess misfit at the highest fitting
+    level of the first search (no band when nothing was chosen)."""
+    top = max(range(len(search.levels)), key=lambda i: search.levels[i].level)
+    lo, hi = mismatch_band(search.levels[top], search.H0s[top])
+    dofs = sorted({d for f in chosen for d in f.cand.dofs})
+    return Location(tuple(dofs), tuple(model.points[i] for i in dofs),
+                    (lo, hi) if chosen else None)
+

@@ -1,0 +1,572 @@
+"""The diagnosis result as frozen dataclasses, and its JSON (contracts sections 4, 5, 7).
+
+`Diagnosis` is what `analysis.diagnose.diagnose` returns; its parts are typed fields, not
+dictionary keys. ``Diagnosis.to_json()`` is the one way to the command's JSON (it carries
+`SCHEMA_VERSION`) and ``Diagnosis.from_json()`` reads it back, including the layouts stored
+before the version existed (docs/diagnose.md, "Result"). Fields that only one flow fills
+(random data: ``band_hz``, ``nperseg``, ...; stepped sine: ``odd_harmonic_ratio``) are None
+elsewhere and left out of the JSON.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import TYPE_CHECKING, Any, Mapping
+
+from ..models import Model
+from .leakage import Floor
+from .locate import LevelDependence
+
+if TYPE_CHECKING:
+    from .report import LevelCurves
+
+SCHEMA_VERSION = 1
+"""Version of the diagnosis JSON; results stored without one are read as the earlier
+layouts (contracts section 4 alone, or per-level errors at the top level only)."""
+
+RESULT_NAME = "diagnose"
+"""Name under which a run stores its diagnosis (``nlid-lab diagnose --store``), where
+``nlid-lab report`` finds it."""
+
+Json = dict[str, Any]
+
+
+class Verdict(StrEnum):
+    """What the diagnosis concludes."""
+
+    ADEQUATE = "adequate"
+    DISCREPANCY = "discrepancy"
+    UNEXPLAINED = "unexplained"
+
+
+def _opt(cls: Any, data: Json | None) -> Any:
+    """``cls.from_json(data)``, None for None."""
+    return None if data is None else cls.from_json(data)
+
+
+def _pair(v: Any) -> tuple[float, float] | None:
+    return None if v is None else (v[0], v[1])
+
+
+def _list(v: Any) -> list | None:
+    return None if v is None else list(v)
+
+
+@dataclass(frozen=True)
+class CandidateFit:
+    """One fitted candidate: a chosen element (or linear error) or a ranking row.
+
+    ``chi2``, ``delta_bic`` and ``evidence`` (what its estimator reports: ``estimator`` and
+    that estimator's own numbers) are None / empty for a chosen one read back from JSON,
+    which keeps only its physics (``missing_physics``).
+    """
+
+    kind: str
+    w: tuple[float, ...]
+    dofs: tuple[int, ...]
+    points: tuple[str, ...] | None
+    params: Mapping[str, float]
+    ci95: Mapping[str, tuple[float, float]]
+    chi2: float | None = None
+    delta_bic: float | None = None
+    evidence: Mapping[str, Any] = field(default_factory=dict)
+    stuck_stiffness_from_linear_part: bool = False
+
+    def to_json(self) -> Json:
+        """A ranking row."""
+        out = {"kind": self.kind, "w": list(self.w), "dofs": list(self.dofs),
+               "points": _list(self.points), "params": dict(self.params),
+               "ci95": {k: list(v) for k, v in self.ci95.items()}, "chi2": self.chi2,
+               "delta_bic": self.delta_bic, "evidence": dict(self.evidence)}
+        if self.stuck_stiffness_from_linear_part:
+            out["stuck_stiffness_from_linear_part"] = True
+        return out
+
+    def physics_json(self) -> Json:
+        """A ``missing_physics`` entry (contracts section 4)."""
+        out = {"kind": self.kind, "w": list(self.w), "dofs": list(self.dofs),
+               "params": dict(self.params), "ci95": {k: list(v) for k, v in self.ci95.items()}}
+        if self.points is not None:
+            out["points"] = list(self.points)
+        if self.stuck_stiffness_from_linear_part:
+            # the corrected model's linear part lost the slider's stuck stiffness
+            out["stuck_stiffness_from_linear_part"] = True
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> CandidateFit:
+        """From a ranking row or a ``missing_physics`` entry."""
+        points, w = data.get("points"), tuple(data["w"])
+        dofs = data.get("dofs", [i for i, v in enumerate(w) if v])   # contracts 4: w alone
+        return cls(data["kind"], w, tuple(dofs),
+                   None if points is None else tuple(points), dict(data["params"]),
+                   {k: _pair(v) for k, v in (data.get("ci95") or {}).items()},
+                   data.get("chi2"), data.get("delta_bic"), dict(data.get("evidence") or {}),
+                   bool(data.get("stuck_stiffness_from_linear_part", False)))
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """A location the data cannot tell apart from the chosen one (contracts section 7)."""
+
+    points: tuple[str, ...]
+    w: tuple[float, ...]
+    kind: str
+    delta_bic: float
+    why_not_separable: str
+
+    def to_json(self) -> Json:
+        return {"points": list(self.points), "w": list(self.w), "kind": self.kind,
+                "delta_bic": self.delta_bic, "why_not_separable": self.why_not_separable}
+
+    @classmethod
+    def from_json(cls, data: Json) -> Alternative:
+        return cls(tuple(data["points"]), tuple(data["w"]), data["kind"], data["delta_bic"],
+                   data["why_not_separable"])
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where the mismatch is: DOFs, their point names and the band (None when nothing was
+    found); ``alternatives`` are written only when there are some."""
+
+    dofs: tuple[int, ...]
+    points: tuple[str, ...] | None
+    band_hz: tuple[float, float] | None
+    alternatives: tuple[Alternative, ...] = ()
+
+    def to_json(self) -> Json:
+        out: Json = {"dofs": list(self.dofs)}
+        if self.points is not None:
+            out["points"] = list(self.points)
+        out["band_hz"] = _list(self.band_hz)
+        if self.alternatives:
+            out["alternatives"] = [a.to_json() for a in self.alternatives]
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> Location:
+        points = data.get("points")
+        return cls(tuple(data.get("dofs") or ()), None if points is None else tuple(points),
+                   _pair(data.get("band_hz")),
+                   tuple(Alternative.from_json(a) for a in data.get("alternatives") or ()))
+
+
+@dataclass(frozen=True)
+class LevelError:
+    """FRF error of one level before and after the correction, with its floor."""
+
+    label: str | None
+    level: float | None
+    held_back: bool
+    before: float
+    after: float
+    floor: Floor | None = None
+
+    @property
+    def within_floor(self) -> bool | None:
+        """Whether the error after the correction is within the floor (None without one)."""
+        return None if self.floor is None else bool(self.after <= self.floor.limit)
+
+    def to_json(self) -> Json:
+        out: Json = {"label": self.label, "level": self.level, "held_back": self.held_back,
+                     "before": self.before, "after": self.after}
+        if self.floor is not None:
+            out.update(floor=self.floor.limit, floor_parts=self.floor.to_json(),
+                       within_floor_before=bool(self.before <= self.floor.limit),
+                       within_floor=bool(self.after <= self.floor.limit))
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> LevelError:
+        """Also the earlier top-level rows (``error_before`` / ``error_after``)."""
+        parts = data.get("floor_parts")
+        if parts is None and data.get("floor") is not None:
+            parts = {"noise": None, "precision": None, "limit": data["floor"]}
+        return cls(data.get("label"), data.get("level"), bool(data.get("held_back")),
+                   data.get("before", data.get("error_before")),
+                   data.get("after", data.get("error_after")), _opt(Floor, parts))
+
+
+@dataclass(frozen=True)
+class TimeResidual:
+    """Mean replay residual on the held-back recordings before and after."""
+
+    metric: str
+    before: float
+    after: float
+
+    def to_json(self) -> Json:
+        return {"metric": self.metric, "before": self.before, "after": self.after}
+
+    @classmethod
+    def from_json(cls, data: Json) -> TimeResidual:
+        return cls(data["metric"], data["before"], data["after"])
+
+
+@dataclass(frozen=True)
+class FitSummary:
+    """The held-back fit (contracts sections 4 and 5): ``before`` and ``after`` on the
+    held-back recordings in ``metric``, the replay residual and every level's errors."""
+
+    metric: str
+    before: float | None
+    after: float | None
+    held_back: tuple[str, ...] = ()
+    time_residual: TimeResidual | None = None
+    levels: tuple[LevelError, ...] = ()
+    floor_method: str | None = None
+    within_floor: bool | None = None
+    explained: float | None = None
+
+    def to_json(self) -> Json:
+        return {"metric": self.metric, "before": self.before, "after": self.after,
+                "held_back": list(self.held_back),
+                "time_residual": None if self.time_residual is None
+                else self.time_residual.to_json(),
+                "levels": [lv.to_json() for lv in self.levels],
+                "floor_method": self.floor_method, "within_floor": self.within_floor,
+                "explained": self.explained}
+
+    @classmethod
+    def from_json(cls, data: Json, levels: list[Json] | None = None) -> FitSummary:
+        """``levels``: the top-level rows of a result stored before ``fit.levels`` existed."""
+        rows = data.get("levels") or levels or []
+        return cls(data.get("metric", "misfit"), data.get("before"), data.get("after"),
+                   tuple(data.get("held_back") or ()), _opt(TimeResidual,
+                                                           data.get("time_residual")),
+                   tuple(LevelError.from_json(r) for r in rows), data.get("floor_method"),
+                   data.get("within_floor"), data.get("explained"))
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """A candidate turned down, why, and at which stage (None within a pass's own list)."""
+
+    candidate: str
+    reason: str
+    stage: str | None = None
+
+    def to_json(self) -> Json:
+        out = {"candidate": self.candidate, "reason": self.reason}
+        if self.stage is not None:
+            out["stage"] = self.stage
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> Rejection:
+        return cls(data["candidate"], data["reason"], data.get("stage"))
+
+
+@dataclass(frozen=True)
+class PassSummary:
+    """One search pass: its best candidate and the decision."""
+
+    best: str | None
+    delta_bic: float | None
+    chi2_start: float
+    chi2_reduction: float
+    model_change: float
+    accepted: bool
+    rejected: tuple[Rejection, ...] = ()
+
+    def to_json(self) -> Json:
+        return {"best": self.best, "delta_bic": self.delta_bic, "chi2_start": self.chi2_start,
+                "chi2_reduction": self.chi2_reduction, "model_change": self.model_change,
+                "accepted": self.accepted, "rejected": [r.to_json() for r in self.rejected]}
+
+    @classmethod
+    def from_json(cls, data: Json) -> PassSummary:
+        return cls(data["best"], data["delta_bic"], data["chi2_start"], data["chi2_reduction"],
+                   data["model_change"], data["accepted"],
+                   tuple(Rejection.from_json(r) for r in data.get("rejected") or ()))
+
+
+@dataclass(frozen=True)
+class GroundedEnd:
+    """The best grounded candidate at either end of a pair location."""
+
+    points: tuple[str, ...]
+    kind: str
+    chi2_reduction: float
+
+    def to_json(self) -> Json:
+        return {"points": list(self.points), "kind": self.kind,
+                "chi2_reduction": self.chi2_reduction}
+
+    @classmethod
+    def from_json(cls, data: Json) -> GroundedEnd:
+        return cls(tuple(data["points"]), data["kind"], data["chi2_reduction"])
+
+
+@dataclass(frozen=True)
+class LocationRow:
+    """A location ranked by its best candidate (first search pass)."""
+
+    points: tuple[str, ...]
+    dofs: tuple[int, ...]
+    kind: str
+    chi2_reduction: float
+    delta_bic: float
+    best_grounded_end: GroundedEnd | None = None
+
+    def to_json(self) -> Json:
+        out = {"points": list(self.points), "dofs": list(self.dofs), "kind": self.kind,
+               "chi2_reduction": self.chi2_reduction, "delta_bic": self.delta_bic}
+        if self.best_grounded_end is not None:
+            out["best_grounded_end"] = self.best_grounded_end.to_json()
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> LocationRow:
+        return cls(tuple(data["points"]), tuple(data["dofs"]), data["kind"],
+                   data["chi2_reduction"], data["delta_bic"],
+                   _opt(GroundedEnd, data.get("best_grounded_end")))
+
+
+@dataclass(frozen=True)
+class TrendPoint:
+    """A level's error after the correction and its floor."""
+
+    level: float
+    error: float
+    floor: float
+
+    def to_json(self) -> Json:
+        return {"level": self.level, "error": self.error, "floor": self.floor}
+
+    @classmethod
+    def from_json(cls, data: Json) -> TrendPoint:
+        return cls(data["level"], data["error"], data["floor"])
+
+
+@dataclass(frozen=True)
+class Tried:
+    """What the first search pass tried against what a discrepancy needs."""
+
+    candidates: int
+    best: str | None
+    best_chi2_reduction: float
+    best_delta_bic: float | None
+    required_chi2_reduction: float
+    required_delta_bic: float
+    rejected: tuple[str, ...] = ()
+
+    def to_json(self) -> Json:
+        return {"candidates": self.candidates, "best": self.best,
+                "best_chi2_reduction": self.best_chi2_reduction,
+                "best_delta_bic": self.best_delta_bic,
+                "required_chi2_reduction": self.required_chi2_reduction,
+                "required_delta_bic": self.required_delta_bic, "rejected": list(self.rejected)}
+
+    @classmethod
+    def from_json(cls, data: Json) -> Tried:
+        return cls(data["candidates"], data["best"], data["best_chi2_reduction"],
+                   data["best_delta_bic"], data["required_chi2_reduction"],
+                   data["required_delta_bic"], tuple(data.get("rejected") or ()))
+
+
+@dataclass(frozen=True)
+class Misfit:
+    """Where the model still misfits beyond the floor (`policy.misfit_summary`)."""
+
+    level: str
+    band_hz: tuple[float, float]
+    dofs: tuple[int, ...]
+    points: tuple[str, ...]
+    error_by_dof: tuple[float, ...]
+    level_trend: tuple[TrendPoint, ...]
+    tried: Tried
+
+    def to_json(self) -> Json:
+        return {"level": self.level, "band_hz": list(self.band_hz), "dofs": list(self.dofs),
+                "points": list(self.points), "error_by_dof": list(self.error_by_dof),
+                "level_trend": [t.to_json() for t in self.level_trend],
+                "tried": self.tried.to_json()}
+
+    @classmethod
+    def from_json(cls, data: Json) -> Misfit:
+        return cls(data["level"], _pair(data["band_hz"]), tuple(data["dofs"]),
+                   tuple(data["points"]), tuple(data["error_by_dof"]),
+                   tuple(TrendPoint.from_json(t) for t in data["level_trend"]),
+                   Tried.from_json(data["tried"]))
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """The numbers behind the verdict (first search pass, the passes, rejections, misfit).
+
+    ``band_hz``, ``nperseg``, ``replay_horizon_samples``, ``locations`` and
+    ``residual_share_by_dof`` are filled on random data, ``odd_harmonic_ratio`` on stepped
+    sine; None elsewhere (and then not written).
+    """
+
+    chi2_start: float | None = None
+    n_values: float | None = None
+    chi2_reduction: float | None = None
+    band_hz: tuple[float, float] | None = None
+    nperseg: int | None = None
+    model_change: float | None = None
+    replay_horizon_samples: int | None = None
+    passes: tuple[PassSummary, ...] = ()
+    locations: tuple[LocationRow, ...] | None = None
+    pruned_after_joint_refit: tuple[str, ...] = ()
+    rejected: tuple[Rejection, ...] = ()
+    misfit: Misfit | None = None
+    level_dependence: LevelDependence | None = None
+    residual_share_by_dof: tuple[float, ...] | None = None
+    odd_harmonic_ratio: float | None = None
+
+    def to_json(self) -> Json:
+        out: Json = {"chi2_start": self.chi2_start, "n_values": self.n_values,
+                     "chi2_reduction": self.chi2_reduction}
+        if self.band_hz is not None:
+            out["band_hz"] = list(self.band_hz)
+        if self.nperseg is not None:
+            out["nperseg"] = self.nperseg
+        out["model_change"] = self.model_change
+        if self.replay_horizon_samples is not None:
+            out["replay_horizon_samples"] = self.replay_horizon_samples
+        out["passes"] = [p.to_json() for p in self.passes]
+        if self.locations is not None:
+            out["locations"] = [r.to_json() for r in self.locations]
+        out.update(pruned_after_joint_refit=list(self.pruned_after_joint_refit),
+                   rejected=[r.to_json() for r in self.rejected],
+                   misfit=None if self.misfit is None else self.misfit.to_json(),
+                   level_dependence=None if self.level_dependence is None
+                   else self.level_dependence.to_json())
+        if self.residual_share_by_dof is not None:
+            out["residual_share_by_dof"] = list(self.residual_share_by_dof)
+        if self.odd_harmonic_ratio is not None:
+            out["odd_harmonic_ratio"] = self.odd_harmonic_ratio
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> Evidence:
+        locations = data.get("locations")
+        share = data.get("residual_share_by_dof")
+        return cls(data.get("chi2_start"), data.get("n_values"), data.get("chi2_reduction"),
+                   _pair(data.get("band_hz")), data.get("nperseg"), data.get("model_change"),
+                   data.get("replay_horizon_samples"),
+                   tuple(PassSummary.from_json(p) for p in data.get("passes") or ()),
+                   None if locations is None
+                   else tuple(LocationRow.from_json(r) for r in locations),
+                   tuple(data.get("pruned_after_joint_refit") or ()),
+                   tuple(Rejection.from_json(r) for r in data.get("rejected") or ()),
+                   _opt(Misfit, data.get("misfit")),
+                   _opt(LevelDependence, data.get("level_dependence")),
+                   None if share is None else tuple(share), data.get("odd_harmonic_ratio"))
+
+
+@dataclass(frozen=True)
+class LevelResiduals:
+    """Frequency (and, with replays, time) residual per response DOF of one level, before
+    and after the correction."""
+
+    label: str
+    level: float
+    held_back: bool
+    frequency_before: tuple[float, ...]
+    frequency_after: tuple[float, ...]
+    time_before: tuple[float, ...] | None = None
+    time_after: tuple[float, ...] | None = None
+
+    def to_json(self) -> Json:
+        out: Json = {"label": self.label, "level": self.level, "held_back": self.held_back,
+                     "frequency": {"before": list(self.frequency_before),
+                                   "after": list(self.frequency_after)}}
+        if self.time_before is not None and self.time_after is not None:
+            out["time"] = {"before": list(self.time_before), "after": list(self.time_after)}
+        return out
+
+    @classmethod
+    def from_json(cls, data: Json) -> LevelResiduals:
+        time = data.get("time") or {}
+        return cls(data["label"], data["level"], data["held_back"],
+                   tuple(data["frequency"]["before"]), tuple(data["frequency"]["after"]),
+                   _tuple(time.get("before")), _tuple(time.get("after")))
+
+
+def _tuple(v: Any) -> tuple | None:
+    return None if v is None else tuple(v)
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Outcome of `analysis.diagnose.diagnose`.
+
+    Attributes
+    ----------
+    verdict : Verdict
+        ``adequate``: every level within its floor (`report.FLOOR_METHOD`) and nothing found;
+        ``discrepancy``: a correction found that worsens no level; ``unexplained``: the
+        model misfits and nothing in the library explains enough (``evidence.misfit``).
+    level_dependent : bool or None
+        Whether the measured FRFs change with level beyond their random error.
+    location : Location
+    chosen : tuple of CandidateFit
+        The accepted candidates, in the order the search passes found them (empty when
+        adequate); JSON ``missing_physics``.
+    fit : FitSummary
+    explanation : str
+        One paragraph a test engineer can act on.
+    ranking : tuple of CandidateFit
+        Best candidates of the first search pass with their evidence, best first.
+    evidence : Evidence
+    residuals : tuple of LevelResiduals
+    warnings : tuple of str
+    model : Model or None
+        The corrected model (the starting one when adequate); None when read from JSON.
+    curves : tuple of LevelCurves
+        Measured and modelled FRFs per level (for figures); empty when read from JSON.
+    """
+
+    verdict: Verdict
+    level_dependent: bool | None
+    location: Location
+    chosen: tuple[CandidateFit, ...]
+    fit: FitSummary
+    explanation: str = ""
+    ranking: tuple[CandidateFit, ...] = ()
+    evidence: Evidence = field(default_factory=Evidence)
+    residuals: tuple[LevelResiduals, ...] = ()
+    warnings: tuple[str, ...] = ()
+    model: Model | None = field(default=None, compare=False)
+    curves: tuple[LevelCurves, ...] = field(default=(), compare=False)
+
+    def to_json(self) -> Json:
+        """The command's JSON (contracts sections 4, 5, 7) with ``schema_version``."""
+        return {
+            "schema_version": SCHEMA_VERSION,
+            "verdict": str(self.verdict),
+            "level_dependent": self.level_dependent,
+            "location": self.location.to_json(),
+            "missing_physics": [c.physics_json() for c in self.chosen],
+            "fit": self.fit.to_json(),
+            "explanation": self.explanation,
+            "ranking": [r.to_json() for r in self.ranking],
+            "evidence": self.evidence.to_json(),
+            "levels": [dict(lv.to_json(), error_before=lv.before, error_after=lv.after)
+                       for lv in self.fit.levels],
+            "residuals": [r.to_json() for r in self.residuals],
+            "warnings": list(self.warnings),
+        }
+
+    @classmethod
+    def from_json(cls, data: Json) -> Diagnosis:
+        """A stored result: this version, or an earlier layout (no ``schema_version``)."""
+        version = data.get("schema_version", 0)
+        if version > SCHEMA_VERSION:
+            raise ValueError(f"diagnosis schema version {version} is newer than this "
+                             f"nlid-lab reads ({SCHEMA_VERSION}); update nlid-lab")
+        fit = data.get("fit") or {}
+        return cls(Verdict(data["verdict"]), data.get("level_dependent"),
+                   Location.from_json(data.get("location") or {}),
+                   tuple(CandidateFit.from_json(c) for c in data.get("missing_physics") or ()),
+                   FitSummary.from_json(fit, data.get("levels")),
+                   data.get("explanation", ""),
+                   tuple(CandidateFit.from_json(r) for r in data.get("ranking") or ()),
+                   Evidence.from_json(data.get("evidence") or {}),
+                   tuple(LevelResiduals.from_json(r) for r in data.get("residuals") or ()),
+                   tuple(data.get("warnings") or ()))
