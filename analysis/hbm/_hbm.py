@@ -273,9 +273,7 @@ def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, phi, dphi, dft, max_pe
 
 def model_receptance(model: Model) -> Receptance:
     """Receptance function of a model's underlying linear system."""
-    def receptance(freqs: np.ndarray) -> np.ndarray:
-        return model.linear_frf(np.asarray(freqs, dtype=float))
-    return receptance
+    return model.receptance()
 
 
 def parse_harmonics(harmonics: Sequence[int] | str) -> np.ndarray:
