@@ -375,6 +375,7 @@ class HBMSystem:
         self.n_el = len(els)
         self.codes = np.array([KINDS[el.kind].code for el in els], dtype=np.int64)
         self.memory = np.array([KINDS[el.kind].memory for el in els], dtype=np.bool_)
+        self._i1 = int(np.flatnonzero(self.harmonics == 1)[0])   # the fundamental's index
         self.params = np.zeros((len(els), N_PARAM))
         for e, el in enumerate(els):
             if el.known:
@@ -390,18 +391,18 @@ class HBMSystem:
             freqs.size, nh, self.model.n_dof, self.model.n_dof)
         Hc = np.einsum("dm,fhde,en->fhmn", self.W, H, self.W)   # W^T H W
         ulin = np.zeros((freqs.size, nh, n_el), dtype=complex)
-        i1 = int(np.flatnonzero(self.harmonics == 1)[0])
+        i1 = self._i1
         ulin[:, i1] = np.einsum("dm,fde,fe->fm", self.W, H[:, i1], force @ self.B.T)
         nb = 2 * nh
         Hr = np.zeros((freqs.size, n_el, nb, n_el, nb))
-        idx = np.arange(nh)
-        for a in range(n_el):
-            for b in range(n_el):
-                re, im = Hc[:, :, a, b].real, Hc[:, :, a, b].imag
-                Hr[:, a, idx, b, idx] = re
-                Hr[:, a, idx, b, nh + idx] = -im
-                Hr[:, a, nh + idx, b, idx] = im
-                Hr[:, a, nh + idx, b, nh + idx] = re
+        # [[Re, -Im], [Im, Re]] blocks of every element pair at once (the indexed axes
+        # come first: (n_h, n_f, n_el, n_el))
+        re, im = Hc.real.transpose(1, 0, 2, 3), Hc.imag.transpose(1, 0, 2, 3)
+        lo, hi = np.arange(nh), nh + np.arange(nh)
+        Hr[:, :, lo, :, lo] = re
+        Hr[:, :, lo, :, hi] = -im
+        Hr[:, :, hi, :, lo] = im
+        Hr[:, :, hi, :, hi] = re
         m = nb * n_el
         ylin = np.concatenate([ulin.real, ulin.imag], axis=1).transpose(0, 2, 1)
         return H, Hr.reshape(freqs.size, m, m), ylin.reshape(freqs.size, m).copy()

@@ -421,6 +421,10 @@ class LinearReceptance:
         self.mass, self.damping, self.stiffness = model.mass, model.damping, model.stiffness
         self.diag = tuple(np.diag(a).copy() for a in (model.mass, model.damping,
                                                        model.stiffness))
+        #: the force columns' DOFs when ``T = I`` (a ``[linear]`` model): the receptance of a
+        #: decoupled one is then ``hq`` on those entries, zero elsewhere
+        self.dofs = None if self.is_modal else np.arange(model.n_q) if force_dofs is None \
+            else np.asarray(force_dofs, dtype=int)
         self._paths: dict[int, list[Any]] = {}   # einsum's contraction order per n_f
 
     def __call__(self, freqs: np.ndarray) -> np.ndarray:
@@ -429,6 +433,12 @@ class LinearReceptance:
         if self.decoupled:
             m, c, k = self.diag
             hq = 1.0 / (-w[:, None] ** 2 * m + 1j * w[:, None] * c + k)
+            if self.dofs is not None:
+                # what the product with T = I gives: each sum over q has one non-zero term,
+                # times 1.0 (exact), so the entries are hq's bit for bit
+                out = np.zeros((w.size, self.shapes.shape[0], self.dofs.size), dtype=complex)
+                out[:, self.dofs, np.arange(self.dofs.size)] = hq[:, self.dofs]
+                return out
             # the order einsum's optimizer picks depends on the sizes only: planned once
             # per number of frequencies (planning cost more than the product)
             path = self._paths.get(w.size)

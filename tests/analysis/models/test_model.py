@@ -249,21 +249,24 @@ def test_modal_form_round_trip_points_and_frf():
 def test_receptance_evaluator_is_linear_frf_bit_for_bit():
     """`Model.receptance` (checks and contraction order worked out once) computes what the
     direct formulas compute, to the last bit, for one and for many frequencies."""
-    for m in (Model.loads(MODAL), Model.loads(LINEAR)):
-        ev = m.receptance([0])
+    diagonal = Model(np.diag([1.0, 2.0, 3.0]), np.diag([1.0, 4.0, 2.0]),
+                     np.diag([1e4, 3e4, 2e4]))           # decoupled [linear]: T = I
+    for m in (Model.loads(MODAL), Model.loads(LINEAR), diagonal):
+        dofs = [m.n_dof - 1, 0]
+        ev = m.receptance(dofs)
         for f in (np.array([20.0]), np.linspace(1.0, 80.0, 37)):
             w = 2 * np.pi * f
             if m.decoupled:
                 hq = 1.0 / (-w[:, None] ** 2 * np.diag(m.mass) + 1j * w[:, None]
                             * np.diag(m.damping) + np.diag(m.stiffness))
-                want = np.einsum("pq,fq,iq->fpi", m.shapes, hq, m.shapes[[0]], optimize=True)
+                want = np.einsum("pq,fq,iq->fpi", m.shapes, hq, m.shapes[dofs], optimize=True)
             else:
                 z = (-w[:, None, None] ** 2 * m.mass + 1j * w[:, None, None] * m.damping
                      + m.stiffness)
-                want = np.linalg.solve(z, np.broadcast_to(m.shapes[[0]].T, (f.size, m.n_q, 1)))
+                want = np.linalg.solve(z, np.broadcast_to(m.shapes[dofs].T, (f.size, m.n_q, 2)))
             for _ in range(2):                    # planned, then from the plan
                 np.testing.assert_array_equal(ev(f), want)
-            np.testing.assert_array_equal(m.linear_frf(f, [0]), want)
+            np.testing.assert_array_equal(m.linear_frf(f, dofs), want)
 
 
 @pytest.mark.parametrize("change, match", [
