@@ -408,16 +408,19 @@ class HBMSystem:
         return H, Hr.reshape(freqs.size, m, m), ylin.reshape(freqs.size, m).copy()
 
     def _check(self, freqs, force, params):
+        # array methods rather than np.any/np.all/np.broadcast_to: a continuation checks
+        # one point per call, thousands of times (same checks, less Python)
         freqs = np.atleast_1d(np.asarray(freqs, dtype=float))
-        if freqs.ndim != 1 or freqs.size == 0 or np.any(~np.isfinite(freqs)) \
-                or np.any(freqs <= 0):
+        if freqs.ndim != 1 or freqs.size == 0 or not np.isfinite(freqs).all() \
+                or (freqs <= 0).any():
             raise HBMError("frequencies must be a non-empty list of positive numbers (Hz)")
         force = np.atleast_1d(np.asarray(force, dtype=float))
         n_in = self.force_dofs.size
-        if force.shape not in ((n_in,), (freqs.size, n_in)) or not np.all(np.isfinite(force)):
+        if force.shape not in ((n_in,), (freqs.size, n_in)) or not np.isfinite(force).all():
             raise HBMError(f"force amplitude needs {n_in} finite value(s) (one per force DOF) "
                            f"or one such row per frequency, got shape {force.shape}")
-        force = np.broadcast_to(force, (freqs.size, n_in))
+        force = force[None, :] if force.ndim == 1 and freqs.size == 1 else \
+            np.broadcast_to(force, (freqs.size, n_in))
         P = self.params if params is None else np.asarray(params, dtype=float)
         if params is None:
             self.model.require_complete("harmonic balance")

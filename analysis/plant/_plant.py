@@ -148,8 +148,7 @@ def _element_slopes(model: Model, uv: np.ndarray | None = None) -> np.ndarray:
     (`_element_stiffness`); with ``uv`` (n, 2 n_elements), the deformations then the rates
     of the elements over a stretch of run, from their running tangents."""
     ne = len(model.elements)
-    peak = np.zeros(2 * ne) if uv is None or not uv.size else \
-        np.ascontiguousarray(np.abs(uv).T).max(axis=1)    # 10x faster than max(axis=0)
+    peak = np.zeros(2 * ne) if uv is None or not uv.size else _k.abs_peak(uv)
     out = np.zeros((2, ne))
     for i, el in enumerate(model.elements):
         out[:, i] = _element_stiffness(el, peak[i], peak[ne + i])

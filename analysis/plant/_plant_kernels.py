@@ -178,6 +178,19 @@ def _history(f: np.ndarray, gh: np.ndarray, z: np.ndarray) -> None:
             z[nin + b * ne + e] = gh[e, q - 1 - b]
 
 
+@numba.njit(cache=True)
+def abs_peak(a: np.ndarray) -> np.ndarray:
+    """Largest ``|a|`` of each column of ``a`` (n, k): one pass, no temporary (numpy's
+    ``abs`` then ``max`` cost the step-doubling check ~8 % of a chunk's time)."""
+    out = np.zeros(a.shape[1])
+    for i in range(a.shape[0]):
+        for c in range(a.shape[1]):
+            v = abs(a[i, c])
+            if v > out[c]:
+                out[c] = v
+    return out
+
+
 class Discretisation(NamedTuple):
     """What `integrate` takes from `analysis.plant._plant.Plant._discretise`: the exact
     discretisation of the linear part for ``m`` substeps per sample, the element tables and
