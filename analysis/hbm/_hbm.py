@@ -376,6 +376,8 @@ class HBMSystem:
         self.codes = np.array([KINDS[el.kind].code for el in els], dtype=np.int64)
         self.memory = np.array([KINDS[el.kind].memory for el in els], dtype=np.bool_)
         self._i1 = int(np.flatnonzero(self.harmonics == 1)[0])   # the fundamental's index
+        self._complete = all(el.known for el in els)
+        self._blocks = self._block_index()
         self.params = np.zeros((len(els), N_PARAM))
         for e, el in enumerate(els):
             if el.known:
@@ -394,18 +396,24 @@ class HBMSystem:
         i1 = self._i1
         ulin[:, i1] = np.einsum("dm,fde,fe->fm", self.W, H[:, i1], force @ self.B.T)
         nb = 2 * nh
-        Hr = np.zeros((freqs.size, n_el, nb, n_el, nb))
-        # [[Re, -Im], [Im, Re]] blocks of every element pair at once (the indexed axes
-        # come first: (n_h, n_f, n_el, n_el))
-        re, im = Hc.real.transpose(1, 0, 2, 3), Hc.imag.transpose(1, 0, 2, 3)
-        lo, hi = np.arange(nh), nh + np.arange(nh)
-        Hr[:, :, lo, :, lo] = re
-        Hr[:, :, lo, :, hi] = -im
-        Hr[:, :, hi, :, lo] = im
-        Hr[:, :, hi, :, hi] = re
         m = nb * n_el
+        # [[Re, -Im], [Im, Re]] blocks of every element pair, placed in one assignment
+        Hr = np.zeros((freqs.size, m * m))
+        re, im = Hc.real.reshape(freqs.size, -1), Hc.imag.reshape(freqs.size, -1)
+        Hr[:, self._blocks] = np.concatenate([re, -im, im, re], axis=1)
         ylin = np.concatenate([ulin.real, ulin.imag], axis=1).transpose(0, 2, 1)
         return H, Hr.reshape(freqs.size, m, m), ylin.reshape(freqs.size, m).copy()
+
+    def _block_index(self) -> np.ndarray:
+        """Flat indices into the (m, m) real operator of ``[[Re, -Im], [Im, Re]]`` of each
+        element pair's receptance, in the order of `_linear`'s blocks, each over
+        (harmonic, element a, element b)."""
+        nh, ne = self.harmonics.size, self.n_el
+        nb = 2 * nh
+        h, a, b = (x.ravel() for x in np.meshgrid(np.arange(nh), np.arange(ne), np.arange(ne),
+                                                  indexing="ij"))
+        return np.concatenate([((a * nb + h + r) * ne + b) * nb + h + c
+                               for r, c in ((0, 0), (0, nh), (nh, 0), (nh, nh))])
 
     def _check(self, freqs, force, params):
         # array methods rather than np.any/np.all/np.broadcast_to: a continuation checks
@@ -422,7 +430,7 @@ class HBMSystem:
         force = force[None, :] if force.ndim == 1 and freqs.size == 1 else \
             np.broadcast_to(force, (freqs.size, n_in))
         P = self.params if params is None else np.asarray(params, dtype=float)
-        if params is None:
+        if params is None and not self._complete:
             self.model.require_complete("harmonic balance")
         return freqs, force, np.ascontiguousarray(P)
 
