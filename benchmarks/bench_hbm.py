@@ -72,6 +72,14 @@ def continuation():
     return lambda: continue_frf(system, 12.0, 22.0, 1.0)
 
 
+def receptance():
+    """For `compare`: the linear receptance of the modal example, one call per frequency at
+    200 frequencies (how a continuation calls it); numpy only, nothing to compile."""
+    model = Model.load(ROOT / "examples" / "models" / "beam-payload-modal.toml")
+    freqs = np.linspace(1.0, 100.0, 200)
+    return lambda: [model.linear_frf([f]) for f in freqs]
+
+
 def frf_sweep():
     """Case 1 for `compare`: the SDOF Jenkins FRF, 200 frequencies at 100 N."""
     model = Model.load(ROOT / "examples" / "models" / "sdof-stick-slip.toml")
@@ -167,7 +175,8 @@ def main() -> None:
           f"folds at "
           + ", ".join(f"{f:.3f} Hz" for f in branch.freqs[branch.folds]))
     if not args.no_compare:
-        compare(["bench_hbm:continuation", "bench_hbm:frf_sweep"], args.base)
+        compare(["bench_hbm:continuation", "bench_hbm:frf_sweep", "bench_hbm:receptance"],
+                args.base)
 
 
 if __name__ == "__main__":
