@@ -12,8 +12,14 @@
 3. The full Table 4.1 fit: six levels 1 N .. 1 kN x 27 steps, 10 % noise on every response
    block, eq 34 hysteresis (kd, fd, n) by the default least squares with multi-start
    (target <= 10 s), errors against the reference kd, fd, the n reached and every start.
+4. Continuation of the 1 N Duffing curve through its folds (`duffing_system`: m 1 kg, c 2 N s/m,
+   k 1e4 N/m, cubic 1e8 N/m^3, harmonics 1,3,5, 12 -> 22 Hz, ~630 points, two folds; target
+   <= 254 ms, its time before the ``[modal]`` form made `linear_frf` slower).
+5. This tree against a base commit (default HEAD~1) in the same run (`benchmarks/_compare.py`):
+   the continuation and the FRF of 1., alternately in subprocesses, best of each.
 
     python benchmarks/bench_hbm.py [--level 100] [--settle-cycles 150] [--fs 16384] [--starts 4]
+                                   [--base REF | --no-compare]
 """
 
 from __future__ import annotations
@@ -25,13 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests"),
-                *sorted({str(p.parent) for p in (ROOT / "tests").rglob("test_*.py")})]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _compare import add_options, compare, project_root, search_path  # noqa: E402
+
+ROOT = project_root(__file__)
+sys.path[:0] = search_path(ROOT)
 
 from analysis.hbm import HBMSystem  # noqa: E402
-from analysis.hbm import fit_hbm  # noqa: E402
-from analysis.models import Model  # noqa: E402
+from analysis.hbm import continue_frf, fit_hbm  # noqa: E402
+from analysis.models import Element, Model  # noqa: E402
 from analysis.spectral import stepped_sine_frf  # noqa: E402
 from test_hbm_fit import FD, KD, candidate, simulate_levels  # noqa: E402
 
@@ -45,12 +53,48 @@ def best_of(fn, repeat: int) -> tuple[float, object]:
     return min(times), out
 
 
+def _thread_time(fn) -> float:
+    """CPU seconds of this thread in one call of ``fn`` (what it costs on a shared machine)."""
+    c0 = time.thread_time()
+    fn()
+    return time.thread_time() - c0
+
+
+def duffing_system() -> HBMSystem:
+    """The Duffing oscillator of case 4 at harmonics 1, 3, 5."""
+    model = Model([[1.0]], [[2.0]], [[1e4]], [Element("cubic_spring", [1.0], {"p": 1e8})])
+    return HBMSystem(model, [0], (1, 3, 5))
+
+
+def continuation():
+    """Case 4 for `compare`: the 1 N curve from 12 to 22 Hz through its two folds."""
+    system = duffing_system()
+    return lambda: continue_frf(system, 12.0, 22.0, 1.0)
+
+
+def receptance():
+    """For `compare`: the linear receptance of the modal example, one call per frequency at
+    200 frequencies (how a continuation calls it); numpy only, nothing to compile."""
+    model = Model.load(ROOT / "examples" / "models" / "beam-payload-modal.toml")
+    freqs = np.linspace(1.0, 100.0, 200)
+    return lambda: [model.linear_frf([f]) for f in freqs]
+
+
+def frf_sweep():
+    """Case 1 for `compare`: the SDOF Jenkins FRF, 200 frequencies at 100 N."""
+    model = Model.load(ROOT / "examples" / "models" / "sdof-stick-slip.toml")
+    system = HBMSystem(model, [0], (1, 3, 5, 7))
+    freqs = np.linspace(50.0, 350.0, 200)
+    return lambda: system.sweep(freqs, 100.0)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--level", type=float, default=100.0, help="force amplitude, N")
     parser.add_argument("--settle-cycles", type=float, default=150.0)
     parser.add_argument("--fs", type=float, default=16384.0, help="time-domain sample rate")
     parser.add_argument("--starts", type=int, default=4)
+    add_options(parser)
     args = parser.parse_args()
     model = Model.load(ROOT / "examples" / "models" / "sdof-stick-slip.toml")
     freqs = np.linspace(50.0, 350.0, 200)
@@ -121,6 +165,18 @@ def main() -> None:
         print("   " + ", ".join(f"{v:.4g}" for v in s["start"]) + " -> "
               + (", ".join(f"{v:.5g}" for v in end) + f"  cost {s['cost']:.4g}"
                  if end else s.get("error", "")))
+
+    run = continuation()
+    run()                                                     # compile outside the timing
+    t_cont, branch = best_of(run, 5)
+    c_cont = min(_thread_time(run) for _ in range(5))
+    print(f"4. continuation, 1 N Duffing (harmonics 1,3,5), 12 -> 22 Hz: {1e3 * t_cont:.0f} ms "
+          f"(thread CPU {1e3 * c_cont:.0f} ms; target <= 254 ms), {branch.freqs.size} points, "
+          f"folds at "
+          + ", ".join(f"{f:.3f} Hz" for f in branch.freqs[branch.folds]))
+    if not args.no_compare:
+        compare(["bench_hbm:continuation", "bench_hbm:frf_sweep", "bench_hbm:receptance"],
+                args.base)
 
 
 if __name__ == "__main__":

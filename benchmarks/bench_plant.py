@@ -17,7 +17,12 @@ fastest of 15 passes, `blockwise_time`, which holds on a shared machine), the ra
 solve_ivp (DOP853, rtol 1e-9, on the modal coordinates) timed in the same run, and the
 default-settings error against a converged run (oversample 48; target <= 1e-5).
 
+Then this tree against a base commit (default HEAD~1) in the same run (`benchmarks/_compare.py`):
+both cases' default-settings runs (10 s), alternately in subprocesses, best wall clock and
+thread CPU time of each.
+
     python benchmarks/bench_plant.py [--case all|chain|modal] [--seconds 30] [--fs 8192]
+                                     [--base REF | --no-compare]
 """
 
 from __future__ import annotations
@@ -30,9 +35,11 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests"),
-                *sorted({str(p.parent) for p in (ROOT / "tests").rglob("test_*.py")})]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _compare import add_options, compare, project_root, search_path  # noqa: E402
+
+ROOT = project_root(__file__)
+sys.path[:0] = search_path(ROOT)
 
 from analysis.plant import random_gaussian  # noqa: E402
 from analysis.models import Element, Model  # noqa: E402
@@ -49,11 +56,31 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--fs", type=float, default=8192.0)
     parser.add_argument("--ref-seconds", type=float, default=0.25)
+    add_options(parser)
     args = parser.parse_args()
     if args.case in ("all", "chain"):
         chain_case(args)
     if args.case in ("all", "modal"):
         modal_case(args.seconds)
+    if not args.no_compare:
+        cases = {"chain": ["bench_plant:chain_run"], "modal": ["bench_plant:modal_run"]}
+        compare(cases.get(args.case, cases["chain"] + cases["modal"]), args.base, repeats=2)
+
+
+def chain_run(seconds: float = 10.0, fs: float = 8192.0):
+    """For `compare`: a default-settings run of the chain case (the drive of `chain_case`)."""
+    model = Model.load(ROOT / "examples" / "models" / "three-dof-cubic-stickslip.toml")
+    n = int(seconds * fs)
+    force = np.column_stack([random_gaussian(n, fs, (10, 400), 1.0, 1),
+                             random_gaussian(n, fs, (10, 400), 10.0, 2)])
+    return lambda: Plant(model, fs, [0, 2]).run(force)
+
+
+def modal_run(seconds: float = 10.0):
+    """For `compare`: a default-settings run of the modal case (the drive of `modal_case`)."""
+    model = aircraft_model()
+    force = random_gaussian(int(seconds * MODAL_FS), MODAL_FS, (2, 200), 20.0, 1)[:, None]
+    return lambda: Plant(model, MODAL_FS, [0]).run(force)
 
 
 def best_of(plant: Plant, force: np.ndarray, repeats: int = 3
@@ -155,7 +182,7 @@ def chain_case(args: argparse.Namespace) -> None:
     force = np.column_stack([random_gaussian(n, fs, (10, 400), 1.0, 1),
                              random_gaussian(n, fs, (10, 400), 10.0, 2)])
     plant = Plant(model, fs, [0, 2])
-    t_plant, t_median, _, out = best_of(plant, force)
+    t_plant, t_median, t_cpu, out = best_of(plant, force)
     rate = n / t_plant
     stats = plant.describe_stats()
     g = out.element_forces
@@ -167,7 +194,8 @@ def chain_case(args: argparse.Namespace) -> None:
           f"{stats['events'] / args.seconds:.0f} stick/slip switches per s")
     print(f"plant: oversample {plant.oversample}, {stats['iterations_per_substep']:.2f} corrector "
           f"iterations per substep, best of 3 {t_plant:.3f} s -> {rate:,.0f} output samples/s "
-          f"(median {n / t_median:,.0f})")
+          f"(median {n / t_median:,.0f}; thread CPU time {n / t_cpu:,.0f}) "
+          f"{'>=' if rate >= 1e6 else '<'} 1,000,000")
 
     n_ref = int(args.ref_seconds * fs)
     t0 = time.perf_counter()

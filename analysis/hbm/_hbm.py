@@ -273,9 +273,7 @@ def _sweep(Hr_all, ylin_all, omegas, codes, P, mem, harm, phi, dphi, dft, max_pe
 
 def model_receptance(model: Model) -> Receptance:
     """Receptance function of a model's underlying linear system."""
-    def receptance(freqs: np.ndarray) -> np.ndarray:
-        return model.linear_frf(np.asarray(freqs, dtype=float))
-    return receptance
+    return model.receptance()
 
 
 def parse_harmonics(harmonics: Sequence[int] | str) -> np.ndarray:
@@ -377,6 +375,9 @@ class HBMSystem:
         self.n_el = len(els)
         self.codes = np.array([KINDS[el.kind].code for el in els], dtype=np.int64)
         self.memory = np.array([KINDS[el.kind].memory for el in els], dtype=np.bool_)
+        self._i1 = int(np.flatnonzero(self.harmonics == 1)[0])   # the fundamental's index
+        self._complete = all(el.known for el in els)
+        self._blocks = self._block_index()
         self.params = np.zeros((len(els), N_PARAM))
         for e, el in enumerate(els):
             if el.known:
@@ -392,35 +393,44 @@ class HBMSystem:
             freqs.size, nh, self.model.n_dof, self.model.n_dof)
         Hc = np.einsum("dm,fhde,en->fhmn", self.W, H, self.W)   # W^T H W
         ulin = np.zeros((freqs.size, nh, n_el), dtype=complex)
-        i1 = int(np.flatnonzero(self.harmonics == 1)[0])
+        i1 = self._i1
         ulin[:, i1] = np.einsum("dm,fde,fe->fm", self.W, H[:, i1], force @ self.B.T)
         nb = 2 * nh
-        Hr = np.zeros((freqs.size, n_el, nb, n_el, nb))
-        idx = np.arange(nh)
-        for a in range(n_el):
-            for b in range(n_el):
-                re, im = Hc[:, :, a, b].real, Hc[:, :, a, b].imag
-                Hr[:, a, idx, b, idx] = re
-                Hr[:, a, idx, b, nh + idx] = -im
-                Hr[:, a, nh + idx, b, idx] = im
-                Hr[:, a, nh + idx, b, nh + idx] = re
         m = nb * n_el
+        # [[Re, -Im], [Im, Re]] blocks of every element pair, placed in one assignment
+        Hr = np.zeros((freqs.size, m * m))
+        re, im = Hc.real.reshape(freqs.size, -1), Hc.imag.reshape(freqs.size, -1)
+        Hr[:, self._blocks] = np.concatenate([re, -im, im, re], axis=1)
         ylin = np.concatenate([ulin.real, ulin.imag], axis=1).transpose(0, 2, 1)
         return H, Hr.reshape(freqs.size, m, m), ylin.reshape(freqs.size, m).copy()
 
+    def _block_index(self) -> np.ndarray:
+        """Flat indices into the (m, m) real operator of ``[[Re, -Im], [Im, Re]]`` of each
+        element pair's receptance, in the order of `_linear`'s blocks, each over
+        (harmonic, element a, element b)."""
+        nh, ne = self.harmonics.size, self.n_el
+        nb = 2 * nh
+        h, a, b = (x.ravel() for x in np.meshgrid(np.arange(nh), np.arange(ne), np.arange(ne),
+                                                  indexing="ij"))
+        return np.concatenate([((a * nb + h + r) * ne + b) * nb + h + c
+                               for r, c in ((0, 0), (0, nh), (nh, 0), (nh, nh))])
+
     def _check(self, freqs, force, params):
+        # array methods rather than np.any/np.all/np.broadcast_to: a continuation checks
+        # one point per call, thousands of times (same checks, less Python)
         freqs = np.atleast_1d(np.asarray(freqs, dtype=float))
-        if freqs.ndim != 1 or freqs.size == 0 or np.any(~np.isfinite(freqs)) \
-                or np.any(freqs <= 0):
+        if freqs.ndim != 1 or freqs.size == 0 or not np.isfinite(freqs).all() \
+                or (freqs <= 0).any():
             raise HBMError("frequencies must be a non-empty list of positive numbers (Hz)")
         force = np.atleast_1d(np.asarray(force, dtype=float))
         n_in = self.force_dofs.size
-        if force.shape not in ((n_in,), (freqs.size, n_in)) or not np.all(np.isfinite(force)):
+        if force.shape not in ((n_in,), (freqs.size, n_in)) or not np.isfinite(force).all():
             raise HBMError(f"force amplitude needs {n_in} finite value(s) (one per force DOF) "
                            f"or one such row per frequency, got shape {force.shape}")
-        force = np.broadcast_to(force, (freqs.size, n_in))
+        force = force[None, :] if force.ndim == 1 and freqs.size == 1 else \
+            np.broadcast_to(force, (freqs.size, n_in))
         P = self.params if params is None else np.asarray(params, dtype=float)
-        if params is None:
+        if params is None and not self._complete:
             self.model.require_complete("harmonic balance")
         return freqs, force, np.ascontiguousarray(P)
 

@@ -86,13 +86,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, NamedTuple, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from scipy.linalg import eigh, expm
 from scipy.sparse.csgraph import connected_components
 
 from . import _plant_kernels as _k
+from ._plant_kernels import Outputs as _Outputs
 from ..models import KINDS, N_BUILTIN, N_PARAM, N_STATE, Model, pack_params
 from ..errors import InputError
 from ..recordings import RESPONSE_KINDS, hold_image_response, remove_hold_images
@@ -147,8 +148,7 @@ def _element_slopes(model: Model, uv: np.ndarray | None = None) -> np.ndarray:
     (`_element_stiffness`); with ``uv`` (n, 2 n_elements), the deformations then the rates
     of the elements over a stretch of run, from their running tangents."""
     ne = len(model.elements)
-    peak = np.zeros(2 * ne) if uv is None or not uv.size else \
-        np.ascontiguousarray(np.abs(uv).T).max(axis=1)    # 10x faster than max(axis=0)
+    peak = np.zeros(2 * ne) if uv is None or not uv.size else _k.abs_peak(uv)
     out = np.zeros((2, ne))
     for i, el in enumerate(model.elements):
         out[:, i] = _element_stiffness(el, peak[i], peak[ne + i])
@@ -283,9 +283,9 @@ class Plant:
         return self._kernels[m]
 
     def _discretise(self, m: int) -> dict[str, Any]:
-        """Arrays for ``m`` substeps per sample: those `analysis.plant._plant_kernels.integrate`
-        takes, and ``r_z``: the pending history in the accumulated state is ``r_z z``
-        (`_pending`)."""
+        """Arrays for ``m`` substeps per sample: ``disc``, the `Discretisation`
+        `analysis.plant._plant_kernels.integrate` takes, and ``r_z``: the pending history in
+        the accumulated state is ``r_z z`` (`_pending`)."""
         model, n, q, wq = self.model, self.model.n_q, HOLD_DEGREE, self._wq
         h = 1.0 / (self.fs * m)
         minv = np.linalg.inv(model.mass)
@@ -361,7 +361,8 @@ class Plant:
                                     dtype=np.bool_))
         r_z = np.hstack([r_f, *r_g])
         args["r_v"] = np.ascontiguousarray(wq @ r_z[n:])
-        return {**args, "r_z": r_z, "args": tuple(args[name] for name in _k.MATRICES)}
+        return {"r_z": r_z, "disc": _k.Discretisation(**{name: args[name] for name in
+                                                         _k.Discretisation._fields})}
 
     # --- state ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -441,7 +442,7 @@ class Plant:
         out = self._outputs(n)
         step = CHUNK if self.adaptive else max(n, 1)
         for i in range(0, n, step):
-            part = _Block(*(a[i:i + step] for a in out))
+            part = _Outputs(*(a[i:i + step] for a in out))
             if self.adaptive:
                 self._checked(force[i:i + step], part)
             else:
@@ -453,24 +454,24 @@ class Plant:
             response += self._rng.standard_normal((n, ndof)) * self.noise_std
         return PlantOutput(out.x, out.v, out.a, response, out.g, self.oversample)
 
-    def _outputs(self, n: int) -> "_Block":
+    def _outputs(self, n: int) -> "_Outputs":
         """Empty output arrays for ``n`` samples."""
         npt, ne = self.model.n_dof, len(self.model.elements)
-        return _Block(np.empty((n, npt)), np.empty((n, npt)), np.empty((n, npt)),
+        return _Outputs(np.empty((n, npt)), np.empty((n, npt)), np.empty((n, npt)),
                       np.empty((n, ne)), np.empty((n, 2 * ne)))
 
-    def _integrate(self, force: np.ndarray, m: int, out: "_Block") -> None:
+    def _integrate(self, force: np.ndarray, m: int, out: "_Outputs") -> None:
         """Outputs at the points, element forces and deformations over ``force`` with ``m``
         substeps, into ``out``."""
         kern = self._kernel(m)
         kernel = _k.integrate_strict if any(spec.code >= N_BUILTIN for spec in KINDS.values()) \
             else _k.integrate
-        kernel(force, m, *kern["args"], self._s, self._gh, self._uh, self._es, self._fprev,
-               *out, self.stats)
+        kernel(force, m, kern["disc"], _k.PlantState(self._s, self._gh, self._uh, self._es,
+                                                      self._fprev), out, self.stats)
         if not np.all(np.isfinite(self._s)):
             raise PlantError("the simulation diverged; raise oversample or lower the drive")
 
-    def _checked(self, force: np.ndarray, res: "_Block") -> None:
+    def _checked(self, force: np.ndarray, res: "_Outputs") -> None:
         """`_integrate` one chunk into ``res`` with the step-doubling check of the module
         docstring."""
         start = self._snapshot()
@@ -543,17 +544,6 @@ class Plant:
         return {"substeps": int(s[0]), "iterations_per_substep": float(s[1] / max(s[0], 1)),
                 "events": int(s[2]), "unconverged": int(s[3]), "oversample": self.oversample,
                 "oversample_raised": self.raised}
-
-
-class _Block(NamedTuple):
-    """What `Plant._integrate` returns: displacement, velocity, acceleration at the points,
-    element forces, element deformations then rates."""
-
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    g: np.ndarray
-    uv: np.ndarray
 
 
 def _bound(slopes: np.ndarray, factor: float) -> np.ndarray:
