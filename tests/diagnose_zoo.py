@@ -95,6 +95,8 @@ class Built:
 
     start: Model
     recordings: list[Recording]
+    band: tuple[float, float] | None = None
+    """``--band`` given to the diagnosis (None: the excited band it finds)."""
 
 
 @dataclass(frozen=True)
@@ -350,6 +352,7 @@ BEAM_MS = Excitation("multisine", (3.0, 200.0))
 BEAM_RANDOM = Excitation("random", (3.0, 200.0))
 TWIN_MS = Excitation("multisine", (2.0, 15.0))
 HELD_BACK = (LEVELS[1],)
+SHORT = {"displacement": "disp", "acceleration": "acc"}
 EXACT = "the true linear part (the structure without the effect)"
 DAQ = ("mains", "offset", "quantization")
 
@@ -403,7 +406,7 @@ def _lumped_case(name: str, base: Callable[[], Model], exc: Excitation, kind: st
     truth = Truth(effects, HELD_BACK, EXACT, visible=len(spec) < 3 or spec[0].endswith(
         "_error"), note=note)
     return ZooCase(name, "SDOF" if model.n_dof == 1 else f"{model.n_dof}-DOF chain",
-                   f"{kind[:4]}, all", exc.kind, truth,
+                   f"{SHORT[kind]}, all", exc.kind, truth,
                    partial(_lumped, base, 0, exc, kind, spec, artifacts, seed),
                    tuple(model.points), artifacts, fast)
 
@@ -433,7 +436,7 @@ def _mapped_case(name: str, structure: str, exc: Excitation, kind: str,
     label = ("FE beam + jointed payload (modal, 11 points)" if structure == "beam"
              else "suspended aircraft-like twin (joint sensors within 5 %)")
     few = "all" if len(channels) == model.n_dof else f"{len(channels)} of {model.n_dof}"
-    return ZooCase(name, label, f"{kind[:4]}, {few}", exc.kind, truth,
+    return ZooCase(name, label, f"{SHORT[kind]}, {few}", exc.kind, truth,
                    partial(_mapped, base, channels, kind, exc, spec, artifacts, fs, up, n,
                            seed), channels, artifacts)
 
@@ -463,7 +466,7 @@ def _existing(name: str, maker: Callable, structure: str, sensors: str, exc: str
 def _gvt(maker_name: str) -> Built:
     import gvt_scenarios
     case = getattr(gvt_scenarios, maker_name)()
-    return Built(case.start, case.recordings)
+    return Built(case.start, case.recordings, gvt_scenarios.BAND)
 
 
 GVT_NAMES = ("drive", "joint", "tip", "payload")
@@ -674,7 +677,7 @@ def run_case(case: ZooCase) -> Outcome:
         recs = [one_kind(r) for r in built.recordings]
         model = model_at_sensors(built.start, recs, "diagnose")
         t1 = time.perf_counter()
-        res = result_json(diagnose(model, recs))
+        res = result_json(diagnose(model, recs, band=built.band))
         t2 = time.perf_counter()
     except Exception as exc:                       # a crash is a wrong row, not a lost run
         return Outcome(case.name, case.truth.family, error=f"{type(exc).__name__}: {exc}",
