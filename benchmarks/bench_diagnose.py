@@ -176,6 +176,7 @@ def _row(r) -> str:
 def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     """Diagnose every zoo case (in ``workers`` processes), print the matrix and totals."""
     import dataclasses
+    import os
     from concurrent.futures import ProcessPoolExecutor
 
     import diagnose_zoo as Z
@@ -185,21 +186,22 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
           "family, family, location, named, parameters, held-back FRF error, diagnose time",
           flush=True)
-    t0 = time.perf_counter()
+    t0, load0 = time.perf_counter(), os.getloadavg()[0]
     by_name = {c.name: c for c in cases}
     with ProcessPoolExecutor(max_workers=workers) as pool:
         rows = []
         for r in pool.map(_run_named, [c.name for c in cases]):
             rows.append(r)
             print(_row(r), flush=True)
-    wall = time.perf_counter() - t0
+    wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
     print("\nconfusion matrix (true family: what was named, count)")
     for fam, named in sorted(Z.confusion(rows).items()):
         print(f"  {fam:<30} " + ", ".join(f"{k} {v}" for k, v in sorted(named.items())))
     tot = Z.totals(rows)
     tg = Z.TARGETS
     print(f"\ntotals over {tot['cases']} cases ({tot['effect_rows']} with an effect, "
-          f"{tot['none_rows']} none; {tot['errors']} crashed), wall {wall:.0f} s")
+          f"{tot['none_rows']} none; {tot['errors']} crashed), wall {wall:.0f} s, load "
+          f"average {load0:.1f} before, {load1:.1f} after, {os.cpu_count()} cores")
     print(f"  family right          {100 * tot['family_right']:5.1f} %  (target >= "
           f"{100 * tg['family_right']:.0f} %)")
     print(f"  location right/ambig. {100 * tot['location_right']:5.1f} %  (target >= "
@@ -216,7 +218,7 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
             {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name]))
                        for r in rows],
              "confusion": Z.confusion(rows), "totals": tot, "targets": tg,
-             "workers": workers, "wall_seconds": wall}, indent=2, default=str) + "\n")
+             "workers": workers, "wall_seconds": wall, "load_average": [load0, load1]}, indent=2, default=str) + "\n")
         print(f"matrix written to {json_out}")
 
 
