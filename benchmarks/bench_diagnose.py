@@ -164,7 +164,8 @@ def run_f16(period: int, periods: int) -> None:
 def _row(r) -> str:
     hb = f"{r.held_back[0]:.3g} -> {r.held_back[1]:.3g}" if r.held_back else "-"
     par = ("-" if r.params_ok is None else ("ok " if r.params_ok else "OFF ")
-           + " ".join(f"{k.split('.')[-1]} {100 * v:+.1f}%" for k, v in r.param_errors.items()))
+           + " ".join(f"{k.split('.')[-1]} " + (f"{100 * v:+.1f}%" if v == v else "n/a")
+                      for k, v in r.param_errors.items()))
     fam = "ok" if r.family_right else "WRONG"
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict
