@@ -31,8 +31,8 @@ from typing import Any, Callable
 import numpy as np
 
 from analysis.models import Element, Model
-from analysis.plant import multisine, periodic, random_gaussian
-from analysis.recordings import PeriodicLayout, Recording
+from analysis.plant import random_gaussian
+from analysis.recordings import Recording
 from diagnose_scenarios import (TWO_EFFECTS_STIFFNESS, chain, hidden_cubic, linear_mass_error,
                                 masked_friction, multisine_runs, no_discrepancy, random_runs,
                                 relative_damping, stepped_runs, stepped_stiffness_error,
@@ -485,8 +485,8 @@ def _mapped_case(name: str, structure: str, exc: Excitation, kind: str,
                            seed), channels, artifacts)
 
 
-def _scenario(maker: Callable, extra: tuple[Effect, ...] = (), **kw: Any) -> Built:
-    sc = maker(**kw)
+def _scenario(maker: Callable) -> Built:
+    sc = maker()
     return Built(sc.start, sc.recordings)
 
 
