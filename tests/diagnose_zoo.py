@@ -259,7 +259,7 @@ def truth_model(truth_lin: Model, effects: tuple[Effect, ...]) -> Model:
     """The true structure: ``truth_lin`` less the stuck stiffness of its slider joints
     (`Effect.stuck`), with the effects' elements."""
     k = truth_lin.stiffness.copy()
-    for e in effects:
+    for e in (e for e in effects if e.stuck):         # [linear] models: K over the points
         w = point_w(truth_lin, e.points)
         k -= e.stuck * np.outer(w, w)
     lin = truth_lin.with_linear(truth_lin.mass, truth_lin.damping, k, [], truth_lin.name)
