@@ -183,7 +183,9 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     import diagnose_zoo as Z
     cases = Z.zoo(pattern)
     if not cases:
-        raise SystemExit(f"no zoo case matches {pattern!r}")
+        print(f"no zoo case matches --only {pattern!r}; see the names in tests/diagnose_zoo.py",
+              file=sys.stderr)
+        raise SystemExit(2)
     print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
           "family, family, location, named, parameters, held-back FRF error, diagnose time",
           flush=True)
@@ -244,7 +246,12 @@ def _opt(name: str, default: str | None) -> str | None:
 
 if __name__ == "__main__":
     if "--zoo" in sys.argv:
-        run_zoo(_opt("--only", None), int(_opt("--workers", "1")), _opt("--json", None))
+        workers = _opt("--workers", "1")
+        if not workers.isdigit() or int(workers) < 1:
+            print(f"--workers {workers}: give a whole number of processes, 1 or more",
+                  file=sys.stderr)
+            raise SystemExit(2)
+        run_zoo(_opt("--only", None), int(workers), _opt("--json", None))
         raise SystemExit(0)
     case = sys.argv[sys.argv.index("--case") + 1] if "--case" in sys.argv else "cubic"
     if case == "jointed":
