@@ -12,10 +12,10 @@ truth. `benchmarks/bench_diagnose.py --zoo` prints the confusion matrix;
 Structures: an SDOF oscillator, the 3-DOF chain of `diagnose_scenarios.hidden_cubic`, the FE
 beam with a jointed payload (`examples/models/beam-payload-modal.toml`, 6 modes at 11 points;
 and the 21-DOF FE beam of `gvt_scenarios`, started from `fit_linear`), and an aircraft-like
-twin: the F-16-like lumped aircraft of `f16_twin` suspended on soft springs (rigid-body modes
+twin: the F-16-like lumped aircraft of `f16_twin` on a soft suspension (its suspension mode
 below the band) with a stiff wing-payload interface, so that the two joint sensors move within
 5 % of each other (`twin_joint_spread`). Effect strengths are set from the linear response of
-the structure (`deformation_rms`), not tuned to the diagnosis.
+the structure (`Excitation.rms`), not tuned to the diagnosis.
 """
 
 from __future__ import annotations
@@ -304,8 +304,8 @@ TWIN_INTERFACE = 40.0
 """Interface stiffness of the twin over the F-16-like one's: stiff enough that the wing and
 payload sensors move within 5 % of each other in the band (`twin_joint_spread`)."""
 TWIN_SUSPENSION = 0.02
-"""Landing-gear spring of the F-16-like twin scaled to a soft suspension (rigid-body modes
-below the 2-15 Hz band)."""
+"""Landing-gear spring of the F-16-like twin scaled to a soft suspension (modes at 0.37 and
+1.46 Hz, below the 2-15 Hz band)."""
 
 
 def twin() -> Model:
