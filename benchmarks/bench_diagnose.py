@@ -6,6 +6,11 @@ exports of `tests/f16_twin.py` imported, fit-linear on the lowest level, diagnos
 8192-sample periods, 9 periods with the first transient; ``--period 4096 --periods 4`` for the
 reduced twin of the default tests).
 
+``--zoo [--only PATTERN] [--workers N] [--json FILE]``: the diagnosis zoo of issue 24
+(`tests/diagnose_zoo.py`, 54 cases): per case the family named, the location, the parameters
+against the truth, the held-back FRF error before -> after, false alarms on the "none" rows and
+the time of the diagnosis, then the confusion matrix and the totals against the targets.
+
 Prints the wall time of the whole command (NPZ loading, search of the full candidate library,
 reverse-path refinement, second search pass on the corrected model, held-back comparison,
 short-horizon replays of every level through both models, JSON and corrected model) and its ratio to a
@@ -156,7 +161,98 @@ def run_f16(period: int, periods: int) -> None:
           + ", ".join(f"{lv['before']:.3g} -> {lv['after']:.3g}" for lv in held) + ")")
 
 
+def _row(r) -> str:
+    hb = f"{r.held_back[0]:.3g} -> {r.held_back[1]:.3g}" if r.held_back else "-"
+    par = ("-" if r.params_ok is None else ("ok " if r.params_ok else "OFF ")
+           + " ".join(f"{k.split('.')[-1]} " + (f"{100 * v:+.1f}%" if v == v else "n/a")
+                      for k, v in r.param_errors.items()))
+    fam = "ok" if r.family_right else "WRONG"
+    alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
+    named = ", ".join(r.found) or r.verdict
+    err = f"  error: {r.error[:100]}" if r.error else ""
+    return (f"{r.name:<52} {r.family:<17} {fam:<5} {r.location:<9} {named:<40} {par:<26} "
+            f"{hb:<18} {r.seconds:6.1f} s{alarm}{err}")
+
+
+def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
+    """Diagnose every zoo case (in ``workers`` processes), print the matrix and totals."""
+    import dataclasses
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    import diagnose_zoo as Z
+    cases = Z.zoo(pattern)
+    if not cases:
+        print(f"no zoo case matches --only {pattern!r}; see the names in tests/diagnose_zoo.py",
+              file=sys.stderr)
+        raise SystemExit(2)
+    print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
+          "family, family, location, named, parameters, held-back FRF error, diagnose time",
+          flush=True)
+    t0, load0 = time.perf_counter(), os.getloadavg()[0]
+    by_name = {c.name: c for c in cases}
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        rows = []
+        for r in pool.map(_run_named, [c.name for c in cases]):
+            rows.append(r)
+            print(_row(r), flush=True)
+    wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
+    print("\nconfusion matrix (true family: what was named, count)")
+    for fam, named in sorted(Z.confusion(rows).items()):
+        print(f"  {fam:<30} " + ", ".join(f"{k} {v}" for k, v in sorted(named.items())))
+    tot = Z.totals(rows)
+    tg = Z.TARGETS
+    print(f"\ntotals over {tot['cases']} cases ({tot['effect_rows']} with an effect, "
+          f"{tot['none_rows']} none; {tot['errors']} crashed), wall {wall:.0f} s, load "
+          f"average {load0:.1f} before, {load1:.1f} after, {os.cpu_count()} cores")
+    print(f"  family right          {100 * tot['family_right']:5.1f} %  (target >= "
+          f"{100 * tg['family_right']:.0f} %)")
+    print(f"  location right/ambig. {100 * tot['location_right']:5.1f} %  (target >= "
+          f"{100 * tg['location_right']:.0f} %; {tot['location_ambiguous']} ambiguous)")
+    print(f"  false alarms          {tot['false_alarms']:5d}    (target 0, of "
+          f"{tot['none_rows']} none rows)")
+    print(f"  params within 5 %     {100 * tot['params_within']:5.1f} %  (of "
+          f"{tot['params_judged']} rows with identifiable parameters; target 100 %)")
+    print(f"  held-back error halved {tot['held_back_halved']} of {tot['held_back_rows']}")
+    print(f"  diagnose time         median {tot['seconds_median']:.1f} s, max "
+          f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s")
+    if json_out:
+        Path(json_out).write_text(json.dumps(
+            {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name]))
+                       for r in rows],
+             "confusion": Z.confusion(rows), "totals": tot, "targets": tg,
+             "workers": workers, "wall_seconds": wall, "load_average": [load0, load1]}, indent=2, default=str) + "\n")
+        print(f"matrix written to {json_out}")
+
+
+def _truth(case) -> dict:
+    t = case.truth
+    return {"structure": case.structure, "sensors": case.sensors, "excitation": case.excitation,
+            "artifacts": list(case.artifacts), "start": t.start, "held_back": list(t.held_back),
+            "visible": t.visible, "note": t.note,
+            "effects": [{"kind": e.kind, "points": list(e.points), "params": e.params,
+                         "identifiable": list(e.identifiable), "also": list(e.also)}
+                        for e in t.effects]}
+
+
+def _run_named(name: str):
+    import diagnose_zoo as Z
+    return Z.run_case(next(c for c in Z.zoo() if c.name == name))
+
+
+def _opt(name: str, default: str | None) -> str | None:
+    return sys.argv[sys.argv.index(name) + 1] if name in sys.argv else default
+
+
 if __name__ == "__main__":
+    if "--zoo" in sys.argv:
+        workers = _opt("--workers", "1")
+        if not workers.isdigit() or int(workers) < 1:
+            print(f"--workers {workers}: give a whole number of processes, 1 or more",
+                  file=sys.stderr)
+            raise SystemExit(2)
+        run_zoo(_opt("--only", None), int(workers), _opt("--json", None))
+        raise SystemExit(0)
     case = sys.argv[sys.argv.index("--case") + 1] if "--case" in sys.argv else "cubic"
     if case == "jointed":
         run_jointed()

@@ -1,0 +1,185 @@
+"""The diagnosis zoo (`diagnose_zoo`, issue 24): its cases are what they claim to be, its
+scoring judges right from wrong, and each row's outcome today.
+
+A row passes when the family is right, the location right (or listed as an alternative: an
+honest "ambiguous"), the identifiable parameters within 5 % and, on a "none" row, no false
+alarm. Rows the diagnosis gets wrong today are ``xfail(strict=True)`` with the measured
+reason (`WRONG_TODAY`, from ``python benchmarks/bench_diagnose.py --zoo --workers 1``), so a
+fix that makes one right flips it. The reduced zoo (`ZooCase.fast`) runs in ``make test``,
+the whole zoo in ``make test-slow``.
+"""
+
+import numpy as np
+import pytest
+
+import diagnose_zoo as Z
+
+MAINS = ("false alarm: 'unexplained' at 50-50 Hz; the mains line (5 % of the rms) on the "
+         "responses puts every level's FRF error at 0.050, floor 0.0105")
+AS_HYSTERESIS = ("named hysteresis (the accepted family) between wing and payload: the "
+                 "stick-slip parameters are not identified")
+WRONG_TODAY: dict[str, str] = {
+    "sdof-hysteresis-disp-random": "hysteresis found with a spurious quadratic damping at the "
+                                   "same point; fd -10.2 % (kd +1.4 %)",
+    "sdof-cubic-disp-stepped": "'unexplained': the cubic (100 % of the misfit, BIC +4.7e4) "
+                               "is vetoed for worsening the top level (1.17 -> 1.20); held "
+                               "back stays 0.101",
+    "sdof-none-acc-multisine-daq": MAINS,
+    "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
+    "chain-gap01-disp-random": "gap k -7.1 % (g -1.3 %)",
+    "chain-hysteresis01-acc-multisine": "named stick-slip plus a damping error between 0 and 1 "
+                                        "(accepted family): hysteresis parameters not "
+                                        "identified; held-back 1.25 -> 0.236",
+    "chain-none-acc-multisine-daq": MAINS,
+    "gvt-gap-joint": "gap k +7.7 % against the fit-linear start model (g +1.1 %)",
+    "beam-jenkins_joint-acc-multisine-few-daq": "fd -5.9 %, kd -3.2 % with the mains line and "
+                                                "quantization (clean: -1.6 %, -0.3 %)",
+    "twin-jenkins_joint-acc-multisine": AS_HYSTERESIS,
+    "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %)",
+    "twin-jenkins_joint-acc-multisine-daq": AS_HYSTERESIS,
+}
+"""Row name -> what the diagnosis does wrong today, measured by ``python
+benchmarks/bench_diagnose.py --zoo --workers 1`` (docs/diagnose.md, Zoo)."""
+
+
+def _param(case: Z.ZooCase):
+    marks = [pytest.mark.xfail(strict=True, reason=WRONG_TODAY[case.name])
+             ] if case.name in WRONG_TODAY else []
+    if not case.fast:
+        marks.append(pytest.mark.slow)
+    return pytest.param(case, id=case.name, marks=marks)
+
+
+def check_row(out: Z.Outcome) -> None:
+    assert out.error is None, out.error
+    if out.family == "none":
+        assert not out.false_alarm, f"false alarm: {out.verdict}, named {out.found}"
+        return
+    assert out.family_right, f"{out.verdict}, named {out.found}"
+    assert out.location in ("right", "ambiguous"), f"named {out.found}"
+    assert out.params_ok in (None, True), out.param_errors
+
+
+@pytest.mark.parametrize("case", [_param(c) for c in Z.zoo()])
+def test_zoo_row(case):
+    check_row(Z.run_case(case))
+
+
+# --- the zoo itself -----------------------------------------------------------------------
+
+
+def test_zoo_covers_the_issue():
+    """At least 40 cases over every structure, effect family, sensor set, excitation and
+    artifact issue 24 names, each with a truth."""
+    cases = Z.zoo()
+    assert len(cases) >= 40 and len({c.name for c in cases}) == len(cases)
+    kinds = {e.kind for c in cases for e in c.truth.effects}
+    assert kinds >= {"cubic_spring", "quadratic_spring", "gap", "coulomb_friction",
+                     "stick_slip", "hysteresis", "iwan", "quadratic_damping", "mass_error",
+                     "stiffness_error", "damping_error"}
+    assert any(len(c.truth.effects) == 2 for c in cases)
+    assert sum(c.truth.family == "none" for c in cases) >= 6
+    assert any(not c.truth.visible for c in cases)                      # gap not reached
+    assert {c.excitation for c in cases} == {"random", "multisine", "stepped"}
+    assert {c.sensors.split(",")[0] for c in cases} == {"disp", "acc"}
+    assert any(c.sensors.endswith("all") for c in cases)
+    assert any(" of " in c.sensors for c in cases)
+    assert {a for c in cases for a in c.artifacts} == {"mains", "offset", "quantization"}
+    structures = " ".join(c.structure for c in cases)
+    for s in ("SDOF", "3-DOF chain", "FE beam", "aircraft-like twin"):
+        assert s in structures
+    for c in cases:
+        assert c.truth.held_back and c.truth.start
+        for e in c.truth.effects:
+            assert set(e.points) <= set(c.channels), (c.name, e.points)
+            assert set(e.identifiable) <= set(e.params)
+    assert len(Z.zoo(fast=True)) >= 3 and Z.zoo("sdof-cubic-disp-r")[0].name == \
+        "sdof-cubic-disp-random"
+
+
+def test_twin_joint_sensors_move_within_5_percent():
+    assert Z.twin_joint_spread(Z.twin()) < 0.05
+    soft = Z.twin_joint_spread(_twin_with_interface(1.0))
+    assert soft > 0.5             # the F-16-like interface alone: the sensors differ a lot
+
+
+def _twin_with_interface(scale: float):
+    old = Z.TWIN_INTERFACE
+    try:
+        Z.TWIN_INTERFACE = scale
+        return Z.twin()
+    finally:
+        Z.TWIN_INTERFACE = old
+
+
+def test_gap_rows_close_or_not_as_stated():
+    """The unreached gap never closes in its recordings; the reached one does at the top
+    level (deformation read from the simulated, noisy records: 1 % noise is far below the
+    margins of 8 and 1.5 rms)."""
+    for name, closes in (("sdof-gap_unreached", False), ("sdof-gap-disp", True)):
+        case = Z.zoo(name)[0]
+        g = case.truth.effects[0].params["g"]
+        top = case.build().recordings[-1]
+        assert (np.abs(top.response[:, 0]).max() > g) == closes, name
+
+
+def test_daq_artifacts_add_a_mains_line_an_offset_and_quantization():
+    rec = Z.lumped_runs(Z.sdof(), 0, Z.RANDOM, "displacement", 5)[0]
+    out = Z.daq_artifacts(rec, mains_hz=50.0, mains=0.05, offset=0.2, bits=12)
+    x, x0 = out.response[:, 0], rec.response[:, 0]
+    rms = x0.std()
+    assert np.mean(x - x0) == pytest.approx(0.2 * rms, rel=0.02)
+    steps = np.diff(np.unique(x))
+    lsb = steps.min()
+    assert lsb == pytest.approx(2.5 * np.abs(x).max() / 2 ** 12, rel=1e-3)
+    assert np.allclose(steps / lsb, np.round(steps / lsb), atol=1e-6)
+    spec = 2 * np.abs(np.fft.rfft(x - x0 - np.mean(x - x0))) / x.size    # sine amplitudes
+    f = np.fft.rfftfreq(x.size, 1 / rec.fs)
+    assert f[np.argmax(spec)] == pytest.approx(50.0, abs=rec.fs / x.size)
+    assert spec.max() == pytest.approx(0.05 * np.sqrt(2) * rms, rel=0.05)
+    hum = 2 * np.abs(np.fft.rfft(out.force[:, 0] - rec.force[:, 0])) / x.size
+    assert hum[np.argmin(np.abs(f - 50.0))] < 1e-3 * rec.force.std()     # no mains on the force
+
+
+# --- the scoring ---------------------------------------------------------------------------
+
+CASE = Z.ZooCase("toy", "3-DOF chain", "disp, all", "random",
+                 Z.Truth((Z.Effect("cubic_spring", ("0", "1"), {"p": 1e9}, ("p",)),), (4.0,),
+                         "exact"), lambda: None, ("0", "1", "2"))
+NONE = Z.ZooCase("toy-none", "SDOF", "disp, all", "random", Z.Truth((), (4.0,), "exact"),
+                 lambda: None, ("0",))
+
+
+def _res(verdict, found=(), alternatives=()):
+    return {"verdict": verdict, "missing_physics": [
+        {"kind": k, "dofs": list(d), "params": p} for k, d, p in found],
+        "location": {"alternatives": [{"dofs": list(a)} for a in alternatives]},
+        "fit": {"before": 1.0, "after": 0.1},
+        "levels": [{"level": 4.0, "held_back": True}]}
+
+
+def test_score_judges_family_location_and_parameters():
+    right = Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1.03e9})]))
+    assert right.family_right and right.location == "right" and right.params_ok
+    assert right.param_errors["cubic_spring.p"] == pytest.approx(0.03)
+    off = Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1.06e9})]))
+    assert off.family_right and off.params_ok is False
+    support = Z.score(CASE, _res("discrepancy", [("cubic_spring", [1], {"p": 1e9})]))
+    assert support.family_right and support.location == "wrong" and not support.params_ok
+    ambiguous = Z.score(CASE, _res("discrepancy", [("cubic_spring", [1], {"p": 1e9})],
+                                   alternatives=[[0, 1]]))
+    assert ambiguous.location == "ambiguous"
+    kind = Z.score(CASE, _res("discrepancy", [("gap", [0, 1], {"k": 1.0, "g": 1.0})]))
+    assert not kind.family_right and kind.location == "right"
+    assert not Z.score(CASE, _res("unexplained")).family_right
+    assert Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1e9})])
+                   ).held_back == (1.0, 0.1)
+
+
+def test_score_counts_any_claim_on_a_none_row_as_a_false_alarm():
+    assert Z.score(NONE, _res("adequate")).false_alarm is False
+    assert Z.score(NONE, _res("unexplained")).false_alarm is True
+    alarm = Z.score(NONE, _res("discrepancy", [("cubic_spring", [0], {"p": 1.0})]))
+    assert alarm.false_alarm and not alarm.family_right
+    tot = Z.totals([alarm, Z.score(NONE, _res("adequate"))])
+    assert tot["false_alarms"] == 1 and tot["family_right"] == 0.5
