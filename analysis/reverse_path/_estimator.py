@@ -20,7 +20,7 @@ from ..models import Model
 from ..recordings import excitation_band
 from . import _noise as noise_mod
 from ._core import (ReversePathResult, _channels, _elements, _estimate, _integrated,
-                    _Processing, _records)
+                    _Processing, _records, noise_edge)
 from ._stages import sequential
 
 
@@ -200,13 +200,20 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
                          f"{fsr / 2:g}")
     info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
+    edge = noise_edge(recs, floors, (lo, hi), nps)
+    if edge > lo + 2 * fsr / nps:
+        # the lines just above a brick-wall high-pass see its edge through the window
+        warnings.append(f"the integrated response is below 10x its sensor noise under "
+                        f"{edge:.3g} Hz (noise grows as 1/f^2 when integrated): analysed from "
+                        f"{edge + 2 * fsr / nps:.3g} Hz")
+        lo = edge + 2 * fsr / nps
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
     built, buried = [], []
     for (rec, kind), floor in zip(recs, floors):
         proc = _Processing(fsr, kind, (lo, hi), opts.antialias,
                            force_hold or rec.force_hold,
-                           info["lowpass_hz"])
+                           info["lowpass_hz"], edge)
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
                                      known, warnings, nvar, buried)

@@ -149,7 +149,7 @@ def noise_variances(proc: _Processing, floor: np.ndarray | None
     if floor is None:
         return None
     k = KIND_ORDER[proc.kind]
-    f0 = proc.band[0] / 2 if k else 0.0
+    f0 = max(proc.band[0] / 2, proc.highpass) if k else 0.0
     out = []
     for j in (0, 1):
         f1 = proc.lowpass if j == 1 and proc.lowpass else proc.fs / 2
