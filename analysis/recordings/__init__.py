@@ -3,7 +3,8 @@ or estimated from the force), its period when a file names none, response kinds 
 conversion (integration, differentiation, bands, hold images).
 
 Modules behind this API: ``_recording``, ``_sensors``, ``_signals``, ``_sweep_law``,
-``_sweep_estimate``, ``_periodicity``. Code inside this package imports its siblings by their
+``_sweep_estimate``, ``_periodicity``, ``_daq_artifacts`` (what a real DAQ export adds, for
+simulated twins). Code inside this package imports its siblings by their
 private module path.
 """
 
@@ -18,8 +19,11 @@ from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation
 from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
 from ._sweep_estimate import active_span, estimate_sweep
 from ._periodicity import SHARE_MIN, find_period
+from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_daq_artifacts,
+                             shaker_force)
 
-__all__ = ["DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
+__all__ = ["ARTIFACTS", "Artifact", "DaqArtifacts", "Shaker", "apply_daq_artifacts",
+           "shaker_force", "DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
            "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS", "MAX_SAMPLE", "MIN_FS", "MIXED",
            "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SHARE_MIN", "SWEEP_KEYS", "SWEEP_LAWS",
            "SensorMap", "Sweep", "SweepLaw", "active_span", "at_points", "change_kind",

@@ -36,6 +36,8 @@ from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spec
 Z95 = 1.959963984540054
 N_BATCHES = 8             # sub-bands of the batch-means interval
 ALIAS_TOLERANCE = 2e-4   # relative in-band error of a basis that triggers the aliasing fix
+#: response channel rms, relative to the largest, below which the channel is dead
+DEAD_SHARE = 1e-3
 #: `noise_edge`: power over white noise floor an integrated record's lines must reach, the
 #: run of lines that must reach it, and the highest edge as a share of the band's top
 EDGE_SNR, EDGE_RUN, EDGE_CAP = 10.0, 4, 0.125
@@ -147,6 +149,7 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
         if r.excitation != "random":
             raise InputError("reverse path needs random excitation; for stepped-sine runs use "
                              "`nlid-lab analyze hbm`")
+        _dead_channels(r)
     first = recs[0]
     for r in recs[1:]:
         if r.fs != first.fs or list(r.force_dofs) != list(first.force_dofs) \
@@ -154,6 +157,18 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
             raise InputError("the runs differ in sample rate, force DOFs or channel count; "
                              "analyse them separately")
     return [(r, r.response_kind) for r in recs]
+
+
+def _dead_channels(rec: Recording) -> None:
+    """Refuse a response channel `DEAD_SHARE` below the largest: a dead sensor or cable
+    (reverse path needs every DOF; its basis would be formed from converter noise)."""
+    rms = np.sqrt(np.mean(np.square(rec.response - rec.response.mean(axis=0)), axis=0))
+    dead = np.flatnonzero(rms < DEAD_SHARE * rms.max())
+    if dead.size:
+        raise InputError(f"response channel(s) {', '.join(map(str, dead))} carry "
+                         f"{20 * np.log10(max(rms[dead].max() / rms.max(), 1e-300)):.0f} dB "
+                         "of the largest channel's signal: a dead sensor or cable? Reverse path "
+                         "needs every DOF measured; repair the channel and record again")
 
 
 def _elements(model: Model) -> tuple[list[tuple[int, Element, str, bas.Basis]],
