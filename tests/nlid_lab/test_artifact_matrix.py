@@ -189,3 +189,30 @@ if __name__ == "__main__":
         for artifact in ARTIFACTS:
             row = [cell_text(Path(tmp), artifact, path)[0].replace("|", "/") for path in PATHS]
             print(f"| {artifact} | " + " | ".join(row) + " |", flush=True)
+
+
+def test_simulate_adds_named_artifacts(tmp_path, capsys):
+    """``simulate --daq-artifacts``: a name outside the catalogue exits 2 listing them; zeros
+    pad the record by 0.5 s at each end, force-dips lower the force at the first mode."""
+    import numpy as np
+
+    from analysis.plant import random_gaussian
+
+    (tmp_path / "m.toml").write_text(T.truth().dumps())
+    n = 8192
+    np.savez(tmp_path / "d.npz", fs=T.FS, force=random_gaussian(n, T.FS, T.BAND, 2.0, 1)[:, None],
+             force_dofs=np.array([0]), excitation="random")
+    base = ["simulate", str(tmp_path / "m.toml"), "--drive", str(tmp_path / "d.npz"), "--out"]
+    assert main([*base, str(tmp_path / "x.npz"), "--daq-artifacts", "hum"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "'hum' is not one of mains" in err
+    assert main([*base, str(tmp_path / "z.npz"), "--daq-artifacts", "zeros,force-dips",
+                 "--seed", "1"]) == 0
+    with np.load(tmp_path / "z.npz") as z, np.load(tmp_path / "d.npz") as d:
+        force, flat = z["force"][:, 0], d["force"][:, 0]
+    half = int(T.FS / 2)
+    assert force.size == n + 2 * half and not force[:half].any() and not force[-half:].any()
+    f = np.fft.rfftfreq(n, 1 / T.FS)
+    gain = np.abs(np.fft.rfft(force[half:-half])) / np.abs(np.fft.rfft(flat)).clip(1e-300)
+    at = np.argmin(np.abs(f - 14.92))                         # first mode
+    assert gain[at] < 0.5 * np.median(gain[(f > 60) & (f < 100)])
