@@ -4,7 +4,8 @@ conversion (integration, differentiation, bands, hold images), stepped-sine tabl
 per step).
 
 Modules behind this API: ``_recording``, ``_sensors``, ``_signals``, ``_sweep_law``,
-``_sweep_estimate``, ``_periodicity``, ``_table``. Code inside this package imports its siblings by their
+``_sweep_estimate``, ``_periodicity``, ``_table``, ``_daq_artifacts`` (what a real DAQ export
+adds, for simulated twins). Code inside this package imports its siblings by their
 private module path.
 """
 
@@ -20,8 +21,11 @@ from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
 from ._sweep_estimate import active_span, estimate_sweep
 from ._periodicity import SHARE_MIN, find_period
 from ._table import STEP_TABLE_KEYS, Control, StepTable
+from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_daq_artifacts,
+                             shaker_force)
 
-__all__ = ["Control", "StepTable", "STEP_TABLE_KEYS", "DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
+__all__ = ["ARTIFACTS", "Artifact", "DaqArtifacts", "Shaker", "apply_daq_artifacts",
+           "shaker_force", "Control", "StepTable", "STEP_TABLE_KEYS", "DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
            "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS", "MAX_SAMPLE", "MIN_FS", "MIXED",
            "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SHARE_MIN", "SWEEP_KEYS", "SWEEP_LAWS",
            "SensorMap", "Sweep", "SweepLaw", "active_span", "at_points", "change_kind",

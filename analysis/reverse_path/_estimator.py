@@ -11,16 +11,19 @@ from __future__ import annotations
 
 import re
 import warnings as pywarnings
+
+import numpy as np
 from dataclasses import dataclass, fields, replace
 from typing import Any, Sequence
 
 from ..errors import InputError
-from ..spectral import Spectra, default_nperseg, spectral_matrix
+from ..spectral import (Spectra, default_nperseg, longest_nperseg, resolving_nperseg,
+                        spectral_matrix)
 from ..models import Model
 from ..recordings import excitation_band
 from . import _noise as noise_mod
 from ._core import (ReversePathResult, _channels, _elements, _estimate, _integrated,
-                    _Processing, _records)
+                    _Processing, _records, noise_edge)
 from ._stages import sequential
 
 
@@ -169,6 +172,61 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
         joint = replace(opts, refine="joint")
         return sequential(lambda cand: reverse_path(data, cand, joint, **facts), model)
     recs = _records(data, fs, force_dofs, response_kind)
+    result = _estimated(recs, model, opts, force_hold, period, transient_periods, realizations)
+    lag = channel_delay(result)
+    if abs(lag) < MIN_DELAY:
+        return result
+    # the responses lag the force (an anti-alias filter's group delay on some channels):
+    # delay the force to match, estimate again
+    shifted = [(replace(r, force=_delayed(r.force, lag)), kind) for r, kind in recs]
+    again = _estimated(shifted, model, opts, force_hold, period, transient_periods,
+                       realizations)
+    again.warnings.insert(0, f"the responses lag the force by {lag:.2f} samples (p(f) turns "
+                          "with frequency as that delay makes it; an anti-alias filter's group "
+                          "delay?): the force was delayed to match; record aligned channels "
+                          "to avoid it")
+    return again
+
+
+#: Smallest and largest delay between force and responses (samples) `channel_delay` reads.
+MIN_DELAY, MAX_DELAY = 0.25, 4.0
+
+
+def channel_delay(result: ReversePathResult) -> float:
+    """Delay of the responses behind the force, in samples, read off the estimates' phase.
+
+    A response channel delayed by ``tau`` relative to the force turns every ``p(f)`` by
+    ``exp(i 2 pi f tau)``: the linear FRF absorbs the delay, the basis formed from the
+    delayed response does not. ``tau`` (within +-`MAX_DELAY` samples) is where the
+    weighted average of ``p(f) exp(-i 2 pi f tau)`` has the largest real part; 0 unless
+    that changes some coefficient by more than 3 of its standard errors.
+    """
+    if not result.coefficients:
+        return 0.0
+    taus = np.linspace(-MAX_DELAY, MAX_DELAY, 801)
+    turn = np.exp(-2j * np.pi * np.outer(taus, result.freqs) / result.spectra.fs)
+    gains = []
+    for c in result.coefficients:
+        w = 1 / np.maximum(c.variance, 1e-300)
+        real = (turn @ (w * c.values)).real / w.sum() * np.sign(c.value or 1.0)
+        gains.append((real - abs(c.value)) / max(c.std, 1e-300))
+    total = np.sum(gains, axis=0)
+    best = int(np.argmax(total))
+    return float(taus[best]) if max(g[best] for g in gains) > 3 else 0.0
+
+
+def _delayed(force: np.ndarray, lag: float) -> np.ndarray:
+    """``force`` delayed by ``lag`` samples (a phase ramp on the whole record: exact for
+    whole periods, a few samples of end effect otherwise)."""
+    n = force.shape[0]
+    ramp = np.exp(-2j * np.pi * np.fft.rfftfreq(n) * lag)
+    return np.fft.irfft(np.fft.rfft(force, axis=0) * ramp[:, None], n, axis=0)
+
+
+def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | None,
+               period: int | None, transient_periods: int | None,
+               realizations: int | None) -> ReversePathResult:
+    """`reverse_path` on checked records: the periodic or the Welch route."""
     rec0 = recs[0][0]
     if rec0.n_dof != model.n_dof:
         raise InputError(f"the response has {rec0.n_dof} channels but the model has "
@@ -200,13 +258,23 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
                          f"{fsr / 2:g}")
     info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
+    if nperseg is None and info["method"] != "iv":
+        # with sensor noise, ripples of H1 read as narrow peaks: the default length stays
+        nps = _resolving(recs, (lo, hi), n_min, warnings)
+    edge = noise_edge(recs, floors, (lo, hi), nps)
+    if edge > lo + 2 * fsr / nps:
+        # the lines just above a brick-wall high-pass see its edge through the window
+        warnings.append(f"the integrated response is below 10x its sensor noise under "
+                        f"{edge:.3g} Hz (noise grows as 1/f^2 when integrated): analysed from "
+                        f"{edge + 2 * fsr / nps:.3g} Hz")
+        lo = edge + 2 * fsr / nps
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
     built, buried = [], []
     for (rec, kind), floor in zip(recs, floors):
         proc = _Processing(fsr, kind, (lo, hi), opts.antialias,
                            force_hold or rec.force_hold,
-                           info["lowpass_hz"])
+                           info["lowpass_hz"], edge)
         nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
         channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
                                      known, warnings, nvar, buried)
@@ -227,6 +295,21 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
     result.warnings = _merge_alias_warnings(warnings)
     result.noise = info
     return result
+
+
+def _resolving(recs, band: tuple[float, float], n_min: int, warnings: list[str]) -> int:
+    """Default segment length: one that resolves the narrowest resonance of every record
+    (`analysis.spectral.resolving_nperseg`), the same for all (they are pooled); when the
+    records are too short, a warning with the ``--nperseg`` that would resolve it."""
+    found = [resolving_nperseg(r.force, r.response, float(r.fs), band, kind)
+             for r, kind in recs]
+    nps = min(max(r.nperseg for r in found), longest_nperseg(n_min))
+    peaks = [r for r in found if r.bandwidth_hz > 0]
+    if peaks:
+        worst = min(peaks, key=lambda r: r.bandwidth_hz).at(nps)
+        if not worst.resolved:
+            warnings.append(worst.advice())
+    return nps
 
 
 _ALIAS = re.compile(r"^(aliasing: basis .+? of element \d+) spans (\d+) Hz and folds into the "

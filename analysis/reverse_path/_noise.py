@@ -42,8 +42,8 @@ from ..errors import InputError, ModelError
 from ..plant import Plant, PlantError
 from ..recordings import (DEFAULT_TRANSIENT_PERIODS, KIND_ORDER, Recording, excitation_band,
                           period_spectra, periodic_kinematics, steady_periods)
-from ._core import (Z95, ReversePathResult, _alias_upsampling, _channels,
-                           _coefficients, _estimate, _force_span, _Processing)
+from ._core import (EDGE_CAP, EDGE_RUN, EDGE_SNR, Z95, ReversePathResult, _alias_upsampling,
+                    _channels, _coefficients, _estimate, _force_span, _Processing)
 from ..spectral import Spectra, spectral_matrix
 
 WEAK_F = 10.0            # first-stage F below which an instrument is weak (Staiger-Stock)
@@ -149,7 +149,7 @@ def noise_variances(proc: _Processing, floor: np.ndarray | None
     if floor is None:
         return None
     k = KIND_ORDER[proc.kind]
-    f0 = proc.band[0] / 2 if k else 0.0
+    f0 = max(proc.band[0] / 2, proc.highpass) if k else 0.0
     out = []
     for j in (0, 1):
         f1 = proc.lowpass if j == 1 and proc.lowpass else proc.fs / 2
@@ -469,6 +469,19 @@ def _lines_iv(X: np.ndarray, R: np.ndarray, Z: np.ndarray
     return H, cov, sigma2, np.median(coh, axis=0).tolist()
 
 
+def _periodic_edge(sig: np.ndarray, noi: np.ndarray, fs: float, period: int,
+                   band: tuple[float, float]) -> float:
+    """Integration high-pass of a periodic record from its lines' signal over noise (the
+    period spread): the lowest line of ``band`` from which every channel stands `EDGE_SNR`
+    above its noise over `EDGE_RUN` lines, at most `EDGE_CAP` of the band's top."""
+    f = np.fft.rfftfreq(period, 1 / fs)
+    inband = (f >= band[0]) & (f <= band[1])
+    ok = (sig >= EDGE_SNR * np.maximum(noi, 1e-300)).all(axis=1)[inband]
+    run = np.convolve(ok, np.ones(EDGE_RUN), "valid") == EDGE_RUN
+    first = f[inband][int(np.argmax(run))] if run.any() else band[1]
+    return float(min(first, EDGE_CAP * band[1]))
+
+
 def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.ndarray,
                      unknown, known, fdofs: np.ndarray, split: bool, warnings: list[str]
                      ) -> tuple[list[tuple[_Formed, np.ndarray]], _Formed, dict[str, Any]]:
@@ -492,8 +505,11 @@ def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.
         noise_std = np.sqrt(yp.var(axis=1, ddof=1).mean(axis=(0, 1)))
         rel = (noise_std / np.maximum(yp.std(axis=(0, 1, 2)), 1e-300)).tolist()
         _transient_check(yp, warnings)
-    # as the Welch route does: integrated records lose the lines below half the band
+    # as the Welch route does: integrated records lose the lines below half the band, and
+    # those where the averaged record is under 10x its noise (`_core.noise_edge`)
     hp = proc.band[0] / 2 if proc.kind != "displacement" else 0.0
+    if hp and n_p >= 2:
+        hp = max(hp, _periodic_edge(sig, noi, fs, yp.shape[2], proc.band))
     x_p, v_p = periodic_kinematics(yp, fs, proc.kind, highpass=hp)
     sets = [slice(0, None, 2), slice(1, None, 2)] if split else []
     # basis noise variance per period, per unknown element (variance across periods)

@@ -1,8 +1,8 @@
 """Spectra and FRFs of a level: Welch spectral matrices and H1, level FRFs, best linear
 approximation, stepped-sine fits, swept-sine FRFs.
 
-Modules behind this API: ``_spectral``, ``_frf``, ``_bla``, ``_lines`` (the excited lines of a
-periodic drive, interference left out), ``_sine_fit``, ``_sweep``. Code
+Modules behind this API: ``_spectral``, ``_frf``, ``_resolution``, ``_bla``, ``_lines`` (the
+excited lines of a periodic drive, interference left out), ``_sine_fit``, ``_sweep``. Code
 inside this package imports its siblings by their private module path.
 """
 
@@ -10,6 +10,8 @@ from ._spectral import (Spectra, conditioned_inputs, h1, multiple_coherence, ord
                         spectral_matrix)
 from ._frf import (FRF_UNITS, HELD_UNITS, LevelFRF, convert_frf, default_nperseg, frf_from_bla,
                    frf_from_spectra, level_frf, level_label, level_name, measured_level)
+from ._resolution import (LINES_PER_BANDWIDTH, Resolution, longest_nperseg, narrowest_peak,
+                          resolving_nperseg)
 from ._bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from ._lines import ExcitedLines, Interference, excited_lines
 from ._sine_fit import (SteppedSineFRF, hold_gain, recording_table, sine_fit, stepped_sine_frf,
@@ -19,10 +21,12 @@ from ._sweep import (NOISE_ORDERS, SweepFRF, SweepLaw, harmonic_distortion, line
                      sweep_signal)
 
 __all__ = ["BLA", "DETECT_QUANTILE", "ExcitedLines", "FRF_UNITS", "HELD_UNITS", "Interference",
-           "LevelFRF", "NOISE_ORDERS", "Spectra",
+           "LINES_PER_BANDWIDTH", "LevelFRF", "NOISE_ORDERS", "Resolution", "Spectra",
            "SteppedSineFRF", "SweepFRF", "SweepLaw", "best_linear_approximation",
            "conditioned_inputs", "convert_frf", "default_nperseg", "excited_lines", "frf_from_bla",
-           "frf_from_spectra", "h1", "harmonic_distortion", "hold_gain", "level_frf", "level_label", "level_name",
-           "linear_modes", "max_sweep_rate", "measured_level", "multiple_coherence", "ordinary_coherence",
-           "quasi_steady", "recording_sweep_frf", "sine_fit", "spectral_matrix", "stepped_sine_frf",
-           "sweep_frf", "sweep_rate_check", "sweep_signal", "table_harmonics", "recording_table"]
+           "frf_from_spectra", "h1", "harmonic_distortion", "hold_gain", "level_frf", "level_label",
+           "level_name", "linear_modes", "longest_nperseg", "max_sweep_rate", "measured_level",
+           "multiple_coherence", "narrowest_peak", "ordinary_coherence", "quasi_steady",
+           "recording_sweep_frf", "resolving_nperseg", "sine_fit", "spectral_matrix",
+           "stepped_sine_frf", "sweep_frf", "sweep_rate_check", "sweep_signal", "table_harmonics",
+           "recording_table"]

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS, Recording, SensorMap
+from analysis.recordings import (ARTIFACTS, RESPONSE_KINDS, DaqArtifacts, Recording, SensorMap,
+                                 apply_daq_artifacts, shaker_force)
 
 from ..formats import _recordings_io as recordings_io, _sensor_files
 from ..formats import read_drive
@@ -110,6 +111,27 @@ def _at_sensors(model: Model, smap: SensorMap, outs: list, force: np.ndarray, fs
     return response
 
 
+def _artifact_names(text: str | None) -> list[str]:
+    """``--daq-artifacts`` names, checked against the catalogue (exit 2 naming a wrong one)."""
+    names = [n.strip() for n in (text or "").split(",") if n.strip()]
+    DaqArtifacts.of(names)
+    return names
+
+
+def _with_force_dips(model: Model, drive: dict) -> dict:
+    """The drive as a force cell behind a shaker measures it (`shaker_force`): each input
+    through its own drive point's receptance (cross terms between shakers left out)."""
+    force = drive["force"]
+    if force.ndim != 2:
+        raise InputError("--daq-artifacts force-dips applies to random and swept-sine drives; "
+                         "leave it out for a stepped sine")
+    f = np.fft.rfftfreq(force.shape[0], 1 / drive["fs"])
+    h = model.linear_frf(f, list(drive["force_dofs"]))
+    cols = [shaker_force(force[:, i], drive["fs"], h[:, d, i])
+            for i, d in enumerate(drive["force_dofs"])]
+    return {**drive, "force": np.column_stack(cols)}
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab simulate`` on the parsed ``args``; returns the exit code."""
     from analysis.models import Model
@@ -127,8 +149,14 @@ def run(args: argparse.Namespace) -> int:
     drive = read_drive(args.drive)
     if args.sensors:
         drive["sensors"] = _sensor_files.read_sensors(args.sensors)
+    artifacts = _artifact_names(args.daq_artifacts)
+    if "force-dips" in artifacts:
+        drive = _with_force_dips(model, drive)
     rec = simulate_drive(model, drive, response_kind=args.response_kind,
                          noise_std=args.noise, seed=args.seed, oversample=args.oversample)
+    if artifacts:
+        rec = apply_daq_artifacts(rec, DaqArtifacts.of(artifacts, rec.fs),
+                                  np.random.default_rng(args.seed))
     with atomic_path(out) as tmp:         # no half file on a full disk
         if out.suffix.lower() == ".npz":
             recordings_io.write_npz(tmp, rec)
@@ -170,6 +198,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sensors", metavar="SENSORS.toml", help="sensor map: response_points, "
                    "response_kinds, force_points (model point names; docs/model-format.md"
                    "#sensor-maps); overrides the drive's keys")
+    p.add_argument("--daq-artifacts", metavar="NAME[,NAME]",
+                   help="add what a real DAQ export carries (docs/daq-artifacts.md): "
+                   + ", ".join(ARTIFACTS))
     p.add_argument("--json", metavar="FILE", help="write the result as JSON ('-' for stdout)")
     add_force_option(p)
     p.set_defaults(func=run)

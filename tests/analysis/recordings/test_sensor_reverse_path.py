@@ -102,23 +102,24 @@ def test_three_of_twenty_one_dofs_give_the_all_dof_estimate(beam_run):
 
 
 @pytest.mark.slow
-def test_mixed_kinds_cover_the_truth_and_noisy_accelerometers_warn(beam_run, tmp_path,
-                                                                    capsys):
+def test_mixed_kinds_cover_the_truth_and_noisy_accelerometers_widen(beam_run, tmp_path):
     # two accelerometers and a displacement probe, 0.3 % noise: covered, no warning
     res = _estimate(beam_run, _mapped(beam_run, [A, A, D], 0.003))
     c = res.coefficients[0]
     assert c.ci95[0] <= P_TRUE <= c.ci95[1], c
     assert not [w for w in res.warnings if WEAK in w], res.warnings
-    # 1 % noise on the accelerometer at the joint: the deformation is buried, the estimate
-    # falls (measured 0.16e9 [-0.23e9, 0.55e9]): the JSON and the summary say so
+    # 1 % noise on the accelerometer at the joint: integrated from the band's edge it buried
+    # the deformation (0.16e9 [-0.23e9, 0.55e9], a warning); integrated from where every
+    # channel stands 10x above its period-spread noise it is covered, with a wide interval
+    # (2.95e9 [1.20e9, 4.70e9]) through the CLI's JSON
     run, cand = tmp_path / "r.npz", tmp_path / "cand.toml"
     rio.write_npz(run, _mapped(beam_run, [D, A, D], 0.01))
     beam_run["cand"].save(cand)
     assert main(["analyze", "reverse-path", str(run), "--model", str(cand), "--band", "3",
                  "200", "--json", str(tmp_path / "o.json")]) == 0
-    out = json.loads((tmp_path / "o.json").read_text())
-    assert [w for w in out["warnings"] if WEAK in w and "element 0 (cubic_spring)" in w]
-    assert WEAK in capsys.readouterr().out
+    (el,) = json.loads((tmp_path / "o.json").read_text())["elements"]
+    lo, hi = el["ci95"]["p"]
+    assert lo <= P_TRUE <= hi and hi - lo > 0.5 * P_TRUE, (lo, hi)
     # the same noise on displacement probes: a strong instrument, no warning, covered
     res = _estimate(beam_run, _mapped(beam_run, [D, D, D], 0.01))
     c = res.coefficients[0]
@@ -129,8 +130,11 @@ def test_mixed_kinds_cover_the_truth_and_noisy_accelerometers_warn(beam_run, tmp
 def test_weak_instrument_warning_on_a_lumped_chain():
     """Fast: the same joint on a 3-DOF chain, every DOF measured: the warning follows the
     noise in the deformation, not the map. 3 % sensor noise is 25 % of the deformation
-    with displacement probes (covered, no warning), 56 % with accelerometers (measured
-    1.06e9 [0.42e9, 1.71e9]: the warning)."""
+    with displacement probes (covered, no warning). With accelerometers, integrated from the
+    band's edge (1.5 Hz) it was 56 % (1.06e9 [0.42e9, 1.71e9]: the warning); integrated only
+    from where every channel stands 10x above its period-spread noise
+    (`analysis.reverse_path._noise._periodic_edge`) it is covered without a warning
+    (1.98e9 [1.79e9, 2.16e9])."""
     from scipy.linalg import eigh
 
     from sensor_scenarios import mapped_recording
@@ -151,6 +155,6 @@ def test_weak_instrument_warning_on_a_lumped_chain():
                                layout=layout)
         res = reverse_path(one_kind(rec), model_at_sensors(cand, [rec]), ReversePathOptions(band=BAND))
         found[kinds[0]] = (res.coefficients[0], [x for x in res.warnings if WEAK in x])
-    coef, weak = found[D]
-    assert not weak and coef.ci95[0] <= P_TRUE <= coef.ci95[1], (coef, weak)
-    assert found[A][1], found[A]
+    for kind in (D, A):
+        coef, weak = found[kind]
+        assert not weak and coef.ci95[0] <= P_TRUE <= coef.ci95[1], (kind, coef, weak)

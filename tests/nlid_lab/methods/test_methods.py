@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.spectral import default_nperseg
+from analysis.spectral import default_nperseg, longest_nperseg, resolving_nperseg
 from analysis.models import Element, Model
 from nlid_lab import methods, reanalyze as rea, store
 from nlid_lab.formats import _recordings_io as recordings_io
@@ -166,6 +166,11 @@ def test_analyze_reverse_path_json_names_its_estimator(candidate, tmp_path):
     result = json.loads(out.read_text())
     assert result["estimator"] == "reverse-path" and result["modal"]["modes"]
     assert store.open_run(run).results["analyze-reverse-path"] == result
-    # the default segment length is the one rule of analysis.frf
-    assert result["resolution_hz"] == 1024.0 / default_nperseg(16 * 1024)
+    # the default segment length resolves the resonances (analysis.spectral.resolving_nperseg)
+    recs = recordings_io.load_recordings(run)
+    band = tuple(result["multiple_coherence"]["band_hz"])
+    chosen = min(max(resolving_nperseg(r.force, r.response, r.fs, band, r.response_kind).nperseg
+                     for r in recs), longest_nperseg(min(r.force.shape[0] for r in recs)))
+    assert result["resolution_hz"] == 1024.0 / chosen
+    assert chosen >= default_nperseg(16 * 1024)
 

@@ -1,0 +1,75 @@
+"""A small GVT twin that carries the real-DAQ artifacts of `analysis.recordings.DaqArtifacts`.
+
+Structure: 2-DOF chain (modes near 15 and 36 Hz, 2.4 and 4.7 % damping) with a cubic spring between
+the masses, driven at DOF 0 through a force cell, accelerometers at both DOFs. Periodic
+multisine 5-100 Hz, fs 512 Hz, 1024-sample periods, 3 realizations of 1 transient + 3
+steady periods, two levels (2 and 20 N rms). Each level is exported as the F-16 export is (``Force`` 1xN,
+``Acceleration`` 2xN, ``Fs``; no period), with 0.5 % sensor noise and 0.5 % force noise.
+``force-dips`` drives the structure through `shaker_force` instead of the flat force.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from analysis.models import Element, Model
+from analysis.plant import multisine, periodic, simulate
+from analysis.recordings import (DaqArtifacts, PeriodicLayout, Recording, apply_daq_artifacts,
+                                 shaker_force)
+
+FS, PERIOD, PERIODS, REALIZATIONS = 512.0, 1024, 3, 3
+BAND = (5.0, 100.0)
+LEVELS = (2.0, 20.0)
+P_TRUE = 4e9
+NOISE = 0.005
+MAP = ["--map", "force=Force", "response=Acceleration[0:2]:m/s^2", "fs=Fs", "force_dofs=0",
+       'force_hold="none"']
+
+
+def truth() -> Model:
+    """The structure (cubic spring between the two masses)."""
+    k = np.array([[3.0e4, -1.5e4], [-1.5e4, 1.5e4]])
+    m = np.diag([1.0, 0.5])
+    return Model(m, 4e-4 * k + 1.0 * m, k,
+                 [Element("cubic_spring", [-1.0, 1.0], {"p": P_TRUE})], "2-DOF twin")
+
+
+@lru_cache(maxsize=4)
+def clean_levels(dips: bool = False) -> tuple[Recording, ...]:
+    """The clean recordings (noise included), one per level, as the DAQ would see them."""
+    model = truth()
+    out = []
+    for i, rms in enumerate(LEVELS):
+        blocks = []
+        for r in range(REALIZATIONS):
+            one = multisine(PERIOD, FS, BAND, rms, seed=3 + 10 * i + r)
+            if dips:
+                f = np.fft.rfftfreq(PERIOD, 1 / FS)
+                one = shaker_force(one, FS, model.linear_frf(f, [0])[:, 0, 0])
+            blocks.append(periodic(one, PERIODS + 1))
+        force = np.concatenate(blocks)
+        acc = simulate(model, force[:, None], FS, [0], response_kind="acceleration")
+        rng = np.random.default_rng(7 + i)
+        acc = acc + NOISE * acc.std(axis=0) * rng.standard_normal(acc.shape)
+        force = force + NOISE * force.std() * rng.standard_normal(force.shape)
+        out.append(Recording(FS, "random", np.array([0]), force[:, None], acc, "acceleration",
+                             layout=PeriodicLayout(PERIOD, 1, PERIODS, REALIZATIONS)))
+    return tuple(out)
+
+
+def export(folder: Path, artifact: str | None) -> list[Path]:
+    """One MAT file per level carrying ``artifact`` (None: clean); the paths."""
+    from scipy.io import savemat
+
+    spec = DaqArtifacts.of([artifact] if artifact else [], FS)
+    paths = []
+    for i, rec in enumerate(clean_levels(artifact == "force-dips")):
+        rec = apply_daq_artifacts(rec, spec, np.random.default_rng(11 + i))
+        p = Path(folder) / f"Level{i + 1}.mat"
+        savemat(p, {"Force": rec.force.T, "Acceleration": rec.response.T,
+                    "Fs": np.array([[FS]])})
+        paths.append(p)
+    return paths
