@@ -37,20 +37,14 @@ from analysis.recordings import ARTIFACTS  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
 
 PATHS = ("import", "detect", "fit-linear", "reverse-path", "report")
-#: cells that fail for a reason outside this branch's area (the lead removes the mark)
 #: cells where stopping (exit 2, one line) is the right answer: no default could serve
 STOPS = {("dead-channel", "reverse-path")}
-LINES = "excited lines: lines branch"
+#: cells that do not give the clean result yet, with the measured reason
 KNOWN: dict[tuple[str, str], str] = {
-    ("mains", "fit-linear"): LINES,
-    ("drift", "fit-linear"): LINES + " (the drift's lines below the band taken as excited)",
     ("zeros", "fit-linear"): "the importer leaves a record with lead-in zeros as plain random "
                              "and says so; fit-linear then finds 1 of 2 modes",
     ("partial-period", "fit-linear"): "the importer leaves a record of 4.63 periods as plain "
                                       "random and says so; fit-linear finds 1 of 2 modes",
-    ("zeros", "report"): "report crashes (exit 1) on levels without a nominal value in the "
-                         "level-change figure's title: level names, lines branch",
-    ("partial-period", "report"): "as zeros-report: level names, lines branch",
     ("partial-period", "import"): "no period found in a record of 4.63 periods (the import "
                                   "says: trim it and give period=)",
 }

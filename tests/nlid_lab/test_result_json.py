@@ -54,7 +54,7 @@ def _periodic_levels(folder: Path, realizations: int) -> list[str]:
     w[beam.points["joint"]], w[beam.points["payload"]] = -1.0, 1.0
     joint = [Element("cubic_spring", w, {"p": 3e10})]
     paths = []
-    for i, lev in enumerate((0.5, 20.0)):
+    for i, lev in enumerate((0.5, 5.0)):     # 20 N: chaotic, the data follow BLAS rounding
         fine = np.concatenate([periodic(multisine(n * up, fs * up, (2.0, 120.0), lev,
                                                   seed=3 + r), p + 1)
                                for r in range(realizations)])
@@ -144,14 +144,20 @@ NUMBER = re.compile(r"-?\d+\.\d+(?:[eE][-+]?\d+)?|-?\d+[eE][-+]?\d+")
 
 
 def _same_text(new: str, golden: str) -> None:
-    """The same text; numbers equal to 1e-9 (bit-level float differences between machines'
-    BLAS builds), every other character identical."""
+    """The same text, every character but the numbers identical; numbers equal to 1e-6.
+
+    The same code on the same machine gives numbers up to 5.2e-8 apart with one BLAS thread
+    (`make test`: OPENBLAS_NUM_THREADS=1) or several (a plain pytest): the data pass through
+    LAPACK set-up whose rounding follows the thread count, and least squares (measured with
+    the code of 28df73e: detect-bla 5.2e-8, fit-linear-periodic 7.1e-9, detect-periodic
+    4.4e-10). 1e-6 leaves a factor 19 over that; a change of the method moves these numbers
+    by far more."""
     if new == golden:
         return
     assert NUMBER.sub("#", new) == NUMBER.sub("#", golden)
     a = np.array([float(x) for x in NUMBER.findall(new)])
     b = np.array([float(x) for x in NUMBER.findall(golden)])
-    np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-300)
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-300)
 
 
 @pytest.fixture(scope="module")
