@@ -135,7 +135,7 @@ def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str,
     if pace is not None:
         url += f"?pace={pace:g}"
     doc = campaign_doc(backend, out.stem, daq={"url": url},
-                       random={"averages": 2, "block_size": 2048, "levels": [5.0, 20.0]})
+                       random={"averages": 1, "block_size": 2048, "levels": [5.0, 20.0]})
     benches = []
     try:
         status = run_campaign(parse_campaign(doc, EXAMPLES), out,
