@@ -5,7 +5,7 @@ Modules behind this API: ``_model``, ``_model_file``, ``_model_tables``, ``_kind
 ``_textfile``. Code inside this package imports its siblings by their private module path.
 """
 
-from ._model import Element, MAX_ELEMENTS, MAX_PARAM, Model
+from ._model import Element, MAX_ELEMENTS, MAX_PARAM, Model, Support
 from ._model_tables import MAX_DOF, MAX_ENTRY
 from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_order
 from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent,
@@ -16,7 +16,7 @@ from ._basis import (FAMILIES, LIBRARY, alias_error, aliasing_factor, deformatio
 from ._textfile import MAX_TOML_BYTES, MAX_TOML_DEPTH, parse_toml, read_text, unknown_keys
 
 __all__ = ["Element", "FAMILIES", "KINDS", "Kind", "LIBRARY", "MAX_DOF", "MAX_ELEMENTS",
-           "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "Model", "N_BUILTIN", "N_PARAM", "N_STATE",
+           "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "Model", "Support", "N_BUILTIN", "N_PARAM", "N_STATE",
            "Param", "Refs", "alias_error", "aliasing_factor", "coefficient_units", "deformation",
            "element_basis", "element_force", "element_tangent", "evaluate", "lookup",
            "memoryless_force", "pack_params", "parse_toml", "read_text", "register_kind", "restoring_force",

@@ -27,7 +27,8 @@ from ._model_tables import (MAX_DOF, MAX_ENTRY, MAX_MODES, MAX_RATE_HZ, matrix,
                             modal_table, points_table, shapes_table)
 from ._textfile import parse_toml, read_text
 
-TOP_KEYS = ("name", "points", "linear", "modal", "element")
+TOP_KEYS = ("name", "points", "linear", "modal", "element", "support")
+SUPPORT_KEYS = ("points", "free")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
 MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
               "residual_damping_ratios", "residual_shapes")
@@ -61,6 +62,47 @@ class Element:
         return out
 
 
+@dataclass(frozen=True)
+class Support:
+    """Where the structure meets the ground (a model file's ``[support]``, contracts section 7).
+
+    Parameters
+    ----------
+    points : tuple of int
+        Indices of the points held by the supports (``[support] points = [...]``).
+    free : bool
+        A free or suspended structure: no point is held (``[support] free = true``).
+    """
+
+    points: tuple[int, ...] = ()
+    free: bool = False
+
+    def toml(self, names: list[str]) -> list[str]:
+        """The ``[support]`` table's lines."""
+        if self.free:
+            return ["", "[support]", "free = true"]
+        held = ", ".join(toml_str(names[i]) for i in self.points)
+        return ["", "[support]", f"points = [{held}]"]
+
+
+def _support(raw: Any, names: list[str]) -> Support:
+    """`Support` from a ``[support]`` table (exactly one of ``points`` and ``free``)."""
+    check_keys(raw, SUPPORT_KEYS, "[support]")
+    if len(raw) != 1:
+        raise ModelError("[support] takes either points = [...] (the points held) or "
+                         "free = true (a free or suspended structure)")
+    if "free" in raw:
+        if raw["free"] is not True:
+            raise ModelError(f"[support] free = {short(raw['free'])}: write free = true, or "
+                             "give points = [...] instead")
+        return Support(free=True)
+    pts = raw["points"]
+    if not isinstance(pts, list) or not pts:
+        raise ModelError(f"[support] points = {short(pts)} must list the points held, e.g. "
+                         '["root"]')
+    return Support(tuple(sorted({point_index(p, names, "[support] points") for p in pts})))
+
+
 @dataclass
 class Model:
     """Linear system plus nonlinear elements: ``M q'' + C q' + K q + sum T'w g = T'B f``,
@@ -79,6 +121,8 @@ class Model:
         ``T``; default the identity (the ``[linear]`` form).
     n_residual : int
         Trailing modal coordinates that are residual pseudo-modes (``[modal]`` form).
+    support : Support, optional
+        Where the structure meets the ground, when the model file says (``[support]``).
     """
 
     mass: np.ndarray
@@ -89,6 +133,7 @@ class Model:
     points: list[str] | None = None
     shapes: np.ndarray | None = None
     n_residual: int = 0
+    support: Support | None = None
 
     def __post_init__(self) -> None:
         self.mass = matrix(self.mass, "linear.mass", max_size=MAX_MODES)
@@ -108,6 +153,10 @@ class Model:
         for i, el in enumerate(self.elements):
             _check_element(el, i, self.n_dof)
         _check_rates(self)
+        if self.support is not None and any(not 0 <= i < self.n_dof
+                                            for i in self.support.points):
+            raise ModelError(f"support points {list(self.support.points)} outside the "
+                             f"{self.n_dof} points")
 
     @classmethod
     def modal(cls, freqs_hz: Any, damping_ratios: Any, shapes: Any, *,
@@ -224,8 +273,12 @@ class Model:
                 raise ModelError(f"element {i} ({el.kind}) acts on a point not kept; keep "
                                  "its end points")
             elements.append(Element(el.kind, el.w[idx], dict(el.params)))
-        return Model.modal(w / (2 * np.pi), zeta, shapes.T, elements=elements,
-                           name=self.name, points=names)
+        out = Model.modal(w / (2 * np.pi), zeta, shapes.T, elements=elements,
+                          name=self.name, points=names)
+        if self.support is not None:     # supports at the kept points move along
+            out.support = Support(tuple(idx.index(i) for i in self.support.points if i in idx),
+                                  self.support.free)
+        return out
 
     def with_elements(self, elements: list[Element], name: str | None = None) -> "Model":
         """Copy of this model with another element list."""
@@ -239,7 +292,7 @@ class Model:
         return Model(np.array(mass, dtype=float), np.array(damping, dtype=float),
                      np.array(stiffness, dtype=float),
                      list(self.elements if elements is None else elements), name or self.name,
-                     list(self.points), self.shapes.copy(), self.n_residual)
+                     list(self.points), self.shapes.copy(), self.n_residual, self.support)
 
     # --- TOML -----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -273,6 +326,8 @@ class Model:
             for key in ("mass", "damping", "stiffness"):
                 rows = ",\n    ".join(toml_list(row) for row in getattr(self, key))
                 lines.append(f"{key} = [\n    {rows},\n]")
+        if self.support is not None:
+            lines += self.support.toml(self.points)
         for el in self.elements:
             lines += ["", "[[element]]", f"kind = {toml_str(el.kind)}",
                       toml_where(el.w, self.points) if named else f"w = {toml_list(el.w)}"]
@@ -337,16 +392,19 @@ class Model:
             n_points = len(points)
         names = points_table(points, n_points)
         elements = [Element(*toml_element(raw, i, names)) for i, raw in enumerate(raw_elements)]
+        support = None if "support" not in data else _support(data["support"], names)
         if linear is not None:
             return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
-                       names)
+                       names, support=support)
         if "residual_shapes" in modal:
             check_toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
-        return cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
-                         elements=elements, name=name, points=names,
-                         residual_freqs_hz=modal.get("residual_frequencies_hz", []),
-                         residual_damping=modal.get("residual_damping_ratios", []),
-                         residual_shapes=modal.get("residual_shapes"))
+        model = cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
+                          elements=elements, name=name, points=names,
+                          residual_freqs_hz=modal.get("residual_frequencies_hz", []),
+                          residual_damping=modal.get("residual_damping_ratios", []),
+                          residual_shapes=modal.get("residual_shapes"))
+        model.support = support
+        return model
 
     @classmethod
     def loads(cls, text: str, source: str = "model") -> "Model":
