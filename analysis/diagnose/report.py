@@ -232,7 +232,6 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
     tres = fit.time_residual
     time_txt = (f" (time residual of the replays {change(tres.before, tres.after)})"
                 if tres else "")
-    where = " and ".join(dict.fromkeys(c.where for c in cands))
     rest = ""
     if fit.within_floor is False:
         out = [lv.label for lv in fit.levels if lv.within_floor is False]
@@ -241,6 +240,19 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
                 "unexplained (see evidence.misfit).")
     return (f"The mismatch is {what}{band_txt}: {found}.{runner}{second} With it the "
             f"held-back FRF error {change(fit.before, fit.after)}{time_txt}; by level: "
-            f"{_levels_text(d, True)}.{rest}" + _rejected_text(d) + f" Check the structure "
-            f"{where} (joint, support or added mass) and keep the corrected model file for "
-            "further simulation.")
+            f"{_levels_text(d, True)}.{rest}" + _rejected_text(d) + f" Check {_advice(cands)}"
+            " and keep the corrected model file for further simulation.")
+
+
+def _advice(cands: Sequence[Candidate]) -> str:
+    """What to look at: a grounded finding is a support (its point to ground), a relative one
+    the joint between its points, a linear error the structure there; never a grounded
+    finding worded as a joint (contracts section 7)."""
+    def one(c: Candidate) -> str:
+        if c.linear:
+            return f"the structure {c.where} (its {c.kind.replace('_error', '')})"
+        if len(c.dofs) == 1:
+            at = c.points[0] if c.names else f"DOF {c.points[0]}"
+            return f"the support at {at} (the element acts from {at} to ground)"
+        return f"the joint {c.where}"
+    return " and ".join(dict.fromkeys(one(c) for c in cands))

@@ -91,7 +91,8 @@ def without_added_keys(text: str) -> str:
 
 if __name__ == "__main__":
     tests = Path(__file__).resolve().parents[2]
-    sys.path[:0] = [str(p) for p in {tests, Path(__file__).parent}]
+    sys.path[:0] = [str(tests.parent)]                  # the project before tests/nlid_lab
+    sys.path += [str(tests), str(Path(__file__).parent)]
     GOLDEN.mkdir(exist_ok=True)
     for case in sys.argv[1:] or CASES:
         with tempfile.TemporaryDirectory() as tmp:
