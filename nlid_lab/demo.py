@@ -19,7 +19,7 @@ from analysis.errors import InputError
 from analysis.models import Model
 
 from . import store
-from .methods.reverse_path import ReversePathOptions, estimate, format_table
+from .methods import ReversePathOptions, reverse_path_estimate, reverse_path_table
 from .outputs import atomic_dir, atomic_path, write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
@@ -149,9 +149,9 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
                                      for el in model.elements])
     recs = store.open_run(run_path).recordings()
     nperseg = min(cfg.estimate_nperseg, min(r.force.shape[0] for r in recs) // 4)
-    est = estimate(recs, candidate, ReversePathOptions(nperseg=nperseg))
+    est = reverse_path_estimate(recs, candidate, ReversePathOptions(nperseg=nperseg))
     out = est.to_json()
-    print(format_table(est.result, est.modal, reference=model))
+    print(reverse_path_table(est.result, est.modal, reference=model))
     path = cfg.out / "reverse-path.json"
     write_json(out, str(path))
     store.save_result(run_path, "analyze-reverse-path", out)
@@ -160,12 +160,12 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
 
 def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     """HTML report of the run (FRFs, coherence, reverse-path figures, stored estimates)."""
-    from .reports import write_report
-    from .reports import load_run
+    from . import methods
+    from .reports import load_run, write_report
 
     run = load_run(run_path)
     with atomic_dir(cfg.out / "report") as tmp:     # figures and page whole, or none
-        write_report(run, tmp)
+        write_report(run, tmp, estimators=methods)
     return cfg.out / "report" / "index.html"
 
 

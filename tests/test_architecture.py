@@ -1,7 +1,11 @@
-"""The tree's structure: imports run one way, no module cycles, h5py only in the store.
+"""The tree's structure: imports run one way, no module or room cycles, rooms entered only
+through their ``__init__``, h5py only in the store.
 
 The import graph is read from the source (every ``import``, local ones inside functions
-included; ``if TYPE_CHECKING:`` blocks excluded because they never run).
+included; ``if TYPE_CHECKING:`` blocks excluded because they never run). A room is a package
+one level below a layer (``analysis.models``, ``drivers.emulators``, ``nlid_lab.store``);
+code outside a room imports the room itself and its public names, never one of its modules
+nor an underscore name (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -97,6 +101,78 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
         if v not in index:
             visit(v)
     return out
+
+
+def _room(name: str, mods: dict[str, Path]) -> str | None:
+    """The room holding module ``name`` (the room's own ``__init__`` included), or None for
+    a layer's top-level modules (``nlid_lab.cli``, ``drivers.registry``)."""
+    pkg = ".".join(name.split(".")[:2])
+    return pkg if pkg.count(".") == 1 and mods.get(pkg, Path()).name == "__init__.py" else None
+
+
+def _module_of(target: str, mods: dict[str, Path]) -> str:
+    """The module an imported name (module or module.attribute) lives in ("" if outside)."""
+    while target and target not in mods:
+        target = target.rpartition(".")[0]
+    return target
+
+
+def _reaches_inside(name: str, target: str, mods: dict[str, Path]) -> bool:
+    """Does module ``name`` importing ``target`` (module or module.attribute) reach into
+    another room: one of its modules other than the ``__init__``, or an underscore name?"""
+    module = _module_of(target, mods)
+    room = _room(module, mods) if module else None
+    if room is None or room == _room(name, mods):
+        return False
+    attribute = target[len(module) + 1:]
+    return module != room or (attribute.startswith("_") and not attribute.startswith("__"))
+
+
+#: Imports into another room waiting for a move planned elsewhere: (importer, room) -> why.
+PENDING = {("analysis.reverse_path._screening", "analysis.diagnose"):
+           "issue 24 item 2 moves the candidate library below the diagnosis"}
+
+
+def _room_graph(mods: dict[str, Path], graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """Rooms (and top-level modules) and the rooms they import, pending moves left out."""
+    rooms: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        here = _room(name, mods) or name
+        edges = rooms.setdefault(here, set())
+        for t in targets:
+            there = _room(t, mods) or t
+            if there != here and (name, there) not in PENDING:
+                edges.add(there)
+    for targets in list(rooms.values()):
+        for t in targets:
+            rooms.setdefault(t, set())
+    return rooms
+
+
+def test_rooms_are_entered_through_their_init():
+    mods = _modules()
+    wrong = sorted((name, t) for name, path in mods.items() for t in _imports(name, path)
+                   if _reaches_inside(name, t, mods)
+                   and (name, _room(_module_of(t, mods), mods)) not in PENDING)
+    assert wrong == []
+
+
+def test_no_room_cycles():
+    assert _cycles(_room_graph(_modules(), _graph())) == []
+
+
+def test_room_rule_sees_a_reach_inside():
+    mods = {name: Path(f"{name.replace('.', '/')}.py") for name in
+            ("a.r._m", "a.r.pub", "a.s._n", "a.top")} | {"a.r": Path("a/r/__init__.py"),
+                                                         "a.s": Path("a/s/__init__.py")}
+    assert _reaches_inside("a.s._n", "a.r._m.f", mods)          # a private module
+    assert _reaches_inside("a.s._n", "a.r.pub", mods)           # any module but the __init__
+    assert _reaches_inside("a.top", "a.r._hidden", mods)        # an underscore name
+    assert not _reaches_inside("a.s._n", "a.r.f", mods)         # the room's API
+    assert not _reaches_inside("a.r.pub", "a.r._m.f", mods)     # inside its own room
+    assert not _reaches_inside("a.s._n", "a.top.f", mods)       # a layer's top-level module
+    graph = {"a.r._m": {"a.s._n"}, "a.s._n": {"a.r.pub"}, "a.r.pub": set(), "a.top": set()}
+    assert _cycles(_room_graph(mods, graph)) == [["a.r", "a.s"]]
 
 
 def test_no_import_cycles():

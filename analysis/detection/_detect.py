@@ -33,9 +33,8 @@ import scipy.stats
 
 from ..spectral import (BLA, DETECT_QUANTILE, best_linear_approximation, default_nperseg, h1,
                         hold_gain, level_name, multiple_coherence, sine_fit, spectral_matrix)
-from ..diagnose.prepare import record_level
 from ..errors import InputError
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, record_level
 from ._result import Detection, DetectionTest, TestMethod
 
 

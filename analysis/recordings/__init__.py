@@ -4,7 +4,7 @@ conversion (integration, differentiation, bands, hold images), stepped-sine tabl
 per step).
 
 Modules behind this API: ``_recording``, ``_sensors``, ``_signals``, ``_sweep_law``,
-``_sweep_estimate``, ``_periodicity``, ``_table``, ``_daq_artifacts`` (what a real DAQ export
+``_sweep_estimate``, ``_periodicity``, ``_level`` (a recording's level), ``_table``, ``_daq_artifacts`` (what a real DAQ export
 adds, for simulated twins). Code inside this package imports its siblings by their
 private module path.
 """
@@ -20,6 +20,7 @@ from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation
 from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
 from ._sweep_estimate import active_span, estimate_sweep
 from ._periodicity import SHARE_MIN, find_period
+from ._level import measured_level, record_level
 from ._table import STEP_TABLE_KEYS, Control, StepTable
 from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_daq_artifacts,
                              shaker_force)
@@ -30,6 +31,7 @@ __all__ = ["ARTIFACTS", "Artifact", "DaqArtifacts", "Shaker", "apply_daq_artifac
            "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SHARE_MIN", "SWEEP_KEYS", "SWEEP_LAWS",
            "SensorMap", "Sweep", "SweepLaw", "active_span", "at_points", "change_kind",
            "channel_labels", "estimate_sweep", "excitation_band", "find_period", "hold_image_gain",
-           "hold_image_response", "hold_image_taps", "hold_images", "model_at_sensors", "names",
+           "hold_image_response", "hold_image_taps", "hold_images", "measured_level",
+           "model_at_sensors", "names", "record_level",
            "one_kind", "period_spectra", "periodic_kinematics", "remove_dc", "remove_hold_images",
            "sensor_map", "signal_bandwidth", "steady_periods", "table_keys", "to_kinematics"]

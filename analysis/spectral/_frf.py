@@ -14,7 +14,7 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, measured_level
 from ._sine_fit import hold_gain, sine_fit
 
 #: FRF units by response kind (receptance, mobility, accelerance).
@@ -99,16 +99,6 @@ def default_nperseg(n: int) -> int:
     """
     target = max(n // 16, MIN_NPERSEG)
     return int(min(2 ** int(np.floor(np.log2(target))), MAX_NPERSEG))
-
-
-def measured_level(rec: Recording) -> float:
-    """The force a level applied: rms of the DC-free force (random, multisine), largest
-    amplitude (sines), largest over the force channels, N."""
-    f = rec.force.reshape(-1, rec.n_in)
-    if rec.excitation == "random":
-        f = f - f.mean(axis=0)
-        return float(np.sqrt(np.mean(f**2, axis=0)).max())
-    return float(np.abs(f).max())
 
 
 def level_name(rec: Recording | StepTable) -> str:

@@ -227,7 +227,7 @@ def harmonic_distortion(frf: SweepFRF, alpha: float = 1e-3, smooth: int = 5) -> 
         ``method`` "sweep-harmonics", ``share_flagged``, ``share_limit``, ``nonlinear``,
         ``band_hz`` (range of the flagged windows) and ``tests`` (number of tests).
     """
-    keep = _independent(frf.times, frf.window_s)
+    keep = independent_windows(frf.times, frf.window_s)
     freqs, X, noise = frf.freqs[keep], frf.X[keep], frf.noise[keep]
     Fh = frf.force_harmonics[keep]
     order = np.argsort(frf.freqs)
@@ -265,7 +265,7 @@ def harmonic_distortion(frf: SweepFRF, alpha: float = 1e-3, smooth: int = 5) -> 
             "band_hz": [float(min(where)), float(max(where))] if where and nonlinear else None}
 
 
-def _independent(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
+def independent_windows(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
     """Indices of analysis windows that do not overlap (greedy, in time order)."""
     keep, end = [], -np.inf
     for i in np.argsort(times):

@@ -30,9 +30,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
     try:
         from PySide6 import QtCore
 
-        from ..gui import snapshot
-        from ..gui.display import check_display
-        from ..gui.live import LiveView
+        from ..gui import LiveView, application, check_display, dispose
     except ImportError as exc:
         raise InputError(f"--live needs the gui extra ({exc.name} is missing): "
                          "pip install 'nlid-lab[gui]', or run without --live") from None
@@ -42,7 +40,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
         raise InputError("--live: no display to open the live view on; run without --live "
                          "(progress is printed) or set DISPLAY")
     check_display()
-    app = snapshot.application()
+    app = application()
     view = LiveView()
     view.setWindowTitle(f"nlid-lab live: {campaign.name} -> {out}")
     stop, outcome = threading.Event(), {}
@@ -84,7 +82,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
         worker.join()
         if main_thread:
             signal.signal(signal.SIGINT, old_handler)
-        snapshot.dispose(view)
+        dispose(view)
         app.processEvents()
     if "error" in outcome:
         raise outcome["error"]

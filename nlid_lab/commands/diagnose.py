@@ -130,7 +130,7 @@ def _show(bar, done: int, total: int, stage: str) -> None:
 
 def write_report(d: Diagnosis, out: Path) -> None:
     """Before/after FRF overlays and time residuals per level, plus a markdown report."""
-    from ..reports import _figures as figures
+    from ..reports import diagnosis_overlay
 
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",
@@ -147,7 +147,7 @@ def write_report(d: Diagnosis, out: Path) -> None:
                      f"{f'{c.floor.limit:.4g}' if c.floor else '-'} | {tb} | {ta} |")
         title = f"{c.label}{' (held back)' if c.held_back else ''}"
         name = f"frf-level-{i}.png"
-        figures.diagnosis_overlay(c, title).savefig(out / name)
+        diagnosis_overlay(c, title).savefig(out / name)
         figs += ["", f"![{c.label}]({name})"]
     lines += figs
     lines += ["", "## Where", "", "| location | best kind | misfit reduction | BIC gain | "

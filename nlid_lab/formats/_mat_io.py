@@ -199,7 +199,7 @@ def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
     if not path.is_file():
         raise MatFileError(f"MAT file {path} not found; check the path")
     if is_mat73(path):
-        from ..store.mat73 import read_mat73
+        from ..store import read_mat73
         return read_mat73(path)
     import scipy.io
     from scipy.io.matlab import MatReadError

@@ -14,6 +14,7 @@ from PySide6 import QtCore, QtWidgets
 from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
 from analysis.recordings import Recording, StepTable
 
+from .. import methods
 from ..reports import RunData, estimate_rows
 from . import plots
 
@@ -99,7 +100,7 @@ class OfflineView(QtWidgets.QWidget):
             top.setExpanded(True)
 
     def _fill_table(self) -> None:
-        rows = [row for run in self.runs for row in estimate_rows(run.results)]
+        rows = [row for run in self.runs for row in estimate_rows(run.results, methods)]
         self.table.setRowCount(len(rows))
         for i, row in enumerate(rows):
             for j, text in enumerate(row):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 import numpy as np
 
@@ -22,6 +22,20 @@ from ._rundata import RunData, Section, all_level_frfs
 
 if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
+
+
+class Estimators(Protocol):
+    """The estimator registry as a report reads it: `nlid_lab.methods`, a room above this
+    one, handed in by the caller (the report does not import it: rooms import one way)."""
+
+    def methods(self) -> Sequence[Any]:
+        """Registered methods (each with ``sections``), in order."""
+
+    def find_stored(self, results: Mapping[str, Any], method: Any) -> tuple[str, dict] | None:
+        """The last stored result of ``method``."""
+
+    def stored_estimates(self, results: Mapping[str, Any]) -> list[tuple[str, dict]]:
+        """Stored results of any registered method."""
 
 
 # --- report sections ----------------------------------------------------------------------
@@ -172,10 +186,10 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
 def modal_fit_section(run: RunData) -> Section | None:
     """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
     one (stabilisation diagram and the modes), or why it cannot be made."""
-    from analysis.diagnose.prepare import level_name, record_level
+    from analysis.diagnose import level_name
     from analysis.errors import EstimationError
     from analysis.modal import fit_linear
-    from analysis.recordings import one_kind
+    from analysis.recordings import one_kind, record_level
     random = [r for r in run.recordings if r.excitation == "random"]
     if not random:
         return None
@@ -228,8 +242,10 @@ def sweep_section(run: RunData) -> Section | None:
                    f"one jumps at different frequencies up and down. {said}.")
 
 
-def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
-    """Every section the run has data for, in reading order."""
+def sections(run: RunData, frfs: list[LevelFRF], estimators: Estimators, candidate=None
+             ) -> list[Section]:
+    """Every section the run has data for, in reading order (the estimators' own sections
+    from the registry ``estimators``)."""
     names = channel_names(run)
     out = frf_sections(frfs, names)
     from ._backbone_figure import backbone_section
@@ -238,10 +254,10 @@ def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section
                   modal_fit_section(run)):
         if extra is not None:
             out.append(extra)
-    from ..methods import find_stored, methods
-    for method in methods():
+    for method in estimators.methods():
         if method.sections is not None:
-            out += method.sections(run, frfs, find_stored(run.results, method), candidate)
+            out += method.sections(run, frfs, estimators.find_stored(run.results, method),
+                                   candidate)
     diagnosis = diagnosis_section(run)
     if diagnosis is not None:
         out.append(diagnosis)
@@ -250,17 +266,17 @@ def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section
 
 # --- writing --------------------------------------------------------------------------------
 def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], None] | None
-                 = None, frfs: list[LevelFRF] | None = None, candidate=None
-                 ) -> dict[str, Any]:
+                 = None, frfs: list[LevelFRF] | None = None, candidate=None, *,
+                 estimators: Estimators) -> dict[str, Any]:
     """Write the PNG figures and ``index.html`` into ``out_dir``; returns what was written.
 
     ``candidate`` (a `Model`) enables the reverse-path section for runs without a stored
-    reference model.
+    reference model; ``estimators`` is the estimator registry (`nlid_lab.methods`).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     frfs = frfs if frfs is not None else all_level_frfs(run)
-    secs = sections(run, frfs, candidate)
+    secs = sections(run, frfs, estimators, candidate)
     written = []
     for sec in secs:
         for stem, fig in sec.figures:
@@ -269,11 +285,12 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
             if progress:
                 progress(1)
     page = out_dir / "index.html"
-    page.write_text(render_html(run, frfs, secs))
+    page.write_text(render_html(run, frfs, secs, estimators))
     return {"html": str(page), "figures": written, "sections": [s.title for s in secs]}
 
 
-def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
+def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],
+                estimators: Estimators) -> str:
     """The report page: the run's levels, stored estimates and every section with its
     figures."""
     esc = html.escape
@@ -286,7 +303,7 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
             f"{esc(frfs[0].units)}</p>",
             "<table><tr><th>#</th><th>level</th><th>excitation</th><th>frequencies</th>"
             f"<th>averages</th></tr>{rows}</table>"]
-    est = _estimates_table(run.results)
+    est = _estimates_table(run.results, estimators)
     if est:
         body.append(f"<h2>Stored estimates</h2>{est}")
     for sec in secs:
@@ -299,12 +316,12 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
             f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n")
 
 
-def estimate_rows(results: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
+def estimate_rows(results: dict[str, Any], estimators: Estimators
+                  ) -> list[tuple[str, str, str, str, str]]:
     """(result, element, parameter, value, 95 % interval) of every stored estimate of a
-    registered method (`nlid_lab.methods`)."""
-    from ..methods import stored_estimates
+    method in the registry ``estimators`` (`nlid_lab.methods`)."""
     rows = []
-    for name, res in stored_estimates(results):
+    for name, res in estimators.stored_estimates(results):
         for i, el in enumerate(res.get("elements", [])):
             ci = el.get("ci95") or {}
             for par, value in (el.get("params") or {}).items():
@@ -314,9 +331,9 @@ def estimate_rows(results: dict[str, Any]) -> list[tuple[str, str, str, str, str
     return rows
 
 
-def _estimates_table(results: dict[str, Any]) -> str:
+def _estimates_table(results: dict[str, Any], estimators: Estimators) -> str:
     rows = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
-                   for row in estimate_rows(results))
+                   for row in estimate_rows(results, estimators))
     if not rows:
         return ""
     return ("<table><tr><th>result</th><th>element</th><th>parameter</th><th>value</th>"

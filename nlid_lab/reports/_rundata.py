@@ -14,7 +14,7 @@ from analysis.spectral import LevelFRF, level_frf
 from analysis.models import coefficient_units
 from analysis.recordings import Recording
 
-from ..formats import _recordings_io as recordings_io
+from ..formats import load_recordings
 from .. import store
 
 
@@ -44,7 +44,7 @@ def load_run(path: str | Path) -> RunData:
     if not path.exists():
         raise FileNotFoundError(2, "No such file or directory", str(path))
     if path.suffix.lower() not in (".h5", ".hdf5"):
-        return RunData(path, recordings_io.load_recordings(path))
+        return RunData(path, load_recordings(path))
     run = store.open_run(path)
     recs = run.recordings()
     if not recs:
