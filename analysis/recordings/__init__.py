@@ -10,7 +10,8 @@ private module path.
 """
 
 from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
-                         MIN_FS, PeriodicLayout, RESPONSE_KINDS, Recording)
+                         MIN_FS, Excitation, PeriodicLayout, RESPONSE_KINDS, Recording,
+                         ResponseKind)
 from ._sensors import (KEYS, MIXED, SensorMap, at_points, channel_labels, model_at_sensors, names,
                        one_kind, sensor_map, table_keys)
 from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation_band,
@@ -26,7 +27,7 @@ from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_da
                              shaker_force)
 
 __all__ = ["ARTIFACTS", "Artifact", "DaqArtifacts", "Shaker", "apply_daq_artifacts",
-           "shaker_force", "Control", "StepTable", "STEP_TABLE_KEYS", "DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
+           "shaker_force", "Control", "Excitation", "ResponseKind", "StepTable", "STEP_TABLE_KEYS", "DEFAULT_TRANSIENT_PERIODS", "EXCITATIONS", "FORCE_HOLDS", "HOLD_IMAGE_LOOKAHEAD",
            "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS", "MAX_SAMPLE", "MIN_FS", "MIXED",
            "PeriodicLayout", "RESPONSE_KINDS", "Recording", "SHARE_MIN", "SWEEP_KEYS", "SWEEP_LAWS",
            "SensorMap", "Sweep", "SweepLaw", "active_span", "at_points", "change_kind",
