@@ -16,6 +16,7 @@ from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
 from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, measured_level
 from ._sine_fit import hold_gain, sine_fit
+from ._sweep import recording_sweep_frf
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
@@ -151,7 +152,6 @@ def level_frf(rec: Recording | StepTable, index: int = 0,
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
     if rec.excitation == "swept-sine":
-        from ._sweep import recording_sweep_frf
         r = recording_sweep_frf(rec)
         H = convert_frf(r.frf, r.freqs, "displacement", rec.response_kind)
         return LevelFRF(freqs=r.freqs, H=H[:, :, None], n_averages=1, sweep=r, **common)

@@ -20,12 +20,13 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from scipy.linalg import eig
 from scipy.signal import hilbert
 from scipy.stats import f as f_dist
 
 from ..errors import RecordingError
 from ._sine_fit import SteppedSineFRF, hold_gain
-from ..recordings import SWEEP_LAWS, Sweep, SweepLaw  # noqa: F401  (re-exported)
+from ..recordings import SWEEP_LAWS, Sweep, SweepLaw, active_span  # noqa: F401  (re-exported)
 
 NOISE_ORDERS = (1.5, 2.5)
 #: orders are fitted up to this fraction of fs (near Nyquist a sine fit is ill-conditioned
@@ -289,8 +290,6 @@ def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwarg
     **kwargs
         Passed to `sweep_frf` (``cycles``, ``points``).
     """
-    from ..recordings import active_span
-
     if rec.excitation != "swept-sine" or rec.sweep is None:
         raise RecordingError(f"a sweep FRF needs swept-sine data, got {rec.excitation}")
     a, b = active_span(rec.force[:, 0])
@@ -303,8 +302,6 @@ def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwarg
 def linear_modes(mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray
                  ) -> list[tuple[float, float]]:
     """``(fn Hz, zeta)`` of the underdamped modes of ``M q'' + C q' + K q``, ascending."""
-    from scipy.linalg import eig
-
     n = mass.shape[0]
     inv = np.linalg.solve(mass, np.hstack([stiffness, damping]))
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-inv[:, :n], -inv[:, n:]]])

@@ -12,7 +12,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
-from analysis.recordings import Recording, StepTable
+from analysis.recordings import Recording, StepTable, channel_labels
 
 from .. import methods
 from ..reports import RunData, estimate_rows
@@ -246,7 +246,6 @@ def _averages(frf: LevelFRF) -> str:
 def response_labels(runs: list[RunData], n_dof: int) -> list[str]:
     """``"point (kind)"`` per response when every run has the same sensor map
     (`analysis.recordings.channel_labels`, as the report's figures), else ``"DOF q"``."""
-    from analysis.recordings import channel_labels
     recs = [run.recordings[0] for run in runs if run.recordings]
     maps = {rec.sensors for rec in recs}
     if len(recs) == len(runs) and len(maps) == 1 and None not in maps \

@@ -14,10 +14,15 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 import numpy as np
 
-from analysis.errors import InputError
-from analysis.spectral import LevelFRF
+from analysis.detection import bla_summary, level_change
+from analysis.errors import EstimationError, InputError
+from analysis.modal import fit_linear
+from analysis.recordings import channel_labels, one_kind, record_level
+from analysis.spectral import LevelFRF, level_label
 
+from ..formats import describe
 from . import _figures as figures
+from ._backbone_figure import backbone_section
 from ._rundata import RunData, Section, all_level_frfs
 
 if TYPE_CHECKING:
@@ -44,7 +49,6 @@ class Estimators(Protocol):
 def channel_names(run: RunData) -> tuple[list[str], list[str]] | None:
     """(``"point (kind)"`` per response channel, force points) of a run with a sensor map,
     else None (the figures say ``DOF q``)."""
-    from analysis.recordings import channel_labels
     rec = run.recordings[0] if run.recordings else None
     if rec is None or rec.sensors is None:
         return None
@@ -128,7 +132,6 @@ def diagnosis_levels(d: Diagnosis, unit: str = "N") -> list[dict[str, Any]] | No
 def level_change_section(run: RunData) -> Section | None:
     """Two or more random (Welch) levels: where the FRF changes with level beyond its noise
     (`analysis.detection.level_change`)."""
-    from analysis.detection import level_change
     random = [r for r in run.recordings
               if r.excitation == "random" and r.layout is None]
     if len(random) < 2:
@@ -159,7 +162,6 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
     shown = [f for f in frfs if f.bla is not None and f.bla.realizations >= 2]
     if not shown:
         return None
-    from analysis.detection import bla_summary
     lines = []
     for frf in shown:
         t = bla_summary(frf.bla, frf.level)
@@ -186,10 +188,7 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
 def modal_fit_section(run: RunData) -> Section | None:
     """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
     one (stabilisation diagram and the modes), or why it cannot be made."""
-    from analysis.diagnose import level_name
-    from analysis.errors import EstimationError
-    from analysis.modal import fit_linear
-    from analysis.recordings import one_kind, record_level
+    from analysis.diagnose import level_name   # the diagnosis room loads on use
     random = [r for r in run.recordings if r.excitation == "random"]
     if not random:
         return None
@@ -227,9 +226,7 @@ def modal_fit_section(run: RunData) -> Section | None:
 
 def sweep_section(run: RunData) -> Section | None:
     """Swept-sine levels: each level's sweep (direction, law, whether estimated on import)."""
-    from analysis.spectral import level_label
 
-    from ..formats import describe
     swept = [(i, r) for i, r in enumerate(run.recordings)
              if r.excitation == "swept-sine" and r.sweep is not None]
     if not swept:
@@ -248,7 +245,6 @@ def sections(run: RunData, frfs: list[LevelFRF], estimators: Estimators, candida
     from the registry ``estimators``)."""
     names = channel_names(run)
     out = frf_sections(frfs, names)
-    from ._backbone_figure import backbone_section
     for extra in (sweep_section(run), backbone_section(run), level_change_section(run),
                   distortion_section(frfs, names),
                   modal_fit_section(run)):
