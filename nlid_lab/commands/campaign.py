@@ -14,6 +14,7 @@ from typing import Sequence
 
 from analysis.errors import InputError
 
+from ..outputs import add_quiet_option, refuse_overwrite, summary_stream, write_json
 POLL_MS = 100
 
 
@@ -162,7 +163,6 @@ def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
     from ..campaign import load_campaign, load_plant_model
-    from ..outputs import refuse_overwrite, summary_stream, write_json
     from ..progress import CampaignProgress
     from ..store import DiskFullError
 
@@ -226,7 +226,6 @@ def _check(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``campaign`` sub-command and its options to ``sub``."""
-    from ..outputs import add_quiet_option
 
     p = sub.add_parser("campaign", help="run a test campaign (shaker + DAQ -> HDF5 run)")
     actions = p.add_subparsers(dest="action", metavar="ACTION")

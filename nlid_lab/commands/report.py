@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import methods
 from ..outputs import add_force_option, atomic_dir, refuse_overwrite, with_checks, write_json
 from ..progress import progress
 from .repair import check_runs, repair_option
@@ -14,7 +15,6 @@ def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab report`` on the parsed ``args``; returns the exit code."""
     from analysis.models import Model
 
-    from .. import methods
     from ..reports import all_level_frfs, load_run, write_report
     refuse_overwrite(args.force, args.json, directories=(args.out,))
     checks = check_runs([args.run], args.repair)
