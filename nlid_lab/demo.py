@@ -97,7 +97,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     """H1 FRF of each level, overlaid with the underlying linear FRF, as a PNG."""
     import matplotlib             # the figure backend is chosen here, on use
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt   # after the backend is chosen
 
     run = store.open_run(run_path)
     fig, ax = plt.subplots(figsize=(8, 5))

@@ -298,7 +298,7 @@ def worker_environ() -> dict[str, Any]:
     dynamic mmap threshold, so every large numpy temporary is a fresh mmap with page faults:
     measured 29 -> 42 ms per run of reverse path (+45 %). The BLAS/OpenMP one-thread pins stay.
     """
-    import dask
+    import dask                   # dask loads on use: seconds of import
 
     environ = dict(dask.config.get(NANNY_ENVIRON, default={}))
     environ.pop("MALLOC_TRIM_THRESHOLD_", None)
@@ -336,7 +336,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     -------
     Reanalysis
     """
-    from distributed import as_completed
+    from distributed import as_completed   # loads on use, as dask
     from tqdm import tqdm
 
     check_request(model, method, run_timeout_s)
@@ -371,7 +371,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
 
 def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | str:
     """The error of a task without result; a dead worker explained in words."""
-    from distributed import KilledWorker
+    from distributed import KilledWorker   # loads on use, as dask
     if not isinstance(exc, KilledWorker):
         return exc
     why = f"took over the {run_timeout_s:g} s run time limit or crashed" if run_timeout_s \
