@@ -21,13 +21,13 @@ from ._sweep import (NOISE_ORDERS, SweepFRF, SweepLaw, harmonic_distortion, inde
                      max_sweep_rate, quasi_steady, recording_sweep_frf, sweep_frf, sweep_rate_check,
                      sweep_signal)
 
-__all__ = ["BLA", "DETECT_QUANTILE", "ExcitedLines", "FRF_UNITS", "HELD_UNITS", "Interference",
-           "LINES_PER_BANDWIDTH", "LevelFRF", "NOISE_ORDERS", "Resolution", "Spectra",
-           "SteppedSineFRF", "SweepFRF", "SweepLaw", "best_linear_approximation",
-           "conditioned_inputs", "convert_frf", "default_nperseg", "excited_lines", "frf_from_bla",
-           "frf_from_spectra", "h1", "harmonic_distortion", "independent_windows", "hold_gain", "level_frf", "level_label",
-           "level_name", "linear_modes", "longest_nperseg", "max_sweep_rate",
-           "multiple_coherence", "narrowest_peak", "ordinary_coherence", "quasi_steady",
-           "recording_sweep_frf", "resolving_nperseg", "sine_fit", "spectral_matrix",
-           "stepped_sine_frf", "sweep_frf", "sweep_rate_check", "sweep_signal", "table_harmonics",
-           "recording_table"]
+__all__ = ["best_linear_approximation", "BLA", "conditioned_inputs", "convert_frf",
+           "default_nperseg", "DETECT_QUANTILE", "excited_lines", "ExcitedLines", "frf_from_bla",
+           "frf_from_spectra", "FRF_UNITS", "h1", "harmonic_distortion", "HELD_UNITS", "hold_gain",
+           "independent_windows", "Interference", "level_frf", "level_label", "level_name",
+           "LevelFRF", "linear_modes", "LINES_PER_BANDWIDTH", "longest_nperseg", "max_sweep_rate",
+           "multiple_coherence", "narrowest_peak", "NOISE_ORDERS", "ordinary_coherence",
+           "quasi_steady", "recording_sweep_frf", "recording_table", "Resolution",
+           "resolving_nperseg", "sine_fit", "Spectra", "spectral_matrix", "stepped_sine_frf",
+           "SteppedSineFRF", "sweep_frf", "sweep_rate_check", "sweep_signal", "SweepFRF",
+           "SweepLaw", "table_harmonics"]

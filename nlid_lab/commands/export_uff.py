@@ -14,7 +14,8 @@ from .repair import check_runs
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab export-uff`` on the parsed ``args``; returns the exit code."""
     refuse_overwrite(args.force, args.out, args.json)
-    from ..reports import FUNC_COHERENCE, FUNC_FRF, all_level_frfs, load_run, uff_datasets, write_uff
+    from ..reports import (FUNC_COHERENCE, FUNC_FRF, all_level_frfs, load_run, uff_datasets,
+                           write_uff)
     checks = check_runs([args.run])
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
