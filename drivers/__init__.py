@@ -4,16 +4,17 @@ Open devices by URL with `open_shaker` / `open_daq` (see `drivers.registry`); ev
 `drivers.errors.DriverError`.
 """
 
-from .base import (Acquirer, AcqStats, Block, Channel, MultisineOutput, RandomOutput,
-                   SignalGenerator, SineOutput)
+from .base import (DEFAULT_RAMP_TIME, Acquirer, AcqStats, Block, Channel, DeviceState,
+                   MultisineOutput, RandomOutput, SignalGenerator, SineOutput)
 from .errors import (CommsError, DeviceError, Disconnected, DriverConfigError, DriverError,
                      DriverTimeout, ProtocolError, StateError, UnknownBackendError)
-from .registry import open_daq, open_shaker
+from .registry import DAQS, SHAKERS, open_daq, open_shaker
 
 __all__ = [
-    "Acquirer", "AcqStats", "Block", "Channel", "MultisineOutput", "RandomOutput",
+    "DEFAULT_RAMP_TIME", "Acquirer", "AcqStats", "Block", "Channel", "DeviceState",
+    "MultisineOutput", "RandomOutput",
     "SignalGenerator", "SineOutput",
     "CommsError", "DeviceError", "Disconnected", "DriverConfigError", "DriverError",
     "DriverTimeout", "ProtocolError", "StateError", "UnknownBackendError",
-    "open_daq", "open_shaker",
+    "DAQS", "SHAKERS", "open_daq", "open_shaker",
 ]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from enum import StrEnum
 from types import TracebackType
 
 import numpy as np
@@ -107,17 +108,27 @@ class AcqStats:
         return dict(self.__dict__)
 
 
+class DeviceState(StrEnum):
+    """Where a shaker or DAQ is in its lifecycle (`SignalGenerator.state`, `Acquirer.state`)."""
+
+    NEW = "new"
+    CONFIGURED = "configured"
+    RUNNING = "running"
+    STOPPED = "stopped"
+    CLOSED = "closed"
+
+
 class _Lifecycle:
     """State bookkeeping and context management shared by both contracts."""
 
-    _state: str = "new"
+    _state: DeviceState = DeviceState.NEW
 
     @property
-    def state(self) -> str:
-        """One of ``new``, ``configured``, ``running``, ``stopped``, ``closed``."""
+    def state(self) -> DeviceState:
+        """Where the device is in its lifecycle."""
         return self._state
 
-    def _require(self, *states: str, action: str) -> None:
+    def _require(self, *states: DeviceState, action: str) -> None:
         if self._state not in states:
             raise StateError(f"cannot {action} while {self._state}; expected "
                              f"{' or '.join(states)}")
@@ -196,10 +207,14 @@ def check_output(output: Output, fs: float | None = None) -> None:
         raise DriverConfigError(f"unknown output type {type(output).__name__}")
 
 
+#: Seconds a shaker ramps its drive to a new level or to zero (every backend's default).
+DEFAULT_RAMP_TIME = 0.05
+
+
 class SignalGenerator(_Lifecycle, ABC):
     """A shaker controller / signal generator with one drive output."""
 
-    ramp_time: float = 0.05
+    ramp_time: float = DEFAULT_RAMP_TIME
 
     @abstractmethod
     def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
@@ -314,7 +329,7 @@ class Acquirer(_Lifecycle, ABC):
 
     def close(self) -> None:
         """Stop streaming if needed (a dead link is ignored) and release the device."""
-        if self._state == "closed":
+        if self._state == DeviceState.CLOSED:
             return
         try:
             self.stop(timeout=0.5)
@@ -322,7 +337,7 @@ class Acquirer(_Lifecycle, ABC):
             pass
         finally:
             self._release()
-            self._state = "closed"
+            self._state = DeviceState.CLOSED
 
     def _release(self) -> None:
         """Free the transport (port, bus); nothing by default."""

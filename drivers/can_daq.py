@@ -13,7 +13,7 @@ import can
 import numpy as np
 
 from . import can_protocol as proto
-from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
+from .base import (DeviceState, Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
                    default_stall_timeout)
 from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
 
@@ -65,7 +65,8 @@ class CanDaq(Acquirer):
     def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
                   timeout: float = 1.0) -> None:
         """Set sample rate, channels and frame size on the CAN DAQ (`Acquirer.configure`)."""
-        self._require("new", "configured", "stopped", action="configure")
+        self._require(DeviceState.NEW, DeviceState.CONFIGURED, DeviceState.STOPPED,
+                      action="configure")
         self.check_config(fs, channels, frame_size)
         if len(channels) > 2 * proto.MAX_GROUPS:
             raise DriverConfigError(f"the CAN DAQ carries at most {2 * proto.MAX_GROUPS} "
@@ -74,7 +75,7 @@ class CanDaq(Acquirer):
         self.stall_timeout = self._stall_given or default_stall_timeout(1.0 / self.fs)
         self._groups = proto.n_groups(len(channels))
         self._scale = proto.volt_scale() / np.array([c.sensitivity for c in channels])
-        self._state = "configured"
+        self._state = DeviceState.CONFIGURED
 
     def _control(self, command: int, timeout: float) -> None:
         msg = self._db.get_message_by_frame_id(proto.CONTROL_ID)
@@ -111,16 +112,16 @@ class CanDaq(Acquirer):
 
     def start(self, *, timeout: float = 1.0) -> None:
         """Start streaming sample frames (`Acquirer.start`)."""
-        self._require("configured", "stopped", action="start")
+        self._require(DeviceState.CONFIGURED, DeviceState.STOPPED, action="start")
         self._reset_stream()
         self._cur = np.zeros(2 * self._groups)
         self._filled = np.zeros(self._groups, bool)
         self._control(1, timeout)
-        self._state = "running"
+        self._state = DeviceState.RUNNING
 
     def read(self, timeout: float = 1.0) -> Block:
         """The next block of samples from the bus, gaps counted (`Acquirer.read`)."""
-        self._require("running", action="read")
+        self._require(DeviceState.RUNNING, action="read")
         deadline = time.monotonic() + timeout
         if self._held is not None:
             self._deliver(*self._held)
@@ -196,9 +197,9 @@ class CanDaq(Acquirer):
 
     def stop(self, *, timeout: float = 1.0) -> None:
         """Stop streaming; nothing if not running (`Acquirer.stop`)."""
-        if self._state != "running":
+        if self._state != DeviceState.RUNNING:
             return
-        self._state = "stopped"
+        self._state = DeviceState.STOPPED
         self._control(0, timeout)
 
     def _release(self) -> None:

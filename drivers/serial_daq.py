@@ -7,7 +7,7 @@ from collections import deque
 
 import numpy as np
 
-from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
+from .base import (DeviceState, Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
                    default_stall_timeout)
 from .errors import DriverTimeout, ProtocolError
 from .frame import Frame, FrameParser
@@ -46,7 +46,8 @@ class SerialDaq(Acquirer):
     def configure(self, fs: float, channels: list[Channel], *, frame_size: int = 64,
                   timeout: float = 1.0) -> None:
         """Send sample rate, channel count and frame size to the DAQ (`Acquirer.configure`)."""
-        self._require("new", "configured", "stopped", action="configure")
+        self._require(DeviceState.NEW, DeviceState.CONFIGURED, DeviceState.STOPPED,
+                      action="configure")
         self.check_config(fs, channels, frame_size)
         for cmd in (f"CONF:RATE {fs:.12g}", f"CONF:CHAN:COUN {len(channels)}",
                     f"CONF:FRAM {frame_size}"):
@@ -54,20 +55,20 @@ class SerialDaq(Acquirer):
         self.fs, self.channels, self.frame_size = float(fs), tuple(channels), frame_size
         self.stall_timeout = self._stall_given or default_stall_timeout(frame_size / self.fs)
         self._scale = 1.0 / np.array([c.sensitivity for c in channels])
-        self._state = "configured"
+        self._state = DeviceState.CONFIGURED
 
     def start(self, *, timeout: float = 1.0) -> None:
         """Start streaming frames (`Acquirer.start`)."""
-        self._require("configured", "stopped", action="start")
+        self._require(DeviceState.CONFIGURED, DeviceState.STOPPED, action="start")
         self.link.command("INIT", timeout)
         self._parser = FrameParser()
         self._pending.clear()
         self._next_seq, self._next_sample = 0, 0
-        self._state = "running"
+        self._state = DeviceState.RUNNING
 
     def read(self, timeout: float = 1.0) -> Block:
         """The next block of samples, gaps counted (`Acquirer.read`)."""
-        self._require("running", action="read")
+        self._require(DeviceState.RUNNING, action="read")
         deadline = time.monotonic() + timeout
         while True:
             while self._pending:
@@ -109,9 +110,9 @@ class SerialDaq(Acquirer):
 
     def stop(self, *, timeout: float = 1.0) -> None:
         """Stop streaming; nothing if not running (`Acquirer.stop`)."""
-        if self._state != "running":
+        if self._state != DeviceState.RUNNING:
             return
-        self._state = "stopped"
+        self._state = DeviceState.STOPPED
         self.link.write(b"ABOR\n")
         self.link.drain_until(b"OK\n", timeout)
 

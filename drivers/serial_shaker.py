@@ -12,9 +12,8 @@ import math
 import threading
 import time
 
-from .base import (MultisineOutput, Output, RandomOutput, SignalGenerator, SineOutput,
-                   SweepOutput,
-                   check_output)
+from .base import (DEFAULT_RAMP_TIME, DeviceState, MultisineOutput, Output, RandomOutput,
+                   SignalGenerator, SineOutput, SweepOutput, check_output)
 from .errors import CommsError, DeviceError, DriverConfigError
 from .serial_link import SerialLink
 
@@ -44,7 +43,7 @@ class SerialShaker(SignalGenerator):
         it hears nothing from the host for this long (default `DEFAULT_WATCHDOG`).
     """
 
-    def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = 0.05,
+    def __init__(self, port: str, baud: int = 115200, *, ramp_time: float = DEFAULT_RAMP_TIME,
                  watchdog: float = DEFAULT_WATCHDOG) -> None:
         if not (isinstance(watchdog, (int, float)) and math.isfinite(watchdog)
                 and (watchdog == 0 or MIN_WATCHDOG <= watchdog <= 60)):
@@ -95,7 +94,8 @@ class SerialShaker(SignalGenerator):
 
     def configure(self, output: Output, level: float, *, timeout: float = 1.0) -> None:
         """Send the waveform, ramp and level to the shaker (`SignalGenerator.configure`)."""
-        self._require("new", "configured", "stopped", action="configure")
+        self._require(DeviceState.NEW, DeviceState.CONFIGURED, DeviceState.STOPPED,
+                      action="configure")
         check_output(output)
         level = self.check_level(level)
         if isinstance(output, RandomOutput):
@@ -117,40 +117,42 @@ class SerialShaker(SignalGenerator):
         cmds += [f"SOUR:RAMP {self.ramp_time:.6g}", f"SOUR:VOLT {level:.12g}"]
         for cmd in cmds:
             self.link.command(cmd, timeout)
-        self._state = "configured"
+        self._state = DeviceState.CONFIGURED
 
     def set_level(self, level: float, *, timeout: float = 1.0) -> None:
         """Change the drive level, V (`SignalGenerator.set_level`)."""
-        self._require("configured", "running", "stopped", action="set the level")
+        self._require(DeviceState.CONFIGURED, DeviceState.RUNNING, DeviceState.STOPPED,
+                      action="set the level")
         self.link.command(f"SOUR:VOLT {self.check_level(level):.12g}", timeout)
 
     def set_frequency(self, freq: float, *, timeout: float = 1.0) -> None:
         """Change the sine frequency without stopping (phase-continuous)."""
-        self._require("configured", "running", "stopped", action="set the frequency")
+        self._require(DeviceState.CONFIGURED, DeviceState.RUNNING, DeviceState.STOPPED,
+                      action="set the frequency")
         check_output(SineOutput(freq))
         self.link.command(f"SOUR:FREQ {freq:.12g}", timeout)
 
     def start(self, *, timeout: float = 1.0) -> None:
         """Switch the output on (ramped; `SignalGenerator.start`)."""
-        self._require("configured", "stopped", action="start")
+        self._require(DeviceState.CONFIGURED, DeviceState.STOPPED, action="start")
         self.link.command("OUTP ON", timeout)
-        self._state = "running"
+        self._state = DeviceState.RUNNING
 
     def stop(self, *, timeout: float = 1.0) -> None:
         """Switch the output off (ramped); nothing if not running."""
-        if self._state == "running":
+        if self._state == DeviceState.RUNNING:
             self.link.command("OUTP OFF", timeout)
-            self._state = "stopped"
+            self._state = DeviceState.STOPPED
 
     def emergency_stop(self, *, timeout: float = 0.1) -> None:
         """Abort the output at once (`SignalGenerator.emergency_stop`)."""
         self.link.command("ABOR", timeout)
-        if self._state == "running":
-            self._state = "stopped"
+        if self._state == DeviceState.RUNNING:
+            self._state = DeviceState.STOPPED
 
     def close(self) -> None:
         """Stop the watchdog feeder, the output and close the port."""
-        if self._state == "closed":
+        if self._state == DeviceState.CLOSED:
             return
         self._halt.set()
         if self._feeder is not None:
@@ -163,4 +165,4 @@ class SerialShaker(SignalGenerator):
             pass
         finally:
             self.link.close()
-            self._state = "closed"
+            self._state = DeviceState.CLOSED

@@ -95,7 +95,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _say_if_compiling() -> None:
-    from .warmup import kernels_cached
+    from .warmup import kernels_cached   # numba: only for commands that run kernels
     if not kernels_cached():
         print("nlid-lab: compiling numeric kernels (first run only, up to a minute; "
               "`nlid-lab warmup` does it ahead)...", file=sys.stderr, flush=True)

@@ -15,11 +15,16 @@ from pathlib import Path
 
 import numpy as np
 
+from analysis.detection import detect
 from analysis.errors import InputError
-from analysis.models import Model
+from analysis.models import Element, Model
+from analysis.spectral import level_frf
 
-from . import store
-from .methods.reverse_path import ReversePathOptions, estimate, format_table
+from . import methods, store
+from .campaign import parse_campaign, run_campaign
+from .methods import ReversePathOptions, reverse_path_estimate, reverse_path_table
+from .progress import CampaignProgress
+from .reports import load_run, write_report
 from .outputs import atomic_dir, atomic_path, write_json
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
@@ -79,9 +84,6 @@ def campaign_dict(cfg: DemoConfig) -> dict:
 
 def step_simulate(cfg: DemoConfig, model: Model) -> Path:
     """Run the random campaign on the simulated rig: every level into one HDF5 run file."""
-    from .campaign import run_campaign
-    from .campaign import parse_campaign
-    from .progress import CampaignProgress
 
     cfg.out.mkdir(parents=True, exist_ok=True)
     path = cfg.out / "sdof-random.h5"
@@ -93,11 +95,9 @@ def step_simulate(cfg: DemoConfig, model: Model) -> Path:
 
 def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[dict]]:
     """H1 FRF of each level, overlaid with the underlying linear FRF, as a PNG."""
-    import matplotlib
+    import matplotlib             # the figure backend is chosen here, on use
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from analysis.spectral import level_frf
+    import matplotlib.pyplot as plt   # after the backend is chosen
 
     run = store.open_run(run_path)
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -127,7 +127,6 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
 
 def step_detect(run_path: Path) -> dict:
     """Is it nonlinear? The model-free test of ``nlid-lab detect`` on the stored levels."""
-    from analysis.detection import detect
 
     result = detect(store.open_run(run_path).recordings())
     (t,) = result.tests
@@ -143,15 +142,14 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
     The candidate is the demo model with every element parameter omitted. The result is
     written as JSON next to the run and stored in the run as ``analyze-reverse-path``.
     """
-    from analysis.models import Element
 
     candidate = model.with_elements([Element(el.kind, el.w.copy(), {})
                                      for el in model.elements])
     recs = store.open_run(run_path).recordings()
     nperseg = min(cfg.estimate_nperseg, min(r.force.shape[0] for r in recs) // 4)
-    est = estimate(recs, candidate, ReversePathOptions(nperseg=nperseg))
+    est = reverse_path_estimate(recs, candidate, ReversePathOptions(nperseg=nperseg))
     out = est.to_json()
-    print(format_table(est.result, est.modal, reference=model))
+    print(reverse_path_table(est.result, est.modal, reference=model))
     path = cfg.out / "reverse-path.json"
     write_json(out, str(path))
     store.save_result(run_path, "analyze-reverse-path", out)
@@ -160,12 +158,10 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
 
 def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     """HTML report of the run (FRFs, coherence, reverse-path figures, stored estimates)."""
-    from .reports import write_report
-    from .reports import load_run
 
     run = load_run(run_path)
     with atomic_dir(cfg.out / "report") as tmp:     # figures and page whole, or none
-        write_report(run, tmp)
+        write_report(run, tmp, estimators=methods)
     return cfg.out / "report" / "index.html"
 
 

@@ -11,6 +11,7 @@ depend on the number of workers or on completion order.
 from __future__ import annotations
 
 import faulthandler
+import logging
 import math
 import os
 import statistics
@@ -27,6 +28,7 @@ from analysis.models import Model
 from analysis.recordings import Recording
 
 from . import methods
+from .store import write_table
 
 AUTO = "auto"  # each level's method from its excitation (`nlid_lab.methods.for_excitation`)
 RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
@@ -264,9 +266,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     The local cluster has ``workers`` process workers (default: one per core) with one thread
     each; Dask's nanny pins BLAS/OpenMP to one thread per worker.
     """
-    import logging
-
-    import dask
+    import dask                   # dask and distributed load on use: seconds of import
     from distributed import Client, LocalCluster
     if scheduler:
         if workers is not None:
@@ -298,7 +298,7 @@ def worker_environ() -> dict[str, Any]:
     dynamic mmap threshold, so every large numpy temporary is a fresh mmap with page faults:
     measured 29 -> 42 ms per run of reverse path (+45 %). The BLAS/OpenMP one-thread pins stay.
     """
-    import dask
+    import dask                   # dask loads on use: seconds of import
 
     environ = dict(dask.config.get(NANNY_ENVIRON, default={}))
     environ.pop("MALLOC_TRIM_THRESHOLD_", None)
@@ -336,7 +336,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     -------
     Reanalysis
     """
-    from distributed import as_completed
+    from distributed import as_completed   # loads on use, as dask
     from tqdm import tqdm
 
     check_request(model, method, run_timeout_s)
@@ -371,7 +371,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
 
 def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | str:
     """The error of a task without result; a dead worker explained in words."""
-    from distributed import KilledWorker
+    from distributed import KilledWorker   # loads on use, as dask
     if not isinstance(exc, KilledWorker):
         return exc
     why = f"took over the {run_timeout_s:g} s run time limit or crashed" if run_timeout_s \
@@ -393,7 +393,6 @@ def _complete_columns(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 def write_results(result: Reanalysis, out: str | Path) -> None:
     """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store.tables`)."""
-    from nlid_lab.store import write_table
     attrs = {"kind": "nlid-lab reanalysis", "method": result.method,
              "n_runs": result.n_runs, "n_ok": result.n_ok, "n_failed": result.n_failed,
              "n_workers": result.n_workers, "elapsed_s": result.elapsed_s, **result.attrs}

@@ -16,7 +16,7 @@ MAX_WORK = 1e9  # substeps x (DOFs + elements): a few minutes of the plant at mo
 def work(model: Model, fs: float, n_samples: int, oversample: int | None = None
          ) -> tuple[float, float]:
     """Plant substeps for ``n_samples`` output samples at ``fs``, and their work."""
-    from analysis.plant import auto_oversample
+    from analysis.plant import auto_oversample   # the plant's kernels load on use
     substeps = float(oversample or auto_oversample(model, fs)) * n_samples
     return substeps, substeps * (model.n_dof + len(model.elements))
 

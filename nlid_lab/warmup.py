@@ -11,17 +11,16 @@ import sys
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
+
+import analysis
 
 MODELS = Path(__file__).resolve().parents[1] / "examples" / "models"
 
 
 def kernels_cached() -> bool:
     """True if every kernel module of `analysis` has compiled code in numba's cache."""
-    import numba
-
-    import analysis
-
     here = Path(analysis.__file__).parent
     modules = ("_plant_kernels", "_aft", "_hbm", "_spectral", "_elements")
     root = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else None
@@ -34,6 +33,7 @@ def kernels_cached() -> bool:
 
 def warm_up() -> float:
     """Run tiny problems through every numba kernel; returns the seconds it took."""
+    # imported here: importing them is the start of the work this function times
     from analysis.hbm import continue_frf
     from analysis.models import KINDS, restoring_force
     from analysis.hbm import HBMSystem

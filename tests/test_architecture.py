@@ -1,7 +1,11 @@
-"""The tree's structure: imports run one way, no module cycles, h5py only in the store.
+"""The tree's structure: imports run one way, no module or room cycles, rooms entered only
+through their ``__init__``, h5py only in the store.
 
 The import graph is read from the source (every ``import``, local ones inside functions
-included; ``if TYPE_CHECKING:`` blocks excluded because they never run).
+included; ``if TYPE_CHECKING:`` blocks excluded because they never run). A room is a package
+one level below a layer (``analysis.models``, ``drivers.emulators``, ``nlid_lab.store``);
+code outside a room imports the room itself and its public names, never one of its modules
+nor an underscore name (docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -97,6 +101,123 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
         if v not in index:
             visit(v)
     return out
+
+
+def _room(name: str, mods: dict[str, Path]) -> str | None:
+    """The room holding module ``name`` (the room's own ``__init__`` included), or None for
+    a layer's top-level modules (``nlid_lab.cli``, ``drivers.registry``)."""
+    pkg = ".".join(name.split(".")[:2])
+    return pkg if pkg.count(".") == 1 and mods.get(pkg, Path()).name == "__init__.py" else None
+
+
+def _module_of(target: str, mods: dict[str, Path]) -> str:
+    """The module an imported name (module or module.attribute) lives in ("" if outside)."""
+    while target and target not in mods:
+        target = target.rpartition(".")[0]
+    return target
+
+
+def _reaches_inside(name: str, target: str, mods: dict[str, Path]) -> bool:
+    """Does module ``name`` importing ``target`` (module or module.attribute) reach into
+    another room: one of its modules other than the ``__init__``, or an underscore name?"""
+    module = _module_of(target, mods)
+    room = _room(module, mods) if module else None
+    if room is None or room == _room(name, mods):
+        return False
+    attribute = target[len(module) + 1:]
+    return module != room or (attribute.startswith("_") and not attribute.startswith("__"))
+
+
+#: Imports into another room waiting for a move planned elsewhere: (importer, room) -> why.
+PENDING = {("analysis.reverse_path._screening", "analysis.diagnose"):
+           "issue 24 item 2 moves the candidate library below the diagnosis"}
+
+
+def _room_graph(mods: dict[str, Path], graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """Rooms (and top-level modules) and the rooms they import, pending moves left out."""
+    rooms: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        here = _room(name, mods) or name
+        edges = rooms.setdefault(here, set())
+        for t in targets:
+            there = _room(t, mods) or t
+            if there != here and (name, there) not in PENDING:
+                edges.add(there)
+    for targets in list(rooms.values()):
+        for t in targets:
+            rooms.setdefault(t, set())
+    return rooms
+
+
+def test_rooms_are_entered_through_their_init():
+    mods = _modules()
+    wrong = sorted((name, t) for name, path in mods.items() for t in _imports(name, path)
+                   if _reaches_inside(name, t, mods)
+                   and (name, _room(_module_of(t, mods), mods)) not in PENDING)
+    assert wrong == []
+
+
+def test_no_room_cycles():
+    assert _cycles(_room_graph(_modules(), _graph())) == []
+
+
+def test_room_rule_sees_a_reach_inside():
+    mods = {name: Path(f"{name.replace('.', '/')}.py") for name in
+            ("a.r._m", "a.r.pub", "a.s._n", "a.top")} | {"a.r": Path("a/r/__init__.py"),
+                                                         "a.s": Path("a/s/__init__.py")}
+    assert _reaches_inside("a.s._n", "a.r._m.f", mods)          # a private module
+    assert _reaches_inside("a.s._n", "a.r.pub", mods)           # any module but the __init__
+    assert _reaches_inside("a.top", "a.r._hidden", mods)        # an underscore name
+    assert not _reaches_inside("a.s._n", "a.r.f", mods)         # the room's API
+    assert not _reaches_inside("a.r.pub", "a.r._m.f", mods)     # inside its own room
+    assert not _reaches_inside("a.s._n", "a.top.f", mods)       # a layer's top-level module
+    graph = {"a.r._m": {"a.s._n"}, "a.s._n": {"a.r.pub"}, "a.r.pub": set(), "a.top": set()}
+    assert _cycles(_room_graph(mods, graph)) == [["a.r", "a.s"]]
+
+
+#: Packages whose imports inside functions have their reason in the package's documentation:
+#: every command line imports them (`nlid_lab/commands/__init__.py`,
+#: `nlid_lab/methods/registry.py`); and code being rewritten elsewhere (issue 24).
+LOCAL_IMPORTS_EXPLAINED = ("nlid_lab/commands/", "nlid_lab/methods/", "analysis/diagnose/",
+                           "analysis/reverse_path/_screening.py")
+
+
+def _unexplained_local_imports(source: str) -> list[int]:
+    """Lines of runs of imports inside a function with no comment on them or on the line
+    above (the comment says why the import waits: import cost, an optional extra, a cycle)."""
+    lines = source.splitlines()
+    bodies = [node.body for node in ast.walk(ast.parse(source))
+              if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))]
+    for fn in list(bodies):
+        bodies += [getattr(n, f) for n in ast.walk(ast.Module(body=fn, type_ignores=[]))
+                   for f in ("body", "orelse", "finalbody", "handlers")
+                   if isinstance(n, (ast.If, ast.Try, ast.With, ast.For, ast.ExceptHandler))
+                   and isinstance(getattr(n, f, None), list)]
+    found = set()
+    for body in bodies:
+        run: list[ast.stmt] = []
+        for stmt in [*body, None]:
+            if isinstance(stmt, (ast.Import, ast.ImportFrom)):
+                run.append(stmt)
+                continue
+            if run and not any("#" in line for line in
+                               lines[max(run[0].lineno - 2, 0):run[-1].end_lineno]):
+                found.add(run[0].lineno)
+            run = []
+    return sorted(found)
+
+
+def test_imports_inside_functions_say_why():
+    wrong = [f"{path.relative_to(ROOT)}:{line}" for path in _modules().values()
+             if not str(path.relative_to(ROOT)).startswith(LOCAL_IMPORTS_EXPLAINED)
+             for line in _unexplained_local_imports(path.read_text())]
+    assert wrong == []
+
+
+def test_local_import_check_sees_a_silent_one():
+    source = ("def f():\n    import json\n    return json\n\n"
+              "def g():\n    import csv   # loads on use\n    import io\n    return csv, io\n")
+    assert _unexplained_local_imports(source) == [2]
 
 
 def test_no_import_cycles():

@@ -33,9 +33,10 @@ import scipy.stats
 
 from ..spectral import (BLA, DETECT_QUANTILE, best_linear_approximation, default_nperseg, h1,
                         hold_gain, level_name, multiple_coherence, sine_fit, spectral_matrix)
-from ..diagnose.prepare import record_level
+from ..backbone import frf_noise
 from ..errors import InputError
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, record_level
+from ._detect_sweep import sweep_tests
 from ._result import Detection, DetectionTest, TestMethod
 
 
@@ -75,7 +76,6 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> De
         elif group:
             notes.append(f"one {name} level: the level-dependence test needs two or more")
     if swept:
-        from ._detect_sweep import sweep_tests
         more, said = sweep_tests(swept, _summary)
         tests += more
         notes += said
@@ -211,7 +211,6 @@ def _step_frf(rec: Recording | StepTable, freqs: np.ndarray) -> tuple[np.ndarray
     table: its phasor ratios, the variance from the scatter about a single mode,
     `analysis.backbone.frf_noise`)."""
     if isinstance(rec, StepTable):
-        from ..backbone import frf_noise
         idx = [int(np.flatnonzero(np.isclose(rec.freqs, f))[0]) for f in freqs]
         H = rec.frf()
         var = frf_noise(rec.freqs, H[:, :, 0], KIND_ORDER[rec.response_kind])

@@ -26,11 +26,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..spectral import DETECT_QUANTILE, level_name
+from ..spectral import (DETECT_QUANTILE, NOISE_ORDERS, SweepFRF, harmonic_distortion,
+                        independent_windows, level_name, recording_sweep_frf)
 from ..recordings import KIND_ORDER, Recording
 from ._result import DetectionTest, Jumps, SweepJump, TestMethod
-from ..spectral._sweep import (NOISE_ORDERS, SweepFRF, _independent, harmonic_distortion,
-                               recording_sweep_frf)
 
 #: a jump changes |H| by more than this many times the steepest linear step between points
 JUMP_FACTOR = 4.0
@@ -144,7 +143,7 @@ def level_dependence(frfs: Sequence[SweepFRF], response_kind: str,
     order = sorted(range(len(frfs)), key=lambda i: frfs[i].level)
     lo, hi = frfs[order[0]], frfs[order[-1]]
     labels = (level_name(recordings[order[0]]), level_name(recordings[order[-1]]))
-    keep = _independent(lo.times, lo.window_s)
+    keep = independent_windows(lo.times, lo.window_s)
     f = lo.freqs[keep]
     inside = (f >= hi.freqs.min()) & (f <= hi.freqs.max())
     f = f[inside]

@@ -13,7 +13,7 @@ docs/diagnose.md.
 """
 
 from .candidates import Candidate, library
-from .prepare import DiagnoseInputError
+from .prepare import DiagnoseInputError, level_name
 from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
                      FitSummary, LevelError, LevelResiduals, Location, LocationRow, Misfit,
                      PassSummary, Rejection, TimeResidual, Verdict)
@@ -22,6 +22,8 @@ from .search import diagnose
 __all__ = [
     # entry point and input errors
     "diagnose", "DiagnoseInputError", "Candidate", "library",
+    # a level as the diagnosis names it (``level 30``, else its measured force)
+    "level_name",
     # the result (frozen dataclasses; Diagnosis.to_json / from_json)
     "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..recordings import Recording, excitation_band, periodic_kinematics, remove_dc, to_kinematics
-from ..spectral import measured_level, spectral_matrix
+from ..recordings import (Recording, excitation_band, periodic_kinematics, record_level, remove_dc,
+                          to_kinematics)
+from ..spectral import spectral_matrix
 
 EDGE_FRACTION = 0.02
 """Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
@@ -57,11 +58,6 @@ class Prepared:
     label: str
     force_hold: str = "none"
     response_kind: str = "displacement"
-
-
-def record_level(rec: Recording) -> float:
-    """Nominal level: the recording's own, else the rms (random) or amplitude (sine) force."""
-    return float(rec.level) if rec.level is not None else measured_level(rec)
 
 
 def level_name(rec: Recording) -> str:

@@ -198,7 +198,7 @@ def _fft_grid(f: np.ndarray) -> bool:
 def _pyema_poles(f: np.ndarray, h: np.ndarray, band: tuple[float, float], max_order: int):
     """pyEMA's LSCF poles (frequencies, damping ratios) per order of lines on a grid through
     0 Hz."""
-    from pyEMA import Model as LSCF
+    from pyEMA import Model as LSCF   # loaded on use: it imports matplotlib and Qt
 
     lo, hi = band
     df = np.diff(f)

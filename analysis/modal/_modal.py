@@ -30,6 +30,7 @@ import scipy.signal
 
 from ..errors import EstimationError, InputError
 from ..spectral import Spectra, multiple_coherence
+from ._ema import refine
 
 if TYPE_CHECKING:
     from ..reverse_path import ReversePathResult
@@ -205,7 +206,6 @@ def _refine_smoothed(f: np.ndarray, h: np.ndarray, wts: np.ndarray, poles: np.nd
     """Poles and residues of ``sum_k r_k / (s - s_k) + conj`` whose Welch-smoothed FRF fits
     ``h`` (relative error per line, times ``wts``); starts from ``poles`` (`analysis.modal._ema.refine`
     without residual terms)."""
-    from ._ema import refine
     fn, zeta = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)
     refined, residues, _, _ = refine(f, h, fn, zeta, residuals=(False, False),
                                      smoothing=smoothing, weights=wts)

@@ -11,13 +11,14 @@ from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_
 from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent,
                         memoryless_force, pack_params, register_kind, restoring_force,
                         unregister_kind)
-from ._basis import (FAMILIES, LIBRARY, alias_error, aliasing_factor, deformation, element_basis,
-                     evaluate)
+from ._basis import (FAMILIES, LIBRARY, Basis, alias_error, aliasing_factor, deformation,
+                     element_basis, evaluate)
 from ._textfile import MAX_TOML_BYTES, MAX_TOML_DEPTH, parse_toml, read_text, unknown_keys
 
-__all__ = ["Element", "FAMILIES", "KINDS", "Kind", "LIBRARY", "MAX_DOF", "MAX_ELEMENTS",
-           "MAX_ENTRY", "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "Model", "Support", "N_BUILTIN", "N_PARAM", "N_STATE",
-           "Param", "Refs", "alias_error", "aliasing_factor", "coefficient_units", "deformation",
-           "element_basis", "element_force", "element_tangent", "evaluate", "lookup",
-           "memoryless_force", "pack_params", "parse_toml", "read_text", "register_kind", "restoring_force",
-           "search_order", "unknown_keys", "unregister_kind"]
+__all__ = ["alias_error", "aliasing_factor", "Basis", "coefficient_units", "deformation",
+           "Element", "element_basis", "element_force", "element_tangent", "evaluate", "FAMILIES",
+           "Kind", "KINDS", "LIBRARY", "lookup", "MAX_DOF", "MAX_ELEMENTS", "MAX_ENTRY",
+           "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "memoryless_force", "Model",
+           "N_BUILTIN", "N_PARAM", "N_STATE", "pack_params", "Param", "parse_toml", "read_text",
+           "Refs", "register_kind", "restoring_force", "search_order", "Support", "unknown_keys",
+           "unregister_kind"]

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.linalg import eigh
 
 from ._elements import KINDS
 from ..errors import ModelError
@@ -235,7 +236,6 @@ class Model:
     def natural_frequencies(self) -> np.ndarray:
         """Undamped natural frequencies of the linear system, Hz, ascending (pseudo-modes
         included)."""
-        from scipy.linalg import eigh
         lam = eigh(self.stiffness, self.mass, eigvals_only=True)
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
@@ -258,7 +258,6 @@ class Model:
         sensors): the lowest ``n_modes`` modes (all by default), mass-normalised; damping
         ratios from the diagonal of the modal damping (exact for modal damping). Elements
         move along when they act on the kept points only."""
-        from scipy.linalg import eigh
         idx = [self.point_index(p) for p in points]
         names = list(names) if names is not None else [self.points[i] for i in idx]
         lam, vec = eigh(self.stiffness, self.mass)
@@ -456,7 +455,6 @@ def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int
     if model.decoupled and np.all(np.diag(m) == 1):
         w = np.sqrt(np.diag(k))
         return w / (2 * np.pi), np.diag(c) / (2 * w), model.shapes.T, model.n_residual
-    from scipy.linalg import eigh
     lam, vec = eigh(k, m)
     w = np.sqrt(np.clip(lam, 0.0, None))
     zeta = np.einsum("qi,qr,ri->i", vec, c, vec) / (2 * np.maximum(w, 1e-300))
@@ -528,7 +526,6 @@ def _rates(model: Model, elements: list[Element]) -> tuple[float, float]:
     """Highest natural frequency and viscous decay rate, Hz, of the linear system stiffened
     and damped by ``elements`` at rest (their kinds' slopes at zero amplitude: the
     piecewise-linear and Coulomb kinds' steepest)."""
-    from scipy.linalg import eigh
     stiff, visc = model.stiffness.copy(), model.damping.copy()
     for el in elements:
         wq = model.to_q(el.w)

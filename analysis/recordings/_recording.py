@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -11,10 +12,29 @@ from ..errors import RecordingError
 from ._sensors import MIXED, SensorMap
 from ._sweep_law import Sweep
 
-EXCITATIONS = ("random", "stepped-sine", "swept-sine")
+
+
+class Excitation(StrEnum):
+    """How a level was driven: a recording's ``excitation``, a campaign's ``kind``."""
+
+    RANDOM = "random"                  # random and periodic random (multisine)
+    STEPPED_SINE = "stepped-sine"
+    SWEPT_SINE = "swept-sine"
+
+
+class ResponseKind(StrEnum):
+    """What a response channel measures (a sensor map may also mix them: ``MIXED``)."""
+
+    DISPLACEMENT = "displacement"
+    VELOCITY = "velocity"
+    ACCELERATION = "acceleration"
+
+
+#: The enums' members as tuples, for ``in`` checks, ``choices`` and messages.
+EXCITATIONS = tuple(Excitation)
+RESPONSE_KINDS = tuple(ResponseKind)
 #: excitations recorded as one (n, channels) record (stepped sine: one record per step)
-CONTINUOUS = ("random", "swept-sine")
-RESPONSE_KINDS = ("displacement", "velocity", "acceleration")
+CONTINUOUS = (Excitation.RANDOM, Excitation.SWEPT_SINE)
 MIN_FS, MAX_FS = 1e-3, 1e9  # Hz: sample rates of any acquisition
 MAX_SAMPLE = 1e15     # largest |force| or |response| sample: squares and sums stay finite
 MIN_PEAK = 1e-100     # smallest peak of a channel that is not all zero

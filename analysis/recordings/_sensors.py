@@ -226,7 +226,7 @@ def model_at_sensors(model: "Model", recs: "Recording | Sequence[Recording]",
         A mapped point is not in the model, the runs map their channels differently, or an
         element acts on an unmeasured point (naming the element and the point).
     """
-    from ..models import Element, Model
+    from ..models import Element, Model   # models (numba) load on use: recordings stay light
     recs = [recs] if not isinstance(recs, (list, tuple)) else list(recs)
     maps = {r.sensors for r in recs}
     if len(maps) > 1:
@@ -259,7 +259,7 @@ def at_points(model: "Model", full: "Model") -> "Model":
     """A `model_at_sensors` result (possibly refitted: same internal coordinates) back over
     ``full``'s points: its linear part and elements, with ``full``'s shapes and point names.
     Returned unchanged when it already has ``full``'s points."""
-    from ..models import Element, Model
+    from ..models import Element, Model   # models (numba) load on use: recordings stay light
     if list(model.points) == list(full.points) or model.n_q != full.n_q:
         return model
     idx = [full.points.index(p) for p in model.points]

@@ -28,7 +28,8 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.stats import t as student_t
 
-from ..models import Element, Model, _basis as bas, restoring_force
+from .. import models as bas    # the reverse-path basis functions of a kind
+from ..models import Element, Model, restoring_force
 from ..errors import InputError
 from ..recordings import KIND_ORDER, Recording, signal_bandwidth, to_kinematics
 from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix

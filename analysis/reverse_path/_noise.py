@@ -37,7 +37,8 @@ import scipy.ndimage
 import scipy.signal
 import scipy.stats
 
-from ..models import Model, _basis as bas, restoring_force
+from .. import models as bas    # the reverse-path basis functions of a kind
+from ..models import Model, restoring_force
 from ..errors import InputError, ModelError
 from ..plant import Plant, PlantError
 from ..recordings import (DEFAULT_TRANSIENT_PERIODS, KIND_ORDER, Recording, excitation_band,

@@ -35,7 +35,8 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.stats import t as student_t
 
-from ..models import KINDS, Element, Model, _basis as bas, search_order
+from .. import models as bas    # the reverse-path basis functions of a kind
+from ..models import KINDS, Element, Model, search_order
 from ..errors import EstimationError, InputError
 from ..spectral import (Spectra, conditioned_inputs, default_nperseg, h1, multiple_coherence,
                         spectral_matrix)

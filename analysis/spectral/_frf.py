@@ -14,8 +14,9 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band
+from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, measured_level
 from ._sine_fit import hold_gain, sine_fit
+from ._sweep import recording_sweep_frf
 
 #: FRF units by response kind (receptance, mobility, accelerance).
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
@@ -101,16 +102,6 @@ def default_nperseg(n: int) -> int:
     return int(min(2 ** int(np.floor(np.log2(target))), MAX_NPERSEG))
 
 
-def measured_level(rec: Recording) -> float:
-    """The force a level applied: rms of the DC-free force (random, multisine), largest
-    amplitude (sines), largest over the force channels, N."""
-    f = rec.force.reshape(-1, rec.n_in)
-    if rec.excitation == "random":
-        f = f - f.mean(axis=0)
-        return float(np.sqrt(np.mean(f**2, axis=0)).max())
-    return float(np.abs(f).max())
-
-
 def level_name(rec: Recording | StepTable) -> str:
     """A level as people read it: its nominal force (a response-controlled table: its held
     response amplitude), else the force it measured (``12.4 N rms``, ``4.8 N`` for sines:
@@ -161,7 +152,6 @@ def level_frf(rec: Recording | StepTable, index: int = 0,
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
     if rec.excitation == "swept-sine":
-        from ._sweep import recording_sweep_frf
         r = recording_sweep_frf(rec)
         H = convert_frf(r.frf, r.freqs, "displacement", rec.response_kind)
         return LevelFRF(freqs=r.freqs, H=H[:, :, None], n_averages=1, sweep=r, **common)

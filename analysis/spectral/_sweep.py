@@ -20,12 +20,13 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from scipy.linalg import eig
 from scipy.signal import hilbert
 from scipy.stats import f as f_dist
 
 from ..errors import RecordingError
 from ._sine_fit import SteppedSineFRF, hold_gain
-from ..recordings import SWEEP_LAWS, Sweep, SweepLaw  # noqa: F401  (re-exported)
+from ..recordings import SWEEP_LAWS, Sweep, SweepLaw, active_span  # noqa: F401  (re-exported)
 
 NOISE_ORDERS = (1.5, 2.5)
 #: orders are fitted up to this fraction of fs (near Nyquist a sine fit is ill-conditioned
@@ -227,7 +228,7 @@ def harmonic_distortion(frf: SweepFRF, alpha: float = 1e-3, smooth: int = 5) -> 
         ``method`` "sweep-harmonics", ``share_flagged``, ``share_limit``, ``nonlinear``,
         ``band_hz`` (range of the flagged windows) and ``tests`` (number of tests).
     """
-    keep = _independent(frf.times, frf.window_s)
+    keep = independent_windows(frf.times, frf.window_s)
     freqs, X, noise = frf.freqs[keep], frf.X[keep], frf.noise[keep]
     Fh = frf.force_harmonics[keep]
     order = np.argsort(frf.freqs)
@@ -265,7 +266,7 @@ def harmonic_distortion(frf: SweepFRF, alpha: float = 1e-3, smooth: int = 5) -> 
             "band_hz": [float(min(where)), float(max(where))] if where and nonlinear else None}
 
 
-def _independent(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
+def independent_windows(times: np.ndarray, window_s: np.ndarray) -> np.ndarray:
     """Indices of analysis windows that do not overlap (greedy, in time order)."""
     keep, end = [], -np.inf
     for i in np.argsort(times):
@@ -289,8 +290,6 @@ def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwarg
     **kwargs
         Passed to `sweep_frf` (``cycles``, ``points``).
     """
-    from ..recordings import active_span
-
     if rec.excitation != "swept-sine" or rec.sweep is None:
         raise RecordingError(f"a sweep FRF needs swept-sine data, got {rec.excitation}")
     a, b = active_span(rec.force[:, 0])
@@ -303,8 +302,6 @@ def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwarg
 def linear_modes(mass: np.ndarray, damping: np.ndarray, stiffness: np.ndarray
                  ) -> list[tuple[float, float]]:
     """``(fn Hz, zeta)`` of the underdamped modes of ``M q'' + C q' + K q``, ascending."""
-    from scipy.linalg import eig
-
     n = mass.shape[0]
     inv = np.linalg.solve(mass, np.hstack([stiffness, damping]))
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-inv[:, :n], -inv[:, n:]]])

@@ -6,6 +6,22 @@ threads, share one rig (one loop through the structure) and inject the faults of
 `drivers.faults.FaultSpec` (run as a `FaultPlan`).
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
 from .faults import FaultPlan
 
-__all__ = ["FaultPlan"]
+#: Emulators loaded on first use (PEP 562): the CAN one imports python-can.
+_LAZY = {"SerialShakerEmulator": "serial_emu", "SerialDaqEmulator": "serial_emu",
+         "CanDaqEmulator": "can_emu", "ROWS_PER_TICK": "can_emu"}
+
+__all__ = ["FaultPlan", *_LAZY]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    return value                    # not cached: the module's own name stays the one in use

@@ -26,6 +26,7 @@ from drivers.errors import CommsError
 
 from ._campaign_bench import Bench, open_bench
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
+from ._campaign_sweep import run_sweeps
 from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
 from ..store import DiskFullError, LevelWriter, RunWriter, left_out_text, require_room
 
@@ -385,7 +386,6 @@ class _Runner:
             if isinstance(c.plan, RandomSpec):
                 self.random(c.plan)
             elif isinstance(c.plan, SweepSpec):
-                from ._campaign_sweep import run_sweeps
                 run_sweeps(self, c.plan)
             else:
                 self.stepped(c.plan)

@@ -102,7 +102,7 @@ def _open_shaker(c: Campaign, rig: SimRig | None, emulators: list[Any],
     if c.watchdog is not None:
         options["watchdog"] = c.watchdog
     if kind == "serial-emu":
-        from drivers.emulators.serial_emu import SerialShakerEmulator
+        from drivers.emulators import SerialShakerEmulator   # emulators start on use
         emu = _closing_emulator(SerialShakerEmulator(rig), emulators, stack)
         return open_shaker(f"serial://{emu.port}", **options)
     return open_shaker(c.shaker_url, **options)
@@ -115,7 +115,7 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
         return open_daq("sim://", rig=rig)
     faults = c.fault_spec()
     if kind == "serial-emu":
-        from drivers.emulators.serial_emu import SerialDaqEmulator
+        from drivers.emulators import SerialDaqEmulator   # emulators start on use
         pace = _pace(c, c.daq_url)
         emu = _closing_emulator(SerialDaqEmulator(rig, c.channels, pace=pace, faults=faults),
                                 emulators, stack)
@@ -124,7 +124,7 @@ def _open_daq(c: Campaign, rig: SimRig | None, emulators: list[Any],
         return open_daq(f"serial://{emu.port}",
                         stall_timeout=c.comms_timeout or default_stall_timeout(interval))
     if kind == "can-emu":
-        from drivers.emulators.can_emu import ROWS_PER_TICK, CanDaqEmulator
+        from drivers.emulators import ROWS_PER_TICK, CanDaqEmulator   # needs python-can (extra)
         parts = urlsplit(c.daq_url)
         channel = parts.path.strip("/")
         if not parts.netloc or not channel:

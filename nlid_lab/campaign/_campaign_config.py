@@ -6,23 +6,28 @@ the fix. Relative paths are resolved against the campaign file's folder.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
 from analysis.errors import InputError, RecordingError
-from analysis.recordings import KIND_ORDER, MIXED, RESPONSE_KINDS, SensorMap, table_keys
-from analysis.models import parse_toml, read_text, unknown_keys
-from drivers.base import Channel
-from drivers.errors import DriverConfigError
+from analysis.models import Model, parse_toml, read_text, unknown_keys
+from analysis.recordings import (KIND_ORDER, MIXED, Excitation, ResponseKind, SensorMap, SweepLaw,
+                                 table_keys)
+from drivers import DAQS, DEFAULT_RAMP_TIME, SHAKERS, Channel, DriverConfigError
 from drivers.faults import FaultSpec
 
-KINDS = ("random", "stepped-sine", "swept-sine")
+from ..sim_budget import excess
+
 DIRECTIONS = ("up", "down", "up-down")
-SIMULATED = ("sim", "serial-emu", "can-emu")
-SCHEMES = SIMULATED + ("serial", "can")
+#: Simulated benches: ``sim`` runs both devices in-process; ``<scheme>-emu`` starts the bundled
+#: emulator of a registered backend and connects that backend's driver to it.
+EMULATED = {"serial-emu": "serial", "can-emu": "can"}
+SIMULATED = ("sim", *EMULATED)
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
             "sweep", "safety", "emulator", "sensors"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
@@ -31,6 +36,21 @@ MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
 
 class CampaignError(InputError):
     """A campaign file is invalid."""
+
+
+class Role(StrEnum):
+    """The two devices of a campaign, each a table of the campaign file."""
+
+    SHAKER = "shaker"
+    DAQ = "daq"
+
+
+def schemes(role: Role) -> tuple[str, ...]:
+    """The URL schemes a campaign accepts for ``role``: the driver registry's backends
+    (`drivers.SHAKERS`, `drivers.DAQS`), their emulated benches, ``sim``."""
+    backends = SHAKERS if role == Role.SHAKER else DAQS
+    emulated = tuple(emu for emu, real in EMULATED.items() if real in backends)
+    return (*backends, *emulated)
 
 
 @dataclass
@@ -74,7 +94,7 @@ class SweepSpec:
 
     levels: list[float]           # force amplitude of each level, N
     laws: list                    # analysis.sweep_law.SweepLaw of each level
-    block_size: int               # samples per level-control block (a sine at the start)
+    block_size: int = 1024        # samples per level-control block (a sine at the start)
     tolerance: float = 0.02
     max_control_iterations: int = 8
     lead_s: float = 0.5           # recorded before the sweep starts (trimmed when stored)
@@ -85,17 +105,17 @@ class Campaign:
     """A validated campaign."""
 
     name: str
-    kind: str
+    kind: Excitation
     shaker_url: str
     daq_url: str
     fs: float
     channels: list[Channel]
-    response_kind: str
+    response_kind: str                   # a `ResponseKind`, or ``MIXED`` with a sensor map
     plan: RandomSpec | SteppedSpec | SweepSpec
     plant: PlantSpec | None = None
     frame_size: int = 32
     comms_timeout: float | None = None   # None: the DAQ driver's frame interval + margin
-    ramp_time: float = 0.05
+    ramp_time: float = DEFAULT_RAMP_TIME
     gain_guess: float = 1.0
     max_drive: float = 10.0
     watchdog: float | None = None
@@ -159,7 +179,6 @@ class Campaign:
         simulated plant's ``model``, also the plant's work (`nlid_lab.sim_budget`)."""
         lo, _, nbytes = self.plan_size()
         if model is not None and self.plant is not None:
-            from ..sim_budget import excess
             too_much = excess(model, self.fs, round(lo * self.fs), self.plant.oversample)
             if too_much:
                 return f"the plan: {too_much}"
@@ -252,6 +271,15 @@ def _num(table: dict, key: str, name: str, *, default: Any = ..., lo: float = -m
     return int(v) if integer else float(v)
 
 
+def _opt(table: dict, key: str, name: str, spec: type, attribute: str | None = None,
+         **bounds: Any) -> Any:
+    """`_num` of an optional key whose default is the field ``attribute`` (default ``key``)
+    of the dataclass ``spec``: each default is written once, on its field."""
+    attribute = attribute or key
+    default = next(f.default for f in dataclasses.fields(spec) if f.name == attribute)
+    return _num(table, key, name, default=default, **bounds)
+
+
 def _levels(table: dict, name: str) -> list[float]:
     levels = table.get("levels")
     if not isinstance(levels, list) or not levels or not all(
@@ -262,12 +290,21 @@ def _levels(table: dict, name: str) -> list[float]:
     return [float(x) for x in levels]
 
 
-def _url(table: dict, name: str) -> str:
-    url = table.get("url")
-    if not isinstance(url, str) or scheme(url) not in SCHEMES:
-        raise CampaignError(f"[{name}] url must be a string starting with one of "
-                            f"{', '.join(s + '://' for s in SCHEMES)}, got {url!r}")
+def _url(table: dict, role: Role) -> str:
+    url, allowed = table.get("url"), schemes(role)
+    if not isinstance(url, str) or scheme(url) not in allowed:
+        raise CampaignError(f"[{role}] url must be a string starting with one of "
+                            f"{', '.join(s + '://' for s in allowed)}, got {url!r}")
     return url
+
+
+def _choice(value: Any, vocabulary: type[StrEnum], what: str) -> Any:
+    """``value`` as a member of ``vocabulary``; `CampaignError` listing the members."""
+    try:
+        return vocabulary(value)
+    except ValueError:
+        raise CampaignError(f"{what} must be one of {', '.join(vocabulary)}, got "
+                            f"{value!r}") from None
 
 
 def _channels(raw: Any) -> list[Channel]:
@@ -282,8 +319,7 @@ def _channels(raw: Any) -> list[Channel]:
         dof = c.get("dof")
         if isinstance(dof, bool) or not isinstance(dof, int):
             raise CampaignError(f"channel '{c['name']}': dof must be an integer (0-based)")
-        sens = _num(c, "sensitivity", f"channel {c['name']}", default=1.0, lo=0.0,
-                    open_lo=True)
+        sens = _opt(c, "sensitivity", f"channel {c['name']}", Channel, lo=0.0, open_lo=True)
         try:
             out.append(Channel(c["name"], str(c.get("quantity", "")), dof, sens,
                                str(c.get("unit", ""))))
@@ -398,17 +434,14 @@ def _periodic(t: dict, spec: RandomSpec, fs: float) -> RandomSpec:
                             f"{spec.block_size}-sample period (lines every {df:g} Hz); widen "
                             "the band or lengthen block_size")
     spec.periodic = True
-    spec.periods = _num(t, "periods", "random", default=8, lo=1, integer=True, hi=10000)
-    spec.transient_periods = _num(t, "transient_periods", "random", default=1, lo=1,
+    spec.periods = _opt(t, "periods", "random", RandomSpec, lo=1, integer=True, hi=10000)
+    spec.transient_periods = _opt(t, "transient_periods", "random", RandomSpec, lo=1,
                                   integer=True, hi=1000)
     return spec
 
 
 def _sweep(data: dict, fs: float) -> SweepSpec:
     """The [sweep] table: levels (force amplitudes), start, stop, law, rate, direction."""
-    from analysis.errors import RecordingError
-    from analysis.recordings import SweepLaw
-
     t = _table(data, "sweep")
     _unknown(t, {"levels", "start", "stop", "law", "rate", "direction", "block_size",
                  "tolerance", "max_control_iterations", "lead"}, "sweep")
@@ -430,18 +463,17 @@ def _sweep(data: dict, fs: float) -> SweepSpec:
     ways = {"up": [up], "down": [down], "up-down": [up, down]}[direction]
     amps = _levels(t, "sweep")
     return SweepSpec([a for a in amps for _ in ways], [w for _ in amps for w in ways],
-                     _num(t, "block_size", "sweep", default=1024, lo=16, hi=2**22,
-                          integer=True),
-                     _num(t, "tolerance", "sweep", default=0.02, lo=0, open_lo=True, hi=1),
-                     _num(t, "max_control_iterations", "sweep", default=8, lo=1, integer=True,
+                     _opt(t, "block_size", "sweep", SweepSpec, lo=16, hi=2**22, integer=True),
+                     _opt(t, "tolerance", "sweep", SweepSpec, lo=0, open_lo=True, hi=1),
+                     _opt(t, "max_control_iterations", "sweep", SweepSpec, lo=1, integer=True,
                           hi=100),
-                     _num(t, "lead", "sweep", default=0.5, lo=0.0, hi=60))
+                     _opt(t, "lead", "sweep", SweepSpec, "lead_s", lo=0.0, hi=60))
 
 
-def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepSpec:
-    if kind == "swept-sine":
+def _plan(data: dict, kind: Excitation, fs: float) -> RandomSpec | SteppedSpec | SweepSpec:
+    if kind == Excitation.SWEPT_SINE:
         return _sweep(data, fs)
-    if kind == "random":
+    if kind == Excitation.RANDOM:
         t = _table(data, "random")
         _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
                      "tolerance", "max_control_iterations", "periodic", "periods",
@@ -456,10 +488,9 @@ def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepS
                                                      integer=True, hi=100000),
                           _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
                           (float(band[0]), float(band[1])),
-                          _num(t, "settle_blocks", "random", default=1, lo=0, integer=True),
-                          _num(t, "tolerance", "random", default=0.05, lo=0, open_lo=True,
-                               hi=1),
-                          _num(t, "max_control_iterations", "random", default=6, lo=1,
+                          _opt(t, "settle_blocks", "random", RandomSpec, lo=0, integer=True),
+                          _opt(t, "tolerance", "random", RandomSpec, lo=0, open_lo=True, hi=1),
+                          _opt(t, "max_control_iterations", "random", RandomSpec, lo=1,
                                integer=True, hi=100))
         return _periodic(t, spec, fs)
     t = _table(data, "stepped")
@@ -471,13 +502,13 @@ def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepS
         raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
     return SteppedSpec(_levels(t, "stepped"), freqs,
                        _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
-                       _num(t, "harmonics", "stepped", default=7, lo=1, hi=50, integer=True),
-                       _num(t, "tolerance", "stepped", default=0.02, lo=0, open_lo=True, hi=1),
-                       _num(t, "settle_tolerance", "stepped", default=0.01, lo=0, open_lo=True,
+                       _opt(t, "harmonics", "stepped", SteppedSpec, lo=1, hi=50, integer=True),
+                       _opt(t, "tolerance", "stepped", SteppedSpec, lo=0, open_lo=True, hi=1),
+                       _opt(t, "settle_tolerance", "stepped", SteppedSpec, lo=0, open_lo=True,
                             hi=1),
-                       _num(t, "max_settle_blocks", "stepped", default=20, lo=2, integer=True,
+                       _opt(t, "max_settle_blocks", "stepped", SteppedSpec, lo=2, integer=True,
                             hi=10000),
-                       _num(t, "max_control_iterations", "stepped", default=8, lo=1,
+                       _opt(t, "max_control_iterations", "stepped", SteppedSpec, lo=1,
                             integer=True, hi=100))
 
 
@@ -486,17 +517,14 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     if not isinstance(data, dict):
         raise CampaignError("a campaign file is a TOML table")
     _unknown(data, TOP_KEYS, "top level")
-    kind = data.get("kind")
-    if kind not in KINDS:
-        raise CampaignError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+    kind = _choice(data.get("kind"), Excitation, "kind")
     shaker, daq = _table(data, "shaker"), _table(data, "daq")
     _unknown(shaker, {"url", "ramp_time", "gain_guess", "max_drive", "watchdog"}, "shaker")
     _unknown(daq, {"url", "fs", "frame_size", "response_kind", "comms_timeout"}, "daq")
-    shaker_url, daq_url = _url(shaker, "shaker"), _url(daq, "daq")
+    shaker_url, daq_url = _url(shaker, Role.SHAKER), _url(daq, Role.DAQ)
     fs = _num(daq, "fs", "daq", lo=0.0, open_lo=True, hi=1e6)
-    response_kind = daq.get("response_kind", "displacement")
-    if response_kind not in RESPONSE_KINDS:
-        raise CampaignError(f"[daq] response_kind must be one of {', '.join(RESPONSE_KINDS)}")
+    response_kind = _choice(daq.get("response_kind", ResponseKind.DISPLACEMENT), ResponseKind,
+                            "[daq] response_kind")
     sensors = _sensors(data, daq, daq_url)
     if sensors is None:
         channels = _channels(data.get("channel"))
@@ -507,9 +535,6 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     if sims[0] != sims[1]:
         raise CampaignError("shaker and DAQ must both be simulated (sim://, serial-emu://, "
                             "can-emu://) or both real: one simulated plant is one loop")
-    if scheme(shaker_url) == "can-emu":
-        raise CampaignError("[shaker] url: the CAN protocol carries DAQ data only; use "
-                            "sim:// or serial-emu:// for the shaker")
     if (scheme(shaker_url) == "sim") != (scheme(daq_url) == "sim"):
         raise CampaignError("sim:// is in-process: use it for both shaker and DAQ, or use "
                             "emulators for both")
@@ -525,9 +550,9 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         over = p.get("oversample")
         if over is not None:
             over = _num(p, "oversample", "plant", lo=1, integer=True, hi=1000)
-        plant = PlantSpec(model, _num(p, "seed", "plant", default=0, lo=0, integer=True),
-                          _num(p, "shaker_gain", "plant", default=1.0, lo=0, open_lo=True),
-                          _num(p, "noise_std", "plant", default=0.0, lo=0), over)
+        plant = PlantSpec(model, _opt(p, "seed", "plant", PlantSpec, lo=0, integer=True),
+                          _opt(p, "shaker_gain", "plant", PlantSpec, lo=0, open_lo=True),
+                          _opt(p, "noise_std", "plant", PlantSpec, lo=0), over)
     safety = _table(data, "safety", required=False)
     _unknown(safety, {"limits"}, "safety")
     limits = safety.get("limits", {})
@@ -564,10 +589,10 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
                         integer=True),
-        comms_timeout=_num(daq, "comms_timeout", "daq", default=None, lo=0.001, hi=60),
-        ramp_time=_num(shaker, "ramp_time", "shaker", default=0.05, lo=0.0, hi=10),
-        gain_guess=_num(shaker, "gain_guess", "shaker", default=1.0, lo=0.0, open_lo=True),
-        max_drive=_num(shaker, "max_drive", "shaker", default=10.0, lo=0.0, open_lo=True),
+        comms_timeout=_opt(daq, "comms_timeout", "daq", Campaign, lo=0.001, hi=60),
+        ramp_time=_opt(shaker, "ramp_time", "shaker", Campaign, lo=0.0, hi=10),
+        gain_guess=_opt(shaker, "gain_guess", "shaker", Campaign, lo=0.0, open_lo=True),
+        max_drive=_opt(shaker, "max_drive", "shaker", Campaign, lo=0.0, open_lo=True),
         watchdog=watchdog,
         limits={k: float(v) for k, v in limits.items()}, pace=pace, faults=dict(faults),
         source=None, raw=data, sensors=sensors)
@@ -575,7 +600,6 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
 
 def load_plant_model(campaign: Campaign):
     """The simulated plant's `Model`, checked against the campaign's response channels."""
-    from analysis.models import Model
     assert campaign.plant is not None
     model = Model.load(campaign.plant.model)
     if campaign.sensors is not None:

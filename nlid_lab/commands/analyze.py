@@ -7,6 +7,11 @@ from __future__ import annotations
 
 import argparse
 
+from .. import methods
+from ..outputs import (add_force_option, add_quiet_option, refuse_overwrite, summary_stream,
+                       with_checks, write_json)
+from .repair import check_runs
+
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab analyze`` on the parsed ``args``; returns the exit code."""
@@ -14,9 +19,6 @@ def run(args: argparse.Namespace) -> int:
     from analysis.models import Model
     from analysis.recordings import model_at_sensors, one_kind
 
-    from .. import methods
-    from ..outputs import refuse_overwrite, summary_stream, with_checks, write_json
-    from .repair import check_runs
     from ..formats import load_recordings
     from ..store import check_result_target, save_result
 
@@ -48,8 +50,6 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command and its options to ``sub``."""
-    from .. import methods
-    from ..outputs import add_force_option, add_quiet_option
 
     p = sub.add_parser("analyze", help="estimate nonlinear parameters from stored runs")
     kinds = p.add_subparsers(dest="method", metavar="METHOD")

@@ -13,7 +13,9 @@ import threading
 from typing import Sequence
 
 from analysis.errors import InputError
+from analysis.recordings import Excitation
 
+from ..outputs import add_quiet_option, refuse_overwrite, summary_stream, write_json
 POLL_MS = 100
 
 
@@ -30,9 +32,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
     try:
         from PySide6 import QtCore
 
-        from ..gui import snapshot
-        from ..gui.display import check_display
-        from ..gui.live import LiveView
+        from ..gui import LiveView, application, check_display, dispose
     except ImportError as exc:
         raise InputError(f"--live needs the gui extra ({exc.name} is missing): "
                          "pip install 'nlid-lab[gui]', or run without --live") from None
@@ -42,7 +42,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
         raise InputError("--live: no display to open the live view on; run without --live "
                          "(progress is printed) or set DISPLAY")
     check_display()
-    app = snapshot.application()
+    app = application()
     view = LiveView()
     view.setWindowTitle(f"nlid-lab live: {campaign.name} -> {out}")
     stop, outcome = threading.Event(), {}
@@ -84,7 +84,7 @@ def run_live(campaign, out: str, *, resume: bool = False, overwrite: bool = Fals
         worker.join()
         if main_thread:
             signal.signal(signal.SIGINT, old_handler)
-        snapshot.dispose(view)
+        dispose(view)
         app.processEvents()
     if "error" in outcome:
         raise outcome["error"]
@@ -164,7 +164,6 @@ def _say_interrupted(args: argparse.Namespace, unit: str, planned: int,
 def _run(args: argparse.Namespace) -> int:
     from ..campaign import run_campaign
     from ..campaign import load_campaign, load_plant_model
-    from ..outputs import refuse_overwrite, summary_stream, write_json
     from ..progress import CampaignProgress
     from ..store import DiskFullError
 
@@ -180,9 +179,9 @@ def _run(args: argparse.Namespace) -> int:
     overwrite = args.force and not args.resume
     started = _Started()
     observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
-    unit = {"random": "block", "swept-sine": "sweep"}.get(campaign.kind, "step")
-    planned = campaign.plan.averages if campaign.kind == "random" else \
-        1 if campaign.kind == "swept-sine" else len(campaign.plan.freqs)
+    unit = {Excitation.RANDOM: "block", Excitation.SWEPT_SINE: "sweep"}.get(campaign.kind, "step")
+    planned = campaign.plan.averages if campaign.kind == Excitation.RANDOM else \
+        1 if campaign.kind == Excitation.SWEPT_SINE else len(campaign.plan.freqs)
     try:
         if args.live or args.live_close:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
@@ -215,11 +214,11 @@ def _check(args: argparse.Namespace) -> int:
 
     c = load_campaign(args.campaign)
     excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
-    n = c.plan.averages if c.kind == "random" else \
-        1 if c.kind == "swept-sine" else len(c.plan.freqs)
-    unit = {"stepped-sine": "steps", "swept-sine": "sweeps"}.get(c.kind) or (
+    n = c.plan.averages if c.kind == Excitation.RANDOM else \
+        1 if c.kind == Excitation.SWEPT_SINE else len(c.plan.freqs)
+    unit = {Excitation.STEPPED_SINE: "steps", Excitation.SWEPT_SINE: "sweeps"}.get(c.kind) or (
         "realizations" if c.plan.periodic else "blocks")
-    kind = "periodic-random" if c.kind == "random" and c.plan.periodic else c.kind
+    kind = "periodic-random" if c.kind == Excitation.RANDOM and c.plan.periodic else c.kind
     print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
           f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"
           f"{f'; {excess}: campaign run needs --yes' if excess else ''}")
@@ -228,7 +227,6 @@ def _check(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``campaign`` sub-command and its options to ``sub``."""
-    from ..outputs import add_quiet_option
 
     p = sub.add_parser("campaign", help="run a test campaign (shaker + DAQ -> HDF5 run)")
     actions = p.add_subparsers(dest="action", metavar="ACTION")

@@ -14,6 +14,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..outputs import (add_quiet_option, atomic_dir, atomic_path, refuse_overwrite,
+                       summary_stream, with_checks, write_json)
+from .repair import check_runs
+
 if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
 
@@ -29,8 +33,6 @@ def _holdout(text: str) -> float | str:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``diagnose`` subcommand and its options."""
-    from nlid_lab.outputs import add_quiet_option
-
     p = sub.add_parser("diagnose", help="find what a model lacks to explain recordings")
     p.add_argument("model", metavar="MODEL.toml", help="starting model (complete)")
     p.add_argument("runs", nargs="+", metavar="RUN", help="HDF5 runs, NPZ or CSV recordings "
@@ -63,9 +65,6 @@ def run(args: argparse.Namespace) -> int:
     from analysis.models import Model
     from analysis.recordings import at_points, model_at_sensors, one_kind
 
-    from nlid_lab.commands.repair import check_runs
-    from nlid_lab.outputs import (atomic_dir, atomic_path, refuse_overwrite, summary_stream,
-                                  with_checks, write_json)
     from nlid_lab.progress import progress
     from nlid_lab.formats import load_recordings
     from nlid_lab.store import open_run, save_result
@@ -130,7 +129,7 @@ def _show(bar, done: int, total: int, stage: str) -> None:
 
 def write_report(d: Diagnosis, out: Path) -> None:
     """Before/after FRF overlays and time residuals per level, plus a markdown report."""
-    from ..reports import _figures as figures
+    from ..reports import diagnosis_overlay
 
     out.mkdir(parents=True, exist_ok=True)
     lines = ["# Model-mismatch diagnosis", "", f"**Verdict:** {d.verdict}", "",
@@ -147,7 +146,7 @@ def write_report(d: Diagnosis, out: Path) -> None:
                      f"{f'{c.floor.limit:.4g}' if c.floor else '-'} | {tb} | {ta} |")
         title = f"{c.label}{' (held back)' if c.held_back else ''}"
         name = f"frf-level-{i}.png"
-        figures.diagnosis_overlay(c, title).savefig(out / name)
+        diagnosis_overlay(c, title).savefig(out / name)
         figs += ["", f"![{c.label}]({name})"]
     lines += figs
     lines += ["", "## Where", "", "| location | best kind | misfit reduction | BIC gain | "

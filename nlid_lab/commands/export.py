@@ -8,7 +8,7 @@ from pathlib import Path
 
 from analysis.errors import InputError
 
-from ..formats import _recordings_io as recordings_io
+from ..formats import recording_keys, write_csv, write_npz
 from ..outputs import add_force_option, atomic_path, refuse_overwrite, with_checks, write_json
 from .repair import check_runs
 
@@ -29,13 +29,13 @@ def run(args: argparse.Namespace) -> int:
             from ..formats import write_mat
             write_mat(tmp, rec)
         else:
-            (recordings_io.write_npz if suffix == ".npz" else recordings_io.write_csv)(tmp, rec)
+            (write_npz if suffix == ".npz" else write_csv)(tmp, rec)
     if args.json != "-":
         print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
               f"-> {out}")
     write_json(with_checks({"out": str(out), "run": str(args.run),
                             "level": rec.meta["level_index"],
-                            "keys": sorted(recordings_io.recording_keys(rec))}, checks),
+                            "keys": sorted(recording_keys(rec))}, checks),
                args.json)
     return 0
 

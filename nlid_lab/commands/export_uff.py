@@ -13,18 +13,18 @@ from .repair import check_runs
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab export-uff`` on the parsed ``args``; returns the exit code."""
-    from ..reports import _uff as uff
     refuse_overwrite(args.force, args.out, args.json)
-    from ..reports import all_level_frfs, load_run
+    from ..reports import (FUNC_COHERENCE, FUNC_FRF, all_level_frfs, load_run, uff_datasets,
+                           write_uff)
     checks = check_runs([args.run])
     data = load_run(args.run)
     with progress(total=len(data.recordings), desc="export-uff: FRFs", unit="level") as bar:
         frfs = all_level_frfs(data, bar.update)
-    sets = uff.datasets(frfs, data.name)
+    sets = uff_datasets(frfs, data.name)
     with progress(total=len(sets), desc="export-uff: write", unit="set") as bar:
         with atomic_path(args.out) as tmp:
-            uff.write_uff(tmp, sets, bar.update)
-    kinds = {uff.FUNC_FRF: "frf", uff.FUNC_COHERENCE: "coherence"}
+            write_uff(tmp, sets, bar.update)
+    kinds = {FUNC_FRF: "frf", FUNC_COHERENCE: "coherence"}
     counts = {name: sum(s["func_type"] == t for s in sets) for t, name in kinds.items()}
     if args.json != "-":
         print(f"wrote {len(sets)} UFF58 datasets ({counts['frf']} FRF, {counts['coherence']} "

@@ -37,9 +37,8 @@ def format_summary(s: LinearFitSummary, kind: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab fit-linear`` on the parsed ``args``; returns the exit code."""
-    from analysis.diagnose.prepare import record_level
     from analysis.modal import LinearFitSummary, fit_linear
-    from analysis.recordings import one_kind
+    from analysis.recordings import one_kind, record_level
     from analysis.spectral import level_name
 
     from ..formats import load_recordings

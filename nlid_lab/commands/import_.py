@@ -13,7 +13,8 @@ from analysis.errors import InputError
 from analysis.recordings import RESPONSE_KINDS, PeriodicLayout, StepTable, find_period
 from analysis.spectral import HELD_UNITS
 
-from ..formats import _recordings_io as recordings_io, _sensor_files, describe, parse_sweep_option
+from .. import formats
+from ..formats import describe, parse_sweep_option
 from .. import store
 from ..outputs import add_force_option, atomic_path, refuse_overwrite, write_json
 
@@ -47,12 +48,11 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
     given = _sweep_keys(args)
     if suffix == ".npz":
         if not given:
-            return recordings_io.read_npz(src)
-        return recordings_io.recording_from_keys(
-            {**recordings_io.load_npz_keys(src), **given}, src)
+            return formats.read_npz(src)
+        return formats.recording_from_keys(
+            {**formats.load_npz_keys(src), **given}, src)
     if suffix == ".csv" and args.map:
-        from ..formats import _mat_io as mat_io
-        tree, units = recordings_io.read_csv_columns(src)
+        tree, units = formats.read_csv_columns(src)
         cmap = _channel_map(args.map).with_units(units)
         if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
             cmap.fs = "fs"                               # a '# fs = ...' line
@@ -60,19 +60,18 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
             raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
                              "(e.g. --map force=Force response=Acceleration1,Acceleration2 "
                              "fs=400)")
-        return _mapped({**mat_io.apply_map(tree, cmap, str(src)), **given}, src, args, found)
+        return _mapped({**formats.apply_map(tree, cmap, str(src)), **given}, src, args, found)
     if suffix == ".csv":
         cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
-        return recordings_io.read_csv(src, force_cols=cols, response_kind=args.response_kind,
+        return formats.read_csv(src, force_cols=cols, response_kind=args.response_kind,
                                       force_dofs=args.force_dofs,
                                       excitation=given.get("excitation"),
                                       keys={k: v for k, v in given.items()
                                             if k != "excitation"})
     if suffix == ".mat":
-        from ..formats import _mat_io as mat_io, _mat_recording as mat_recording
-        tree = mat_io.read_mat_tree(src)
-        if not args.map and mat_recording.is_recording(tree):   # written by nlid-lab export
-            rec = mat_recording.read_mat_recording(src)
+        tree = formats.read_mat_tree(src)
+        if not args.map and formats.is_recording(tree):   # written by nlid-lab export
+            rec = formats.read_mat_recording(src)
             if given:
                 raise InputError(f"{src}: an nlid-lab recording names its excitation and "
                                  "sweep; drop --excitation/--sweep")
@@ -81,17 +80,16 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
             raise InputError(f"{src}: a MAT file needs --map (e.g. --map force=Force "
                              "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
                              + ", ".join(sorted(tree)))
-        return _mapped({**mat_io.apply_map(tree, _channel_map(args.map), str(src)), **given},
+        return _mapped({**formats.apply_map(tree, _channel_map(args.map), str(src)), **given},
                        src, args, found)
     raise InputError(f"{src}: unknown recording type '{suffix}'; import .npz, .csv or .mat")
 
 
 def _channel_map(items: list[str]):
     """The ``--map`` words, or the one MAP.toml they name."""
-    from ..formats import _mat_io as mat_io
     if len(items) == 1 and items[0].endswith(".toml"):
-        return mat_io.ChannelMap.from_toml(items[0])
-    return mat_io.ChannelMap.from_items(items)
+        return formats.ChannelMap.from_toml(items[0])
+    return formats.ChannelMap.from_items(items)
 
 
 def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
@@ -103,13 +101,13 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if args.response_kind:
         keys["response_kind"] = args.response_kind
     random = keys.get("excitation", "random") == "random" and "freqs" not in keys
-    if random and not set(recordings_io.LAYOUT_KEYS) & set(keys):
+    if random and not set(formats.LAYOUT_KEYS) & set(keys):
         p = find_period(keys["force"], settle=keys["response"])
         found[src] = p
         if p is not None and not p.remainder:
             keys.update(period=p.period, transient_periods=p.transient_periods,
                         realizations=p.realizations)
-    elif random and set(recordings_io.LAYOUT_KEYS) & set(keys) <= {"period",
+    elif random and set(formats.LAYOUT_KEYS) & set(keys) <= {"period",
                                                                     "transient_periods"} \
             and _whole(keys.get("period")):
         p = find_period(keys["force"], period=_whole(keys["period"]), settle=keys["response"])
@@ -119,7 +117,7 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
             found[src] = dataclasses.replace(p, transient_periods=int(
                 keys["transient_periods"]))
             args.period_given.add(src)
-    return recordings_io.recording_from_keys(keys, src)
+    return formats.recording_from_keys(keys, src)
 
 
 def _whole(value) -> int | None:
@@ -204,8 +202,8 @@ def run(args: argparse.Namespace) -> int:
         return _store_tables(sources, [lv[0] for lv in levels], out, args)
     recs = _common_transient([lv[0] for lv in levels], sources, found)
     if args.sensors:
-        keys = _sensor_files.read_sensors(args.sensors)
-        recs = [_sensor_files.with_sensors(r, keys) for r in recs]
+        keys = formats.read_sensors(args.sensors)
+        recs = [formats.with_sensors(r, keys) for r in recs]
     if args.level is not None:
         recs[0].level = args.level
     with atomic_path(out) as tmp:         # no half run on a full disk
@@ -252,8 +250,8 @@ def _store_tables(sources: list[Path], tables: list, out: Path,
                   args: argparse.Namespace) -> int:
     """Store stepped-sine tables as the levels of a table run; print and write the summary."""
     if args.sensors:
-        keys = _sensor_files.read_sensors(args.sensors)
-        tables = [_sensor_files.with_sensors(t, keys) for t in tables]
+        keys = formats.read_sensors(args.sensors)
+        tables = [formats.with_sensors(t, keys) for t in tables]
     if args.level is not None:
         tables[0] = dataclasses.replace(tables[0], level=args.level)
     store.save_recording(out, tables, source="import",

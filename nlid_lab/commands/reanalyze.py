@@ -9,14 +9,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import methods
+from ..outputs import (add_quiet_option, atomic_path, refuse_overwrite, summary_stream,
+                       with_checks, write_json)
+from .repair import check_runs
+
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab reanalyze`` on the parsed ``args``; returns the exit code."""
     from analysis.models import Model
-    from nlid_lab import methods
-    from nlid_lab.commands.repair import check_runs
-    from nlid_lab.outputs import (atomic_path, refuse_overwrite, summary_stream, with_checks,
-                                  write_json)
     from nlid_lab.reanalyze import (ReanalysisError, check_request, dask_client,
                                     expand_runs, reanalyze, write_results)
 
@@ -47,9 +48,6 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reanalyze`` sub-command and its options to ``sub``."""
-    from nlid_lab import methods
-    from nlid_lab.outputs import add_quiet_option
-
     names = [m.name for m in methods.methods()]
     p = sub.add_parser("reanalyze", help="re-estimate many stored runs in parallel on Dask",
                        description="Re-estimate a candidate model on every level of many "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import methods
 from ..outputs import add_force_option, atomic_dir, refuse_overwrite, with_checks, write_json
 from ..progress import progress
 from .repair import check_runs, repair_option
@@ -14,8 +15,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab report`` on the parsed ``args``; returns the exit code."""
     from analysis.models import Model
 
-    from ..reports import write_report
-    from ..reports import all_level_frfs, load_run
+    from ..reports import all_level_frfs, load_run, write_report
     refuse_overwrite(args.force, args.json, directories=(args.out,))
     checks = check_runs([args.run], args.repair)
     data = load_run(args.run)
@@ -23,7 +23,8 @@ def run(args: argparse.Namespace) -> int:
         frfs = all_level_frfs(data, bar.update)
     candidate = Model.load(args.model) if args.model else None
     with progress(desc="report: figures", unit="fig") as bar, atomic_dir(args.out) as tmp:
-        result = write_report(data, tmp, bar.update, frfs=frfs, candidate=candidate)
+        result = write_report(data, tmp, bar.update, frfs=frfs, candidate=candidate,
+                              estimators=methods)
     result["html"] = str(Path(args.out) / "index.html")   # figures and page moved there whole
     print(result["html"])
     write_json(with_checks(result, checks), args.json)

@@ -13,8 +13,7 @@ from analysis.errors import InputError
 from analysis.recordings import (ARTIFACTS, RESPONSE_KINDS, DaqArtifacts, Recording, SensorMap,
                                  apply_daq_artifacts, shaker_force)
 
-from ..formats import _recordings_io as recordings_io, _sensor_files
-from ..formats import read_drive
+from ..formats import read_drive, read_sensors, write_npz
 from .. import sim_budget
 from ..outputs import add_force_option, atomic_path, refuse_overwrite, write_json
 from ..progress import progress
@@ -148,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     model = Model.load(model_path)
     drive = read_drive(args.drive)
     if args.sensors:
-        drive["sensors"] = _sensor_files.read_sensors(args.sensors)
+        drive["sensors"] = read_sensors(args.sensors)
     artifacts = _artifact_names(args.daq_artifacts)
     if "force-dips" in artifacts:
         drive = _with_force_dips(model, drive)
@@ -159,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                                   np.random.default_rng(args.seed))
     with atomic_path(out) as tmp:         # no half file on a full disk
         if out.suffix.lower() == ".npz":
-            recordings_io.write_npz(tmp, rec)
+            write_npz(tmp, rec)
         else:
             store.save_recording(tmp, rec, source="sim", model_toml=model_path.read_text(),
                                  settings={"drive": str(args.drive), "noise_std": args.noise,

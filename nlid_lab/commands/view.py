@@ -16,9 +16,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab view`` on the parsed ``args``; returns the exit code."""
     refuse_overwrite(args.force, args.snapshot)
     try:
-        from ..gui import snapshot
-        from ..gui.display import check_display
-        from ..gui.offline import OfflineView
+        from ..gui import OfflineView, application, check_display, dispose, render
     except ImportError as exc:
         raise InputError(f"the viewer needs the gui extra ({exc.name} is missing): "
                          "pip install 'nlid-lab[gui]'") from None
@@ -35,17 +33,17 @@ def run(args: argparse.Namespace) -> int:
     with progress(total=sum(len(r.recordings) for r in runs), desc="view: FRFs",
                   unit="level") as bar:
         frfs = [all_level_frfs(r, bar.update) for r in runs]
-    app = snapshot.application()
+    app = application()
     view = OfflineView(runs, frfs, kind=args.frf_as)
     try:
         if args.snapshot:
-            print(snapshot.render(view, args.snapshot, tuple(args.size)))
+            print(render(view, args.snapshot, tuple(args.size)))
         else:
             view.resize(*args.size)
             view.show()
             app.exec()
     finally:
-        snapshot.dispose(view)
+        dispose(view)
     return 0
 
 

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 
+from ..warmup import main
+
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab warmup`` on the parsed ``args``; returns the exit code."""
-    from ..warmup import main
     return main()
 
 

@@ -6,15 +6,20 @@ Modules behind this API: ``_recordings_io``, ``_monitors``, ``_sensor_files``, `
 module path.
 """
 
-from ._recordings_io import load_recordings, write_npz
+from ._recordings_io import (LAYOUT_KEYS, load_npz_keys, load_recordings, read_csv,
+                             read_csv_columns, read_npz, recording_from_keys, recording_keys,
+                             write_csv, write_npz)
+from ._sensor_files import read_sensors, with_sensors
 from ._drives import read_drive
 from ._mat_io import ChannelMap, apply_map, read_mat_tree
-from ._mat_recording import read_mat_recording, write_mat
+from ._mat_recording import is_recording, read_mat_recording, write_mat
 from ._sweep_keys import describe, parse_sweep_option
 from ._units import G0, split_label
 from ._tables import TableMap
 from ._fe_modes import FEModes, parse_point, read_modes, to_model
 
-__all__ = ["ChannelMap", "FEModes", "G0", "apply_map", "describe", "load_recordings", "parse_point",
-           "parse_sweep_option", "read_drive", "read_mat_recording", "read_mat_tree", "read_modes", "split_label", "TableMap",
-           "to_model", "write_mat", "write_npz"]
+__all__ = ["ChannelMap", "FEModes", "G0", "LAYOUT_KEYS", "TableMap", "apply_map", "describe",
+           "is_recording", "load_npz_keys", "load_recordings", "parse_point", "parse_sweep_option",
+           "read_csv", "read_csv_columns", "read_drive", "read_mat_recording", "read_mat_tree",
+           "read_modes", "read_npz", "read_sensors", "recording_from_keys", "recording_keys",
+           "split_label", "to_model", "with_sensors", "write_csv", "write_mat", "write_npz"]

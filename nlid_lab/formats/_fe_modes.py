@@ -156,7 +156,7 @@ def to_model(modes: FEModes, points: list[PointSpec] | None, band: tuple[float, 
 
 
 def _mode_sets(path: str | Path, load_case: int | None) -> list[dict[str, Any]]:
-    import pyuff
+    import pyuff   # loads on use (import-modes only)
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(2, "No such file", str(path))

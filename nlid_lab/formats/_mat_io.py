@@ -199,9 +199,9 @@ def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
     if not path.is_file():
         raise MatFileError(f"MAT file {path} not found; check the path")
     if is_mat73(path):
-        from ..store.mat73 import read_mat73
+        from ..store import read_mat73   # loads on use (h5py): every command imports formats
         return read_mat73(path)
-    import scipy.io
+    import scipy.io   # loads on use: every command line imports this room
     from scipy.io.matlab import MatReadError
 
     try:

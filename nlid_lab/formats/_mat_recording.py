@@ -30,7 +30,7 @@ _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,62}$")
 
 def write_mat(path: str | os.PathLike, rec: Recording) -> None:
     """Write ``rec`` as a MAT (v5) file: one variable per key, plus `INDEX`."""
-    import scipy.io
+    import scipy.io   # loads on use: every command line imports this room
 
     index: dict[str, Any] = {}
     variables: dict[str, np.ndarray] = {}
@@ -61,7 +61,7 @@ def is_recording(tree: dict[str, Any]) -> bool:
 
 def read_mat_recording(path: str | os.PathLike) -> Recording:
     """The recording `write_mat` wrote to ``path``, every key as it was."""
-    import scipy.io
+    import scipy.io   # loads on use: every command line imports this room
 
     path = Path(path)
     try:

@@ -677,6 +677,7 @@ def write_csv(path: str | os.PathLike, rec: Recording | StepTable) -> None:
 def load_recordings(path: str | os.PathLike) -> list[Recording | StepTable]:
     """Recordings of any supported file: run ``.h5`` (one per level), ``.npz`` or ``.csv``
     (stepped-sine tables as `StepTable`)."""
+    # the store (h5py) loads on use: every command line imports this room
     from ..store import StoreError, open_run
 
     path = Path(path)

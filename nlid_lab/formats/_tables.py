@@ -26,6 +26,7 @@ from analysis.errors import InputError
 from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, SensorMap,
                                  StepTable)
 
+from ._mat_io import _literal
 from ._units import lookup
 
 #: complex (n_steps, ...) keys of a table, written as ``.re``/``.im`` columns in CSV
@@ -215,7 +216,6 @@ class TableMap:
     @classmethod
     def from_items(cls, items: list[str]) -> "TableMap":
         """From ``KEY=VALUE`` words (``--map table=FRdata.ResponseControl freqs=frequency``)."""
-        from ._mat_io import _literal
 
         data: dict[str, Any] = {}
         for item in items:

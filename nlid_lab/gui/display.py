@@ -34,7 +34,7 @@ def missing_libraries() -> list[str]:
         except OSError:
             missing.append(soname)
     if not missing:
-        from PySide6 import QtCore
+        from PySide6 import QtCore   # Qt loads only once its libraries are known present
         qpa = Path(QtCore.QLibraryInfo.path(QtCore.QLibraryInfo.LibraryPath.LibrariesPath))
         try:
             ctypes.CDLL(str(qpa / "libQt6XcbQpa.so.6"))

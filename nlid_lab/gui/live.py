@@ -20,8 +20,8 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis.recordings import MIXED, SensorMap
-from analysis.spectral import (FRF_UNITS, LevelFRF, _spectral as spectral,
-                               best_linear_approximation, frf_from_bla, frf_from_spectra, sine_fit)
+from analysis.spectral import (FRF_UNITS, LevelFRF, Spectra, best_linear_approximation,
+                               frf_from_bla, frf_from_spectra, sine_fit, spectral_matrix)
 
 from . import plots
 
@@ -89,15 +89,15 @@ class FrfAccumulator:
 
     def __init__(self, fs: float, n_in: int, nperseg: int) -> None:
         self.fs, self.n_in, self.nperseg = fs, n_in, nperseg
-        self.spectra: spectral.Spectra | None = None
+        self.spectra: Spectra | None = None
 
     def add(self, force: np.ndarray, response: np.ndarray) -> None:
         """Pool the cross-spectra of one more block (shorter than a segment: ignored)."""
         data = np.concatenate([force, response], axis=1)
         if data.shape[0] < self.nperseg:
             return
-        spec = spectral.spectral_matrix(data, self.fs, nperseg=self.nperseg)
-        self.spectra = spec if self.spectra is None else spectral.Spectra.pool(
+        spec = spectral_matrix(data, self.fs, nperseg=self.nperseg)
+        self.spectra = spec if self.spectra is None else Spectra.pool(
             [self.spectra, spec])
 
     def estimate(self, **labels: Any) -> LevelFRF | None:

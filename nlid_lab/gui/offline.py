@@ -12,8 +12,9 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
-from analysis.recordings import Recording, StepTable
+from analysis.recordings import Recording, StepTable, channel_labels
 
+from .. import methods
 from ..reports import RunData, estimate_rows
 from . import plots
 
@@ -99,7 +100,7 @@ class OfflineView(QtWidgets.QWidget):
             top.setExpanded(True)
 
     def _fill_table(self) -> None:
-        rows = [row for run in self.runs for row in estimate_rows(run.results)]
+        rows = [row for run in self.runs for row in estimate_rows(run.results, methods)]
         self.table.setRowCount(len(rows))
         for i, row in enumerate(rows):
             for j, text in enumerate(row):
@@ -245,7 +246,6 @@ def _averages(frf: LevelFRF) -> str:
 def response_labels(runs: list[RunData], n_dof: int) -> list[str]:
     """``"point (kind)"`` per response when every run has the same sensor map
     (`analysis.recordings.channel_labels`, as the report's figures), else ``"DOF q"``."""
-    from analysis.recordings import channel_labels
     recs = [run.recordings[0] for run in runs if run.recordings]
     maps = {rec.sensors for rec in recs}
     if len(recs) == len(runs) and len(maps) == 1 and None not in maps \

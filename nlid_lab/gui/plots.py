@@ -7,7 +7,8 @@ import pyqtgraph as pg
 
 from PySide6 import QtGui
 
-from ..reports import _figures as figures, phase_deg
+from .. import reports
+from ..reports import phase_deg
 
 pg.setConfigOptions(background="w", foreground="k", antialias=False)
 
@@ -28,8 +29,8 @@ def channel_colour(i: int) -> str:
 
 def level_colours(n: int, levels=None) -> list[str]:
     """Sequential colours for ``n`` levels, ordered by the values ``levels`` when given
-    (viridis: light = low level, dark = high; as the report, `nlid_lab.reports._figures`)."""
-    return [QtGui.QColor.fromRgbF(*c).name() for c in figures.level_colours(n, levels)]
+    (viridis: light = low level, dark = high; as the report, `nlid_lab.reports.level_colours`)."""
+    return [QtGui.QColor.fromRgbF(*c).name() for c in reports.level_colours(n, levels)]
 
 
 def pen(colour: str, width: float = 1.5) -> pg.mkPen:

@@ -10,7 +10,11 @@ from .registry import (ESTIMATOR_KEY, Estimate, Method, add_batch_options, add_o
                        batch_values, find_stored, for_excitation, get, methods, option,
                        register, stored_estimates, unregister)
 from . import reverse_path, hbm  # noqa: E402,F401 - register the built-in methods, in order
+from .reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
+                           format_table as reverse_path_table)
 
 __all__ = ["ESTIMATOR_KEY", "Estimate", "Method", "add_batch_options", "add_options",
            "batch_values", "find_stored", "for_excitation", "get", "methods", "option",
-           "register", "stored_estimates", "unregister"]
+           "register", "stored_estimates", "unregister",
+           # the reverse path's own entry points (the demo)
+           "ReversePathOptions", "reverse_path_estimate", "reverse_path_table"]

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from analysis.recordings import Recording
     from analysis.spectral import SteppedSineFRF
 
-    from ..reports._rundata import RunData, Section
+    from ..reports import RunData, Section
 
 NAME = "hbm"
 
@@ -202,7 +202,7 @@ def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarr
     from analysis.spectral import LevelFRF
     from analysis.hbm import HBMSystem, loop
 
-    import nlid_lab.reports._figures as report_figures
+    from .. import reports as report_figures
 
     dof = levels[0].force_dof
     system = HBMSystem(result.model, [dof], harmonics, receptance=receptance)
@@ -240,7 +240,7 @@ def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
     from analysis.errors import EstimationError
     from analysis.hbm import HBMError
 
-    from ..reports._figures import ModelCurve
+    from ..reports import ModelCurve
 
     i1 = int(np.flatnonzero(system.harmonics == 1)[0])
     try:
@@ -270,8 +270,8 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
     from analysis.models import KINDS
     from analysis.hbm import loop
 
-    import nlid_lab.reports._figures as report_figures
-    from ..reports._rundata import Section, reference_model
+    from .. import reports as report_figures
+    from ..reports import Section, reference_model
 
     if found is None:
         return []

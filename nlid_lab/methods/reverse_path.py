@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from analysis.reverse_path import ScreeningResult
     from analysis.reverse_path import ReversePathOptions as EstimatorOptions
 
-    from ..reports._rundata import RunData, Section
+    from ..reports import RunData, Section
 
 NAME = "reverse-path"
 
@@ -235,8 +235,8 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     from analysis.spectral import FRF_UNITS
     from analysis.reverse_path import reverse_path
 
-    import nlid_lab.reports._figures as figures
-    from ..reports._rundata import PARAM_UNITS, Section, candidate_model, reference_model
+    from .. import reports as figures
+    from ..reports import PARAM_UNITS, Section, candidate_model, reference_model
 
     from analysis.errors import InputError
     from analysis.recordings import model_at_sensors, one_kind

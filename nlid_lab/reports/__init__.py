@@ -5,13 +5,26 @@ Modules behind this API: ``_report``, ``_figures``, ``_uff``, ``_rundata``,
 package imports its siblings by their private module path.
 """
 
-from ._report import (estimate_rows, modal_fit_section, stored_diagnosis,
+from ._report import (Estimators, estimate_rows, modal_fit_section, stored_diagnosis,
                       write_report)
 from ._backbone_figure import backbone_figure
-from ._figures import ModelCurve, phase_deg, response_curves, stabilisation
+from ._figures import (ModelCurve, coherence_linear_vs_nonlinear, diagnosis_overlay, fitted_frfs,
+                       hysteresis_loops, level_colours, linear_and_coefficients, phase_deg,
+                       response_curves, stabilisation)
 from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_model, load_run,
                        reference_model)
+from ._uff import FUNC_COHERENCE, FUNC_FRF, datasets as uff_datasets, read_uff, write_uff
 
-__all__ = ["ModelCurve", "backbone_figure", "PARAM_UNITS", "RunData", "Section", "all_level_frfs", "candidate_model",
-           "estimate_rows", "load_run", "modal_fit_section", "phase_deg", "reference_model",
-           "response_curves", "stabilisation", "stored_diagnosis", "write_report"]
+__all__ = [
+    # what a stored run holds
+    "RunData", "Section", "PARAM_UNITS", "all_level_frfs", "candidate_model", "load_run",
+    "reference_model",
+    # the HTML report and its sections (the estimator registry handed in: `Estimators`)
+    "Estimators", "estimate_rows", "modal_fit_section", "stored_diagnosis", "write_report",
+    # figures
+    "ModelCurve", "backbone_figure", "coherence_linear_vs_nonlinear", "diagnosis_overlay",
+    "fitted_frfs", "hysteresis_loops", "level_colours", "linear_and_coefficients", "phase_deg",
+    "response_curves", "stabilisation",
+    # UFF58 export
+    "FUNC_COHERENCE", "FUNC_FRF", "read_uff", "uff_datasets", "write_uff",
+]

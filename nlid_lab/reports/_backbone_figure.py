@@ -4,17 +4,21 @@ levels' FRFs with their single-mode fits; the report's backbone section."""
 
 from __future__ import annotations
 
+import html
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+
+from analysis.backbone import backbone, fit_single_mode
+from analysis.errors import EstimationError, InputError
+from analysis.recordings import KIND_ORDER, StepTable, one_kind
 
 from ._figures import DPI, level_colours
 from ._rundata import RunData, Section
 
 if TYPE_CHECKING:
     from analysis.backbone import Backbone
-    from analysis.recordings import StepTable
 
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
@@ -22,8 +26,6 @@ UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "") -> Figure:
     """Frequency and damping against amplitude (error bars: 95 % intervals) beside the
     measured FRF magnitude of every level (dots) with its single-mode fit (line)."""
-    from analysis.backbone import fit_single_mode
-    from analysis.recordings import KIND_ORDER
 
     fig = Figure(figsize=(11.0, 6.4), dpi=DPI, layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.1))
@@ -71,12 +73,6 @@ def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "") 
 def backbone_section(run: RunData) -> Section | None:
     """Stepped-sine table runs: the backbone (frequency and damping per level, with the
     figure of `backbone_figure`); None for other runs or a single level."""
-    import html
-
-    from analysis.backbone import backbone
-    from analysis.errors import EstimationError, InputError
-    from analysis.recordings import StepTable, one_kind
-
     tables = [one_kind(r) for r in run.recordings]
     if len(tables) < 2 or not all(isinstance(t, StepTable) for t in tables):
         return None

@@ -7,6 +7,7 @@ a legend in newtons (a colour bar when there are more than `MAX_LEGEND_LEVELS` l
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
@@ -16,6 +17,8 @@ from matplotlib.cm import ScalarMappable
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+
+from analysis.spectral import HELD_UNITS
 
 if TYPE_CHECKING:
     from analysis.spectral import LevelFRF
@@ -46,7 +49,6 @@ def level_colours(n: int, levels: Sequence[float | None] | None = None
 def level_unit(frf: "LevelFRF") -> str:
     """Unit of a level's nominal force: rms for random, amplitude for sine excitation (a
     response-controlled level: its held response's unit)."""
-    from analysis.spectral import HELD_UNITS
     if frf.level_kind != "force":
         return HELD_UNITS[frf.level_kind]
     return "N rms" if frf.excitation == "random" else "N"
@@ -346,7 +348,6 @@ def diagnosis_fit(metric: str, before: float, after: float, title: str,
     """Model-to-measurement discrepancy before and after the diagnosed correction: one bar
     pair, or one pair per level when ``levels`` (dicts with ``label``, ``before``, ``after``,
     ``held_back``) are given. ``metric`` (a sentence) is the subtitle."""
-    import textwrap
     fig = Figure(figsize=(6.4, 4.2), dpi=DPI, layout="constrained")
     ax = fig.subplots()
     if levels:

@@ -10,18 +10,37 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 import numpy as np
 
-from analysis.errors import InputError
-from analysis.spectral import LevelFRF
+from analysis.detection import bla_summary, level_change
+from analysis.errors import EstimationError, InputError
+from analysis.modal import fit_linear
+from analysis.recordings import channel_labels, one_kind, record_level
+from analysis.spectral import LevelFRF, level_label
 
+from ..formats import describe
 from . import _figures as figures
+from ._backbone_figure import backbone_section
 from ._rundata import RunData, Section, all_level_frfs
 
 if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
+
+
+class Estimators(Protocol):
+    """The estimator registry as a report reads it: `nlid_lab.methods`, a room above this
+    one, handed in by the caller (the report does not import it: rooms import one way)."""
+
+    def methods(self) -> Sequence[Any]:
+        """Registered methods (each with ``sections``), in order."""
+
+    def find_stored(self, results: Mapping[str, Any], method: Any) -> tuple[str, dict] | None:
+        """The last stored result of ``method``."""
+
+    def stored_estimates(self, results: Mapping[str, Any]) -> list[tuple[str, dict]]:
+        """Stored results of any registered method."""
 
 
 # --- report sections ----------------------------------------------------------------------
@@ -30,7 +49,6 @@ if TYPE_CHECKING:
 def channel_names(run: RunData) -> tuple[list[str], list[str]] | None:
     """(``"point (kind)"`` per response channel, force points) of a run with a sensor map,
     else None (the figures say ``DOF q``)."""
-    from analysis.recordings import channel_labels
     rec = run.recordings[0] if run.recordings else None
     if rec is None or rec.sensors is None:
         return None
@@ -114,7 +132,6 @@ def diagnosis_levels(d: Diagnosis, unit: str = "N") -> list[dict[str, Any]] | No
 def level_change_section(run: RunData) -> Section | None:
     """Two or more random (Welch) levels: where the FRF changes with level beyond its noise
     (`analysis.detection.level_change`)."""
-    from analysis.detection import level_change
     random = [r for r in run.recordings
               if r.excitation == "random" and r.layout is None]
     if len(random) < 2:
@@ -145,7 +162,6 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
     shown = [f for f in frfs if f.bla is not None and f.bla.realizations >= 2]
     if not shown:
         return None
-    from analysis.detection import bla_summary
     lines = []
     for frf in shown:
         t = bla_summary(frf.bla, frf.level)
@@ -172,10 +188,7 @@ def distortion_section(frfs: list[LevelFRF], names=None) -> Section | None:
 def modal_fit_section(run: RunData) -> Section | None:
     """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
     one (stabilisation diagram and the modes), or why it cannot be made."""
-    from analysis.diagnose.prepare import level_name, record_level
-    from analysis.errors import EstimationError
-    from analysis.modal import fit_linear
-    from analysis.recordings import one_kind
+    from analysis.diagnose import level_name   # the diagnosis room loads on use
     random = [r for r in run.recordings if r.excitation == "random"]
     if not random:
         return None
@@ -213,9 +226,7 @@ def modal_fit_section(run: RunData) -> Section | None:
 
 def sweep_section(run: RunData) -> Section | None:
     """Swept-sine levels: each level's sweep (direction, law, whether estimated on import)."""
-    from analysis.spectral import level_label
 
-    from ..formats import describe
     swept = [(i, r) for i, r in enumerate(run.recordings)
              if r.excitation == "swept-sine" and r.sweep is not None]
     if not swept:
@@ -228,20 +239,21 @@ def sweep_section(run: RunData) -> Section | None:
                    f"one jumps at different frequencies up and down. {said}.")
 
 
-def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section]:
-    """Every section the run has data for, in reading order."""
+def sections(run: RunData, frfs: list[LevelFRF], estimators: Estimators, candidate=None
+             ) -> list[Section]:
+    """Every section the run has data for, in reading order (the estimators' own sections
+    from the registry ``estimators``)."""
     names = channel_names(run)
     out = frf_sections(frfs, names)
-    from ._backbone_figure import backbone_section
     for extra in (sweep_section(run), backbone_section(run), level_change_section(run),
                   distortion_section(frfs, names),
                   modal_fit_section(run)):
         if extra is not None:
             out.append(extra)
-    from ..methods import find_stored, methods
-    for method in methods():
+    for method in estimators.methods():
         if method.sections is not None:
-            out += method.sections(run, frfs, find_stored(run.results, method), candidate)
+            out += method.sections(run, frfs, estimators.find_stored(run.results, method),
+                                   candidate)
     diagnosis = diagnosis_section(run)
     if diagnosis is not None:
         out.append(diagnosis)
@@ -250,17 +262,17 @@ def sections(run: RunData, frfs: list[LevelFRF], candidate=None) -> list[Section
 
 # --- writing --------------------------------------------------------------------------------
 def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], None] | None
-                 = None, frfs: list[LevelFRF] | None = None, candidate=None
-                 ) -> dict[str, Any]:
+                 = None, frfs: list[LevelFRF] | None = None, candidate=None, *,
+                 estimators: Estimators) -> dict[str, Any]:
     """Write the PNG figures and ``index.html`` into ``out_dir``; returns what was written.
 
     ``candidate`` (a `Model`) enables the reverse-path section for runs without a stored
-    reference model.
+    reference model; ``estimators`` is the estimator registry (`nlid_lab.methods`).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     frfs = frfs if frfs is not None else all_level_frfs(run)
-    secs = sections(run, frfs, candidate)
+    secs = sections(run, frfs, estimators, candidate)
     written = []
     for sec in secs:
         for stem, fig in sec.figures:
@@ -269,11 +281,12 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
             if progress:
                 progress(1)
     page = out_dir / "index.html"
-    page.write_text(render_html(run, frfs, secs))
+    page.write_text(render_html(run, frfs, secs, estimators))
     return {"html": str(page), "figures": written, "sections": [s.title for s in secs]}
 
 
-def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
+def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],
+                estimators: Estimators) -> str:
     """The report page: the run's levels, stored estimates and every section with its
     figures."""
     esc = html.escape
@@ -286,7 +299,7 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
             f"{esc(frfs[0].units)}</p>",
             "<table><tr><th>#</th><th>level</th><th>excitation</th><th>frequencies</th>"
             f"<th>averages</th></tr>{rows}</table>"]
-    est = _estimates_table(run.results)
+    est = _estimates_table(run.results, estimators)
     if est:
         body.append(f"<h2>Stored estimates</h2>{est}")
     for sec in secs:
@@ -299,12 +312,12 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section]) -> str:
             f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n")
 
 
-def estimate_rows(results: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
+def estimate_rows(results: dict[str, Any], estimators: Estimators
+                  ) -> list[tuple[str, str, str, str, str]]:
     """(result, element, parameter, value, 95 % interval) of every stored estimate of a
-    registered method (`nlid_lab.methods`)."""
-    from ..methods import stored_estimates
+    method in the registry ``estimators`` (`nlid_lab.methods`)."""
     rows = []
-    for name, res in stored_estimates(results):
+    for name, res in estimators.stored_estimates(results):
         for i, el in enumerate(res.get("elements", [])):
             ci = el.get("ci95") or {}
             for par, value in (el.get("params") or {}).items():
@@ -314,9 +327,9 @@ def estimate_rows(results: dict[str, Any]) -> list[tuple[str, str, str, str, str
     return rows
 
 
-def _estimates_table(results: dict[str, Any]) -> str:
+def _estimates_table(results: dict[str, Any], estimators: Estimators) -> str:
     rows = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
-                   for row in estimate_rows(results))
+                   for row in estimate_rows(results, estimators))
     if not rows:
         return ""
     return ("<table><tr><th>result</th><th>element</th><th>parameter</th><th>value</th>"

@@ -11,10 +11,10 @@ from typing import Any, Callable
 
 from analysis.errors import InputError
 from analysis.spectral import LevelFRF, level_frf
-from analysis.models import coefficient_units
-from analysis.recordings import Recording
+from analysis.models import Element, Model, coefficient_units
+from analysis.recordings import Recording, one_kind
 
-from ..formats import _recordings_io as recordings_io
+from ..formats import load_recordings
 from .. import store
 
 
@@ -44,7 +44,7 @@ def load_run(path: str | Path) -> RunData:
     if not path.exists():
         raise FileNotFoundError(2, "No such file or directory", str(path))
     if path.suffix.lower() not in (".h5", ".hdf5"):
-        return RunData(path, recordings_io.load_recordings(path))
+        return RunData(path, load_recordings(path))
     run = store.open_run(path)
     recs = run.recordings()
     if not recs:
@@ -56,7 +56,6 @@ def all_level_frfs(run: RunData, progress: Callable[[int], None] | None = None
                    ) -> list[LevelFRF]:
     """`level_frf` of every level, in stored order; a sensor map mixing kinds is converted to
     its highest kind first (`analysis.recordings.one_kind`, as `analyze` and `fit-linear`)."""
-    from analysis.recordings import one_kind
     out = []
     for i, rec in enumerate(run.recordings):
         out.append(level_frf(one_kind(rec), i))
@@ -76,7 +75,6 @@ class Section:
 
 def reference_model(run: RunData):
     """The model stored with a simulated run (the reference system), or None."""
-    from analysis.models import Model
     text = run.meta.get("model_toml") or ""
     return Model.loads(text) if text.strip() else None
 
@@ -93,5 +91,4 @@ def candidate_model(run: RunData, candidate=None):
     ref = reference_model(run)
     if ref is None or not ref.elements:
         return None
-    from analysis.models import Element
     return ref.with_elements([Element(el.kind, el.w.copy(), {}) for el in ref.elements])

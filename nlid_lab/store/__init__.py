@@ -22,6 +22,7 @@ from .reader import (DamagedRunError, Level, Run, check_result_target, open_run,
 from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_text
 from ._space import DiskFullError, require_room
 from .tables import TableError, read_table, write_table
+from .mat73 import read_mat73
 from .writer import LevelWriter, RunWriter
 
 __all__ = [
@@ -31,5 +32,6 @@ __all__ = [
     "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
     "save_result",
     "TableError", "read_table", "write_table",
+    "read_mat73",
     "LevelWriter", "RunWriter",
 ]

@@ -25,6 +25,7 @@ from analysis.recordings import KEYS as SENSOR_KEYS, SensorMap, StepTable
 
 from ._common import (FORMAT, SOFTWARE, StoreError, _default_channels, _channel_table,
                       _json_default, _read_extra, _write_extra, utc_now)
+from ._rebuild import _create
 
 #: run schema of table runs: older readers refuse them ("upgrade nlid-lab")
 TABLES_SCHEMA_VERSION = 3
@@ -84,7 +85,6 @@ def save_tables(path: str | os.PathLike, tables: Sequence[StepTable], *, source:
     kind = first.response_kind if first.sensors is None else first.sensors.response_kinds[0]
     chans = _channel_table(_default_channels(first.force_dofs, first.n_dof, kind,
                                              first.sensors), first.force_dofs, first.n_dof)
-    from ._rebuild import _create
 
     def fill(f: h5py.File) -> None:
         f["levels"].resize((len(tables),))

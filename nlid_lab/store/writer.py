@@ -181,12 +181,13 @@ class RunWriter:
                  ) -> None:
         self.path = Path(path)
         exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
-        self.excitation = exc_settings.get("kind")
+        kind = exc_settings.get("kind")
+        # h5py stores str, not its subclasses: vocabularies (StrEnum) become their values here
+        self.excitation = str(kind) if kind is not None else None
         self.fs = float(fs)
         self.force_dofs = np.atleast_1d(np.asarray(force_dofs, dtype=int))
         self.n_dof = int(n_dof)
-        if sensors is not None:
-            response_kind = sensors.kind
+        response_kind = str(sensors.kind if sensors is not None else response_kind)
         self._check_args(response_kind if response_kind != MIXED or sensors is None
                          else sensors.response_kinds[0], force_hold, mode)
         attrs = {

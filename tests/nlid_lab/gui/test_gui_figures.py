@@ -185,7 +185,8 @@ def test_viewer_converts_every_kind_onto_the_chosen_axis(qtbot, runs):
 def test_view_command_frf_as(qtbot, tmp_path, monkeypatch):
     from nlid_lab.cli import main
     seen = []
-    monkeypatch.setattr(snapshot, "render", lambda view, path, size: seen.append(
+    import nlid_lab.gui as gui                      # the command takes `render` from here
+    monkeypatch.setattr(gui, "render", lambda view, path, size: seen.append(
         view.mag.getAxis("left").labelText) or str(path))
     path = random_run(tmp_path / "r.h5", seconds=4.0)
     assert main(["view", str(path), "--frf-as", "acceleration", "--snapshot",

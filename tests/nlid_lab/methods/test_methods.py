@@ -120,12 +120,13 @@ def test_toy_method_reaches_analyze_reanalyze_report_and_view(toy, run, candidat
         assert row["e0.cubic_spring.p"] == pytest.approx(toy_gain([rec], 3.0))
     # report and view find the stored result by its estimator
     data = load_run(run)
-    written = write_report(data, tmp_path / "report")
+    written = write_report(data, tmp_path / "report", estimators=methods)
     assert "Toy gain" in written["sections"]
-    assert any(r[0] == "analyze-toy" for r in estimate_rows(data.results))
+    assert any(r[0] == "analyze-toy" for r in estimate_rows(data.results, methods))
     methods.unregister("toy")
-    assert "Toy gain" not in write_report(load_run(run), tmp_path / "r2")["sections"]
-    assert not any(r[0] == "analyze-toy" for r in estimate_rows(data.results))
+    written = write_report(load_run(run), tmp_path / "r2", estimators=methods)
+    assert "Toy gain" not in written["sections"]
+    assert not any(r[0] == "analyze-toy" for r in estimate_rows(data.results, methods))
 
 
 def test_stored_results_found_by_estimator_else_by_legacy_keys():

@@ -12,6 +12,7 @@ from analysis.plant import Plant
 from nlid_lab import store
 from nlid_lab.cli import main
 from analysis.spectral import level_frf
+from nlid_lab import methods
 from nlid_lab.reports import load_run, write_report
 
 QUAD = Path("examples/models/sdof-cubic-quaddamp.toml")
@@ -67,7 +68,7 @@ def assert_real_image(path: Path) -> None:
 
 def test_random_report_sections(tmp_path):
     run = load_run(random_run(tmp_path / "r.h5"))
-    out = write_report(run, tmp_path / "rep")
+    out = write_report(run, tmp_path / "rep", estimators=methods)
     assert out["sections"][:5] == ["FRFs per force level",
                                    "Multiple coherence per level (linear analysis)",
                                    "Level dependence of the FRF (random levels)",
@@ -104,7 +105,7 @@ def test_stepped_report_with_hbm_and_diagnosis(tmp_path):
     run = load_run(path)
     frf = level_frf(run.recordings[0])
     assert frf.coherence is None and frf.freqs.size == 17
-    out = write_report(run, tmp_path / "rep")
+    out = write_report(run, tmp_path / "rep", estimators=methods)
     assert {"Hysteresis loop", "Measured vs estimated model", "Diagnosis"} <= \
         set(out["sections"])
     assert not any("Reverse path" in s for s in out["sections"])     # no random levels
@@ -144,7 +145,7 @@ def test_analyze_store_then_report(tmp_path):
     stored = store.open_run(run).results["analyze-hbm"]
     p = {e["kind"]: e["params"]["p"] for e in stored["elements"]}
     assert p["cubic_spring"] == pytest.approx(6e10, rel=0.02)
-    out = write_report(load_run(run), tmp_path / "rep")
+    out = write_report(load_run(run), tmp_path / "rep", estimators=methods)
     assert any("hbm_fit" in str(f) for f in out["figures"])
     assert main(["analyze", "hbm", str(run), "--model", str(cand_file), "--store",
                  str(cand_file)]) == 2
@@ -174,7 +175,7 @@ def test_periodic_random_report_shows_the_bla_and_its_distortion(tmp_path):
             lv.complete()
     data = load_run(path)
     assert data.recordings[0].layout.realizations == m
-    out = write_report(data, tmp_path / "report")
+    out = write_report(data, tmp_path / "report", estimators=methods)
     assert "bla_distortion_out0.png" in out["figures"]
     html = (tmp_path / "report" / "index.html").read_text()
     assert "20 N rms, response DOF 0: nonlinear distortion" in html

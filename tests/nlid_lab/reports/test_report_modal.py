@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from analysis.models import Model
+from nlid_lab import methods
 from nlid_lab.reports import RunData, load_run, modal_fit_section, write_report
 from analysis.recordings import Recording
 from test_report import QUAD, random_run
@@ -50,7 +51,7 @@ def test_stabilisation_figure_reads_back(run):
 
 
 def test_report_page_holds_the_diagram(tmp_path, run):
-    out = write_report(run, tmp_path / "rep")
+    out = write_report(run, tmp_path / "rep", estimators=methods)
     assert TITLE in out["sections"] and "stabilisation.png" in out["figures"]
     html = Path(out["html"]).read_text()
     assert 'src="stabilisation.png"' in html and "max MAC to another mode" in html
