@@ -73,6 +73,12 @@ def top_level(search: Search) -> LevelFRF:
     return max(search.levels, key=lambda lf: lf.level)
 
 
+def largest_relative_motion(search: Search, i: int, j: int) -> tuple[float, LevelFRF]:
+    """The largest `relative_motion` across ``(i, j)`` over the fitting levels (a joint that
+    slips at the top level moves its sides apart there), and its level."""
+    return max(((relative_motion(lf, i, j), lf) for lf in search.levels), key=lambda t: t[0])
+
+
 def relative_motion(lf: LevelFRF, i: int, j: int) -> float:
     """``rms(x_j - x_i) / max(rms x_i, rms x_j)`` of the measured FRFs of level ``lf`` in the
     recorded response kind, under a flat force over its lines (every input summed)."""
@@ -93,12 +99,11 @@ def location_table(search: Search, pool: list[Fit]) -> tuple[LocationRow, ...]:
     reduction and BIC gain; a pair also with the best grounded candidate at either end and
     the relative motion across it, a grounded point with the best joint through it."""
     best = best_by_location(search, pool)
-    lf = top_level(search)
     rows = []
     for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic):
         end, through, rel = None, None, None
         if len(dofs) == 2:
-            rel = relative_motion(lf, *dofs)
+            rel = largest_relative_motion(search, *dofs)[0]
             ends = [best[(d,)] for d in dofs if (d,) in best]
             if ends:
                 g = max(ends, key=lambda e: e.delta_bic)
@@ -108,7 +113,8 @@ def location_table(search: Search, pool: list[Fit]) -> tuple[LocationRow, ...]:
             if pairs:
                 p = max(pairs, key=lambda e: e.delta_bic)
                 through = PairThrough(tuple(p.cand.points), p.cand.kind, _reduction(search, p),
-                                      float(p.delta_bic), relative_motion(lf, *p.cand.dofs))
+                                      float(p.delta_bic),
+                                      largest_relative_motion(search, *p.cand.dofs)[0])
         rows.append(LocationRow(tuple(f.cand.points), dofs, f.cand.kind, _reduction(search, f),
                                 float(f.delta_bic), end, rel, through))
     return tuple(rows)
@@ -139,15 +145,17 @@ def _drive_advice(lf: LevelFRF, c: Candidate, pair: tuple[int, int]) -> str:
     return " or ".join(_point(c, d) for d in ends)
 
 
-def _why(lf: LevelFRF, chosen: Fit, f: Fit) -> tuple[str, str, float | None]:
+def _why(search: Search, chosen: Fit, f: Fit) -> tuple[str, str, float | None]:
     """Why ``f``'s location is not separable from ``chosen``'s, the measurement that would
-    separate them and the relative motion of the pair linking them ('' when separable)."""
+    separate them and the largest relative motion of the pair linking them over the fitting
+    levels ('' when separable)."""
     gap = float(chosen.delta_bic - f.delta_bic)
     pair = _link(chosen.cand.dofs, f.cand.dofs)
-    rel = relative_motion(lf, *pair) if pair else None
+    rel, lf = largest_relative_motion(search, *pair) if pair else (None, top_level(search))
     if rel is not None and rel < RIGID and f.delta_bic > 0:
         a, b = _point(chosen.cand, pair[0]), _point(chosen.cand, pair[1])
-        return (f"{a} and {b} move within {100 * rel:.2g} % of each other ({lf.label}): a joint "
+        return (f"{a} and {b} move within {100 * rel:.2g} % of each other (at most, at "
+                f"{lf.label}): a joint "
                 f"between them and a support at either end act on nearly the same motion",
                 f"a sensor pair across the joint between {a} and {b} whose relative motion "
                 f"exceeds {100 * RIGID:.0f} % of the absolute (drive at "
@@ -170,12 +178,11 @@ def alternatives(search: Search, pool: Sequence[Fit], chosen: Fit) -> tuple[Alte
     best = best_by_location(search, pool, linear=chosen.cand.linear)
     own = best.get(chosen.cand.dofs, chosen)
     top = own if own.delta_bic >= chosen.delta_bic else chosen
-    lf = top_level(search)
     out = []
     for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic):
         if dofs == chosen.cand.dofs:
             continue
-        why, how, rel = _why(lf, top, f)
+        why, how, rel = _why(search, top, f)
         if why:
             out.append(Alternative(tuple(f.cand.points), tuple(f.cand.w.tolist()), f.cand.kind,
                                    float(f.delta_bic), why, how, rel))

@@ -91,7 +91,8 @@ def test_support_named_where_the_joint_sensors_move_together_is_ambiguous():
 
 
 def test_close_scores_are_ambiguous_far_ones_are_not():
-    near = [_fit("cubic_spring", (0,), 500.0), _fit("cubic_spring", (0, 1), 500.0 - 0.5 * SEPARATE),
+    near = [_fit("cubic_spring", (0,), 500.0),
+            _fit("cubic_spring", (0, 1), 500.0 - 0.5 * SEPARATE),
             _fit("cubic_spring", (2,), 500.0 - 3 * SEPARATE)]
     (alt,) = alternatives(FakeSearch(near), near, near[0])
     assert alt.points == ("drive", "wing")
@@ -142,3 +143,19 @@ def test_support_at_the_point_finds_it(grounded_cubic):
     assert d.chosen[0].kind == "cubic_spring" and d.chosen[0].dofs == (1,)
     assert "supported at 1 ([support])" in d.explanation
     assert "the support at DOF 1" in d.explanation
+
+
+def test_explanation_says_ambiguous_and_names_the_joint_as_a_joint():
+    from analysis.diagnose.report import _advice, _ambiguity
+    screen = [_fit("stick_slip", (1,), 500.0), _fit("stick_slip", (1, 2), 60.0)]
+    alts = alternatives(FakeSearch(screen), screen, screen[0])
+    d = SimpleNamespace(location=Location((1,), ("wing",), None, alts))
+    text = _ambiguity(screen[0].cand, d)
+    assert text.startswith(" The location is ambiguous between the support at wing (the "
+                           "element acts from wing to ground) and the joint between wing and "
+                           "payload (stick slip):")
+    assert "To separate them: a sensor pair across the joint between wing and payload" in text
+    advice = _advice([screen[0].cand], alts)
+    assert advice == ("the support at wing (the element acts from wing to ground), or "
+                      "(ambiguous) the joint between wing and payload (stick slip)")
+    assert _ambiguity(screen[0].cand, SimpleNamespace(location=Location((1,), None, None))) == ""

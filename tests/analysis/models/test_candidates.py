@@ -47,7 +47,8 @@ def test_free_structure_has_only_linear_errors_to_ground():
 def test_model_file_support_reaches_the_library(tmp_path):
     path = tmp_path / "m.toml"
     path.write_text('points = ["root", "tip"]\n[linear]\nmass = [[1.0, 0.0], [0.0, 1.0]]\n'
-                    'stiffness = [[2e4, -1e4], [-1e4, 1e4]]\ndamping = [[2.0, -1.0], [-1.0, 1.0]]\n'
+                    'stiffness = [[2e4, -1e4], [-1e4, 1e4]]\n'
+                    'damping = [[2.0, -1.0], [-1.0, 1.0]]\n'
                     '[support]\npoints = ["root"]\n')
     m = Model.load(path)
     lib = library(m.n_dof, m.points, m.support)
