@@ -264,6 +264,7 @@ def _location(model: Model, first: SearchPass, chosen: Sequence[Fit]) -> Locatio
     top = max(range(len(search.levels)), key=lambda i: search.levels[i].level)
     lo, hi = mismatch_band(search.levels[top], search.H0s[top])
     dofs = sorted({d for f in chosen for d in f.cand.dofs})
-    alts = alternatives(search, first.pool, chosen[0]) if chosen else ()
+    alts = (alternatives(search, first.pool, chosen[0], [f.cand.dofs for f in chosen[1:]])
+            if chosen else ())
     return Location(tuple(dofs), tuple(model.points[i] for i in dofs),
                     (lo, hi) if chosen else None, alts)

@@ -265,14 +265,16 @@ def _support_text(d: Diagnosis) -> str:
 
 
 def _where_alt(a: Alternative) -> str:
-    """An alternative location in words: a support, a joint or the structure there."""
+    """An alternative location in words: a support, a joint or the structure there (numbered
+    points as ``DOF i``, as `Candidate.where` words them)."""
+    pts = [f"DOF {p}" if p.isdigit() else p for p in a.points]
+    kind = a.kind.replace("_", " ")
     if a.kind.endswith("_error"):
-        at = (f"at {a.points[0]}" if len(a.points) == 1
-              else f"between {a.points[0]} and {a.points[1]}")
-        return f"the structure {at} ({a.kind.replace('_', ' ')})"
-    if len(a.points) == 1:
-        return f"the support at {a.points[0]} ({a.kind.replace('_', ' ')})"
-    return f"the joint between {a.points[0]} and {a.points[1]} ({a.kind.replace('_', ' ')})"
+        at = f"at {pts[0]}" if len(pts) == 1 else f"between {pts[0]} and {pts[1]}"
+        return f"the structure {at} ({kind})"
+    if len(pts) == 1:
+        return f"the support at {pts[0]} ({kind})"
+    return f"the joint between {pts[0]} and {pts[1]} ({kind})"
 
 
 def _ambiguity(c: Candidate, d: Diagnosis) -> str:

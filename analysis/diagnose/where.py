@@ -171,16 +171,18 @@ def _why(search: Search, chosen: Fit, f: Fit) -> tuple[str, str, float | None]:
     return "", "", rel
 
 
-def alternatives(search: Search, pool: Sequence[Fit], chosen: Fit) -> tuple[Alternative, ...]:
+def alternatives(search: Search, pool: Sequence[Fit], chosen: Fit,
+                 taken: Sequence[tuple[int, ...]] = ()) -> tuple[Alternative, ...]:
     """The locations the first search cannot separate from ``chosen``'s (module docstring),
     best scored first, with each one's score, why and the measurement that would separate
-    them. Compared within the chosen candidate's class (nonlinear kinds or linear errors)."""
+    them. Compared within the chosen candidate's class (nonlinear kinds or linear errors);
+    locations in ``taken`` (those of further effects found) are not alternatives."""
     best = best_by_location(search, pool, linear=chosen.cand.linear)
     own = best.get(chosen.cand.dofs, chosen)
     top = own if own.delta_bic >= chosen.delta_bic else chosen
     out = []
     for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic):
-        if dofs == chosen.cand.dofs:
+        if dofs == chosen.cand.dofs or dofs in taken:
             continue
         why, how, rel = _why(search, top, f)
         if why:

@@ -159,3 +159,30 @@ def test_explanation_says_ambiguous_and_names_the_joint_as_a_joint():
     assert advice == ("the support at wing (the element acts from wing to ground), or "
                       "(ambiguous) the joint between wing and payload (stick slip)")
     assert _ambiguity(screen[0].cand, SimpleNamespace(location=Location((1,), None, None))) == ""
+
+
+def test_support_beside_a_stiff_joint_is_reported_ambiguous():
+    """3-DOF chain whose DOFs 1 and 2 are joined by a stiff spring (they move within a few per
+    cent of each other in the band), a hardening cubic from DOF 1 to ground: a hardening
+    support is found at DOF 1 or 2, and the locations acting on nearly the same motion (the
+    support at the other end, the joint 1-2) are listed as not separable, the truth among them
+    (the zoo's "honestly ambiguous"), with the measurement that would separate them."""
+    base = chain([1.0, 1.0, 0.5], [2.0e4, 1.0e6], [1.5e4, 0.0, 0.0])
+    truth = base.with_elements([Element("cubic_spring", [0, 1.0, 0], {"p": 3e9})])
+    recs = random_runs(truth, 0, [1.0, 6.0, 12.0], n=1 << 14, seed=5)
+    d = diagnose(base, recs)
+    (found,) = d.chosen[0].dofs
+    assert d.verdict == "discrepancy" and not d.chosen[0].kind.endswith("_error")
+    assert found in (1, 2), d.location
+    alts = {a.points: a for a in d.location.alternatives}
+    taken = {c.dofs for c in d.chosen}
+    # a further effect found is no alternative
+    assert not {tuple(int(p) for p in a) for a in alts} & taken
+    assert found == 1 or ("1",) in alts or (1,) in taken, d.location
+    assert ("1", "2") in alts or ("2",) in alts or ("1",) in alts, d.location
+    for a in alts.values():
+        assert a.relative_motion is not None and a.relative_motion < RIGID
+        assert "a sensor pair across the joint between DOF 1 and DOF 2" in a.separate_by
+    assert f"The location is ambiguous between the support at DOF {found}" in d.explanation
+    row = next(r for r in d.evidence.locations if r.dofs == (1, 2))
+    assert row.relative_motion < RIGID and row.best_grounded_end is not None
