@@ -825,9 +825,9 @@ def confusion(rows: list[Outcome]) -> dict[str, dict[str, int]]:
 
 GVT_LEVELS = (1.0, 3.0, 6.0, 12.0)
 """Four multisine levels, N rms (the diagnosis holds back the second, 3 N)."""
-GVT_MAINS = ("mains -30 dB",)
-"""A 50 Hz mains line at -30 dB of each channel's rms with two harmonics
-(`analysis.recordings.apply_daq_artifacts`)."""
+GVT_MAINS = ("mains",)
+"""The rows' artifacts: a 50 Hz mains line at -30 dB of each channel's rms with two harmonics,
+added by `analysis.recordings.apply_daq_artifacts` in `_twin_gvt` (not `dirty`)."""
 JOINTS = "joint (wing-payload) vs support: the joint sensors move within 5 % of each other"
 
 
