@@ -123,9 +123,17 @@ def explain(d: Diagnosis, cands: Sequence[Candidate]) -> Diagnosis:
     numbers (``cands``: the chosen candidates).
 
     When the corrected model does not at least halve the held-back error, a warning is added to
-    ``d.warnings`` and the paragraph says the finding is tentative.
+    ``d.warnings`` and the paragraph says the finding is tentative; so is one when the location
+    is ambiguous (``d.location.alternatives``).
     """
     fit = d.fit
+    if d.location.alternatives:
+        d = replace(d, warnings=d.warnings + (
+            "the location is ambiguous between " + " and ".join(
+                [", ".join(d.chosen[0].points or map(str, d.chosen[0].dofs))]
+                + [", ".join(a.points) for a in d.location.alternatives])
+            + ": the data cannot separate them (location.alternatives says why and what "
+            "measurement would)",))
     if d.verdict == Verdict.DISCREPANCY and fit.after > UNCONFIRMED * fit.before:
         warning = (f"the held-back recording does not confirm the finding (error "
                    f"{change(fit.before, fit.after)}): the fitting levels cannot tell the "

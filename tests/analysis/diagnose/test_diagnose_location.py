@@ -184,5 +184,7 @@ def test_support_beside_a_stiff_joint_is_reported_ambiguous():
         assert a.relative_motion is not None and a.relative_motion < RIGID
         assert "a sensor pair across the joint between DOF 1 and DOF 2" in a.separate_by
     assert f"The location is ambiguous between the support at DOF {found}" in d.explanation
+    assert any(w.startswith(f"the location is ambiguous between {found} and ")
+               for w in d.warnings), d.warnings
     row = next(r for r in d.evidence.locations if r.dofs == (1, 2))
     assert row.relative_motion < RIGID and row.best_grounded_end is not None
