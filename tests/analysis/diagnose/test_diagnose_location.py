@@ -134,6 +134,7 @@ def test_support_declared_elsewhere_leaves_no_grounded_element_at_the_point(grou
     assert all(r.kind.endswith("_error") for r in rows if len(r.dofs) == 1)
 
 
+@pytest.mark.slow
 def test_support_at_the_point_finds_it(grounded_cubic):
     base, recs = grounded_cubic
     held = base.with_elements([])
@@ -161,6 +162,7 @@ def test_explanation_says_ambiguous_and_names_the_joint_as_a_joint():
     assert _ambiguity(screen[0].cand, SimpleNamespace(location=Location((1,), None, None))) == ""
 
 
+@pytest.mark.slow
 def test_support_beside_a_stiff_joint_is_reported_ambiguous():
     """3-DOF chain whose DOFs 1 and 2 are joined by a stiff spring (they move within a few per
     cent of each other in the band), a hardening cubic from DOF 1 to ground: a hardening
