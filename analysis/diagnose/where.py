@@ -12,9 +12,10 @@ Two locations are *not separable* (`alternatives`) when
 * their scores are within `SEPARATE` BIC points of each other (the evidence a discrepancy
   itself needs, Kass & Raftery's "very strong") and both explain the data on their own, or
 * they are linked by a pair whose sensors move nearly together: the relative motion across
-  it is below `RIGID` of the absolute (a joint there and a support at either end act on
-  nearly the same motion; the first is told from the second only through the few per cent
-  by which the sensors differ, which a model-form error of that size swamps).
+  it (the largest over the fitting levels) is below `RIGID` of the absolute and the other
+  location still gains BIC points (a joint there and a support at either end act on nearly
+  the same motion; the first is told from the second only through the few per cent by which
+  the sensors differ, which a model-form error of that size swamps).
 """
 
 from __future__ import annotations
@@ -155,8 +156,8 @@ def _why(search: Search, chosen: Fit, f: Fit) -> tuple[str, str, float | None]:
     if rel is not None and rel < RIGID and f.delta_bic > 0:
         a, b = _point(chosen.cand, pair[0]), _point(chosen.cand, pair[1])
         return (f"{a} and {b} move within {100 * rel:.2g} % of each other (at most, at "
-                f"{lf.label}): a joint "
-                f"between them and a support at either end act on nearly the same motion",
+                f"{lf.label}): a joint between them and a support at either end act on nearly "
+                "the same motion",
                 f"a sensor pair across the joint between {a} and {b} whose relative motion "
                 f"exceeds {100 * RIGID:.0f} % of the absolute (drive at "
                 f"{_drive_advice(lf, chosen.cand, pair)}, or record levels at which the joint "
