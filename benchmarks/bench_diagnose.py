@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"),
                 *sorted({str(p.parent) for p in (ROOT / "tests").rglob("test_*.py")})]
 
-from analysis.diagnose import library  # noqa: E402
+from analysis.models import library  # noqa: E402
 from analysis.models import Element  # noqa: E402
 from analysis.reverse_path import reverse_path  # noqa: E402
 from diagnose_scenarios import hidden_cubic  # noqa: E402

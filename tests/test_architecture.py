@@ -128,20 +128,15 @@ def _reaches_inside(name: str, target: str, mods: dict[str, Path]) -> bool:
     return module != room or (attribute.startswith("_") and not attribute.startswith("__"))
 
 
-#: Imports into another room waiting for a move planned elsewhere: (importer, room) -> why.
-PENDING = {("analysis.reverse_path._screening", "analysis.diagnose"):
-           "issue 24 item 2 moves the candidate library below the diagnosis"}
-
-
 def _room_graph(mods: dict[str, Path], graph: dict[str, set[str]]) -> dict[str, set[str]]:
-    """Rooms (and top-level modules) and the rooms they import, pending moves left out."""
+    """Rooms (and top-level modules) and the rooms they import."""
     rooms: dict[str, set[str]] = {}
     for name, targets in graph.items():
         here = _room(name, mods) or name
         edges = rooms.setdefault(here, set())
         for t in targets:
             there = _room(t, mods) or t
-            if there != here and (name, there) not in PENDING:
+            if there != here:
                 edges.add(there)
     for targets in list(rooms.values()):
         for t in targets:
@@ -152,8 +147,7 @@ def _room_graph(mods: dict[str, Path], graph: dict[str, set[str]]) -> dict[str, 
 def test_rooms_are_entered_through_their_init():
     mods = _modules()
     wrong = sorted((name, t) for name, path in mods.items() for t in _imports(name, path)
-                   if _reaches_inside(name, t, mods)
-                   and (name, _room(_module_of(t, mods), mods)) not in PENDING)
+                   if _reaches_inside(name, t, mods))
     assert wrong == []
 
 
@@ -178,8 +172,7 @@ def test_room_rule_sees_a_reach_inside():
 #: Packages whose imports inside functions have their reason in the package's documentation:
 #: every command line imports them (`nlid_lab/commands/__init__.py`,
 #: `nlid_lab/methods/registry.py`); and code being rewritten elsewhere (issue 24).
-LOCAL_IMPORTS_EXPLAINED = ("nlid_lab/commands/", "nlid_lab/methods/", "analysis/diagnose/",
-                           "analysis/reverse_path/_screening.py")
+LOCAL_IMPORTS_EXPLAINED = ("nlid_lab/commands/", "nlid_lab/methods/", "analysis/diagnose/")
 
 
 def _unexplained_local_imports(source: str) -> list[int]:

@@ -2,7 +2,7 @@
 
 `diagnose(model, recordings)` compares the model with recordings at several levels, tests
 whether the structure behaves nonlinearly (homogeneity across levels), searches the one
-candidate library (`candidates.library`: nonlinear elements and linear errors at every DOF
+candidate library (`analysis.models.library`: nonlinear elements and linear errors at every DOF
 and DOF pair) by information criterion, estimates the chosen candidate's parameters (reverse
 path for random data, harmonic-balance fit for stepped sine), searches again on the corrected
 model for a further effect (accepted ones are refitted jointly) and shows the improvement on
@@ -12,20 +12,19 @@ measured force (`replay`). The stages are one engine for random and stepped-sine
 docs/diagnose.md.
 """
 
-from .candidates import Candidate, library
 from .prepare import DiagnoseInputError, level_name
 from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
                      FitSummary, LevelError, LevelResiduals, Location, LocationRow, Misfit,
-                     PassSummary, Rejection, TimeResidual, Verdict)
+                     PairThrough, PassSummary, Rejection, TimeResidual, Verdict)
 from .search import diagnose
 
 __all__ = [
     # entry point and input errors
-    "diagnose", "DiagnoseInputError", "Candidate", "library",
+    "diagnose", "DiagnoseInputError",
     # a level as the diagnosis names it (``level 30``, else its measured force)
     "level_name",
     # the result (frozen dataclasses; Diagnosis.to_json / from_json)
     "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
-    "LocationRow", "Misfit", "LevelResiduals",
+    "LocationRow", "PairThrough", "Misfit", "LevelResiduals",
 ]

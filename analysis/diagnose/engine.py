@@ -32,6 +32,7 @@ from .replay import Replay
 from .report import LevelCurves, explain, fit_summary, worsened
 from .result import Diagnosis, Evidence, Location, Rejection, Verdict
 from .select import Fit, Search
+from .where import alternatives
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, stage)``: called as the diagnosis advances (search passes, joint
@@ -240,7 +241,7 @@ def conclude(flow: Flow, passes: Passes, corr: Correction, tick: Tick) -> Diagno
     if verdict == Verdict.UNEXPLAINED:
         location = Location(misfit.dofs, misfit.points, misfit.band_hz)
     else:
-        location = _location(flow.model, first.search, chosen)
+        location = _location(flow.model, first, chosen)
     evidence = flow.evidence(first, Evidence(
         chi2_start=first.search.chi2_0, n_values=first.search.n_values,
         chi2_reduction=first.reduction, model_change=first.effect,
@@ -255,12 +256,15 @@ def conclude(flow: Flow, passes: Passes, corr: Correction, tick: Tick) -> Diagno
     return explain(d, [f.cand for f in chosen])
 
 
-def _location(model: Model, search: Search, chosen: Sequence[Fit]) -> Location:
-    """The chosen effects' DOFs and the band of the excess misfit at the highest fitting
-    level of the first search (no band when nothing was chosen)."""
+def _location(model: Model, first: SearchPass, chosen: Sequence[Fit]) -> Location:
+    """The chosen effects' DOFs, the band of the excess misfit at the highest fitting level of
+    the first search (no band when nothing was chosen) and the locations the first search
+    cannot separate from the first effect's (`where.alternatives`)."""
+    search = first.search
     top = max(range(len(search.levels)), key=lambda i: search.levels[i].level)
     lo, hi = mismatch_band(search.levels[top], search.H0s[top])
     dofs = sorted({d for f in chosen for d in f.cand.dofs})
+    alts = (alternatives(search, first.pool, chosen[0], [f.cand.dofs for f in chosen[1:]])
+            if chosen else ())
     return Location(tuple(dofs), tuple(model.points[i] for i in dofs),
-                    (lo, hi) if chosen else None)
-
+                    (lo, hi) if chosen else None, alts)

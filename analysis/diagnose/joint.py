@@ -19,8 +19,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import ModelError
-from ..models import KINDS, Model
-from .candidates import LINEAR_PARAM
+from ..models import KINDS, LINEAR_PARAM, Model
 from .compare import chi2, model_frf
 from .linear_update import Z95
 from .select import Fit, Search, coef_name, corrected_model

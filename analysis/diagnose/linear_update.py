@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .candidates import Candidate
+from ..models import Candidate
 
 Z95 = 1.959963984540054
 

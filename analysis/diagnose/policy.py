@@ -10,14 +10,13 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..errors import ModelError
-from ..models import Model
-from .candidates import Candidate
+from ..models import Candidate, Model
 from .compare import FLOOR
 from .joint import joint_refit
 from .locate import level_dependence
 from .prepare import DiagnoseInputError
 from .report import LevelCurves
-from .result import GroundedEnd, LocationRow, Misfit, PassSummary, Rejection, Tried, TrendPoint
+from .result import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from .select import Fit, Search, corrected_model
 
 BIC_MIN = 10.0
@@ -160,29 +159,6 @@ def decide(model: Model, search: Search, pool: list[Fit],
         rejected.append(Rejection(best.cand.label, reason))
         best.evidence["rejected"] = reason
     return SearchPass(search, pool, first, False, model, first_effect, rejected)
-
-
-def location_table(search: Search, pool: list[Fit], top: int = 8) -> tuple[LocationRow, ...]:
-    """Locations ranked by the best candidate at each (points and point pairs), with the
-    numbers behind each rank: its kind, misfit reduction and BIC gain; for a pair, the best
-    grounded candidate at either end, so that a joint (pair) is told from a grounded
-    element by how much more the pair explains."""
-    best: dict[tuple[int, ...], Fit] = {}
-    for f in pool:
-        if f.cand.dofs not in best or f.delta_bic > best[f.cand.dofs].delta_bic:
-            best[f.cand.dofs] = f
-    rows = []
-    for dofs, f in sorted(best.items(), key=lambda kv: -kv[1].delta_bic)[:top]:
-        ends = [best[(d,)] for d in dofs if len(dofs) == 2 and (d,) in best]
-        end = None
-        if ends:
-            g = max(ends, key=lambda e: e.delta_bic)
-            end = GroundedEnd(tuple(g.cand.points), g.cand.kind,
-                              float((search.chi2_0 - g.chi2) / search.chi2_0))
-        rows.append(LocationRow(tuple(f.cand.points), dofs, f.cand.kind,
-                                float((search.chi2_0 - f.chi2) / search.chi2_0),
-                                float(f.delta_bic), end))
-    return tuple(rows)
 
 
 def linear_only(search: Search) -> bool:

@@ -8,10 +8,11 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .candidates import Candidate
+from ..models import Candidate
 from .leakage import Floor
 from .replay import Replay
-from .result import Diagnosis, FitSummary, LevelError, LevelResiduals, TimeResidual, Verdict
+from .result import (Alternative, Diagnosis, FitSummary, LevelError, LevelResiduals,
+                     TimeResidual, Verdict)
 
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
                 "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
@@ -122,9 +123,17 @@ def explain(d: Diagnosis, cands: Sequence[Candidate]) -> Diagnosis:
     numbers (``cands``: the chosen candidates).
 
     When the corrected model does not at least halve the held-back error, a warning is added to
-    ``d.warnings`` and the paragraph says the finding is tentative.
+    ``d.warnings`` and the paragraph says the finding is tentative; so is one when the location
+    is ambiguous (``d.location.alternatives``).
     """
     fit = d.fit
+    if d.location.alternatives:
+        d = replace(d, warnings=d.warnings + (
+            "the location is ambiguous between " + " and ".join(
+                [", ".join(d.chosen[0].points or map(str, d.chosen[0].dofs))]
+                + [", ".join(a.points) for a in d.location.alternatives])
+            + ": the data cannot separate them (location.alternatives says why and what "
+            "measurement would)",))
     if d.verdict == Verdict.DISCREPANCY and fit.after > UNCONFIRMED * fit.before:
         warning = (f"the held-back recording does not confirm the finding (error "
                    f"{change(fit.before, fit.after)}): the fitting levels cannot tell the "
@@ -180,6 +189,7 @@ def _explain(d: Diagnosis, cands: Sequence[Candidate]) -> str:
            "structure is nonlinear. " if d.level_dependent else
            "The measured FRFs do not change with level beyond their random error. "
            if d.level_dependent is False else "")
+    lvl += _support_text(d)
     if d.verdict == Verdict.ADEQUATE:
         return (lvl + f"Every level lies within its noise and model-precision floor (FRF error "
                 f"by level: {_levels_text(d, False)}) and no candidate in the library "
@@ -238,21 +248,73 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
         rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
                 f"explains {100 * fit.explained:.3g} % of the squared FRF error, the rest is "
                 "unexplained (see evidence.misfit).")
-    return (f"The mismatch is {what}{band_txt}: {found}.{runner}{second} With it the "
-            f"held-back FRF error {change(fit.before, fit.after)}{time_txt}; by level: "
-            f"{_levels_text(d, True)}.{rest}" + _rejected_text(d) + f" Check {_advice(cands)}"
-            " and keep the corrected model file for further simulation.")
+    return (f"The mismatch is {what}{band_txt}: {found}.{_ambiguity(cands[0], d)}{runner}"
+            f"{second} With it the held-back FRF error {change(fit.before, fit.after)}"
+            f"{time_txt}; by level: {_levels_text(d, True)}.{rest}" + _rejected_text(d)
+            + f" Check {_advice(cands, d.location.alternatives)} and keep the corrected model "
+            "file for further simulation.")
 
 
-def _advice(cands: Sequence[Candidate]) -> str:
-    """What to look at: a grounded finding is a support (its point to ground), a relative one
-    the joint between its points, a linear error the structure there; never a grounded
-    finding worded as a joint (contracts section 7)."""
-    def one(c: Candidate) -> str:
-        if c.linear:
-            return f"the structure {c.where} (its {c.kind.replace('_error', '')})"
-        if len(c.dofs) == 1:
-            at = c.points[0] if c.names else f"DOF {c.points[0]}"
-            return f"the support at {at} (the element acts from {at} to ground)"
-        return f"the joint {c.where}"
-    return " and ".join(dict.fromkeys(one(c) for c in cands))
+def _support_text(d: Diagnosis) -> str:
+    """What the model's ``[support]`` did to the search (nothing without one)."""
+    sup = d.model.support if d.model is not None else None
+    if sup is None:
+        return ""
+    if sup.free:
+        return ("The model is free or suspended ([support] free = true): no element to ground "
+                "was searched, only linear errors there (suspension stiffness and damping, "
+                "mass). ")
+    if not sup.points:
+        return ("None of the model's support points is measured ([support]): no element to "
+                "ground was searched, only linear errors there. ")
+    pts = ", ".join(d.model.points[i] for i in sup.points)
+    return (f"The model is supported at {pts} ([support]): elements to ground were searched "
+            "only there. ")
+
+
+def _where_alt(a: Alternative) -> str:
+    """An alternative location in words: a support, a joint or the structure there (numbered
+    points as ``DOF i``, as `Candidate.where` words them)."""
+    pts = [f"DOF {p}" if p.isdigit() else p for p in a.points]
+    kind = a.kind.replace("_", " ")
+    if a.kind.endswith("_error"):
+        at = f"at {pts[0]}" if len(pts) == 1 else f"between {pts[0]} and {pts[1]}"
+        return f"the structure {at} ({kind})"
+    if len(pts) == 1:
+        return f"the support at {pts[0]} ({kind})"
+    return f"the joint between {pts[0]} and {pts[1]} ({kind})"
+
+
+def _ambiguity(c: Candidate, d: Diagnosis) -> str:
+    """``ambiguous between ... and ...``: the alternatives the data cannot separate from the
+    first effect's location, why, and what would separate them."""
+    alts = d.location.alternatives
+    if not alts:
+        return ""
+    whys = "; ".join(f"{_where_alt(a)}: {a.why_not_separable} (BIC +{a.delta_bic:.4g})"
+                     for a in alts)
+    how = "; ".join(dict.fromkeys(a.separate_by for a in alts if a.separate_by))
+    return (f" The location is ambiguous between {_one(c)} and "
+            f"{' and '.join(_where_alt(a) for a in alts)}: {whys}."
+            + (f" To separate them: {how}." if how else ""))
+
+
+def _one(c: Candidate) -> str:
+    """A found candidate's location in words: a grounded finding is a support (its point to
+    ground), a relative one the joint between its points, a linear error the structure there;
+    never a grounded finding worded as a joint (contracts section 7)."""
+    if c.linear:
+        return f"the structure {c.where} (its {c.kind.replace('_error', '')})"
+    if len(c.dofs) == 1:
+        at = c.points[0] if c.names else f"DOF {c.points[0]}"
+        return f"the support at {at} (the element acts from {at} to ground)"
+    return f"the joint {c.where}"
+
+
+def _advice(cands: Sequence[Candidate], alts: Sequence[Alternative] = ()) -> str:
+    """What to look at: every found location (`_one`), and the ones the data cannot separate
+    from the first (``alts``) as the alternatives they are."""
+    found = " and ".join(dict.fromkeys(_one(c) for c in cands))
+    if not alts:
+        return found
+    return f"{found}, or (ambiguous) " + " or ".join(_where_alt(a) for a in alts)

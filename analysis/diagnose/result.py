@@ -108,22 +108,32 @@ class CandidateFit:
 
 @dataclass(frozen=True)
 class Alternative:
-    """A location the data cannot tell apart from the chosen one (contracts section 7)."""
+    """A location the data cannot tell apart from the chosen one (contracts section 7): its
+    best candidate's kind and BIC gain, why it is not separable, the measurement that would
+    separate it and, when a pair links the two, the relative motion across that pair."""
 
     points: tuple[str, ...]
     w: tuple[float, ...]
     kind: str
     delta_bic: float
     why_not_separable: str
+    separate_by: str = ""
+    relative_motion: float | None = None
 
     def to_json(self) -> Json:
-        return {"points": list(self.points), "w": list(self.w), "kind": self.kind,
-                "delta_bic": self.delta_bic, "why_not_separable": self.why_not_separable}
+        out: Json = {"points": list(self.points), "w": list(self.w), "kind": self.kind,
+                     "delta_bic": self.delta_bic, "why_not_separable": self.why_not_separable}
+        if self.separate_by:
+            out["separate_by"] = self.separate_by
+        if self.relative_motion is not None:
+            out["relative_motion"] = self.relative_motion
+        return out
 
     @classmethod
     def from_json(cls, data: Json) -> Alternative:
         return cls(tuple(data["points"]), tuple(data["w"]), data["kind"], data["delta_bic"],
-                   data["why_not_separable"])
+                   data["why_not_separable"], data.get("separate_by", ""),
+                   data.get("relative_motion"))
 
 
 @dataclass(frozen=True)
@@ -301,8 +311,32 @@ class GroundedEnd:
 
 
 @dataclass(frozen=True)
+class PairThrough:
+    """The best joint (pair candidate) through a grounded location's point."""
+
+    points: tuple[str, ...]
+    kind: str
+    chi2_reduction: float
+    delta_bic: float
+    relative_motion: float
+    """``rms(x_j - x_i) / max(rms x_i, rms x_j)`` across the pair at the top fitting level."""
+
+    def to_json(self) -> Json:
+        return {"points": list(self.points), "kind": self.kind,
+                "chi2_reduction": self.chi2_reduction, "delta_bic": self.delta_bic,
+                "relative_motion": self.relative_motion}
+
+    @classmethod
+    def from_json(cls, data: Json) -> PairThrough:
+        return cls(tuple(data["points"]), data["kind"], data["chi2_reduction"],
+                   data["delta_bic"], data["relative_motion"])
+
+
+@dataclass(frozen=True)
 class LocationRow:
-    """A location ranked by its best candidate (first search pass)."""
+    """A location ranked by its best candidate (first search pass); a pair with the best
+    grounded candidate at either end and its relative motion, a point with the best joint
+    through it."""
 
     points: tuple[str, ...]
     dofs: tuple[int, ...]
@@ -310,19 +344,26 @@ class LocationRow:
     chi2_reduction: float
     delta_bic: float
     best_grounded_end: GroundedEnd | None = None
+    relative_motion: float | None = None
+    best_joint: PairThrough | None = None
 
     def to_json(self) -> Json:
         out = {"points": list(self.points), "dofs": list(self.dofs), "kind": self.kind,
                "chi2_reduction": self.chi2_reduction, "delta_bic": self.delta_bic}
         if self.best_grounded_end is not None:
             out["best_grounded_end"] = self.best_grounded_end.to_json()
+        if self.relative_motion is not None:
+            out["relative_motion"] = self.relative_motion
+        if self.best_joint is not None:
+            out["best_joint"] = self.best_joint.to_json()
         return out
 
     @classmethod
     def from_json(cls, data: Json) -> LocationRow:
         return cls(tuple(data["points"]), tuple(data["dofs"]), data["kind"],
                    data["chi2_reduction"], data["delta_bic"],
-                   _opt(GroundedEnd, data.get("best_grounded_end")))
+                   _opt(GroundedEnd, data.get("best_grounded_end")),
+                   data.get("relative_motion"), _opt(PairThrough, data.get("best_joint")))
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ from .replay import Replay, horizon_samples, replay, steady_replay
 from .report import LevelCurves
 from .result import Diagnosis, Evidence
 from .select import SHORTLIST, Fit, RandomSearch
-from .policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, location_table, pick_holdout
+from .policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, pick_holdout
+from .where import location_table
 
 METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
           "analysis band) on the held-back recording")

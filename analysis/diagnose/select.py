@@ -26,11 +26,10 @@ from typing import Any, Hashable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..models import KINDS, Element, Model, restoring_force
+from ..models import KINDS, LINEAR_PARAM, Candidate, Element, Model, library, restoring_force
 from ..errors import EstimationError, InputError, ModelError
 from ..recordings import Recording
 from ..reverse_path import ReversePathOptions, reverse_path
-from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
 from .leakage import leakage_bias
@@ -121,7 +120,7 @@ def candidate_extras(model: Model, low: tuple[np.ndarray, np.ndarray],
     them by harmonic balance).
     """
     extra: dict[Candidate, list[float | None]] = {}
-    for c in library(model.n_dof, model.points):
+    for c in library(model.n_dof, model.points, model.support):
         if c.linear or (c.memory and not (memory and screened(c))):
             continue
         grid = KINDS[c.kind].search.grid
@@ -146,7 +145,8 @@ class Search:
                  extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
         self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
-        self.cands = [c for c in library(model.n_dof, model.points) if c.linear or c in extra]
+        self.cands = [c for c in library(model.n_dof, model.points, model.support)
+                      if c.linear or c in extra]
         self.H_lins = [stuck_linear(model).linear_frf(lf.freqs) for lf in self.levels]
         self.terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         self.H0s = [model_frf(hl, lf, self.terms) for hl, lf in zip(self.H_lins, self.levels)]
@@ -255,7 +255,7 @@ class RandomSearch(Search):
         extra = candidate_extras(model, (low.x, low.v), (high.x, high.v), memory=True)
         levels = [self._level(model, extra, p, floor) for p in preps]
         reach = {c.dofs: REACH * max(float(np.abs(p.x @ c.w).max()) for p in preps)
-                 for c in library(model.n_dof, model.points)}
+                 for c in library(model.n_dof, model.points, model.support)}
         terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         for lf in levels:   # the starting model as the Welch estimate sees it
             lf.leakage = leakage_bias(stuck_linear(model), lf, terms)

@@ -22,12 +22,11 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..models import KINDS, Element, Model, restoring_force
+from ..models import KINDS, Candidate, Element, Model, library, restoring_force
 from ..errors import EstimationError, InputError
 from ..hbm import HBMSystem, fit_hbm
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
-from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
 from .prepare import level_name
 from .engine import Flow
@@ -184,7 +183,8 @@ class SteppedSearch(Search):
                    {"estimator": "measured-motion harmonic balance"})
 
     def memory_fits(self) -> list[Fit]:
-        fits = [self.fit_memory(c) for c in library(self.model.n_dof, self.model.points)
+        m = self.model
+        fits = [self.fit_memory(c) for c in library(m.n_dof, m.points, m.support)
                 if c.memory and not c.compensated]
         return [f for f in fits if f is not None]
 

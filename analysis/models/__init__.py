@@ -1,8 +1,9 @@
 """What a structure is: model files, element kinds (one descriptor each) and their numba laws,
-the reverse-path basis functions of a kind, bounded text reading.
+the reverse-path basis functions of a kind, the candidate library (locations x kinds) that the
+diagnosis searches and reverse-path screening locates, bounded text reading.
 
 Modules behind this API: ``_model``, ``_model_file``, ``_model_tables``, ``_kinds``, ``_elements``, ``_basis``,
-``_textfile``. Code inside this package imports its siblings by their private module path.
+``_candidates``, ``_textfile``. Code inside this package imports its siblings by their private module path.
 """
 
 from ._model import Element, MAX_ELEMENTS, MAX_PARAM, Model, Support
@@ -13,11 +14,14 @@ from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tang
                         unregister_kind)
 from ._basis import (FAMILIES, LIBRARY, Basis, alias_error, aliasing_factor, deformation,
                      element_basis, evaluate)
+from ._candidates import (LINEAR_KINDS, LINEAR_PARAM, Candidate, grounded_allowed, library,
+                          locations)
 from ._textfile import MAX_TOML_BYTES, MAX_TOML_DEPTH, parse_toml, read_text, unknown_keys
 
-__all__ = ["alias_error", "aliasing_factor", "Basis", "coefficient_units", "deformation",
+__all__ = ["alias_error", "aliasing_factor", "Basis", "Candidate", "coefficient_units", "deformation",
            "Element", "element_basis", "element_force", "element_tangent", "evaluate", "FAMILIES",
-           "Kind", "KINDS", "LIBRARY", "lookup", "MAX_DOF", "MAX_ELEMENTS", "MAX_ENTRY",
+           "grounded_allowed", "Kind", "KINDS", "LIBRARY", "library", "LINEAR_KINDS", "LINEAR_PARAM",
+           "locations", "lookup", "MAX_DOF", "MAX_ELEMENTS", "MAX_ENTRY",
            "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "memoryless_force", "Model",
            "N_BUILTIN", "N_PARAM", "N_STATE", "pack_params", "Param", "parse_toml", "read_text",
            "Refs", "register_kind", "restoring_force", "search_order", "Support", "unknown_keys",

@@ -2,7 +2,7 @@
 
 The library is every registered element kind whose basis can be formed from the data alone
 (memoryless, linear in one coefficient, any other parameter with a default: `screenable_kinds`)
-at every location of the diagnosis library (`analysis.diagnose.candidates.locations`: each
+at every location of the diagnosis library (`analysis.models.locations`: each
 grounded DOF, ``w = e_i``, and each pair ``i < j``, ``w = e_j - e_i``). Every candidate
 ``(kind, w)`` becomes one more input ``r = -basis(w.x or w.v)`` next to the forces; one Welch
 pass gives the spectral matrix of all of them. Each candidate is scored by
@@ -36,7 +36,7 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from .. import models as bas    # the reverse-path basis functions of a kind
-from ..models import KINDS, Element, Model, search_order
+from ..models import KINDS, Candidate, Element, Model, locations, search_order
 from ..errors import EstimationError, InputError
 from ..spectral import (Spectra, conditioned_inputs, default_nperseg, h1, multiple_coherence,
                         spectral_matrix)
@@ -155,14 +155,11 @@ def screenable_kinds() -> dict[str, bas.Basis]:
 def default_locations(n_dof: int) -> list[np.ndarray]:
     """Each grounded DOF (``e_i``) and each DOF pair (``e_j - e_i``, ``i < j``): the
     diagnosis library's locations."""
-    # imported here: analysis.diagnose imports this package when it loads
-    from ..diagnose.candidates import Candidate, locations
     return [Candidate("", dofs, n_dof).w for dofs in locations(n_dof)]
 
 
 def _where(w: np.ndarray) -> str:
     """The diagnosis's name of a location, or the vector itself."""
-    from ..diagnose.candidates import Candidate
     nz = np.flatnonzero(w)
     if nz.size == 1 and w[nz[0]] == 1.0:
         return Candidate("", (int(nz[0]),), w.size).where

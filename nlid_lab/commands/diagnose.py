@@ -19,7 +19,7 @@ from ..outputs import (add_quiet_option, atomic_dir, atomic_path, refuse_overwri
 from .repair import check_runs
 
 if TYPE_CHECKING:
-    from analysis.diagnose import Diagnosis
+    from analysis.diagnose import Diagnosis, LocationRow
 
 
 def _holdout(text: str) -> float | str:
@@ -112,12 +112,23 @@ def run(args: argparse.Namespace) -> int:
     if rows:
         print("\nwhere (best candidate per location, first search pass):", file=stream)
         for r in rows[:5]:
-            end = r.best_grounded_end
-            vs = (f"; grounded at {end.points[0]} alone: {100 * end.chi2_reduction:.3g} %"
-                  if end else "")
             print(f"  {' - '.join(r.points):<24} {r.kind:<18} misfit -"
-                  f"{100 * r.chi2_reduction:.3g} %, BIC +{r.delta_bic:.3g}{vs}", file=stream)
+                  f"{100 * r.chi2_reduction:.3g} %, BIC {r.delta_bic:+.3g}{_beside(r)}",
+                  file=stream)
     return 0
+
+
+def _beside(r: LocationRow) -> str:
+    """A location row's other side: a pair's relative motion and best grounded end, a
+    point's best joint (support and joint shown side by side)."""
+    end, joint = r.best_grounded_end, r.best_joint
+    if end is not None:
+        return (f"; relative motion {100 * r.relative_motion:.2g} %; grounded at "
+                f"{end.points[0]} alone: {100 * end.chi2_reduction:.3g} %")
+    if joint is not None:
+        return (f"; best joint {' - '.join(joint.points)} ({joint.kind}, relative motion "
+                f"{100 * joint.relative_motion:.2g} %): {100 * joint.chi2_reduction:.3g} %")
+    return ""
 
 
 def _show(bar, done: int, total: int, stage: str) -> None:
@@ -150,13 +161,12 @@ def write_report(d: Diagnosis, out: Path) -> None:
         figs += ["", f"![{c.label}]({name})"]
     lines += figs
     lines += ["", "## Where", "", "| location | best kind | misfit reduction | BIC gain | "
-              "best grounded at an end |", "|---|---|---|---|---|"]
+              "beside it (a pair's relative motion and grounded end, a point's best joint) |",
+              "|---|---|---|---|---|"]
     for r in d.evidence.locations or ():
-        end = r.best_grounded_end
         lines.append(f"| {' - '.join(r.points)} | {r.kind} | "
                      f"{100 * r.chi2_reduction:.3g} % | {r.delta_bic:.4g} | "
-                     + (f"{end.kind} at {end.points[0]}: {100 * end.chi2_reduction:.3g} %"
-                        if end else "-") + " |")
+                     f"{_beside(r).removeprefix('; ') or '-'} |")
     lines += ["", "## Candidate ranking", "", "| kind | DOFs | params | BIC gain |",
               "|---|---|---|---|"]
     for r in d.ranking:

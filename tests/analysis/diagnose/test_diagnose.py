@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from analysis.diagnose import diagnose
-from analysis.diagnose.candidates import library
+from analysis.models import library
 
 from analysis.diagnose.prepare import prepare_random
 from analysis.diagnose.replay import horizon_samples, replay

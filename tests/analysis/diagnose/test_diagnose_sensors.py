@@ -5,7 +5,7 @@ a modal model from the measured points, and messages name the points."""
 import numpy as np
 import pytest
 
-from analysis.diagnose.candidates import Candidate
+from analysis.models import Candidate
 from analysis.diagnose.policy import decide
 from analysis.diagnose.prepare import Prepared
 from analysis.diagnose.replay import horizon_samples, replay, state_map

@@ -12,7 +12,7 @@ import pytest
 import analysis.diagnose.search as search_mod
 from analysis.diagnose import (CandidateFit, Diagnosis, FitSummary, LevelError, Location,
                                Verdict, diagnose)
-from analysis.diagnose.candidates import Candidate
+from analysis.models import Candidate
 from analysis.diagnose.compare import weighted_error
 from analysis.diagnose.policy import pick_holdout
 from analysis.diagnose.prepare import prepare_random

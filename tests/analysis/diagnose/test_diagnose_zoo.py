@@ -37,6 +37,11 @@ WRONG_TODAY: dict[str, str] = {
     "twin-jenkins_joint-acc-multisine": AS_HYSTERESIS,
     "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %)",
     "twin-jenkins_joint-acc-multisine-daq": AS_HYSTERESIS,
+    "twin-gvt-jenkins_joint-acc-multisine-mains": AS_HYSTERESIS,
+    "twin-gvt-jenkins_joint-acc-multisine-mains-free": AS_HYSTERESIS,
+    "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd -16.2 % (kd +0.4 %)",
+    "stiffpair-cubic1-disp-random": "the cubic split into two effects, at DOF 2 and at DOF 1 "
+                                    "(they move within 1.5 % of each other): p -91.9 %",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 1`` (docs/diagnose.md, Zoo)."""

@@ -16,7 +16,7 @@ from analysis.models import (FAMILIES, KINDS, LIBRARY, N_BUILTIN, N_STATE, Eleme
                              search_order, unregister_kind)
 from analysis.hbm import HBMFit, HBMSystem, aft_tables, fit_hbm, periodic_forces
 from analysis.diagnose import diagnose
-from analysis.diagnose.candidates import library
+from analysis.models import library
 from analysis.errors import EstimationError, InputError
 from analysis.plant import Plant, random_gaussian
 from analysis.spectral import SteppedSineFRF

@@ -1,12 +1,23 @@
-"""The one candidate library searched by every diagnosis: locations x kinds.
+"""The one candidate library searched by every diagnosis (and located by reverse-path
+screening): locations x kinds.
 
 A *location* is a position vector ``w``: ``e_i`` (element from DOF i to ground) or
 ``e_j - e_i`` (element between DOFs i < j). A *kind* is either an element kind of
 `analysis.models.KINDS` (every one, in `analysis.models.search_order`) or a linear error
 (``mass_error``, ``stiffness_error``, ``damping_error``). The library is the full cross
 product (mass errors only at single DOFs; kinds with a stuck stiffness also with that
-stiffness taken out of the linear part, as a model fitted at a low level holds it); nothing in it depends on the data or on the
-scenario being diagnosed.
+stiffness taken out of the linear part, as a model fitted at a low level holds it); nothing in
+it depends on the data or on the scenario being diagnosed.
+
+A model's ``[support]`` (`Support`, contracts section 7) narrows the grounded locations: with
+``points = [...]`` grounded candidates stand only at those points; with ``free = true`` no
+grounded element stands anywhere and only the linear errors remain grounded (a suspension's
+stiffness and damping, a point's mass). Mass errors stand at every point (a mass is not held
+by a support). Without ``[support]`` every point may be grounded. Relative candidates (every
+pair) are never narrowed.
+
+Kept below `analysis.diagnose` so that `analysis.reverse_path` screens the same locations
+without importing the diagnosis.
 """
 
 from __future__ import annotations
@@ -16,7 +27,8 @@ from itertools import combinations
 
 import numpy as np
 
-from ..models import KINDS, search_order
+from ._kinds import KINDS, search_order
+from ._model import Support
 
 LINEAR_KINDS = ("stiffness_error", "damping_error", "mass_error")
 """Linear model errors: a constant added to K, C (at ``w w^T``) or M (at ``e_i e_i^T``)."""
@@ -40,6 +52,7 @@ class Candidate:
 
     @property
     def w(self) -> np.ndarray:
+        """Position vector: ``e_i`` to ground, ``e_j - e_i`` between DOFs ``i < j``."""
         w = np.zeros(self.n_dof)
         w[self.dofs[-1]] = 1.0
         if len(self.dofs) == 2:
@@ -48,10 +61,12 @@ class Candidate:
 
     @property
     def linear(self) -> bool:
+        """A linear model error (not an element kind)."""
         return self.kind in LINEAR_KINDS
 
     @property
     def memory(self) -> bool:
+        """An element kind with internal state (a slider)."""
         return not self.linear and KINDS[self.kind].memory
 
     @property
@@ -68,6 +83,7 @@ class Candidate:
 
     @property
     def where(self) -> str:
+        """``P to ground`` or ``between P and Q`` (DOF numbers when the points are unnamed)."""
         a = self.points
         if len(self.dofs) == 1:
             return f"{a[0]} to ground" if self.names else f"DOF {a[0]} to ground"
@@ -75,6 +91,7 @@ class Candidate:
 
     @property
     def label(self) -> str:
+        """Kind and location in words, for messages."""
         stuck = " (its stuck stiffness taken from the linear part)" if self.compensated else ""
         return f"{self.kind} {self.where}{stuck}"
 
@@ -84,14 +101,28 @@ def locations(n_dof: int) -> list[tuple[int, ...]]:
     return [(i,) for i in range(n_dof)] + list(combinations(range(n_dof), 2))
 
 
-def library(n_dof: int, names: list[str] | None = None) -> list[Candidate]:
+def grounded_allowed(kind: str, point: int, support: Support | None) -> bool:
+    """Whether ``kind`` may act from ``point`` to ground under ``support`` (None: the model
+    does not say, every point may be grounded)."""
+    if support is None or kind == "mass_error":
+        return True
+    if support.free:
+        return kind in LINEAR_KINDS
+    return point in support.points
+
+
+def library(n_dof: int, names: list[str] | None = None,
+            support: Support | None = None) -> list[Candidate]:
     """The complete candidate library of an ``n_dof`` model (``names``: its point names, used
-    in messages when they are not just the point numbers)."""
+    in messages when they are not just the point numbers; ``support``: its ``[support]``,
+    which narrows the grounded candidates, see the module docstring)."""
     named = tuple(names) if names and list(names) != [str(i) for i in range(n_dof)] else None
     out = []
     for loc in locations(n_dof):
         for kind in search_order() + LINEAR_KINDS:
             if kind == "mass_error" and len(loc) != 1:
+                continue
+            if len(loc) == 1 and not grounded_allowed(kind, loc[0], support):
                 continue
             out.append(Candidate(kind, loc, n_dof, names=named))
             if kind in KINDS and KINDS[kind].initial_stiffness is not None:
