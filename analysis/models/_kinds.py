@@ -284,6 +284,17 @@ KINDS: dict[str, Kind] = {
         search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd", fixed=(("n", 2.0),)),
                       starts=_slider_starts(2.0), inactive=_slips_below(0.5)),
         initial_stiffness="kd"),
+    "iwan": Kind(
+        8, (_KD, _FD,
+            Param("chi", "slider-strength exponent", "-", lambda r: -0.5, bounds=(-0.95, 0.5),
+                  smallest=-0.99),
+            Param("beta", "full-slip share", "-", lambda r: 0.5, bounds=(0.0, 10.0),
+                  smallest=0.0)),
+        memory=True, stiffness=lambda p, u: p["kd"],
+        search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd",
+                                fixed=(("chi", -0.5), ("beta", 0.5))),
+                      starts=_slider_starts(-0.5, 0.5), inactive=_slips_below(0.5)),
+        initial_stiffness="kd"),
     "gap": Kind(
         7, (Param("k", "contact stiffness", "N/m", _stiffness_scale, positive=True),
             Param("g", "width", "m", lambda r: 0.5 * r.u, positive=True)),

@@ -13,7 +13,8 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from analysis.errors import InputError, RecordingError
-from analysis.recordings import KIND_ORDER, MIXED, RESPONSE_KINDS, SensorMap, table_keys
+from analysis.recordings import (KIND_ORDER, MIXED, RESPONSE_KINDS, Control, SensorMap,
+                                 table_keys)
 from analysis.models import parse_toml, read_text, unknown_keys
 from drivers.base import Channel
 from drivers.errors import DriverConfigError
@@ -66,6 +67,8 @@ class SteppedSpec:
     settle_tolerance: float = 0.01
     max_settle_blocks: int = 20
     max_control_iterations: int = 8
+    control: Control = Control.FORCE   # held per step: the force or the response amplitude
+    control_dof: int | None = None     # response control: the held channel's DOF
 
 
 @dataclass
@@ -465,10 +468,18 @@ def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepS
     t = _table(data, "stepped")
     _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
                  "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
-                 "max_control_iterations"}, "stepped")
+                 "max_control_iterations", "control", "control_dof"}, "stepped")
     freqs = _freqs(t)
     if max(freqs) >= fs / 2:
         raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
+    control = t.get("control", str(Control.FORCE))
+    if control not in list(Control):
+        raise CampaignError(f"[stepped] control must be one of {', '.join(Control)}, got "
+                            f"{control!r}")
+    if "control_dof" in t and control != Control.RESPONSE:
+        raise CampaignError("[stepped] control_dof names the held response channel; give it "
+                            "with control = \"response\" or leave it out")
+    cdof = _num(t, "control_dof", "stepped", default=None, lo=0, integer=True, hi=10**6)
     return SteppedSpec(_levels(t, "stepped"), freqs,
                        _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
                        _num(t, "harmonics", "stepped", default=7, lo=1, hi=50, integer=True),
@@ -478,7 +489,19 @@ def _plan(data: dict, kind: str, fs: float) -> RandomSpec | SteppedSpec | SweepS
                        _num(t, "max_settle_blocks", "stepped", default=20, lo=2, integer=True,
                             hi=10000),
                        _num(t, "max_control_iterations", "stepped", default=8, lo=1,
-                            integer=True, hi=100))
+                            integer=True, hi=100), Control(control), cdof)
+
+
+def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
+    """A response-controlled plan holds a response channel (default: the one at the force)."""
+    dofs = sorted(c.dof for c in channels if c.quantity != "force")
+    if plan.control != Control.RESPONSE:
+        return
+    if plan.control_dof is None:
+        plan.control_dof = next(c.dof for c in channels if c.quantity == "force")
+    if plan.control_dof not in dofs:
+        raise CampaignError(f"[stepped] control_dof = {plan.control_dof} has no response "
+                            f"channel; use one of the response channels' dof {dofs}")
 
 
 def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
@@ -558,9 +581,12 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     name = data.get("name", "campaign")
     if not isinstance(name, str):
         raise CampaignError("name must be a string")
+    plan = _plan(data, kind, fs)
+    if isinstance(plan, SteppedSpec):
+        _check_control(plan, channels)
     return Campaign(
         name=name, kind=kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
-        channels=channels, response_kind=response_kind, plan=_plan(data, kind, fs),
+        channels=channels, response_kind=response_kind, plan=plan,
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
                         integer=True),
