@@ -184,8 +184,8 @@ class HBMFit:
         for i, spec in enumerate(self.specs):
             if spec.bounds is not None and self.log[i]:
                 lo[i], hi[i] = np.log(np.array(spec.bounds) / self.scale[i])
-            elif spec.bounds is not None:     # a signed scale may swap the ends
-                lo[i], hi[i] = sorted(np.array(spec.bounds) / self.scale[i])
+            elif spec.bounds is not None:
+                lo[i], hi[i] = np.array(spec.bounds) / self.scale[i]
         return lo, hi
 
     def _packed(self, p: np.ndarray) -> np.ndarray:

@@ -286,7 +286,7 @@ KINDS: dict[str, Kind] = {
         initial_stiffness="kd"),
     "iwan": Kind(
         8, (_KD, _FD,
-            Param("chi", "slider-strength exponent", "-", lambda r: -0.5, bounds=(-0.95, 0.5),
+            Param("chi", "slider-strength exponent", "-", lambda r: 0.5, bounds=(-0.95, 0.9),
                   smallest=-0.99),
             Param("beta", "full-slip share", "-", lambda r: 0.5, bounds=(0.0, 10.0),
                   smallest=0.0)),
