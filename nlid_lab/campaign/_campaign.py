@@ -105,7 +105,10 @@ class _Runner:
         self.summaries: list[LevelSummary] = []
         self._level_t0 = 0.0
         self._drive: float | None = None
-        self.step_gain: dict[int, float] = {}   # response control: held amplitude per volt
+        self.step_gain: dict[int, float] = {}   # response control, per step: held amplitude
+        self.force_gain: dict[int, float] = {}  # and force amplitude per drive volt
+        self._point: tuple[float, float] | None = None   # the step's last (drive, held)
+        self._last_slope = 1.0
 
     # --- streaming -----------------------------------------------------------------------
     def _chunk(self) -> Block:
@@ -270,7 +273,7 @@ class _Runner:
             stored = lw.stored_seqs()     # step k is stored as seq k: resume records the rest
             todo = [k for k in range(n_steps) if k not in stored]
             if todo:
-                drive = self._first_drive(plan, amp, todo[0])
+                drive, self._last_slope = self._first_drive(plan, amp, todo[0]), 1.0
                 self._start(SineOutput(plan.freqs[todo[0]]), drive)
                 try:
                     for k in todo:
@@ -286,13 +289,14 @@ class _Runner:
     def _first_drive(self, plan: SteppedSpec, amp: float, k: int) -> float:
         """A level's first drive: from the force gain (force control), from the response
         gain at step ``k`` of the previous level, else a 20th of ``max_drive`` (response
-        control: the loop then ramps it up by at most 4x per change)."""
+        control: the loop then ramps it up by at most 4x per change); kept below the force
+        channel's safety limit where the previous level's force gain is known."""
         if plan.control == Control.FORCE:
-            drive = amp / self.gain
-        elif k in self.step_gain:
-            drive = amp / self.step_gain[k]
-        else:
-            drive = self.c.max_drive / 20
+            return min(amp / self.gain, self.c.max_drive)
+        drive = amp / self.step_gain[k] if k in self.step_gain else self.c.max_drive / 20
+        limit = self.c.limits.get(self.c.channels[self.force_col].name)
+        if limit is not None and k in self.force_gain:
+            drive = min(drive, 0.9 * limit / self.force_gain[k])
         return min(drive, self.c.max_drive)
 
     def _held_col(self, plan: SteppedSpec) -> int:
@@ -305,7 +309,8 @@ class _Runner:
     def _correct(self, plan: SteppedSpec, k: int, h: np.ndarray, amp: float,
                  drive: float) -> float | None:
         """The drive to apply after measuring fundamentals ``h`` at ``drive`` (None: the
-        held amplitude is within tolerance, or no control change is left)."""
+        held amplitude is within tolerance). Response control raises `_LimitReached`
+        when the drive it needs passes ``max_drive`` or its force the force limit."""
         held = abs(h[self._held_col(plan)])
         if held <= 0:
             return None
@@ -314,55 +319,79 @@ class _Runner:
             self.gain = gain
         else:
             self.step_gain[k] = gain
+            self.force_gain[k] = abs(h[self.force_col]) / drive
         if abs(held / amp - 1) <= plan.tolerance:
             return None
-        wanted = amp / gain
+        wanted = drive * (amp / held) ** (1 / self._slope(drive, held))
         if plan.control == Control.RESPONSE:
-            self._check_limits(plan, k, h, drive, wanted, held, amp)
+            self._check_limits(plan, k, wanted, held, amp, drive)
         return self._new_drive(drive, wanted)
 
-    def _check_limits(self, plan: SteppedSpec, k: int, h: np.ndarray, drive: float,
-                      wanted: float, held: float, amp: float) -> None:
-        """Response control: raise `_LimitReached` when holding ``amp`` needs more than
-        ``max_drive`` (already applied) or a force amplitude over the force channel's
-        ``[safety]`` limit."""
+    def _slope(self, drive: float, held: float) -> float:
+        """``d ln(held) / d ln(drive)`` from this and the step's previous measurement (a
+        secant: near a softening resonance the response grows faster than the drive and a
+        proportional correction overshoots, back and forth); for a step's first correction
+        the previous step's (1 at a level's first), and 1 where the secant is not a usable
+        rise (noise, a jump)."""
+        prev, self._point = self._point, (drive, held)
+        if prev is None or prev[0] == drive or prev[1] <= 0:
+            return self._last_slope
+        slope = np.log(held / prev[1]) / np.log(drive / prev[0])
+        self._last_slope = float(min(slope, 10.0)) if slope > 0.2 else 1.0
+        return self._last_slope
+
+    def _check_limits(self, plan: SteppedSpec, k: int, wanted: float, held: float,
+                      amp: float, drive: float) -> None:
+        """Raise `_LimitReached` when holding ``amp`` needs a drive over ``max_drive``
+        (applied already) or a force amplitude over the force channel's ``[safety]`` limit."""
         where = (f"level {self.level} step {k} ({plan.freqs[k]:g} Hz): response amplitude "
                  f"{held:.4g} of {amp:g} at DOF {plan.control_dof}")
-        force_limit = self.c.limits.get(self.c.channels[self.force_col].name)
-        force = abs(h[self.force_col]) * wanted / drive
+        limit = self.c.limits.get(self.c.channels[self.force_col].name)
+        force = self.force_gain[k] * wanted
         if wanted > self.c.max_drive and drive >= self.c.max_drive:
             raise _LimitReached(f"{where} needs drive {wanted:.4g} V over max_drive "
                                 f"{self.c.max_drive:g} V; level ended here (raise "
                                 "[shaker] max_drive or lower the level)")
-        if force_limit is not None and force > force_limit:
+        if limit is not None and force > limit:
             raise _LimitReached(f"{where} needs force {force:.4g} N over its safety limit "
-                                f"{force_limit:g} N; level ended here (raise the force "
-                                "channel's [safety] limit or lower the level)")
+                                f"{limit:g} N; level ended here (raise the force channel's "
+                                "[safety] limit or lower the level)")
 
     def _step(self, lw, level: int, k: int, plan: SteppedSpec, amp: float,
               drive: float) -> tuple[float, float]:
-        """Settle, record and store step ``k``; returns the drive and the held amplitude."""
+        """Settle, record and store step ``k``; returns the drive and the held amplitude.
+
+        Per block after a change: the fundamentals, the responses' referenced to the
+        force's phase (blocks need not hold whole cycles). Force control corrects the drive
+        at once; response control waits for the response to settle first (its transient
+        decays over the mode's time constant, the force's does not). At most
+        ``max_settle_blocks`` blocks per step (response control: after the last change)."""
         freq, fs = plan.freqs[k], self.c.fs
-        prev, settled, changes, blocks = None, False, 0, 0
+        prev, settled, changes, blocks, since = None, False, 0, 0, 0
+        self._point = None
+        wait = plan.control == Control.RESPONSE
         skip = 1  # the block after a change holds the transient and data already in flight
-        while blocks < plan.max_settle_blocks and not settled:
+        while since < plan.max_settle_blocks and not settled:
             data, _ = self.take(plan.block_size)
-            blocks += 1
+            blocks, since = blocks + 1, since + 1
             if skip:
                 skip -= 1
                 continue
             h = harmonics(data, freq, fs, 1)[1]
+            resp = h[self.resp_cols] * np.exp(-1j * np.angle(h[self.force_col]))
+            steady = prev is not None and np.max(np.abs(resp - prev)) <= \
+                plan.settle_tolerance * max(np.max(np.abs(resp)), 1e-300)
+            prev = resp
+            if wait and not steady:
+                continue
             new = self._correct(plan, k, h, amp, drive)
             if new is not None and changes < plan.max_control_iterations:
                 drive = new
                 self.bench.shaker.set_level(drive)
                 changes, prev, skip = changes + 1, None, 1
+                since = 0 if wait else since
                 continue
-            resp = h[self.resp_cols]
-            if prev is not None:
-                change = np.max(np.abs(resp - prev)) / max(np.max(np.abs(resp)), 1e-300)
-                settled = change <= plan.settle_tolerance
-            prev = resp
+            settled = steady
         if not settled:
             self.warnings.append(f"level {level} step {k} ({freq:g} Hz): not settled within "
                                  f"{plan.max_settle_blocks} blocks; recorded anyway")
@@ -373,7 +402,7 @@ class _Runner:
         extra = {"harmonics": np.stack([hs.real, hs.imag], -1),
                  "channels": [ch.name for ch in self.c.channels],
                  "control_error": held / amp - 1, "settle_blocks": blocks,
-                 "settled": bool(settled), "drive": drive}
+                 "settled": bool(settled), "drive": drive, "control_changes": changes}
         lw.append_step(freq, force, resp, amplitude=held, extra=extra, t=t0, seq=k)
         self.observer.step(level, k, freq, force, resp, held / amp - 1,
                            hs[:, self.resp_cols])

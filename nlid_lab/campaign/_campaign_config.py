@@ -123,7 +123,8 @@ class Campaign:
                               / p.block_size)
             return 2 + sweep, 2 * p.max_control_iterations + sweep
         if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
-            return 4 * len(p.freqs), (p.max_settle_blocks + 1) * len(p.freqs)
+            tries = p.max_control_iterations + 1 if p.control == Control.RESPONSE else 1
+            return 4 * len(p.freqs), (tries * p.max_settle_blocks + 1) * len(p.freqs)
         control = p.settle_blocks + 1
         if p.periodic:                   # a block is one period here
             record = p.averages * (p.transient_periods + p.periods)
