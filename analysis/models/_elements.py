@@ -147,31 +147,31 @@ def _virgin(kd: float, fd: float, n: float, x: float) -> float:
 
 
 @numba.njit(cache=True)
-def _iwan_constants(kd: float, fd: float, chi: float, beta: float) -> tuple[float, float]:
-    """``phi_max`` and ``R`` of the four-parameter Iwan density (Segalman 2005, eq 8-10)."""
-    c = (chi + 1.0) / (chi + 2.0)
-    phi_max = fd * (1.0 + beta) / (kd * (beta + c))
-    return phi_max, fd * (chi + 1.0) / (phi_max ** (chi + 2.0) * (beta + c))
+def _iwan_phi_max(kd: float, fd: float, chi: float, beta: float) -> float:
+    """Slip displacement of the strongest slider (Segalman 2005, eq 8-10)."""
+    return fd * (1.0 + beta) / (kd * (beta + (chi + 1.0) / (chi + 2.0)))
 
 
 @numba.njit(cache=True)
 def _iwan_virgin(kd: float, fd: float, chi: float, beta: float, x: float) -> float:
-    """Virgin curve of the four-parameter Iwan joint (module docstring)."""
-    phi_max, r = _iwan_constants(kd, fd, chi, beta)
+    """Virgin curve of the four-parameter Iwan joint (module docstring), written with
+    ``R phi_max^(chi+1) = kd (chi+1) / (1+beta)`` so that no power of ``phi_max`` can
+    overflow: ``kd x (1 - (|x| / phi_max)^(chi+1) / ((1+beta)(chi+2)))``."""
+    phi_max = _iwan_phi_max(kd, fd, chi, beta)
     a = abs(x)
     if a >= phi_max:
         return np.sign(x) * fd
-    return x * (kd - r * a ** (chi + 1.0) / ((chi + 1.0) * (chi + 2.0)))
+    return kd * x * (1.0 - (a / phi_max) ** (chi + 1.0) / ((1.0 + beta) * (chi + 2.0)))
 
 
 @numba.njit(cache=True)
 def _iwan_slope(kd: float, fd: float, chi: float, beta: float, x: float) -> float:
     """Derivative of `_iwan_virgin`: the stiffness of the sliders still sticking."""
-    phi_max, r = _iwan_constants(kd, fd, chi, beta)
+    phi_max = _iwan_phi_max(kd, fd, chi, beta)
     a = abs(x)
     if a >= phi_max:
         return 0.0
-    return kd - r * a ** (chi + 1.0) / (chi + 1.0)
+    return kd * (1.0 - (a / phi_max) ** (chi + 1.0) / (1.0 + beta))
 
 
 @numba.njit(cache=True, inline="always")
