@@ -1,9 +1,10 @@
 """Test campaigns: drive the shaker, stream the DAQ, write every block to a run file.
 
 Random campaigns hold each force-rms level by closed-loop control of the drive, discard the
-transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude at
-each frequency, wait until the response harmonics stop changing, then record one block per
-step with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
+transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude
+(or, with ``control = "response"``, the response amplitude at ``control_dof``) at each
+frequency, wait until the response harmonics stop changing, then record one block per step
+with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
 over-limit or a communication failure ramps the drive to zero at once and the run is marked
 aborted (data kept). Lost samples never leave a silent gap: the block being assembled is
 discarded and the loss counted in the run. ``resume`` continues at the first incomplete block
