@@ -8,8 +8,8 @@ forward through the time loop together with the memory state (forward-mode diffe
 
 * memoryless kinds: ``dg_n = g_u φ_n + g_v ψ_n`` (tangent stiffness and damping at each sample);
 * stick-slip: ``dg_n = kd (φ_n - dz)`` in stick, 0 in slip where the slider follows ``dz = φ_n``;
-* hysteresis (eq 34, Masing): the branch tangent ``F0'`` plus the derivatives of the stored
-  reversal point, 0 where the branch is clipped at ``±fd``.
+* hysteresis (eq 34, Masing) and the Iwan joint: the branch tangent ``F0'`` plus the
+  derivatives of the stored reversal point, 0 where the branch is clipped at ``±fd``.
 
 So ``J = DFT · diag(tangent) · IDFT`` plus the memory terms, as for a piecewise-smooth law the
 discrete map is differentiable away from the instants where a sample changes branch.
@@ -85,8 +85,8 @@ def _run_kind(code, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s,
         if n >= 0:
             g[n] = gg
         if jac:
-            cu, cv, c0, c1, a0, b0, a1, b1 = element_tangent(code, p[0], p[1], p[2], uu, vv, s0,
-                                                              s2, s3, s_out[0], gg)
+            cu, cv, c0, c1, a0, b0, a1, b1 = element_tangent(code, p[0], p[1], p[2], p[3], uu,
+                                                              vv, s0, s2, s3, s_out[0], gg)
             for d in range(m):
                 if n >= 0:
                     du = phi[n, d]
@@ -125,6 +125,9 @@ def _run(code, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, 
                   DG)
     elif code == 6:
         _run_kind(6, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g,
+                  DG)
+    elif code == 8:
+        _run_kind(8, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g,
                   DG)
     else:
         _run_kind(code, p, events, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g,

@@ -176,14 +176,16 @@ class HBMFit:
         Returns
         -------
         lo, hi : ndarray
-            Log-scaled variables within ``10**±_BOUND`` of their scale (or their parameter's
-            ``bounds``), linear ones within ±10 scales.
+            Log-scaled variables within ``10**±_BOUND`` of their scale, linear ones within
+            ±10 scales (either: within their parameter's ``bounds`` when it has them).
         """
         lo = np.where(self.log, -_BOUND * np.log(10), -10.0)
         hi = np.where(self.log, _BOUND * np.log(10), 10.0)
         for i, spec in enumerate(self.specs):
-            if spec.bounds is not None:
+            if spec.bounds is not None and self.log[i]:
                 lo[i], hi[i] = np.log(np.array(spec.bounds) / self.scale[i])
+            elif spec.bounds is not None:
+                lo[i], hi[i] = np.array(spec.bounds) / self.scale[i]
         return lo, hi
 
     def _packed(self, p: np.ndarray) -> np.ndarray:

@@ -24,6 +24,15 @@ hysteresis (paper eq 34 with Masing branches)
     Virgin curve ``F0(u) = kd u / (1 + |kd u / fd|^n)^(1/n)``. A reversal of the velocity sign
     at ``(u_r, F_r)`` starts the branch ``F = F_r + 2 F0((u - u_r) / 2)``; a branch is bounded by
     ``|F| <= fd`` (the skeleton's asymptote), which closes inner loops of random motion.
+iwan (Segalman's four-parameter Iwan joint: a continuum of Jenkins sliders)
+    Slider strengths distributed as ``R phi^chi`` on ``(0, phi_max)`` plus a Dirac ``S`` at
+    ``phi_max`` (Segalman 2005, ASME J Appl Mech 72:752), from ``kd`` (stiffness while every
+    slider sticks), ``fd`` (force when all slip), ``chi`` and ``beta``. Its virgin curve is
+    ``F0(u) = kd u - R |u|^(chi+2) sign(u) / ((chi+1)(chi+2))`` up to ``phi_max``, ``fd``
+    beyond; reversals follow the same Masing branches and state as ``hysteresis``, which are
+    the parallel sliders' exact response while each half-cycle spans the one before (a
+    periodic steady state, stepped sine); inner loops of random motion are closed by the
+    ``|F| <= fd`` bound instead of by the sliders' full memory.
 """
 
 from __future__ import annotations
@@ -38,7 +47,7 @@ from ._kinds import KINDS, Kind, lookup
 
 N_PARAM = 4
 N_STATE = 4
-N_BUILTIN = 8
+N_BUILTIN = 9
 """Codes below this are branches of `element_force`; registered kinds get the next ones."""
 
 
@@ -137,6 +146,34 @@ def _virgin(kd: float, fd: float, n: float, x: float) -> float:
     return np.sign(x) * fd / (1.0 + r ** (-n)) ** (1.0 / n)
 
 
+@numba.njit(cache=True)
+def _iwan_phi_max(kd: float, fd: float, chi: float, beta: float) -> float:
+    """Slip displacement of the strongest slider (Segalman 2005, eq 8-10)."""
+    return fd * (1.0 + beta) / (kd * (beta + (chi + 1.0) / (chi + 2.0)))
+
+
+@numba.njit(cache=True)
+def _iwan_virgin(kd: float, fd: float, chi: float, beta: float, x: float) -> float:
+    """Virgin curve of the four-parameter Iwan joint (module docstring), written with
+    ``R phi_max^(chi+1) = kd (chi+1) / (1+beta)`` so that no power of ``phi_max`` can
+    overflow: ``kd x (1 - (|x| / phi_max)^(chi+1) / ((1+beta)(chi+2)))``."""
+    phi_max = _iwan_phi_max(kd, fd, chi, beta)
+    a = abs(x)
+    if a >= phi_max:
+        return np.sign(x) * fd
+    return kd * x * (1.0 - (a / phi_max) ** (chi + 1.0) / ((1.0 + beta) * (chi + 2.0)))
+
+
+@numba.njit(cache=True)
+def _iwan_slope(kd: float, fd: float, chi: float, beta: float, x: float) -> float:
+    """Derivative of `_iwan_virgin`: the stiffness of the sliders still sticking."""
+    phi_max = _iwan_phi_max(kd, fd, chi, beta)
+    a = abs(x)
+    if a >= phi_max:
+        return 0.0
+    return kd * (1.0 - (a / phi_max) ** (chi + 1.0) / (1.0 + beta))
+
+
 @numba.njit(cache=True, inline="always")
 def memoryless_force(code: int, p0: float, p1: float, p2: float, u: float, v: float) -> float:
     """Restoring force of a kind without memory (`element_force` with scalars only: a
@@ -193,16 +230,18 @@ def element_force(code: int, p: np.ndarray, u: float, v: float,
             s_out[0] = u + fd / kd
             return -fd
         return f
-    if code == 6:
+    if code == 6 or code == 8:
         kd, fd, n = p[0], p[1], p[2]
         # state: 0 reversal displacement, 1 reversal force, 2 direction (+1/-1, 0 unknown),
         # 3 virgin flag (0 on the virgin curve, 1 on a Masing branch)
         ur, fr, direction, branch = s_in[0], s_in[1], s_in[2], s_in[3]
-        if branch == 0.0:
-            f = _virgin(kd, fd, n, u)
+        x = u if branch == 0.0 else 0.5 * (u - ur)
+        if code == 6:
+            f = _virgin(kd, fd, n, x)
         else:
-            f = fr + 2.0 * _virgin(kd, fd, n, 0.5 * (u - ur))
-            f = min(max(f, -fd), fd)
+            f = _iwan_virgin(kd, fd, n, p[3], x)
+        if branch != 0.0:
+            f = min(max(fr + 2.0 * f, -fd), fd)
         d = np.sign(v)
         if d != 0.0 and direction != 0.0 and d != direction:
             s_out[0] = u
@@ -224,8 +263,9 @@ def _virgin_slope(kd, fd, n, x):
 
 
 @numba.njit(cache=True)
-def element_tangent(code, p0, p1, p2, u, v, s0, s2, s3, z_new, g):
-    """Coefficients of the forward derivative of one step of the law (scalars only):
+def element_tangent(code, p0, p1, p2, p3, u, v, s0, s2, s3, z_new, g):
+    """Coefficients of the forward derivative of one step of the law (scalars only, the
+    packed parameters ``p0 .. p3``):
     ``dg = cu du + cv dv + c0 ds0 + c1 ds1``, ``ds0' = a0 du + b0 ds0``,
     ``ds1' = a1 dg + b1 ds1`` (``s0``, ``s1``: the continuous memory state; ``s2``, ``s3``
     the state before the step, ``z_new`` slot 0 after it, ``g`` the force).
@@ -236,13 +276,13 @@ def element_tangent(code, p0, p1, p2, u, v, s0, s2, s3, z_new, g):
         if z_new != s0:                             # slipped: the slider follows u
             return 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0
         return p0, 0.0, -p0, 0.0, 0.0, 1.0, 0.0, 1.0
-    if code == 6:                                   # eq 34 hysteresis, Masing branches
+    if code == 6 or code == 8:                      # Masing branches: eq 34 hysteresis, Iwan
         cu, c0, c1 = 0.0, 0.0, 0.0
-        if s3 == 0.0:
-            cu = _virgin_slope(p0, p1, p2, u)
-        elif abs(g) < p1:                           # not clipped at the asymptote
-            cu = _virgin_slope(p0, p1, p2, 0.5 * (u - s0))
-            c0, c1 = -cu, 1.0
+        x = u if s3 == 0.0 else 0.5 * (u - s0)
+        if s3 == 0.0 or abs(g) < p1:                # not clipped at the asymptote
+            cu = _virgin_slope(p0, p1, p2, x) if code == 6 else _iwan_slope(p0, p1, p2, p3, x)
+            if s3 != 0.0:
+                c0, c1 = -cu, 1.0
         d = np.sign(v)
         if d != 0.0 and s2 != 0.0 and d != s2:      # reversal stored: (u, g)
             return cu, 0.0, c0, c1, 1.0, 0.0, 1.0, 0.0

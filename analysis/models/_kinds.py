@@ -62,8 +62,9 @@ class Param:
         Value when the model file omits it (makes the parameter optional).
     bounds : (float, float), optional
         Absolute fit bounds (default: `analysis.hbm._hbm_fit` decades around the start).
-    smallest : float, optional
-        Smallest value a model file may give (beyond ``positive``), where the law needs it.
+    smallest, largest : float, optional
+        Smallest and largest value a model file may give (beyond ``positive``), where the
+        law needs them.
     """
 
     name: str
@@ -74,6 +75,7 @@ class Param:
     default: float | None = None
     bounds: tuple[float, float] | None = None
     smallest: float | None = None
+    largest: float | None = None
 
 
 class Grid(NamedTuple):
@@ -283,6 +285,17 @@ KINDS: dict[str, Kind] = {
         memory=True, stiffness=lambda p, u: p["kd"],
         search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd", fixed=(("n", 2.0),)),
                       starts=_slider_starts(2.0), inactive=_slips_below(0.5)),
+        initial_stiffness="kd"),
+    "iwan": Kind(
+        8, (_KD, _FD,
+            Param("chi", "slider-strength exponent", "-", lambda r: 0.5, bounds=(-0.95, 0.9),
+                  smallest=-0.99, largest=10.0),
+            Param("beta", "full-slip share", "-", lambda r: 0.5, bounds=(0.0, 10.0),
+                  smallest=0.0, largest=1e6)),
+        memory=True, stiffness=lambda p, u: p["kd"],
+        search=Search(grid=Grid("fd", "x", _SLIP_FRACTIONS, per="kd",
+                                fixed=(("chi", -0.5), ("beta", 0.5))),
+                      starts=_slider_starts(-0.5, 0.5), inactive=_slips_below(0.5)),
         initial_stiffness="kd"),
     "gap": Kind(
         7, (Param("k", "contact stiffness", "N/m", _stiffness_scale, positive=True),

@@ -584,8 +584,9 @@ def _check_element(el: Element, i: int, n: int) -> None:
             raise ModelError(f"{where}: parameter {name} = {value!r} is not a finite number")
         if name in spec.positive and value <= 0:
             raise ModelError(f"{where}: parameter {name} must be > 0, got {value}")
-        smallest = spec.param(name).smallest
-        lo, hi = (-MAX_PARAM if smallest is None else smallest), MAX_PARAM
+        smallest, largest = spec.param(name).smallest, spec.param(name).largest
+        lo = -MAX_PARAM if smallest is None else smallest
+        hi = MAX_PARAM if largest is None else largest
         if not lo <= value <= hi:
             raise ModelError(f"{where}: parameter {name} = {value:g} is outside "
                              f"{lo:g}..{hi:g}")

@@ -496,9 +496,10 @@ def _integrate(force: np.ndarray, m: int, d: Discretisation, state: PlantState,
                     elif smooth[e]:
                         u1, v1, du, dv = uv[e], uv[ne + e], delta[e], delta[ne + e]
                         t0 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
-                                              u1 - du, v1 - dv, 0.0, 0.0, 0.0, 0.0, g[e])
+                                              prm[e, 3], u1 - du, v1 - dv, 0.0, 0.0, 0.0, 0.0,
+                                              g[e])
                         t1 = _element_tangent(codes[e], prm[e, 0], prm[e, 1], prm[e, 2],
-                                              u1, v1, 0.0, 0.0, 0.0, 0.0, g[e])
+                                              prm[e, 3], u1, v1, 0.0, 0.0, 0.0, 0.0, g[e])
                         lin[0, e] = 0.5 * ((t0[0] + t1[0]) * du + (t0[1] + t1[1]) * dv)
                         lin[1, e] = 0.5 * (abs((t1[0] - t0[0]) * du) + abs((t1[1] - t0[1]) * dv))
                         lin[2, e], lin[3, e] = t1[0], t1[1]

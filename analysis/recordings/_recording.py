@@ -110,6 +110,13 @@ class PeriodicLayout:
         return layout
 
 
+class Control(StrEnum):
+    """What a stepped-sine controller held at each step."""
+
+    FORCE = "force"
+    RESPONSE = "response"
+
+
 @dataclass
 class Recording:
     """Forces and responses of one run at one level.
@@ -155,6 +162,11 @@ class Recording:
         recorded. Kept through import, the run store and export; no estimator reads them.
     monitor_units : dict of str to str
         Unit text of each monitor (``""`` or missing: not given).
+    control : Control
+        Stepped sine: what the controller held per step, the force amplitude or (``level``
+        then in the response's unit) the response amplitude at channel ``control_dof``.
+    control_dof : int, optional
+        The held response channel of a response-controlled level.
     """
 
     fs: float
@@ -173,6 +185,8 @@ class Recording:
     sensors: SensorMap | None = None
     monitors: dict[str, np.ndarray] = field(default_factory=dict)
     monitor_units: dict[str, str] = field(default_factory=dict)
+    control: Control = Control.FORCE
+    control_dof: int | None = None
 
     def __post_init__(self) -> None:
         if self.sensors is not None:

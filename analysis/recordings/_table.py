@@ -9,22 +9,14 @@ has phase +90 deg at a resonance. One table is one level: what the controller he
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
 from typing import Any, ClassVar
 
 import numpy as np
 
 from ..errors import RecordingError
-from ._recording import MAX_SAMPLE, RESPONSE_KINDS
+from ._recording import MAX_SAMPLE, RESPONSE_KINDS, Control
 from ._sensors import MIXED, SensorMap
 from ._signals import KIND_ORDER
-
-
-class Control(StrEnum):
-    """What a stepped-sine controller held at each step."""
-
-    FORCE = "force"
-    RESPONSE = "response"
 
 
 #: keys of a table recording with a `StepTable` field (every other key is kept in ``extra``)

@@ -182,8 +182,9 @@ def table_harmonics(table: StepTable, harmonics: Sequence[int] = (1, 3, 5, 7),
 
 
 def recording_table(rec: Recording) -> StepTable:
-    """The fundamental phasors of a stepped-sine recording's time blocks as a force-controlled
-    `StepTable` (each step sine-fitted, the force as it acted: `hold_gain`).
+    """The fundamental phasors of a stepped-sine recording's time blocks as a `StepTable`
+    holding what the recording held (`Recording.control`; each step sine-fitted, the force
+    as it acted: `hold_gain`).
 
     Parameters
     ----------
@@ -200,7 +201,8 @@ def recording_table(rec: Recording) -> StepTable:
     gain = hold_gain(rec.freqs, rec.fs, rec.force_hold)
     force = np.stack([sine_fit(rec.force[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
     resp = np.stack([sine_fit(rec.response[i], rec.fs, f)[0] for i, f in enumerate(rec.freqs)])
-    level = rec.level if rec.level else float(np.abs(force).mean())
-    return StepTable(rec.freqs, force * gain[:, None], resp, rec.force_dofs, "force", level,
-                     response_kind=rec.response_kind, sensors=rec.sensors,
-                     meta=dict(rec.meta))
+    held = force[:, 0] if rec.control == "force" else resp[:, rec.control_dof or 0]
+    level = rec.level if rec.level else float(np.abs(held).mean())
+    return StepTable(rec.freqs, force * gain[:, None], resp, rec.force_dofs, rec.control,
+                     level, response_kind=rec.response_kind, control_dof=rec.control_dof,
+                     sensors=rec.sensors, meta=dict(rec.meta))

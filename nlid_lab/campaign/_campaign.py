@@ -1,9 +1,10 @@
 """Test campaigns: drive the shaker, stream the DAQ, write every block to a run file.
 
 Random campaigns hold each force-rms level by closed-loop control of the drive, discard the
-transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude at
-each frequency, wait until the response harmonics stop changing, then record one block per
-step with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
+transient, then record ``averages`` blocks. Stepped-sine campaigns hold the force amplitude
+(or, with ``control = "response"``, the response amplitude at ``control_dof``) at each
+frequency, wait until the response harmonics stop changing, then record one block per step
+with its harmonics. Every chunk from the DAQ is checked against the safety limits; an
 over-limit or a communication failure ramps the drive to zero at once and the run is marked
 aborted (data kept). Lost samples never leave a silent gap: the block being assembled is
 discarded and the loss counted in the run. ``resume`` continues at the first incomplete block
@@ -25,6 +26,8 @@ from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutpu
 from drivers.errors import CommsError
 
 from ._campaign_bench import Bench, open_bench
+from analysis.recordings import Control
+
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from ._campaign_sweep import run_sweeps
 from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
@@ -32,6 +35,11 @@ from ..store import DiskFullError, LevelWriter, RunWriter, left_out_text, requir
 
 
 MAX_RESTARTS = 10  # consecutive blocks broken by DAQ losses before the campaign gives up
+
+
+class _LimitReached(Exception):
+    """A response-controlled level needs more than the drive or force limit: the level
+    ends at that step (its message says which limit and the fix)."""
 
 
 class CampaignAborted(RuntimeError):
@@ -99,6 +107,10 @@ class _Runner:
         self.summaries: list[LevelSummary] = []
         self._level_t0 = 0.0
         self._drive: float | None = None
+        self.step_gain: dict[int, float] = {}   # response control, per step: held amplitude
+        self.force_gain: dict[int, float] = {}  # and force amplitude per drive volt
+        self._point: tuple[float, float] | None = None   # the step's last (drive, held)
+        self._last_slope = 1.0
 
     # --- streaming -----------------------------------------------------------------------
     def _chunk(self) -> Block:
@@ -253,6 +265,9 @@ class _Runner:
 
     # --- stepped sine ----------------------------------------------------------------------
     def stepped(self, plan: SteppedSpec) -> None:
+        """Per level and step: hold the force amplitude, or the response amplitude at
+        ``control_dof`` (`_step`); a response-controlled level that would need more than the
+        drive or force limit ends at that step (`_LimitReached`, a warning)."""
         n_steps = len(plan.freqs)
         for i, amp in enumerate(plan.levels):
             self.level = i
@@ -260,59 +275,140 @@ class _Runner:
             stored = lw.stored_seqs()     # step k is stored as seq k: resume records the rest
             todo = [k for k in range(n_steps) if k not in stored]
             if todo:
-                drive = min(amp / self.gain, self.c.max_drive)
+                drive, self._last_slope = self._first_drive(plan, amp, todo[0]), 1.0
                 self._start(SineOutput(plan.freqs[todo[0]]), drive)
-                for k in todo:
-                    if k != todo[0]:
-                        self.bench.shaker.set_frequency(plan.freqs[k])
-                    drive, famp = self._step(lw, i, k, plan, amp, drive)
-                    self._stored(lw, amp, n_steps, famp, drive)
+                try:
+                    for k in todo:
+                        if k != todo[0]:
+                            self.bench.shaker.set_frequency(plan.freqs[k])
+                        drive, held = self._step(lw, i, k, plan, amp, drive)
+                        self._stored(lw, amp, n_steps, held, drive)
+                except _LimitReached as exc:
+                    self.warnings.append(str(exc))
                 self._stop()
             self._level_end(lw, amp, n_steps)
 
+    def _first_drive(self, plan: SteppedSpec, amp: float, k: int) -> float:
+        """A level's first drive: from the force gain (force control), from the response
+        gain at step ``k`` of the previous level, else a 20th of ``max_drive`` (response
+        control: the loop then ramps it up by at most 4x per change); kept below the force
+        channel's safety limit where the previous level's force gain is known."""
+        if plan.control == Control.FORCE:
+            return min(amp / self.gain, self.c.max_drive)
+        drive = amp / self.step_gain[k] if k in self.step_gain else self.c.max_drive / 20
+        limit = self.c.limits.get(self.c.channels[self.force_col].name)
+        if limit is not None and k in self.force_gain:
+            drive = min(drive, 0.9 * limit / self.force_gain[k])
+        return min(drive, self.c.max_drive)
+
+    def _held_col(self, plan: SteppedSpec) -> int:
+        """DAQ column of the held quantity."""
+        if plan.control == Control.FORCE:
+            return self.force_col
+        return next(i for i, ch in enumerate(self.c.channels)
+                    if ch.quantity != "force" and ch.dof == plan.control_dof)
+
+    def _correct(self, plan: SteppedSpec, k: int, h: np.ndarray, amp: float,
+                 drive: float) -> float | None:
+        """The drive to apply after measuring fundamentals ``h`` at ``drive`` (None: the
+        held amplitude is within tolerance). Response control raises `_LimitReached`
+        when the drive it needs passes ``max_drive`` or its force the force limit."""
+        held = abs(h[self._held_col(plan)])
+        if held <= 0:
+            return None
+        gain = held / drive
+        if plan.control == Control.FORCE:
+            self.gain = gain
+        else:
+            self.step_gain[k] = gain
+            self.force_gain[k] = abs(h[self.force_col]) / drive
+        if abs(held / amp - 1) <= plan.tolerance:
+            return None
+        wanted = drive * (amp / held) ** (1 / self._slope(drive, held))
+        if plan.control == Control.RESPONSE:
+            self._check_limits(plan, k, wanted, held, amp, drive)
+        return self._new_drive(drive, wanted)
+
+    def _slope(self, drive: float, held: float) -> float:
+        """``d ln(held) / d ln(drive)`` from this and the step's previous measurement (a
+        secant: near a softening resonance the response grows faster than the drive and a
+        proportional correction overshoots, back and forth); for a step's first correction
+        the previous step's (1 at a level's first), and 1 where the secant is not a usable
+        rise (noise, a jump)."""
+        prev, self._point = self._point, (drive, held)
+        if prev is None or prev[0] == drive or prev[1] <= 0:
+            return self._last_slope
+        slope = np.log(held / prev[1]) / np.log(drive / prev[0])
+        self._last_slope = float(min(slope, 10.0)) if slope > 0.2 else 1.0
+        return self._last_slope
+
+    def _check_limits(self, plan: SteppedSpec, k: int, wanted: float, held: float,
+                      amp: float, drive: float) -> None:
+        """Raise `_LimitReached` when holding ``amp`` needs a drive over ``max_drive``
+        (applied already) or a force amplitude over the force channel's ``[safety]`` limit."""
+        where = (f"level {self.level} step {k} ({plan.freqs[k]:g} Hz): response amplitude "
+                 f"{held:.4g} of {amp:g} at DOF {plan.control_dof}")
+        limit = self.c.limits.get(self.c.channels[self.force_col].name)
+        force = self.force_gain[k] * wanted
+        if wanted > self.c.max_drive and drive >= self.c.max_drive:
+            raise _LimitReached(f"{where} needs drive {wanted:.4g} V over max_drive "
+                                f"{self.c.max_drive:g} V; level ended here (raise "
+                                "[shaker] max_drive or lower the level)")
+        if limit is not None and force > limit:
+            raise _LimitReached(f"{where} needs force {force:.4g} N over its safety limit "
+                                f"{limit:g} N; level ended here (raise the force channel's "
+                                "[safety] limit or lower the level)")
+
     def _step(self, lw, level: int, k: int, plan: SteppedSpec, amp: float,
               drive: float) -> tuple[float, float]:
-        """Settle, record and store step ``k``; returns the drive and the force amplitude."""
+        """Settle, record and store step ``k``; returns the drive and the held amplitude.
+
+        Per block after a change: the fundamentals, the responses' referenced to the
+        force's phase (blocks need not hold whole cycles). Force control corrects the drive
+        at once; response control waits for the response to settle first (its transient
+        decays over the mode's time constant, the force's does not). At most
+        ``max_settle_blocks`` blocks per step (response control: after the last change)."""
         freq, fs = plan.freqs[k], self.c.fs
-        prev, settled, changes, blocks = None, False, 0, 0
+        prev, settled, changes, blocks, since = None, False, 0, 0, 0
+        self._point = None
+        wait = plan.control == Control.RESPONSE
         skip = 1  # the block after a change holds the transient and data already in flight
-        while blocks < plan.max_settle_blocks and not settled:
+        while since < plan.max_settle_blocks and not settled:
             data, _ = self.take(plan.block_size)
-            blocks += 1
+            blocks, since = blocks + 1, since + 1
             if skip:
                 skip -= 1
                 continue
             h = harmonics(data, freq, fs, 1)[1]
-            famp = abs(h[self.force_col])
-            err = famp / amp - 1
-            if famp > 0:
-                self.gain = famp / drive
-            if abs(err) > plan.tolerance and changes < plan.max_control_iterations \
-                    and famp > 0:
-                drive = self._new_drive(drive, amp / self.gain)
+            resp = h[self.resp_cols] * np.exp(-1j * np.angle(h[self.force_col]))
+            steady = prev is not None and np.max(np.abs(resp - prev)) <= \
+                plan.settle_tolerance * max(np.max(np.abs(resp)), 1e-300)
+            prev = resp
+            if wait and not steady:
+                continue
+            new = self._correct(plan, k, h, amp, drive)
+            if new is not None and changes < plan.max_control_iterations:
+                drive = new
                 self.bench.shaker.set_level(drive)
                 changes, prev, skip = changes + 1, None, 1
+                since = 0 if wait else since
                 continue
-            resp = h[self.resp_cols]
-            if prev is not None:
-                change = np.max(np.abs(resp - prev)) / max(np.max(np.abs(resp)), 1e-300)
-                settled = change <= plan.settle_tolerance
-            prev = resp
+            settled = steady
         if not settled:
             self.warnings.append(f"level {level} step {k} ({freq:g} Hz): not settled within "
                                  f"{plan.max_settle_blocks} blocks; recorded anyway")
         data, t0 = self.take(plan.block_size)
         hs = harmonics(data, freq, fs, plan.harmonics)
         force, resp = self.split(data)
-        famp = float(abs(hs[1, self.force_col]))
+        held = float(abs(hs[1, self._held_col(plan)]))
         extra = {"harmonics": np.stack([hs.real, hs.imag], -1),
                  "channels": [ch.name for ch in self.c.channels],
-                 "control_error": famp / amp - 1, "settle_blocks": blocks,
-                 "settled": bool(settled), "drive": drive}
-        lw.append_step(freq, force, resp, amplitude=famp, extra=extra, t=t0, seq=k)
-        self.observer.step(level, k, freq, force, resp, famp / amp - 1,
+                 "control_error": held / amp - 1, "settle_blocks": blocks,
+                 "settled": bool(settled), "drive": drive, "control_changes": changes}
+        lw.append_step(freq, force, resp, amplitude=held, extra=extra, t=t0, seq=k)
+        self.observer.step(level, k, freq, force, resp, held / amp - 1,
                            hs[:, self.resp_cols])
-        return drive, famp
+        return drive, held
 
     # --- what the watchers are told ------------------------------------------------------
     @property
@@ -354,9 +450,13 @@ class _Runner:
             error = force / target - 1
         unit = "sweep" if isinstance(self.c.plan, SweepSpec) else \
             "step" if stepped else "realization" if self._skip else "block"
+        held = ("force", "N")
+        if isinstance(self.c.plan, SteppedSpec) and self.c.plan.control == Control.RESPONSE:
+            ch = self.c.channels[self._held_col(self.c.plan)]
+            held = (f"response ({ch.name})", ch.unit)
         summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,
                                lw.n_segments, planned, force, error, self._drive,
-                               time.monotonic() - self._level_t0)
+                               time.monotonic() - self._level_t0, *held)
         self.summaries.append(summary)
         self.observer.level_finished(summary)
 
@@ -416,6 +516,9 @@ def _excitation(c: Campaign) -> dict[str, Any]:
     plan = dict(c.plan.__dict__)
     if isinstance(c.plan, SweepSpec):
         plan["laws"] = [dict(law.__dict__) for law in c.plan.laws]
+    if isinstance(c.plan, SteppedSpec) and c.plan.control_dof is not None:
+        dofs = sorted(ch.dof for ch in c.channels if ch.quantity != "force")
+        plan["control_dof"] = dofs.index(c.plan.control_dof)   # the run's response channel
     return {"kind": c.kind, **plan}
 
 

@@ -16,8 +16,8 @@ from urllib.parse import urlsplit
 
 from analysis.errors import InputError, RecordingError
 from analysis.models import Model, parse_toml, read_text, unknown_keys
-from analysis.recordings import (KIND_ORDER, MIXED, Excitation, ResponseKind, SensorMap, SweepLaw,
-                                 table_keys)
+from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
+                                 SweepLaw, table_keys)
 from drivers import DAQS, DEFAULT_RAMP_TIME, SHAKERS, Channel, DriverConfigError
 from drivers.faults import FaultSpec
 
@@ -86,6 +86,8 @@ class SteppedSpec:
     settle_tolerance: float = 0.01
     max_settle_blocks: int = 20
     max_control_iterations: int = 8
+    control: Control = Control.FORCE   # held per step: the force or the response amplitude
+    control_dof: int | None = None     # response control: the held channel's DOF
 
 
 @dataclass
@@ -140,7 +142,8 @@ class Campaign:
                               / p.block_size)
             return 2 + sweep, 2 * p.max_control_iterations + sweep
         if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
-            return 4 * len(p.freqs), (p.max_settle_blocks + 1) * len(p.freqs)
+            tries = p.max_control_iterations + 1 if p.control == Control.RESPONSE else 1
+            return 4 * len(p.freqs), (tries * p.max_settle_blocks + 1) * len(p.freqs)
         control = p.settle_blocks + 1
         if p.periodic:                   # a block is one period here
             record = p.averages * (p.transient_periods + p.periods)
@@ -496,10 +499,18 @@ def _plan(data: dict, kind: Excitation, fs: float) -> RandomSpec | SteppedSpec |
     t = _table(data, "stepped")
     _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
                  "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
-                 "max_control_iterations"}, "stepped")
+                 "max_control_iterations", "control", "control_dof"}, "stepped")
     freqs = _freqs(t)
     if max(freqs) >= fs / 2:
         raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
+    control = t.get("control", str(Control.FORCE))
+    if control not in list(Control):
+        raise CampaignError(f"[stepped] control must be one of {', '.join(Control)}, got "
+                            f"{control!r}")
+    if "control_dof" in t and control != Control.RESPONSE:
+        raise CampaignError("[stepped] control_dof names the held response channel; give it "
+                            "with control = \"response\" or leave it out")
+    cdof = _num(t, "control_dof", "stepped", default=None, lo=0, integer=True, hi=10**6)
     return SteppedSpec(_levels(t, "stepped"), freqs,
                        _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
                        _opt(t, "harmonics", "stepped", SteppedSpec, lo=1, hi=50, integer=True),
@@ -509,7 +520,19 @@ def _plan(data: dict, kind: Excitation, fs: float) -> RandomSpec | SteppedSpec |
                        _opt(t, "max_settle_blocks", "stepped", SteppedSpec, lo=2, integer=True,
                             hi=10000),
                        _opt(t, "max_control_iterations", "stepped", SteppedSpec, lo=1,
-                            integer=True, hi=100))
+                            integer=True, hi=100), Control(control), cdof)
+
+
+def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
+    """A response-controlled plan holds a response channel (default: the one at the force)."""
+    dofs = sorted(c.dof for c in channels if c.quantity != "force")
+    if plan.control != Control.RESPONSE:
+        return
+    if plan.control_dof is None:
+        plan.control_dof = next(c.dof for c in channels if c.quantity == "force")
+    if plan.control_dof not in dofs:
+        raise CampaignError(f"[stepped] control_dof = {plan.control_dof} has no response "
+                            f"channel; use one of the response channels' dof {dofs}")
 
 
 def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
@@ -583,9 +606,12 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     name = data.get("name", "campaign")
     if not isinstance(name, str):
         raise CampaignError("name must be a string")
+    plan = _plan(data, kind, fs)
+    if isinstance(plan, SteppedSpec):
+        _check_control(plan, channels)
     return Campaign(
         name=name, kind=kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
-        channels=channels, response_kind=response_kind, plan=_plan(data, kind, fs),
+        channels=channels, response_kind=response_kind, plan=plan,
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
                         integer=True),

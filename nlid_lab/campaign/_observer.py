@@ -32,7 +32,8 @@ class LevelSummary:
     """One level once it ends, built from the blocks/steps stored in the run.
 
     ``force`` is the force rms over the stored blocks (steady periods of a periodic-random
-    realization) or the mean amplitude of the stored steps; ``control_error`` is
+    realization) or the mean held amplitude of the stored steps (``held``: the force, or a
+    response-controlled level's response, in ``held_unit``); ``control_error`` is
     ``force / target - 1`` (random) or the stored step farthest from the target (stepped);
     ``drive`` the last drive of this session (None: the level was already complete);
     ``seconds`` the time spent on the level in this session.
@@ -48,17 +49,20 @@ class LevelSummary:
     control_error: float | None
     drive: float | None
     seconds: float
+    held: str = "force"           # what the level held: "force" or "response (channel)"
+    held_unit: str = "N"
 
     def line(self, n_levels: int) -> str:
         """One line for people: level, blocks done/total, force against the target."""
-        text = (f"level {self.level + 1}/{n_levels} ({self.target:g} N {self.measure}): "
+        u = self.held_unit
+        text = (f"level {self.level + 1}/{n_levels} ({self.target:g} {u} {self.measure}): "
                 f"{self.done}/{self.planned} {self.unit}s")
         if self.force is not None:
             sweep = self.unit == "sweep"
             what = "amplitude" if sweep else "mean amplitude" if self.measure == "amplitude" \
                 else "rms"
             err = "worst step " if self.measure == "amplitude" and not sweep else ""
-            text += (f", force {what} {self.force:.4g} N (target {self.target:g} N, "
+            text += (f", {self.held} {what} {self.force:.4g} {u} (target {self.target:g} {u}, "
                      f"{err}{self.control_error:+.2%})")
         if self.drive is not None:
             text += f", drive {self.drive:.4g} V"

@@ -10,7 +10,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from analysis.recordings import PeriodicLayout, Recording, SensorMap, StepTable, Sweep
+from analysis.recordings import (Control, PeriodicLayout, Recording, SensorMap, StepTable,
+                                 Sweep)
 
 from ._common import (FORMAT, StoreError, _append_log, _crc,
                       _json_at, _json_default, _open, _open_swmr_write, _read_extra,
@@ -197,10 +198,12 @@ class Run:
         n = min(len(p[0]) for p in parts)
         meta.update(step_amplitude=seg["amplitude"], step_extra=extra,
                     step_lengths=seg["length"])
+        held = self.meta.get("excitation_settings", {})   # response-controlled campaigns
         return Recording(force=np.stack([p[0][-n:] for p in parts]),
                          response=np.stack([p[1][-n:] for p in parts]), freqs=seg["freq"],
                          monitors=monitors(lambda cols: np.stack([c[-n:] for c in cols])),
-                         **common)
+                         control=Control(held.get("control") or Control.FORCE),
+                         control_dof=held.get("control_dof"), **common)
 
     def _verified(self, index: int) -> tuple[np.ndarray, list, list]:
         """Segments of level ``index`` in ``seq`` order whose checksum holds, their samples

@@ -108,7 +108,7 @@ def test_library_is_the_same_cross_product_for_every_model():
     lib = library(3)
     assert len({(c.kind, c.dofs, c.compensated) for c in lib}) == len(lib)
     # sliders also with their stuck stiffness taken from the linear part, nothing else
-    assert {c.kind for c in lib if c.compensated} == {"stick_slip", "hysteresis"}
+    assert {c.kind for c in lib if c.compensated} == {"stick_slip", "hysteresis", "iwan"}
     locs = {c.dofs for c in lib}
     assert locs == {(0,), (1,), (2,), (0, 1), (0, 2), (1, 2)}
     assert {c.kind for c in lib if c.dofs == (0, 1)} >= {"cubic_spring", "stick_slip",

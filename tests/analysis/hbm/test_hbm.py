@@ -95,6 +95,18 @@ def test_hysteresis_memory_cycle_matches_plant():
     assert abs(res.X[0, 0, 0]) == pytest.approx(abs(ref), rel=5e-3)
 
 
+@pytest.mark.parametrize("force,freq", [(20.0, 240.0), (150.0, 180.0), (400.0, 100.0)])
+def test_iwan_matches_plant(force, freq):
+    """The four-parameter Iwan joint in microslip (20 N), partial slip and macroslip (400 N):
+    the plant's periodic steady state and harmonic balance agree like the Jenkins joint's."""
+    model = Model.load(STICK_SLIP).with_elements(
+        [Element("iwan", [1.0], {"kd": 2.4e7, "fd": 246.0, "chi": -0.5, "beta": 0.5})])
+    res = HBMSystem(model, [0], (1, 3, 5, 7)).sweep([freq], force)
+    ref = _plant_steady(model, freq, force)
+    assert res.converged.all()
+    assert abs(res.X[0, 0, 0] - ref) < 5e-3 * abs(ref)           # amplitude and phase
+
+
 def test_mdof_cubic_and_stick_slip_matches_plant():
     """Near a superharmonic resonance (3 x 60 Hz close to the second mode) [1 3 5 7] is too
     few: it is 2.5 % off at DOF 0; odd orders to 15 converge."""
@@ -111,6 +123,8 @@ def test_mdof_cubic_and_stick_slip_matches_plant():
     ("stick_slip", {"kd": 2.4e7, "fd": 246.0}, 2e-5),
     ("hysteresis", {"kd": 2.4e7, "fd": 246.0, "n": 2.0}, 2e-5),
     ("hysteresis", {"kd": 2.4e7, "fd": 246.0, "n": 50.0}, 2e-5),
+    ("iwan", {"kd": 2.4e7, "fd": 246.0, "chi": -0.5, "beta": 0.5}, 2e-5),
+    ("iwan", {"kd": 2.4e7, "fd": 246.0, "chi": -0.2, "beta": 0.0}, 2e-5),
     ("cubic_spring", {"p": 1e8}, 1e-2),
     ("quadratic_spring", {"p": 1e6}, 1e-2),
     ("quadratic_damping", {"p": 5.0}, 1e-3),

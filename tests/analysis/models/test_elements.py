@@ -29,7 +29,7 @@ def test_memoryless_laws(kind, params, expected):
 def test_every_kind_is_covered():
     assert set(KINDS) == {"cubic_spring", "quadratic_spring", "quadratic_damping",
                           "cubic_damping", "coulomb_friction", "stick_slip", "hysteresis",
-                          "gap"}
+                          "gap", "iwan"}
 
 
 def _harmonic(amplitude, cycles=3, n_per_cycle=20000):

@@ -105,7 +105,7 @@ def test_unknown_kind_fails_loudly():
     code = max(k.code for k in KINDS.values()) + 1          # no law: NaN, not zero
     s = np.zeros(N_STATE)
     assert np.isnan(element_force(code, np.ones(4), 1e-3, 0.1, s, s.copy()))
-    assert np.isnan(element_tangent(code, 1.0, 1.0, 1.0, 1e-3, 0.1, 0.0, 0.0, 0.0, 0.0,
+    assert np.isnan(element_tangent(code, 1.0, 1.0, 1.0, 0.0, 1e-3, 0.1, 0.0, 0.0, 0.0, 0.0,
                                     0.0)[:2]).all()
 
 
@@ -141,8 +141,8 @@ def test_tangent_matches_finite_differences(name):
     rng = np.random.default_rng(7)
     for u, v, s in _tangent_points(spec, rng):
         g, out = _law(spec.code, p, u, v, s)
-        cu, cv, c0, c1, a0, b0, a1, b1 = element_tangent(spec.code, p[0], p[1], p[2], u, v,
-                                                         s[0], s[2], s[3], out[0], g)
+        cu, cv, c0, c1, a0, b0, a1, b1 = element_tangent(spec.code, p[0], p[1], p[2], p[3], u,
+                                                         v, s[0], s[2], s[3], out[0], g)
         steps = {"u": 1e-6 * REFS.u, "v": 1e-6 * REFS.v, "s0": 1e-6 * REFS.u,
                  "s1": 1e-6 * REFS.f}
         expect = {"u": (cu, a0, a1 * cu), "v": (cv, 0.0, a1 * cv),

@@ -15,7 +15,8 @@ EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "models"
 PARAMS = {"cubic_spring": {"p": 3e9}, "quadratic_spring": {"p": -2e5},
           "quadratic_damping": {"p": 20.0}, "cubic_damping": {"p": 1e3},
           "coulomb_friction": {"fc": 5.0, "v_reg": 1e-2}, "stick_slip": {"kd": 1e6, "fd": 20.0},
-          "hysteresis": {"kd": 1e6, "fd": 20.0, "n": 2.0}, "gap": {"k": 1e7, "g": 1e-4}}
+          "hysteresis": {"kd": 1e6, "fd": 20.0, "n": 2.0}, "gap": {"k": 1e7, "g": 1e-4},
+          "iwan": {"kd": 1e6, "fd": 20.0, "chi": -0.4, "beta": 0.0}}
 
 LINEAR = """
 [linear]
