@@ -40,14 +40,7 @@ PATHS = ("import", "detect", "fit-linear", "reverse-path", "report")
 #: cells where stopping (exit 2, one line) is the right answer: no default could serve
 STOPS = {("dead-channel", "reverse-path")}
 #: cells that do not give the clean result yet, with the measured reason
-KNOWN: dict[tuple[str, str], str] = {
-    ("zeros", "fit-linear"): "the importer leaves a record with lead-in zeros as plain random "
-                             "and says so; fit-linear then finds 1 of 2 modes",
-    ("partial-period", "fit-linear"): "the importer leaves a record of 4.63 periods as plain "
-                                      "random and says so; fit-linear finds 1 of 2 modes",
-    ("partial-period", "import"): "no period found in a record of 4.63 periods (the import "
-                                  "says: trim it and give period=)",
-}
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _cli(argv: list[str]) -> tuple[int, str]:
