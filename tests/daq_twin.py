@@ -38,35 +38,46 @@ def truth() -> Model:
 
 
 @lru_cache(maxsize=4)
-def clean_levels(dips: bool = False) -> tuple[Recording, ...]:
-    """The clean recordings (noise included), one per level, as the DAQ would see them."""
+def clean_levels(dips: bool = False, levels: tuple[float, ...] = LEVELS,
+                 periods: int = PERIODS) -> tuple[Recording, ...]:
+    """The clean recordings (noise included), one per level (force rms, N), each realization
+    1 + ``periods`` periods, as the DAQ would see them."""
     model = truth()
     out = []
-    for i, rms in enumerate(LEVELS):
+    for i, rms in enumerate(levels):
         blocks = []
         for r in range(REALIZATIONS):
             one = multisine(PERIOD, FS, BAND, rms, seed=3 + 10 * i + r)
             if dips:
                 f = np.fft.rfftfreq(PERIOD, 1 / FS)
                 one = shaker_force(one, FS, model.linear_frf(f, [0])[:, 0, 0])
-            blocks.append(periodic(one, PERIODS + 1))
+            blocks.append(periodic(one, periods + 1))
         force = np.concatenate(blocks)
         acc = simulate(model, force[:, None], FS, [0], response_kind="acceleration")
         rng = np.random.default_rng(7 + i)
         acc = acc + NOISE * acc.std(axis=0) * rng.standard_normal(acc.shape)
         force = force + NOISE * force.std() * rng.standard_normal(force.shape)
         out.append(Recording(FS, "random", np.array([0]), force[:, None], acc, "acceleration",
-                             layout=PeriodicLayout(PERIOD, 1, PERIODS, REALIZATIONS)))
+                             layout=PeriodicLayout(PERIOD, 1, periods, REALIZATIONS)))
     return tuple(out)
 
 
-def export(folder: Path, artifact: str | None) -> list[Path]:
-    """One MAT file per level carrying ``artifact`` (None: clean); the paths."""
+#: every artifact of the catalogue a working channel set shows together (docs/gvt-workflow.md,
+#: "Every artifact at once"): all but the dead and the noisy channel
+GVT_ARTIFACTS = ("mains", "dc", "drift", "quantization", "clipping", "delay", "force-dips",
+                 "zeros", "partial-period")
+
+
+def export(folder: Path, artifact: str | tuple[str, ...] | None,
+           levels: tuple[float, ...] = LEVELS, periods: int = PERIODS) -> list[Path]:
+    """One MAT file per level carrying ``artifact`` (several: a tuple; None: clean); the
+    paths."""
     from scipy.io import savemat
 
-    spec = DaqArtifacts.of([artifact] if artifact else [], FS)
+    names = (artifact,) if isinstance(artifact, str) else tuple(artifact or ())
+    spec = DaqArtifacts.of(list(names), FS)
     paths = []
-    for i, rec in enumerate(clean_levels(artifact == "force-dips")):
+    for i, rec in enumerate(clean_levels("force-dips" in names, tuple(levels), periods)):
         rec = apply_daq_artifacts(rec, spec, np.random.default_rng(11 + i))
         p = Path(folder) / f"Level{i + 1}.mat"
         savemat(p, {"Force": rec.force.T, "Acceleration": rec.response.T,

@@ -113,9 +113,9 @@ def to_kinematics(response: np.ndarray, fs: float, kind: str, *, highpass: float
 
 
 def flat_ends(*channels: np.ndarray) -> tuple[int, int]:
-    """Leading and trailing samples at which every channel holds exactly its first (last)
-    value: the lead-in and trailing zeros of an export, recorded before the drive started
-    and after it stopped. (0, 0) when none or when every sample is flat.
+    """Leading and trailing runs of two or more samples at which every channel holds exactly
+    its first (last) value: the lead-in and trailing zeros of an export, recorded before the
+    drive started and after it stopped. (0, 0) when none or when every sample is flat.
 
     Parameters
     ----------
@@ -131,7 +131,8 @@ def flat_ends(*channels: np.ndarray) -> tuple[int, int]:
     moving = np.flatnonzero(np.any(np.diff(x, axis=0) != 0, axis=1))
     if moving.size == 0:
         return 0, 0
-    return int(moving[0]), int(x.shape[0] - 2 - moving[-1])
+    lead, tail = int(moving[0]) + 1, int(x.shape[0] - 1 - moving[-1])
+    return (lead if lead >= 2 else 0), (tail if tail >= 2 else 0)
 
 
 def remove_dc(signal: np.ndarray) -> np.ndarray:

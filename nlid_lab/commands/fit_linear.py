@@ -68,6 +68,9 @@ def run(args: argparse.Namespace) -> int:
     result = LinearFitSummary.of(fit, rec.level)
     said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
                    for _ in result.interference[:1])
+    if result.delay_samples:
+        said += (f"; the responses lag the force by {result.delay_samples:.2f} samples (the "
+                 "channels' anti-alias filters differ?): taken out of the FRF before the fit")
     text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))

@@ -104,6 +104,7 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if args.response_kind:
         keys["response_kind"] = args.response_kind
     random = keys.get("excitation", "random") == "random" and "freqs" not in keys
+    delay = keys.pop("response_delay", None)
     if random:
         _trim_flat_ends(keys, src, args)
     if random and not set(recordings_io.LAYOUT_KEYS) & set(keys):
@@ -124,7 +125,29 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
             found[src] = dataclasses.replace(p, transient_periods=int(
                 keys["transient_periods"]))
             args.period_given.add(src)
+    if delay is not None:
+        _advance(keys, delay, src)
     return recordings_io.recording_from_keys(keys, src)
+
+
+def _advance(keys: dict, delay, src: Path) -> None:
+    """Responses moved ``delay`` samples earlier (``response_delay=`` of a map: the
+    group-delay difference of the channels' anti-alias filters, as `fit-linear` reports it):
+    a phase ramp per realization, exact on whole periods of a periodic record, a few samples
+    of end effect on a random one."""
+    lag = np.asarray(delay, dtype=float)
+    if lag.size != 1 or not np.isfinite(lag).all() or abs(float(lag.reshape(()))) > 1e3:
+        raise InputError(f"{src}: response_delay must be one number of samples (e.g. "
+                         f"response_delay=1), got {delay!r}")
+    n = len(keys["force"])
+    resp = _samples_first(np.asarray(keys["response"], dtype=float), n)
+    m = _whole(keys.get("realizations", 1)) or 1
+    blocks = np.split(resp, m if resp.shape[0] % m == 0 else 1)
+    ramps = [np.exp(2j * np.pi * np.fft.rfftfreq(len(b)) * float(lag.reshape(())))
+             for b in blocks]
+    keys["response"] = np.concatenate([
+        np.fft.irfft(np.fft.rfft(b, axis=0) * r.reshape((-1,) + (1,) * (b.ndim - 1)),
+                     len(b), axis=0) for b, r in zip(blocks, ramps)])
 
 
 def _cut(keys: dict, cut) -> None:
