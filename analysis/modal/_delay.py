@@ -5,9 +5,9 @@ delay of a sample or so) multiplies every measured FRF by ``exp(-i w tau)``. The
 survive it (the stabilisation diagram finds them), but no sum of modes holds the phase ramp:
 on the artifact twin of `tests/daq_twin.py` (one-sample delay at fs 512 Hz, modes at 15 and
 36 Hz) the written model missed the FRFs by 49 % / 35 % with the right modes. With the poles
-fixed the FRF is linear in the residues and the residual terms, so the delay is the one that
-leaves the least-squares residual of ``H exp(i w tau)`` smallest (a grid over
-+-`MAX_DELAY` samples, each point one linear solve).
+fixed, a real-mode FRF is linear in its (imaginary) residues and real residual terms, so the
+delay is the one that leaves the least-squares residual of ``H exp(i w tau)`` smallest (a
+grid over +-`MAX_DELAY` samples, each point one linear solve).
 """
 
 from __future__ import annotations
@@ -44,15 +44,16 @@ def response_delay(freqs: np.ndarray, H: np.ndarray, std: np.ndarray | None,
     -------
     float
         The ``tau`` minimising the weighted residual of ``H exp(i 2 pi f tau / fs)`` fitted
-        by the modes with free residues plus ``L / s^2 + U0 + U2 s^2``; 0 when its F test
+        by real modes (imaginary residues) plus real ``L / s^2 + U0 + U2 s^2``; 0 when its F test
         against ``tau = 0`` (one parameter, `ALPHA`) fails.
     """
     s = 2j * np.pi * np.asarray(freqs, dtype=float)
     g = 1 / (s[:, None] - poles[None, :])
     gc = 1 / (s[:, None] - np.conj(poles)[None, :])
-    # a real structure: conjugate residues on conjugate poles, real residual terms (free
-    # complex ones would absorb the phase ramp)
-    basis = np.column_stack([g + gc, 1j * (g - gc), 1 / s ** 2, np.ones_like(s), s ** 2])
+    # real modes (what the written model holds): imaginary residues on conjugate poles, real
+    # residual terms; free complex residues would rotate each mode's phase and absorb most of
+    # the ramp (1 % noise then moved a one-sample delay by 0.2-0.3 samples)
+    basis = np.column_stack([1j * (g - gc), 1 / s ** 2, np.ones_like(s), s ** 2])
     w = np.ones(H.shape) if std is None else 1 / np.maximum(std, 1e-300 + 1e-12 * np.abs(H))
     taus = np.arange(-MAX_DELAY, MAX_DELAY + STEP / 2, STEP)
     rss = np.array([_rss(basis, H * np.exp(s * tau / fs)[:, None], w) for tau in taus])
