@@ -3,7 +3,8 @@ in-band FRF error, as a typed record with the command's JSON.
 
 ``LinearFitSummary.from_json(s.to_json()) == s``; the JSON is the command's (``nlid-lab
 fit-linear --json``) with ``schema_version`` first, then ``interference`` (only when lines
-were left out) and ``delay_samples`` (only when a delay was taken out) last.
+were left out), ``delay_samples`` (only when a delay was taken out) and ``warnings`` (only
+when there are some) last.
 """
 
 from __future__ import annotations
@@ -73,6 +74,8 @@ class LinearFitSummary:
     delay_samples : float
         Delay of the responses behind the force taken out of the FRF before the fit
         (`analysis.modal._delay`), samples; 0 when none was found.
+    warnings : tuple of str
+        What the fit could not serve (a dead channel).
     """
 
     method: str
@@ -85,6 +88,7 @@ class LinearFitSummary:
     level: float | None = None
     interference: tuple[Interference, ...] = ()
     delay_samples: float = 0.0
+    warnings: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, fit: LinearFit, level: float | None) -> LinearFitSummary:
@@ -103,7 +107,7 @@ class LinearFitSummary:
                    tuple(model.points), model.points[fit.data.driving_point], modes,
                    tuple(float(f) for f in pseudo), tuple(float(e) for e in fit.frf_error),
                    None if level is None else float(level), fit.data.interference,
-                   float(fit.delay_samples))
+                   float(fit.delay_samples), tuple(fit.warnings))
 
     def to_json(self) -> dict[str, Any]:
         """The command's JSON (module docstring)."""
@@ -118,6 +122,8 @@ class LinearFitSummary:
                                    for i in self.interference]
         if self.delay_samples:
             out["delay_samples"] = self.delay_samples
+        if self.warnings:
+            out["warnings"] = list(self.warnings)
         return out
 
     @classmethod
@@ -136,4 +142,4 @@ class LinearFitSummary:
                    tuple(data["frf_error"][p] for p in points), data["level"],
                    tuple(Interference(i["freq_hz"], i["level_db"])
                          for i in data.get("interference", ())),
-                   float(data.get("delay_samples", 0.0)))
+                   float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())))

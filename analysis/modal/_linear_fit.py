@@ -41,6 +41,9 @@ EXCITED_DB = 30.0
 #: (F-16-like twin, 8192-sample periods: 9.4 % written against a 3.2 % fit; FE beam: 1.4 %
 #: against 0.65 %, within the floor).
 LOST = 1.5
+#: response channel rms, relative to the largest, below which the channel is dead (as the
+#: reverse path's check)
+DEAD_SHARE = 1e-3
 
 
 @dataclass
@@ -86,6 +89,7 @@ class LinearFit:
     data: MeasuredReceptance
     frf_error: np.ndarray          # (n_out,) in band, model against the data
     delay_samples: float = 0.0     # responses behind the force, corrected in ``data``
+    warnings: tuple[str, ...] = ()
 
 
 def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
@@ -208,7 +212,21 @@ def fit_linear(rec: Recording | StepTable, band: tuple[float, float] | None = No
         if not pseudo and best[1].max() <= LOST * max(
                 frf_error(modes.receptance, data, band, rec.response_kind).max(), 0.01):
             break
-    return LinearFit(best[0], best[2], stab, data, best[1], delay)
+    return LinearFit(best[0], best[2], stab, data, best[1], delay, _dead_channels(rec, points))
+
+
+def _dead_channels(rec: Recording | StepTable, points: list[str] | None) -> tuple[str, ...]:
+    """A warning per response channel `DEAD_SHARE` below the largest (a dead sensor or
+    cable): its FRF and its entries of the shapes are converter noise."""
+    if isinstance(rec, StepTable):
+        return ()
+    rms = rec.response.std(axis=0)
+    names = points or [str(j) for j in range(rms.size)]
+    return tuple(f"response channel {names[j]} carries "
+                 f"{20 * np.log10(max(rms[j] / rms.max(), 1e-300)):.0f} dB of the largest "
+                 "channel's signal: a dead sensor or cable? Its FRF and mode-shape entries are "
+                 "noise; repair the channel and record again"
+                 for j in np.flatnonzero(rms < DEAD_SHARE * rms.max()))
 
 
 def _delay_corrected(rec: Recording | StepTable, data: MeasuredReceptance,

@@ -4,6 +4,7 @@ lowest level of a run (stabilisation diagram, mode shapes at every channel, resi
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -75,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
+    for warning in result.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0
 
