@@ -1,12 +1,13 @@
 """A small GVT twin that carries the real-DAQ artifacts of `analysis.recordings.DaqArtifacts`.
 
-Structure: 2-DOF chain (modes near 15 and 36 Hz, 2.4 and 4.7 % damping) with a cubic spring between
-the masses, driven at DOF 0 through a force cell, accelerometers at both DOFs. Periodic
-multisine 5-100 Hz, fs 512 Hz, 1024-sample periods, 3 realizations of 1 transient + 3
-steady periods, two levels (2 and 20 N rms). Each level is exported as the F-16 export is (``Force`` 1xN,
-``Acceleration`` 2xN, ``Fs``; no period), with 0.5 % sensor noise and 0.5 % force noise.
-``force-dips`` drives the structure through `shaker_force` instead of the flat force.
-"""
+Structure: 2-DOF chain (modes near 15 and 36 Hz, 2.4 and 4.7 % damping) with a cubic spring
+between the masses, driven at DOF 0 through a force cell, accelerometers at both DOFs.
+Periodic multisine 5-100 Hz, fs 512 Hz, 1024-sample periods, 3 realizations of 1 transient +
+3 steady periods, two levels (2 and 20 N rms; `export` takes other levels and periods). Each
+level is exported as the F-16 export is (``Force`` 1xN, ``Acceleration`` 2xN, ``Fs``; no
+period), with 0.5 % sensor noise and 0.5 % force noise. ``force-dips`` drives the structure
+through `shaker_force` instead of the flat force; `GVT_ARTIFACTS` is every artifact a
+working channel set shows together."""
 
 from __future__ import annotations
 
