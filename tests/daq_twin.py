@@ -1,12 +1,13 @@
 """A small GVT twin that carries the real-DAQ artifacts of `analysis.recordings.DaqArtifacts`.
 
-Structure: 2-DOF chain (modes near 15 and 36 Hz, 2.4 and 4.7 % damping) with a cubic spring between
-the masses, driven at DOF 0 through a force cell, accelerometers at both DOFs. Periodic
-multisine 5-100 Hz, fs 512 Hz, 1024-sample periods, 3 realizations of 1 transient + 3
-steady periods, two levels (2 and 20 N rms). Each level is exported as the F-16 export is (``Force`` 1xN,
-``Acceleration`` 2xN, ``Fs``; no period), with 0.5 % sensor noise and 0.5 % force noise.
-``force-dips`` drives the structure through `shaker_force` instead of the flat force.
-"""
+Structure: 2-DOF chain (modes near 15 and 36 Hz, 2.4 and 4.7 % damping) with a cubic spring
+between the masses, driven at DOF 0 through a force cell, accelerometers at both DOFs.
+Periodic multisine 5-100 Hz, fs 512 Hz, 1024-sample periods, 3 realizations of 1 transient +
+3 steady periods, two levels (2 and 20 N rms; `export` takes other levels and periods). Each
+level is exported as the F-16 export is (``Force`` 1xN, ``Acceleration`` 2xN, ``Fs``; no
+period), with 0.5 % sensor noise and 0.5 % force noise. ``force-dips`` drives the structure
+through `shaker_force` instead of the flat force; `GVT_ARTIFACTS` is every artifact a
+working channel set shows together."""
 
 from __future__ import annotations
 
@@ -38,35 +39,46 @@ def truth() -> Model:
 
 
 @lru_cache(maxsize=4)
-def clean_levels(dips: bool = False) -> tuple[Recording, ...]:
-    """The clean recordings (noise included), one per level, as the DAQ would see them."""
+def clean_levels(dips: bool = False, levels: tuple[float, ...] = LEVELS,
+                 periods: int = PERIODS) -> tuple[Recording, ...]:
+    """The clean recordings (noise included), one per level (force rms, N), each realization
+    1 + ``periods`` periods, as the DAQ would see them."""
     model = truth()
     out = []
-    for i, rms in enumerate(LEVELS):
+    for i, rms in enumerate(levels):
         blocks = []
         for r in range(REALIZATIONS):
             one = multisine(PERIOD, FS, BAND, rms, seed=3 + 10 * i + r)
             if dips:
                 f = np.fft.rfftfreq(PERIOD, 1 / FS)
                 one = shaker_force(one, FS, model.linear_frf(f, [0])[:, 0, 0])
-            blocks.append(periodic(one, PERIODS + 1))
+            blocks.append(periodic(one, periods + 1))
         force = np.concatenate(blocks)
         acc = simulate(model, force[:, None], FS, [0], response_kind="acceleration")
         rng = np.random.default_rng(7 + i)
         acc = acc + NOISE * acc.std(axis=0) * rng.standard_normal(acc.shape)
         force = force + NOISE * force.std() * rng.standard_normal(force.shape)
         out.append(Recording(FS, "random", np.array([0]), force[:, None], acc, "acceleration",
-                             layout=PeriodicLayout(PERIOD, 1, PERIODS, REALIZATIONS)))
+                             layout=PeriodicLayout(PERIOD, 1, periods, REALIZATIONS)))
     return tuple(out)
 
 
-def export(folder: Path, artifact: str | None) -> list[Path]:
-    """One MAT file per level carrying ``artifact`` (None: clean); the paths."""
+#: every artifact of the catalogue a working channel set shows together (docs/gvt-workflow.md,
+#: "Every artifact at once"): all but the dead and the noisy channel
+GVT_ARTIFACTS = ("mains", "dc", "drift", "quantization", "clipping", "delay", "force-dips",
+                 "zeros", "partial-period")
+
+
+def export(folder: Path, artifact: str | tuple[str, ...] | None,
+           levels: tuple[float, ...] = LEVELS, periods: int = PERIODS) -> list[Path]:
+    """One MAT file per level carrying ``artifact`` (several: a tuple; None: clean); the
+    paths."""
     from scipy.io import savemat
 
-    spec = DaqArtifacts.of([artifact] if artifact else [], FS)
+    names = (artifact,) if isinstance(artifact, str) else tuple(artifact or ())
+    spec = DaqArtifacts.of(list(names), FS)
     paths = []
-    for i, rec in enumerate(clean_levels(artifact == "force-dips")):
+    for i, rec in enumerate(clean_levels("force-dips" in names, tuple(levels), periods)):
         rec = apply_daq_artifacts(rec, spec, np.random.default_rng(11 + i))
         p = Path(folder) / f"Level{i + 1}.mat"
         savemat(p, {"Force": rec.force.T, "Acceleration": rec.response.T,

@@ -2,14 +2,14 @@
 refinement, MAC) and the linear modal fit of a measured level.
 
 Modules behind this API: ``_modal``, ``_ema``, ``_linear_fit``, ``_fit_result`` (fit-linear's
-typed result and its JSON). Code inside this package
-imports its siblings by their private module path.
+typed result and its JSON), ``_delay`` (the responses' delay behind the force). Code inside
+this package imports its siblings by their private module path.
 """
 
 from ._modal import modal_fit, modal_summary, welch_smoothing
 from ._ema import fit_modes, mac
-from ._linear_fit import LinearFit, fit_linear
+from ._linear_fit import LinearFit, fit_linear, measured_receptance, model_error
 from ._fit_result import LinearFitSummary, ModeSummary
 
-__all__ = ["LinearFit", "LinearFitSummary", "ModeSummary", "fit_linear", "fit_modes", "mac", "modal_fit", "modal_summary",
-           "welch_smoothing"]
+__all__ = ["LinearFit", "LinearFitSummary", "ModeSummary", "fit_linear", "fit_modes", "mac",
+           "measured_receptance", "modal_fit", "modal_summary", "model_error", "welch_smoothing"]

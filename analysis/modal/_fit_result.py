@@ -2,8 +2,9 @@
 in-band FRF error, as a typed record with the command's JSON.
 
 ``LinearFitSummary.from_json(s.to_json()) == s``; the JSON is the command's (``nlid-lab
-fit-linear --json``) with ``schema_version`` first and ``interference`` last (only when lines
-were left out).
+fit-linear --json``) with ``schema_version`` first, then ``interference`` (only when lines
+were left out), ``delay_samples`` (only when a delay was taken out) and ``warnings`` (only
+when there are some) last.
 """
 
 from __future__ import annotations
@@ -70,6 +71,11 @@ class LinearFitSummary:
         Nominal level of the fitted recording (None: none in the file).
     interference : tuple of Interference
         Steady force lines left out of the excited set (`analysis.spectral.excited_lines`).
+    delay_samples : float
+        Delay of the responses behind the force taken out of the FRF before the fit
+        (`analysis.modal._delay`), samples; 0 when none was found.
+    warnings : tuple of str
+        What the fit could not serve (a dead channel).
     """
 
     method: str
@@ -81,6 +87,8 @@ class LinearFitSummary:
     frf_error: tuple[float, ...]
     level: float | None = None
     interference: tuple[Interference, ...] = ()
+    delay_samples: float = 0.0
+    warnings: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, fit: LinearFit, level: float | None) -> LinearFitSummary:
@@ -98,7 +106,8 @@ class LinearFitSummary:
         return cls(fit.data.method, (float(m.band_hz[0]), float(m.band_hz[1])),
                    tuple(model.points), model.points[fit.data.driving_point], modes,
                    tuple(float(f) for f in pseudo), tuple(float(e) for e in fit.frf_error),
-                   None if level is None else float(level), fit.data.interference)
+                   None if level is None else float(level), fit.data.interference,
+                   float(fit.delay_samples), tuple(fit.warnings))
 
     def to_json(self) -> dict[str, Any]:
         """The command's JSON (module docstring)."""
@@ -111,6 +120,10 @@ class LinearFitSummary:
         if self.interference:
             out["interference"] = [{"freq_hz": i.freq_hz, "level_db": i.level_db}
                                    for i in self.interference]
+        if self.delay_samples:
+            out["delay_samples"] = self.delay_samples
+        if self.warnings:
+            out["warnings"] = list(self.warnings)
         return out
 
     @classmethod
@@ -128,4 +141,5 @@ class LinearFitSummary:
                    tuple(data["residual_pseudo_modes_hz"]),
                    tuple(data["frf_error"][p] for p in points), data["level"],
                    tuple(Interference(i["freq_hz"], i["level_db"])
-                         for i in data.get("interference", ())))
+                         for i in data.get("interference", ())),
+                   float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())))

@@ -11,11 +11,14 @@ level as it was recorded:
 
 Accelerance and mobility are converted to receptance. The modes are then found and refined by
 `analysis.modal.fit_modes` and written as a ``[modal]`` model with residual pseudo-modes
-(`analysis.modal._ema.modal_model`).
+(`analysis.modal._ema.modal_model`). A delay of the responses behind the force (anti-alias
+filters that differ between channels) is read off a first fit's poles
+(`analysis.modal._delay`) and taken out of the FRF before the fit that is kept.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Callable
 
@@ -23,6 +26,7 @@ import numpy as np
 
 from ..spectral import (Interference, best_linear_approximation, convert_frf, default_nperseg,
                         h1, hold_gain, spectral_matrix)
+from ._delay import response_delay
 from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
 from ._modal import welch_smoothing
@@ -37,6 +41,9 @@ EXCITED_DB = 30.0
 #: (F-16-like twin, 8192-sample periods: 9.4 % written against a 3.2 % fit; FE beam: 1.4 %
 #: against 0.65 %, within the floor).
 LOST = 1.5
+#: response channel rms, relative to the largest, below which the channel is dead (as the
+#: reverse path's check)
+DEAD_SHARE = 1e-3
 
 
 @dataclass
@@ -81,6 +88,8 @@ class LinearFit:
     stabilisation: Stabilisation
     data: MeasuredReceptance
     frf_error: np.ndarray          # (n_out,) in band, model against the data
+    delay_samples: float = 0.0     # responses behind the force, corrected in ``data``
+    warnings: tuple[str, ...] = ()
 
 
 def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
@@ -184,7 +193,7 @@ def fit_linear(rec: Recording | StepTable, band: tuple[float, float] | None = No
     if points is not None and len(points) != rec.n_dof:
         raise InputError(f"{len(points)} point names for {rec.n_dof} response channels; "
                          "name each channel once")
-    stab = None
+    data, delay, stab = _delay_corrected(rec, data, band, n_modes)
     best = None
     # residual terms fitted freely (`fit_modes`); when the model written from them departs
     # from the fit (by more than LOST x its error: terms a pseudo-mode cannot hold), fitted
@@ -203,7 +212,43 @@ def fit_linear(rec: Recording | StepTable, band: tuple[float, float] | None = No
         if not pseudo and best[1].max() <= LOST * max(
                 frf_error(modes.receptance, data, band, rec.response_kind).max(), 0.01):
             break
-    return LinearFit(best[0], best[2], stab, data, best[1])
+    return LinearFit(best[0], best[2], stab, data, best[1], delay, _dead_channels(rec, points))
+
+
+def _dead_channels(rec: Recording | StepTable, points: list[str] | None) -> tuple[str, ...]:
+    """A warning per response channel `DEAD_SHARE` below the largest (a dead sensor or
+    cable): its FRF and its entries of the shapes are converter noise."""
+    if isinstance(rec, StepTable):
+        return ()
+    rms = rec.response.std(axis=0)
+    names = points or [str(j) for j in range(rms.size)]
+    return tuple(f"response channel {names[j]} carries "
+                 f"{20 * np.log10(max(rms[j] / rms.max(), 1e-300)):.0f} dB of the largest "
+                 "channel's signal: a dead sensor or cable? Its FRF and mode-shape entries are "
+                 "noise; repair the channel and record again"
+                 for j in np.flatnonzero(rms < DEAD_SHARE * rms.max()))
+
+
+def _delay_corrected(rec: Recording | StepTable, data: MeasuredReceptance,
+                     band: tuple[float, float], n_modes: int | None
+                     ) -> tuple[MeasuredReceptance, float, Stabilisation | None]:
+    """``data`` with the responses' delay behind the force (`._delay.response_delay`, read
+    off a first fit's poles) taken out, the delay, and that fit's stabilisation diagram when
+    nothing was changed (None: the corrected data need their own)."""
+    if isinstance(rec, StepTable):
+        return data, 0.0, None
+    modes, stab = fit_modes(data.freqs, data.H, band, n_modes=n_modes,
+                            driving_point=data.driving_point, smoothing=data.smoothing,
+                            std=data.std)
+    inb = (data.freqs >= band[0]) & (data.freqs <= band[1]) & (data.freqs > 0)
+    if modes.poles.size == 0 or not inb.any():
+        return data, 0.0, stab
+    tau = response_delay(data.freqs[inb], data.H[inb],
+                         None if data.std is None else data.std[inb], modes.poles, rec.fs)
+    if tau == 0.0:
+        return data, 0.0, stab
+    turn = np.exp(2j * np.pi * data.freqs * tau / rec.fs)[:, None]
+    return dataclasses.replace(data, H=data.H * turn), tau, None
 
 
 def model_error(model: Model, data: MeasuredReceptance, band: tuple[float, float],

@@ -15,12 +15,12 @@ from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MA
 from ._sensors import (KEYS, MIXED, SensorMap, at_points, channel_labels, model_at_sensors, names,
                        one_kind, sensor_map, table_keys)
 from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation_band,
-                       hold_image_gain, hold_image_response, hold_image_taps, hold_images,
-                       period_spectra, periodic_kinematics, remove_dc, remove_hold_images,
-                       signal_bandwidth, steady_periods, to_kinematics)
+                       flat_ends, hold_image_gain, hold_image_response, hold_image_taps,
+                       hold_images, period_spectra, periodic_kinematics, remove_dc,
+                       remove_hold_images, signal_bandwidth, steady_periods, to_kinematics)
 from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
 from ._sweep_estimate import active_span, estimate_sweep
-from ._periodicity import SHARE_MIN, find_period
+from ._periodicity import SHARE_MIN, find_period, whole_periods
 from ._level import measured_level, record_level
 from ._table import STEP_TABLE_KEYS, Control, StepTable
 from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_daq_artifacts,
@@ -28,7 +28,7 @@ from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_da
 
 __all__ = ["active_span", "apply_daq_artifacts", "Artifact", "ARTIFACTS", "at_points",
            "change_kind", "channel_labels", "Control", "DaqArtifacts", "DEFAULT_TRANSIENT_PERIODS",
-           "estimate_sweep", "Excitation", "excitation_band", "EXCITATIONS", "find_period",
+           "estimate_sweep", "Excitation", "excitation_band", "EXCITATIONS", "find_period", "flat_ends",
            "FORCE_HOLDS", "hold_image_gain", "HOLD_IMAGE_LOOKAHEAD", "hold_image_response",
            "hold_image_taps", "hold_images", "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS",
            "MAX_SAMPLE", "measured_level", "MIN_FS", "MIXED", "model_at_sensors", "names",
@@ -36,4 +36,4 @@ __all__ = ["active_span", "apply_daq_artifacts", "Artifact", "ARTIFACTS", "at_po
            "Recording", "remove_dc", "remove_hold_images", "RESPONSE_KINDS", "ResponseKind",
            "sensor_map", "SensorMap", "Shaker", "shaker_force", "SHARE_MIN", "signal_bandwidth",
            "steady_periods", "STEP_TABLE_KEYS", "StepTable", "Sweep", "SWEEP_KEYS", "SWEEP_LAWS",
-           "SweepLaw", "table_keys", "to_kinematics"]
+           "SweepLaw", "table_keys", "to_kinematics", "whole_periods"]

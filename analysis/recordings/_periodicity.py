@@ -17,6 +17,11 @@ whole periods in increasing order: the first ``R`` whose every realization is cl
 is the layout (a smaller ``R`` puts realization boundaries inside a part, which then fails;
 a larger one would only split realizations further). Each realization's leading periods are
 its transient; the layout takes the most any realization shows.
+
+An export cut inside its last period (a record that is not a whole number of periods) is
+still found: the lag's whole periods are tested, and when that fails, realizations of
+``ceil`` periods whose last one is one period short and cut (`Periodicity.short`).
+`whole_periods` then cuts every realization to the whole periods the last one holds.
 """
 
 from __future__ import annotations
@@ -58,6 +63,8 @@ class Periodicity:
     realizations : int
         Realizations back to back, each of ``periods`` periods (transient ones included);
         ``periods`` counts the periods of one realization.
+    short : int
+        Whole periods the last realization lacks (the record was cut inside it): 0 or 1.
     """
 
     period: int
@@ -66,6 +73,12 @@ class Periodicity:
     share: float
     remainder: int
     realizations: int = 1
+    short: int = 0
+
+    @property
+    def whole(self) -> int:
+        """Whole periods every realization holds (transient ones included)."""
+        return self.periods - self.short
 
 
 def find_period(signal: np.ndarray, min_period: int = 2, period: int | None = None,
@@ -103,31 +116,54 @@ def find_period(signal: np.ndarray, min_period: int = 2, period: int | None = No
         if found is not None and lag >= found[0]:
             continue
         total = n // lag
-        for m in (d for d in range(1, total // 2 + 1) if total % d == 0):
-            parts = _realizations(x[:total * lag], lag, m)
+        for m, each in _splits(total, n > total * lag):
+            parts = _realizations(x[:total * lag], lag, m, each)
             if min(_steady_share(p, lag) for p in parts) >= SHARE_MIN:
-                found = (lag, m)
+                found = (lag, m, each)
                 break
     if found is None:
         return None
-    lag, m = found
+    lag, m, each = found
     total = n // lag
-    parts = _realizations(x[:total * lag], lag, m)
+    parts = _realizations(x[:total * lag], lag, m, each)
     transient = max(transient_periods(p, lag) for p in parts)
     if settle is not None:
         y = np.asarray(settle, dtype=float).reshape(n, -1)[:total * lag]
         y = y - y.mean(axis=0)
         y = y / np.where(y.std(axis=0) > 0, y.std(axis=0), 1.0)
         transient = max(transient, *(transient_periods(p, lag)
-                                     for p in _realizations(y, lag, m)))
-    each = total // m
-    share = min(periodic_share(p[transient * lag:], each - transient) for p in parts)
-    return Periodicity(lag, each, transient, float(share), n - total * lag, m)
+                                     for p in _realizations(y, lag, m, each)))
+    share = min(periodic_share(p[transient * lag:], p.shape[0] // lag - transient)
+                for p in parts)
+    return Periodicity(lag, each, transient, float(share), n - total * lag, m,
+                       m * each - total)
 
 
-def _realizations(x: np.ndarray, period: int, m: int) -> list[np.ndarray]:
-    """``x`` (whole periods) cut into ``m`` equal realizations."""
-    return np.split(x, m) if m > 1 else [x]
+def whole_periods(signal: np.ndarray, found: Periodicity) -> np.ndarray:
+    """``signal`` (time along axis 0) cut to `Periodicity.whole` periods per realization: the
+    partial period at the end dropped, and with a realization cut short, the same number of
+    trailing periods of every other one (realizations must be equal blocks)."""
+    x = np.asarray(signal)
+    block, keep = found.periods * found.period, found.whole * found.period
+    return np.concatenate([x[i * block:i * block + keep] for i in range(found.realizations)])
+
+
+def _splits(total: int, cut: bool) -> list[tuple[int, int]]:
+    """(realizations, periods each) to try on ``total`` whole periods: the divisors of
+    ``total``; for a record ``cut`` inside a period, also realizations of which the last is
+    one period short (at least two whole periods left in it)."""
+    out = [(d, total // d) for d in range(1, total // 2 + 1) if total % d == 0]
+    if cut:
+        out += [(d, (total + 1) // d) for d in range(2, (total + 1) // 3 + 1)
+                if (total + 1) % d == 0]
+    return out
+
+
+def _realizations(x: np.ndarray, period: int, m: int, each: int) -> list[np.ndarray]:
+    """``x`` (whole periods) cut into ``m`` realizations of ``each`` periods (the last one
+    perhaps a period short)."""
+    step = each * period
+    return [x[i * step:(i + 1) * step] for i in range(m)]
 
 
 def _steady_share(x: np.ndarray, period: int) -> float:

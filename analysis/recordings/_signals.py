@@ -112,6 +112,29 @@ def to_kinematics(response: np.ndarray, fs: float, kind: str, *, highpass: float
     return x, v
 
 
+def flat_ends(*channels: np.ndarray) -> tuple[int, int]:
+    """Leading and trailing runs of two or more samples at which every channel holds exactly
+    its first (last) value: the lead-in and trailing zeros of an export, recorded before the
+    drive started and after it stopped. (0, 0) when none or when every sample is flat.
+
+    Parameters
+    ----------
+    *channels : ndarray, shape (n,) or (n, n_ch)
+        Time along axis 0, the same ``n`` for each.
+
+    Returns
+    -------
+    lead, tail : int
+    """
+    x = np.concatenate([np.asarray(c, dtype=float).reshape(len(c), -1) for c in channels],
+                       axis=1)
+    moving = np.flatnonzero(np.any(np.diff(x, axis=0) != 0, axis=1))
+    if moving.size == 0:
+        return 0, 0
+    lead, tail = int(moving[0]) + 1, int(x.shape[0] - 1 - moving[-1])
+    return (lead if lead >= 2 else 0), (tail if tail >= 2 else 0)
+
+
 def remove_dc(signal: np.ndarray) -> np.ndarray:
     """Subtract each channel's mean (time along axis 0)."""
     x = np.asarray(signal, dtype=float)

@@ -45,7 +45,7 @@ from ..recordings import (DEFAULT_TRANSIENT_PERIODS, KIND_ORDER, Recording, exci
                           period_spectra, periodic_kinematics, steady_periods)
 from ._core import (EDGE_CAP, EDGE_RUN, EDGE_SNR, Z95, ReversePathResult, _alias_upsampling,
                     _channels, _coefficients, _estimate, _force_span, _Processing)
-from ..spectral import Spectra, spectral_matrix
+from ..spectral import Spectra, excited_lines, spectral_matrix
 
 WEAK_F = 10.0            # first-stage F below which an instrument is weak (Staiger-Stock)
 BURIED = 0.5             # deformation noise std per period / its rms that biases the estimate
@@ -235,7 +235,6 @@ def _iv(S: np.ndarray, xs: slice, rs: slice, zs: slice
 
 # --- periodic-random (multisine) records ---------------------------------------------------
 
-EXCITED = 1e-2        # force power, relative to the band median, of an excited line
 TRANSIENT_LEVEL = 1e-3  # rms of a left-over transient, relative to the response, that warns
 
 
@@ -297,8 +296,7 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
                               realizations=lay.realizations))
               for (rec, kind), lay in zip(recs, layouts)]
     freqs = np.fft.rfftfreq(n, 1 / fs)
-    fpow = sum((np.abs(np.fft.rfft(fp.mean(axis=1), axis=1)) ** 2).sum(axis=(0, 2))
-               for _, _, fp, _ in blocks)
+    fpow, fvar = _force_lines(blocks)
     if band is None:
         band = excitation_band(freqs, fpow)
     lo, hi = float(band[0]), float(band[1])
@@ -308,7 +306,13 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
     inband = (freqs >= lo) & (freqs <= hi) & (freqs > 0)
     if not inband.any():
         raise InputError(f"band {lo:g}-{hi:g} Hz holds no line of the {n}-sample period")
-    idx = np.flatnonzero(inband & (fpow >= EXCITED * np.median(fpow[inband])))
+    picked = excited_lines(freqs, fpow, fvar, band=(lo, hi))
+    idx = picked.lines
+    if idx.size == 0:
+        raise InputError(f"the force excites no line of the {n}-sample period in "
+                         f"{lo:g}-{hi:g} Hz; check the band")
+    if picked.note():
+        warnings.append(picked.note())
     n_per = min(yp.shape[1] for *_, yp in blocks)
     split = noise == "iv" or (noise == "auto" and n_per >= 2)
     if split and n_per < 2:
@@ -357,6 +361,24 @@ def periodic_reverse_path(recs: list[tuple[Recording, str]], layouts: list[Layou
                     "instrument_coherence": coh[fdofs.size:] if split else []}
     result.warnings = sorted(set(warnings), key=warnings.index)
     return result
+
+
+def _force_lines(blocks: list) -> tuple[np.ndarray, np.ndarray | None]:
+    """Force power of the period averages per line, summed over records, realizations and
+    forces, and the variance of that average from the spread over the periods (None with a
+    single steady period): the inputs of `analysis.spectral.excited_lines`."""
+    power, var = 0.0, 0.0
+    for _, _, fp, _ in blocks:                 # fp: (realizations, periods, n, forces)
+        spec = np.fft.rfft(fp, axis=2)
+        mean = spec.mean(axis=1)
+        power = power + (np.abs(mean) ** 2).sum(axis=(0, 2))
+        n_p = fp.shape[1]
+        if n_p < 2 or var is None:
+            var = None
+            continue
+        dev = np.abs(spec - mean[:, None]) ** 2
+        var = var + dev.sum(axis=(0, 1, 3)) / ((n_p - 1) * n_p)
+    return power, var
 
 
 def _weak_instruments(coh: list[float], buried: np.ndarray, n_obs: int, n_r: int, unknown,

@@ -4,6 +4,7 @@ lowest level of a run (stabilisation diagram, mode shapes at every channel, resi
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -67,10 +68,15 @@ def run(args: argparse.Namespace) -> int:
     result = LinearFitSummary.of(fit, rec.level)
     said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
                    for _ in result.interference[:1])
+    if result.delay_samples:
+        said += (f"; the responses lag the force by {result.delay_samples:.2f} samples (the "
+                 "channels' anti-alias filters differ?): taken out of the FRF before the fit")
     text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
+    for warning in result.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0
 

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import RESPONSE_KINDS, PeriodicLayout, StepTable, find_period
+from analysis.recordings import (RESPONSE_KINDS, PeriodicLayout, StepTable, find_period,
+                                 flat_ends, whole_periods)
 from analysis.spectral import HELD_UNITS
 
 from .. import formats
@@ -101,10 +102,15 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if args.response_kind:
         keys["response_kind"] = args.response_kind
     random = keys.get("excitation", "random") == "random" and "freqs" not in keys
+    delay = keys.pop("response_delay", None)
+    if random:
+        _trim_flat_ends(keys, src, args)
     if random and not set(formats.LAYOUT_KEYS) & set(keys):
         p = find_period(keys["force"], settle=keys["response"])
         found[src] = p
-        if p is not None and not p.remainder:
+        if p is not None:
+            if p.remainder or p.short:
+                _cut(keys, lambda x: whole_periods(x, p))
             keys.update(period=p.period, transient_periods=p.transient_periods,
                         realizations=p.realizations)
     elif random and set(formats.LAYOUT_KEYS) & set(keys) <= {"period",
@@ -117,7 +123,54 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
             found[src] = dataclasses.replace(p, transient_periods=int(
                 keys["transient_periods"]))
             args.period_given.add(src)
+    if delay is not None:
+        _advance(keys, delay, src)
     return formats.recording_from_keys(keys, src)
+
+
+def _advance(keys: dict, delay, src: Path) -> None:
+    """Responses moved ``delay`` samples earlier (``response_delay=`` of a map: the
+    group-delay difference of the channels' anti-alias filters, as `fit-linear` reports it):
+    a phase ramp per realization, exact on whole periods of a periodic record, a few samples
+    of end effect on a random one."""
+    lag = np.asarray(delay, dtype=float)
+    if lag.size != 1 or not np.isfinite(lag).all() or abs(float(lag.reshape(()))) > 1e3:
+        raise InputError(f"{src}: response_delay must be one number of samples (e.g. "
+                         f"response_delay=1), got {delay!r}")
+    n = len(keys["force"])
+    resp = _samples_first(np.asarray(keys["response"], dtype=float), n)
+    m = _whole(keys.get("realizations", 1)) or 1
+    blocks = np.split(resp, m if resp.shape[0] % m == 0 else 1)
+    ramps = [np.exp(2j * np.pi * np.fft.rfftfreq(len(b)) * float(lag.reshape(())))
+             for b in blocks]
+    keys["response"] = np.concatenate([
+        np.fft.irfft(np.fft.rfft(b, axis=0) * r.reshape((-1,) + (1,) * (b.ndim - 1)),
+                     len(b), axis=0) for b, r in zip(blocks, ramps)])
+
+
+def _cut(keys: dict, cut) -> None:
+    """Apply ``cut`` (samples along axis 0) to the force, response and monitor keys."""
+    for k in ("force", "response", "monitor"):
+        if k in keys:
+            keys[k] = cut(_samples_first(np.asarray(keys[k]), len(keys["force"])))
+
+
+def _samples_first(arr: np.ndarray, n: int) -> np.ndarray:
+    """``arr`` with its sample axis first (a map may give channels x samples)."""
+    return arr.T if arr.ndim == 2 and arr.shape[0] != n and arr.shape[1] == n else arr
+
+
+def _trim_flat_ends(keys: dict, src: Path, args: argparse.Namespace) -> None:
+    """Drop the lead-in and trailing samples at which every channel stands still (an
+    export's padding zeros, `analysis.recordings.flat_ends`), noted in ``args.trimmed``."""
+    n = len(np.asarray(keys["force"]).reshape(len(keys["force"]), -1))
+    chans = [_samples_first(np.asarray(keys[k]), n) for k in ("force", "response") if k in keys]
+    if any(c.shape[0] != n for c in chans):
+        return                            # the recording's own checks name the mismatch
+    lead, tail = flat_ends(*chans)
+    if lead or tail:
+        _cut(keys, lambda x: x[lead:x.shape[0] - tail])
+        args.trimmed[src] = (lead, tail)
 
 
 def _whole(value) -> int | None:
@@ -159,10 +212,6 @@ def _period_lines(found: dict, given: set) -> list[str]:
         if p is None:
             text = ("no period found in the force: imported as plain random, nothing "
                     "assumed; give period= (samples) if it is periodic")
-        elif p.remainder:
-            text = (f"the force repeats every {p.period} samples but the record is not whole "
-                    f"periods ({p.remainder} samples over {p.periods}): imported as plain "
-                    "random; trim it and give period=")
         else:
             first = ("no transient (the first period repeats like the others)"
                      if p.transient_periods == 0 else "the first taken as transient"
@@ -171,6 +220,10 @@ def _period_lines(found: dict, given: set) -> list[str]:
             each = (f"{p.periods} periods" if p.realizations == 1 else
                     f"{p.realizations} realizations back to back of {p.periods} periods each")
             first += "" if p.realizations == 1 or not p.transient_periods else " in each"
+            if p.remainder or p.short:
+                each += (f", the record cut {p.remainder} samples into a period"
+                         + (f" of its last realization: {p.whole} whole periods of each kept"
+                            if p.short else ": those samples dropped"))
             text = (f"periodic: {p.period}-sample period found, {each}, {first}; "
                     "give period= to override") if src not in given else (
                 f"periodic: {p.period}-sample period given, {each} found, {first}; give "
@@ -192,6 +245,7 @@ def run(args: argparse.Namespace) -> int:
                          "level comes from its file (a level key, else the force)")
     found: dict = {}
     args.period_given = given = set()
+    args.trimmed = {}
     levels = [_read_levels(src, args, found) for src in sources]
     if any(len(lv) != 1 for lv in levels):
         if args.sensors or args.level is not None:
@@ -220,10 +274,14 @@ def run(args: argparse.Namespace) -> int:
         result["monitors"] = {k: rec.monitor_units.get(k, "") for k in rec.monitors}
     if rec.sweep is not None:
         result["sweeps"] = [{k: v.item() for k, v in r.sweep.keys().items()} for r in recs]
+    if args.trimmed:
+        result["trimmed"] = {str(src): {"lead_in": lead, "trailing": tail}
+                             for src, (lead, tail) in args.trimmed.items()}
     if found:
         result["period_found"] = {str(src): None if p is None else {
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
-            "realizations": p.realizations, "share": p.share, "remainder": p.remainder}
+            "realizations": p.realizations, "share": p.share, "remainder": p.remainder,
+            "whole_periods": p.whole}
             for src, p in found.items()}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
@@ -233,6 +291,9 @@ def run(args: argparse.Namespace) -> int:
         for src, r in zip(sources, recs):
             if r.sweep is not None:
                 print(f"  {src.name}: {describe(r.sweep)}")
+        for src, (lead, tail) in args.trimmed.items():
+            print(f"  {src.name}: {lead} lead-in and {tail} trailing samples at which no "
+                  "channel moves (export padding) dropped")
         for line in _period_lines(found, given):
             print(f"  {line}")
         if rec.monitors:

@@ -8,7 +8,7 @@ import pyqtgraph as pg
 from PySide6 import QtGui
 
 from .. import reports
-from ..reports import phase_deg
+from ..reports import phase_deg, phase_lines
 
 pg.setConfigOptions(background="w", foreground="k", antialias=False)
 
@@ -114,4 +114,4 @@ def set_frf(mag_curve: pg.PlotDataItem, phase_curve: pg.PlotDataItem | None,
     ok = np.isfinite(a) & (a > 0)
     mag_curve.setData(freqs[ok], a[ok])
     if phase_curve is not None:
-        phase_curve.setData(freqs[ok], phase_deg(h[ok]))
+        phase_curve.setData(*phase_lines(freqs[ok], h[ok]), connect="finite")

@@ -10,6 +10,7 @@ from ._report import (Estimators, estimate_rows, modal_fit_section, stored_diagn
 from ._backbone_figure import backbone_figure
 from ._figures import (ModelCurve, coherence_linear_vs_nonlinear, diagnosis_overlay, fitted_frfs,
                        hysteresis_loops, level_colours, linear_and_coefficients, phase_deg,
+                       phase_lines,
                        response_curves, stabilisation)
 from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_model, load_run,
                        reference_model)
@@ -23,7 +24,7 @@ __all__ = [
     "Estimators", "estimate_rows", "modal_fit_section", "stored_diagnosis", "write_report",
     # figures
     "ModelCurve", "backbone_figure", "coherence_linear_vs_nonlinear", "diagnosis_overlay",
-    "fitted_frfs", "hysteresis_loops", "level_colours", "linear_and_coefficients", "phase_deg",
+    "fitted_frfs", "hysteresis_loops", "level_colours", "linear_and_coefficients", "phase_deg", "phase_lines",
     "response_curves", "stabilisation",
     # UFF58 export
     "FUNC_COHERENCE", "FUNC_FRF", "read_uff", "uff_datasets", "write_uff",

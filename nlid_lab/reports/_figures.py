@@ -89,6 +89,15 @@ def phase_deg(h: np.ndarray) -> np.ndarray:
     return np.degrees(np.angle(h))
 
 
+def phase_lines(freqs: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`phase_deg` of ``h`` with a gap (NaN) where it wraps between +-180 degrees: a phase
+    near 180 (an accelerance below its first mode) that noise takes across the wrap is drawn
+    along the axis's edges, not as a full-height spike at every crossing."""
+    f, deg = np.asarray(freqs, dtype=float), phase_deg(h)
+    wraps = np.flatnonzero(np.abs(np.diff(deg)) > 180) + 1
+    return np.insert(f, wraps, np.nan), np.insert(deg, wraps, np.nan)
+
+
 def _frf_axes(title: str) -> tuple[Figure, object, object]:
     fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
     mag, ph = fig.subplots(2, 1, sharex=True, height_ratios=(2, 1))
@@ -125,7 +134,7 @@ def frf_levels(frfs: Sequence["LevelFRF"], out: int, inp: int = 0,
         h = frf.H[:, out, inp]
         style = "o-" if frf.excitation == "stepped-sine" else "-"
         mag.semilogy(frf.freqs, np.abs(h), style, color=colour, ms=3, lw=1.2, label=frf.label)
-        ph.plot(frf.freqs, phase_deg(h), style, color=colour, ms=3, lw=1.2)
+        ph.plot(*phase_lines(frf.freqs, h), style, color=colour, ms=3, lw=1.2)
     mag.set_ylabel(f"|H| [{ref.units}]")
     _level_key(fig, mag, frfs)
     _fit_band(mag, frfs)

@@ -6,7 +6,7 @@ import pytest
 import scipy.signal
 
 from analysis.plant import multisine, periodic
-from analysis.recordings import SHARE_MIN, find_period
+from analysis.recordings import SHARE_MIN, find_period, flat_ends, whole_periods
 
 FS = 400.0
 
@@ -113,3 +113,37 @@ def test_noise_with_many_divisors_stays_without_period(n):
     t = np.arange(n // 2) / FS                             # an up- then a down-sweep
     sweep = scipy.signal.chirp(t, 2.0, t[-1], 15.0)
     assert find_period(np.r_[sweep, sweep[::-1]]) is None
+
+
+def test_record_cut_inside_its_last_realization():
+    """Three realizations of 1 + 3 periods, the record cut 0.37 period before its end (an
+    export that is not a whole number of periods): the layout is found with the last
+    realization one period short, and `whole_periods` takes every realization to the 3
+    whole periods the last one holds."""
+    rng = np.random.default_rng(1)
+    n = 1024
+    blocks = [periodic(multisine(n, FS, (5.0, 100.0), 1.0, seed=s), 4) for s in (1, 2, 3)]
+    x = np.concatenate(blocks)[: -int(0.37 * n)]
+    x = x + 0.005 * x.std() * rng.standard_normal(x.size)
+    p = find_period(x)
+    assert (p.period, p.realizations, p.periods, p.short, p.whole) == (n, 3, 4, 1, 3)
+    assert p.remainder == n - int(0.37 * n)
+    cut = whole_periods(x, p)
+    assert cut.shape == (3 * 3 * n,)
+    for r in range(3):          # each realization's first 3 periods, in order
+        assert np.array_equal(cut[3 * n * r:3 * n * (r + 1)], x[4 * n * r:4 * n * r + 3 * n])
+
+
+def test_one_realization_with_a_partial_period():
+    x = periodic(multisine(1024, FS, (5.0, 100.0), 1.0, seed=4), 6)[:-300]
+    p = find_period(x)
+    assert (p.period, p.realizations, p.short, p.whole, p.remainder) == (1024, 1, 0, 5, 724)
+    assert whole_periods(x, p).shape == (5 * 1024,)
+
+
+def test_flat_ends_are_the_export_padding():
+    x = np.zeros((1000, 2))
+    x[300:900] = np.random.default_rng(0).standard_normal((600, 2))
+    assert flat_ends(x[:, :1], x[:, 1:]) == (300, 100)
+    assert flat_ends(x[300:900]) == (0, 0)           # no padding
+    assert flat_ends(np.zeros((10, 1))) == (0, 0)    # nothing moves: nothing to trim

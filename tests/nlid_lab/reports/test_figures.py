@@ -245,3 +245,16 @@ def test_phase_axis_is_plus_minus_180_and_levels_without_a_value_are_named_by_th
     force = 12.4 * np.sqrt(2) * np.sin(np.linspace(0, 200 * np.pi, 4000))[:, None] + 3.0
     rec = Recording(100.0, "random", [0], force, force.copy())
     assert level_label(rec, 0) == "12.4 N rms"               # DC removed, rms of the force
+
+
+def test_phase_lines_break_at_the_wrap():
+    """A phase near 180 degrees that noise takes across the wrap is drawn with a gap there,
+    not a full-height line; away from the wrap nothing changes."""
+    from nlid_lab.reports import phase_deg, phase_lines
+
+    f = np.arange(5.0)
+    h = np.exp(1j * np.radians([179.0, -179.0, 178.0, 90.0, 0.0]))
+    x, y = phase_lines(f, h)
+    assert np.isnan(x).sum() == 2 and np.isnan(y).sum() == 2
+    np.testing.assert_allclose(y[np.isfinite(y)], phase_deg(h))
+    assert np.all(np.abs(np.diff(y[np.isfinite(y)][2:])) < 180)
