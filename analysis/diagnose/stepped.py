@@ -8,10 +8,12 @@ construction), each candidate's restoring force is evaluated on it and its funda
     H_model = H_L (B F_1 - w G_1) / F_1
 
 With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
-the memoryless kinds and the linear errors; the memory kinds are fitted by nonlinear least
-squares on the same residual (starts from their `analysis.models._kinds.Search`). The chosen element
-is then refitted by the harmonic-balance FRF fit (`analysis.hbm.fit_hbm`, paper eq 33)
-and the held-back level is compared with a harmonic-balance simulation of the corrected model.
+the memoryless kinds and the linear errors; the memory kinds (sliders, also with their
+stuck stiffness taken from the linear part) are screened on a slip-displacement grid with
+``kd`` in closed form and fitted continuously from the best grid point
+(`.stepped_memory`). The leading slider is then refitted by harmonic balance at each step's
+own force (paper eq 33) and the held-back level is compared with a harmonic-balance
+simulation of the corrected model.
 """
 
 from __future__ import annotations
@@ -20,14 +22,12 @@ from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..models import KINDS, Element, Model, restoring_force
-from ..errors import EstimationError, InputError
-from ..hbm import HBMSystem, fit_hbm
+from ..models import KINDS, Model
+from ..errors import InputError
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
-from .candidates import Candidate, library
+from .candidates import library
 from .compare import LevelFRF, chi2, stuck_stiffness
 from .prepare import level_name
 from .engine import Flow
@@ -36,11 +36,9 @@ from .replay import periodic_replay
 from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
-from .select import Fit, Search, candidate_extras, unit_params
-
-HARMONICS = (1, 3, 5, 7)
-N_TIME = 256
-PERIODS_MEMORY = 3
+from .select import Fit, Search, candidate_extras, screened, unit_params
+from .stepped_memory import (HARMONICS, N_TIME, hbm_refit, hbm_sweep, motion_chi2, refine,
+                             slip_grid, transfer)
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
 
@@ -82,25 +80,6 @@ def _motion(frf: SteppedSineFRF, w: np.ndarray, s: int) -> tuple[np.ndarray, np.
     return (e @ U).real, (e @ (1j * h * om * U)).real
 
 
-def _transfer(frf: SteppedSineFRF, kind: str, params: dict[str, float], w: np.ndarray
-              ) -> np.ndarray:
-    """``G_1 / F_1`` of every step, shape (n_steps, 1): the fundamental of the element force
-    along the steady periodic motion (memory kinds: the last of `PERIODS_MEMORY` periods)."""
-    n_s, h = frf.freqs.size, np.asarray(frf.harmonics)
-    Uh = frf.X @ w                                                        # (n_s, n_h)
-    spec = np.zeros((2, n_s, N_TIME // 2 + 1), dtype=complex)
-    spec[0][:, h] = Uh * (N_TIME / 2)
-    spec[1][:, h] = 1j * h * 2 * np.pi * frf.freqs[:, None] * Uh * (N_TIME / 2)
-    # FFTs, not small matrix products: BLAS threads stall on a busy machine.
-    u, v = np.fft.irfft(spec, N_TIME, axis=-1)                            # (n_s, N) each
-    # All steps in one call of the force law (per-call overhead dominates otherwise); a
-    # memory element carries its state into the next step and settles there in two periods.
-    reps = PERIODS_MEMORY if KINDS[kind].memory else 1
-    g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
-    g1 = np.fft.rfft(g.reshape(n_s, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1] * (2 / N_TIME)
-    return (g1 / frf.force)[:, None]
-
-
 def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor: float,
            label: str) -> LevelFRF:
     H = frf.frf[:, :, None]
@@ -109,11 +88,11 @@ def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor
     B[frf.force_dof, 0] = 1.0
     # model elements in the stuck form (`.compare.stuck_linear`): less the stuck stiffness
     x1 = frf.X[:, list(frf.harmonics).index(1)]                 # fundamental, (n_s, n_dof)
-    T = {("model", i): _transfer(frf, el.kind, el.params, el.w) - stuck_stiffness(el)
+    T = {("model", i): transfer(frf, el.kind, el.params, el.w) - stuck_stiffness(el)
          * (x1 @ el.w / frf.force)[:, None] for i, el in enumerate(model.elements)}
     for c, extras in extra.items():
         for e in extras:
-            T[(c, e)] = _transfer(frf, c.kind, unit_params(c.kind, e), c.w)
+            T[(c, e)] = transfer(frf, c.kind, unit_params(c.kind, e), c.w, c.compensated)
     return LevelFRF(label, frf.level, frf.freqs, H, np.ones(H.shape), var, B, T, 1.0)
 
 
@@ -131,103 +110,44 @@ class SteppedSearch(Search):
         x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
         v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
         extra = candidate_extras(model, (x, v), (x, v))
+        for c in library(model.n_dof, model.points):
+            if c.memory and screened(c):
+                extra[c] = slip_grid(frfs, c.w)
         levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
 
-    def _chi2_memory(self, c: Candidate, params: dict[str, float]) -> float:
-        total = 0.0
-        for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
-            d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
-            total += chi2(lf, h0 - d)
-        return total
-
-    def fit_memory(self, c: Candidate) -> Fit | None:
-        """Nonlinear least squares of a memory element (log parameters, a few starts)."""
-        names = KINDS[c.kind].params
-        k_w = self.model.stiffness_along(c.w)
-        amps = [float(np.abs(f.X[:, 0] @ c.w).max()) for f in self.frfs]
-        u_amp, u_max = float(np.median(amps)), max(amps)
-        best = None
-
-        def resid(z: np.ndarray) -> np.ndarray:
-            params = dict(zip(names, np.exp(z)))
-            out = []
-            for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
-                d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
-                r = (lf.H - h0 + d) / np.sqrt(lf.var / 2)
-                out += [r.real.ravel(), r.imag.ravel()]
-            return np.concatenate(out)
-
-        search = KINDS[c.kind].search
-        starts = [np.log(p) for p in search.starts(k_w, u_amp)]
-        # Local searches from the two most promising starts only (each costs ~40 sweeps).
-        costs = [float(np.sum(resid(z) ** 2)) for z in starts]
-        for i in np.argsort(costs)[:2]:
-            z0 = starts[i]
-            try:
-                sol = least_squares(resid, z0, max_nfev=40, method="trf",
-                                    bounds=(z0 - 9, z0 + 9))
-            except (ValueError, FloatingPointError):
-                continue
-            if best is None or sol.cost < best.cost:
-                best = sol
-        if best is None:
+    def fit_memory(self, fit: Fit) -> Fit | None:
+        """A screened slider (best slip-displacement grid point, closed-form ``kd``) with
+        every parameter fitted continuously (`.stepped_memory.refine`); None when it never
+        slips in the data (then it is a stiffness error, one parameter fewer)."""
+        c = fit.cand
+        params, x2 = refine(fit, self.levels, self.frfs, self.H_lins, self.H0s)
+        u_max = max(float(np.abs(f.X[:, list(f.harmonics).index(1)] @ c.w).max())
+                    for f in self.frfs)
+        if KINDS[c.kind].search.inactive(params, u_max):
             return None
-        params = {n: float(v) for n, v in zip(names, np.exp(best.x))}
-        if search.inactive(params, u_max):
-            # The element never reaches its slip force in the data: it acts as a linear
-            # spring, which the library holds as a stiffness error (one parameter fewer).
-            return None
-        x2 = self._chi2_memory(c, params)
-        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params),
-                   {"estimator": "measured-motion harmonic balance"})
+        ev = dict(fit.evidence, estimator="measured-motion harmonic balance")
+        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
 
-    def memory_fits(self) -> list[Fit]:
-        fits = [self.fit_memory(c) for c in library(self.model.n_dof, self.model.points)
-                if c.memory and not c.compensated]
-        return [f for f in fits if f is not None]
-
-
-def _hbm(model: Model, frf: SteppedSineFRF) -> np.ndarray:
-    """Harmonics of a harmonic-balance sweep at each step's own force amplitude (as the fit,
-    `analysis.hbm.fit_hbm`: a response-controlled level's force varies tenfold across the
-    band, where scaling one solution at the mean force would be far off for a nonlinear
-    model): shape (n_steps, n_h, n_dof)."""
-    system = HBMSystem(model, [frf.force_dof], HARMONICS)
-    return system.sweep(frf.freqs, frf.force[:, None]).X
+    def screen(self) -> list[Fit]:
+        """The library screened; each memory kind (location, compensation) refined from its
+        best grid point."""
+        fits = super().screen()
+        out = [f for f in fits if not f.cand.memory]
+        out += [r for r in (self.fit_memory(f) for f in fits if f.cand.memory) if r]
+        return sorted(out, key=lambda f: -f.delta_bic)
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
     return float(np.sqrt(np.sum(np.abs(frf.frf - h) ** 2) / np.sum(np.abs(frf.frf) ** 2)))
 
 
-def _refit(model: Model, fit: Fit, frfs: list[SteppedSineFRF]) -> tuple[Fit, list[str]]:
-    """Harmonic-balance FRF fit (paper eq 33) of the chosen nonlinear element."""
-    c = fit.cand
-    trial = model.with_elements(model.elements + [Element(c.kind, c.w, {})])
-    names = KINDS[c.kind].params
-    start = np.array([[fit.params[n] for n in names]])
-    try:
-        res = fit_hbm(trial, frfs, HARMONICS, starts=start,
-                      dofs=list(range(model.n_dof)))
-    except (InputError, EstimationError) as exc:
-        return fit, [f"harmonic-balance refit failed ({exc}); kept the screening estimate"]
-    e = len(model.elements)
-    params = dict(fit.params)
-    ci = {}
-    for n in names:
-        params[n] = float(res.params[(e, n)])
-        ci[n] = list(res.ci95[(e, n)])
-    ev = dict(fit.evidence, estimator="harmonic-balance fit", hbm_cost=res.cost)
-    return Fit(c, params, ci, fit.chi2, fit.delta_bic, ev), list(res.warnings)
-
-
 def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
     """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
     if linear_only(search):
         return [f for f in search.screen() if f.cand.linear]
-    pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
+    pool = search.screen()
     best = pool[0]
     reduction = (search.chi2_0 - best.chi2) / search.chi2_0
     if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION):
@@ -235,7 +155,11 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
     # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
     # harmonic-balance fit itself (BIC with the residual variance unknown).
     rivals = [f for f in pool[:3] if f.cand.memory and f.cand.dofs == best.cand.dofs]
-    refits = [_refit(model, f, search.frfs) for f in rivals]
+    refits = [hbm_refit(model, f, search.levels, search.frfs) for f in rivals]
+    for f, _ in refits:
+        f.chi2 = motion_chi2(f.cand, f.params, search.levels, search.frfs, search.H_lins,
+                             search.H0s)
+        f.delta_bic = search.bic_gain(f.chi2, f.cand.n_params)
     n_res = 2 * sum(f.frf.size for f in search.frfs)
 
     def hbm_bic(item: tuple[Fit, list[str]]) -> float:
@@ -275,11 +199,11 @@ class SteppedFlow(Flow):
                        for r, f in zip(self.recs, self.frfs)]
 
     def _hbm(self, m: Model, i: int) -> np.ndarray:
-        """`_hbm` of level ``i``, cached per model (the entry keeps the model, so that its
+        """`hbm_sweep` of level ``i``, cached per model (the entry keeps the model, so that its
         id is not reused by another one)."""
         hit = self._cache.get((id(m), i))
         if hit is None or hit[0] is not m:
-            hit = self._cache[(id(m), i)] = (m, _hbm(m, self.frfs[i]))
+            hit = self._cache[(id(m), i)] = (m, hbm_sweep(m, self.frfs[i]))
         return hit[1]
 
     def curve(self, start: Model, fixed: Model, i: int) -> LevelCurves:
