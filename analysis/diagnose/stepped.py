@@ -37,8 +37,9 @@ from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
 from .select import Fit, Search, candidate_extras, screened, unit_params
-from .stepped_memory import (HARMONICS, N_TIME, hbm_refit, hbm_sweep, motion_chi2, refine,
-                             slip_grid, transfer)
+from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
+                             backbone_estimate, hbm_refit, hbm_sweep, motion_chi2, refine,
+                             simulated_chi2, slip_grid, stuck_limit, transfer)
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
 
@@ -101,7 +102,7 @@ class SteppedSearch(Search):
 
     def __init__(self, model: Model, frfs: list[SteppedSineFRF], recs: list[Recording],
                  floor: float) -> None:
-        self.frfs = frfs
+        self.frfs, self.recs = frfs, recs
         low = min(range(len(frfs)), key=lambda i: frfs[i].level)
         motion = [_motion(frfs[low], np.eye(model.n_dof)[:, d], s) for s in
                   range(frfs[low].freqs.size) for d in range(model.n_dof)]
@@ -122,12 +123,29 @@ class SteppedSearch(Search):
         every parameter fitted continuously (`.stepped_memory.refine`); None when it never
         slips in the data (then it is a stiffness error, one parameter fewer)."""
         c = fit.cand
-        params, x2 = refine(fit, self.levels, self.frfs, self.H_lins, self.H0s)
+        if backbone_applies(self.recs, c):
+            return self._backbone_fit(fit)
+        params, x2 = refine(fit, self.levels, self.frfs, self.H_lins, self.H0s,
+                            stuck_limit(self.model, c))
         u_max = max(float(np.abs(f.X[:, list(f.harmonics).index(1)] @ c.w).max())
                     for f in self.frfs)
         if KINDS[c.kind].search.inactive(params, u_max):
             return None
         ev = dict(fit.evidence, estimator="measured-motion harmonic balance")
+        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
+
+    def _backbone_fit(self, fit: Fit) -> Fit | None:
+        """A slider fitted to the levels' backbone (`.stepped_memory.backbone_estimate`),
+        its misfit that of the levels simulated by harmonic balance."""
+        c = fit.cand
+        est = backbone_estimate(self.model, c, self.recs)
+        if est is None:
+            return None
+        params, rms = est
+        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
+        if x2 is None:
+            return None
+        ev = dict(fit.evidence, estimator=BACKBONE_ESTIMATOR, **rms)
         return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
@@ -150,7 +168,8 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
     pool = search.screen()
     best = pool[0]
     reduction = (search.chi2_0 - best.chi2) / search.chi2_0
-    if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION):
+    if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION
+            and best.evidence.get("estimator") != BACKBONE_ESTIMATOR):
         return pool
     # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
     # harmonic-balance fit itself (BIC with the residual variance unknown).

@@ -19,13 +19,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import ModelError
+from ..backbone import LinearMode, backbone, fit_joint, fit_single_mode
+from ..errors import EstimationError, ModelError
 from ..hbm import HBMError, HBMSystem
 from ..models import KINDS, Model, restoring_force
+from ..recordings import Control, StepTable
 from ..spectral import SteppedSineFRF
 from .candidates import Candidate
 from .compare import LevelFRF, chi2
-from .select import Fit, corrected_model
+from .select import MARGIN, Fit, corrected_model
 
 HARMONICS = (1, 3, 5, 7)
 N_TIME = 256
@@ -79,19 +81,40 @@ def _start(fit: Fit) -> np.ndarray:
     return np.log([fit.params[n] for n in KINDS[fit.cand.kind].params])
 
 
-def _bounds(c: Candidate, z0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Log bounds: `LOG_REACH` around the start, within the kind's own parameter bounds."""
+def stuck_limit(model: Model, c: Candidate) -> float:
+    """Largest stuck stiffness a compensated candidate may take from the linear part:
+    `MARGIN` of the static stiffness at its location, ``1 / (w^T K^-1 w)`` (more leaves the
+    stiffness indefinite); infinite for other candidates or a free structure."""
+    if not c.compensated:
+        return np.inf
+    try:
+        flex = float((c.w @ model.linear_frf(np.zeros(1))[0] @ c.w).real)
+    except np.linalg.LinAlgError:
+        return np.inf
+    return MARGIN / flex if flex > 0 else np.inf
+
+
+def _bounds(c: Candidate, z0: np.ndarray, kd_max: float = np.inf
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Log bounds: `LOG_REACH` around the start, within the kind's own parameter bounds and
+    a compensated stuck stiffness below ``kd_max``."""
     lo, hi = z0 - LOG_REACH, z0 + LOG_REACH
     for i, n in enumerate(KINDS[c.kind].params):
         b = KINDS[c.kind].param(n).bounds
         if b is not None:
             lo[i], hi[i] = max(lo[i], np.log(b[0])), min(hi[i], np.log(b[1]))
-    z_lo, z_hi = np.minimum(lo, z0 - 1e-6), np.maximum(hi, z0 + 1e-6)
-    return z_lo, z_hi
+        if n == KINDS[c.kind].initial_stiffness:
+            hi[i] = min(hi[i], np.log(kd_max))
+    return lo, np.maximum(hi, lo + 1e-6)
+
+
+def _inside(z0: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    return np.clip(z0, lo + 1e-9, hi - 1e-9)
 
 
 def refine(fit: Fit, levels: list[LevelFRF], frfs: list[SteppedSineFRF],
-           H_lins: list[np.ndarray], H0s: list[np.ndarray]) -> tuple[dict[str, float], float]:
+           H_lins: list[np.ndarray], H0s: list[np.ndarray], kd_max: float = np.inf
+           ) -> tuple[dict[str, float], float]:
     """Every parameter of a screened slider fitted continuously on the measured-motion
     residual (`transfer`), from its best grid point; returns the parameters and their
     ``chi2``."""
@@ -107,9 +130,9 @@ def refine(fit: Fit, levels: list[LevelFRF], frfs: list[SteppedSineFRF],
             out += [r.real.ravel(), r.imag.ravel()]
         return np.concatenate(out)
 
-    z0 = _start(fit)
-    sol = least_squares(resid, z0, bounds=_bounds(c, z0), method="trf", x_scale=1.0,
-                        max_nfev=60)
+    lo, hi = _bounds(c, _start(fit), kd_max)
+    sol = least_squares(resid, _inside(_start(fit), lo, hi), bounds=(lo, hi), method="trf",
+                        x_scale=1.0, max_nfev=60)
     params = _params(c, sol.x)
     return params, motion_chi2(c, params, levels, frfs, H_lins, H0s)
 
@@ -121,6 +144,57 @@ def motion_chi2(c: Candidate, params: dict[str, float], levels: list[LevelFRF],
     return float(sum(chi2(lf, h0 - (hl @ c.w)[:, :, None]
                           * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :])
                      for lf, hl, h0, frf in zip(levels, H_lins, H0s, frfs)))
+
+
+BACKBONE_ESTIMATOR = "backbone fit (single nonlinear mode)"
+
+
+def backbone_applies(tables: list, c: Candidate) -> bool:
+    """A slider can be fitted to the backbone of response-controlled table levels when it
+    acts from the held point (driven there) to ground."""
+    if not all(isinstance(t, StepTable) and t.control == Control.RESPONSE for t in tables):
+        return False
+    dof = tables[0].control_dof
+    return (len(c.dofs) == 1 and c.dofs[0] == dof and KINDS[c.kind].search.grid is not None
+            and all(t.control_dof == dof and list(t.force_dofs) == [dof] for t in tables))
+
+
+def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
+                      ) -> tuple[dict[str, float], dict[str, float]] | None:
+    """A slider fitted to the backbone of response-controlled levels
+    (`analysis.backbone.fit_joint`) on the model's own mode at the held point; None when
+    that mode cannot be found. Returns the parameters and the fit's relative rms residuals.
+
+    A response-controlled level is one quasi-linear mode at its amplitude, so its natural
+    frequency and damping are what a joint law must reproduce; levels measured at different
+    times also drift in frequency by what no joint law explains (the Brake-Reuss beam: 0.4 Hz
+    up and down), and a fit of the whole FRFs lets that drift, many half-power bandwidths
+    wide, decide the damping law (docs/backbone.md)."""
+    dof = tables[0].control_dof
+    freqs = np.unique(np.concatenate([t.freqs for t in tables]))
+    try:
+        mf = fit_single_mode(freqs, model.linear_frf(freqs)[:, dof, dof], 0)
+        points = list(backbone(tables, dof).points)
+    except (EstimationError, ValueError):
+        return None
+    mode = LinearMode(mf.frequency_hz, mf.damping_ratio, float(mf.modal_constant.real))
+    kd_max = min(stuck_limit(model, c),
+                 MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
+    jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
+    return jf.params, {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms}
+
+
+def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
+                   levels: list[LevelFRF], frfs: list[SteppedSineFRF]) -> float | None:
+    """``chi2`` of the levels simulated by harmonic balance with ``c`` added; None when the
+    candidate leaves the model's valid range or the balance fails."""
+    try:
+        m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
+        i1 = HARMONICS.index(1)
+        return float(sum(chi2(lf, (hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None])
+                         for lf, frf in zip(levels, frfs)))
+    except (ModelError, HBMError):
+        return None
 
 
 def hbm_sweep(model: Model, frf: SteppedSineFRF) -> np.ndarray:
@@ -156,9 +230,9 @@ def hbm_refit(model: Model, fit: Fit, levels: list[LevelFRF], frfs: list[Stepped
         except (ModelError, HBMError):
             return bad
 
-    z0 = _start(fit)
-    lo, hi = _bounds(c, z0)
-    sol = least_squares(resid, z0, bounds=(lo, hi), method="trf", x_scale=1.0, max_nfev=40)
+    lo, hi = _bounds(c, _start(fit), stuck_limit(model, c))
+    sol = least_squares(resid, _inside(_start(fit), lo, hi), bounds=(lo, hi), method="trf",
+                        x_scale=1.0, max_nfev=40)
     params = _params(c, sol.x)
     dof = max(sol.fun.size - sol.x.size, 1)
     cov = float(sol.fun @ sol.fun) / dof * np.linalg.pinv(sol.jac.T @ sol.jac)
