@@ -30,7 +30,7 @@ from scipy.optimize import least_squares
 from ..models import KINDS, restoring_force
 from ._backbone import BackbonePoint
 
-N_TIME = 1024
+N_TIME = 512
 PERIODS = 3
 """Periods of ``a cos`` run through a memory element; the last one is its steady loop."""
 REWEIGHT = 5
@@ -96,9 +96,9 @@ def _grid(kind: str, amplitudes: np.ndarray, kd_max: float) -> list[dict[str, fl
     stiff = KINDS[kind].initial_stiffness
     fixed = dict(grid.fixed)
     others = [[(n, f * v) for f in (0.5, 1.0, 2.0)] for n, v in fixed.items()]
-    slips = np.geomspace(0.1 * amplitudes.min(), 2 * amplitudes.max(), 12)
+    slips = np.geomspace(0.1 * amplitudes.min(), 2 * amplitudes.max(), 10)
     out = []
-    for kd, d, more in product(np.geomspace(1e-3, 0.95, 10) * kd_max, slips, product(*others)):
+    for kd, d, more in product(np.geomspace(1e-3, 0.95, 8) * kd_max, slips, product(*others)):
         out.append({stiff: float(kd), grid.param: float(kd * d), **dict(more)})
     return out
 

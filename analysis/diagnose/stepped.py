@@ -27,7 +27,7 @@ from ..models import KINDS, Model
 from ..errors import InputError
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
-from .candidates import library
+from .candidates import Candidate, library
 from .compare import LevelFRF, chi2, stuck_stiffness
 from .prepare import level_name
 from .engine import Flow
@@ -111,8 +111,10 @@ class SteppedSearch(Search):
         x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
         v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
         extra = candidate_extras(model, (x, v), (x, v))
+        self.on_backbone = [c for c in library(model.n_dof, model.points)
+                            if c.memory and screened(c) and backbone_applies(recs, c)]
         for c in library(model.n_dof, model.points):
-            if c.memory and screened(c):
+            if c.memory and screened(c) and c not in self.on_backbone:
                 extra[c] = slip_grid(frfs, c.w)
         levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
@@ -123,8 +125,6 @@ class SteppedSearch(Search):
         every parameter fitted continuously (`.stepped_memory.refine`); None when it never
         slips in the data (then it is a stiffness error, one parameter fewer)."""
         c = fit.cand
-        if backbone_applies(self.recs, c):
-            return self._backbone_fit(fit)
         params, x2 = refine(fit, self.levels, self.frfs, self.H_lins, self.H0s,
                             stuck_limit(self.model, c))
         u_max = max(float(np.abs(f.X[:, list(f.harmonics).index(1)] @ c.w).max())
@@ -134,10 +134,9 @@ class SteppedSearch(Search):
         ev = dict(fit.evidence, estimator="measured-motion harmonic balance")
         return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
 
-    def _backbone_fit(self, fit: Fit) -> Fit | None:
+    def backbone_fit(self, c: Candidate) -> Fit | None:
         """A slider fitted to the levels' backbone (`.stepped_memory.backbone_estimate`),
         its misfit that of the levels simulated by harmonic balance."""
-        c = fit.cand
         est = backbone_estimate(self.model, c, self.recs)
         if est is None:
             return None
@@ -145,15 +144,16 @@ class SteppedSearch(Search):
         x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
         if x2 is None:
             return None
-        ev = dict(fit.evidence, estimator=BACKBONE_ESTIMATOR, **rms)
+        ev = dict(estimator=BACKBONE_ESTIMATOR, **rms)
         return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
         """The library screened; each memory kind (location, compensation) refined from its
-        best grid point."""
+        best grid point, or fitted to the backbone of response-controlled tables."""
         fits = super().screen()
         out = [f for f in fits if not f.cand.memory]
         out += [r for r in (self.fit_memory(f) for f in fits if f.cand.memory) if r]
+        out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
         return sorted(out, key=lambda f: -f.delta_bic)
 
 
