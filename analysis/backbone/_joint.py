@@ -57,11 +57,15 @@ class JointFit:
         The element's parameters.
     frequency_rms, damping_rms : float
         Relative rms residual of the natural frequencies and damping ratios over the levels.
+    ci95 : dict
+        95 % intervals of the parameters (linearised in their logarithms, each residual group
+        scaled by its own rms: the scatter the law does not explain sets the width).
     """
 
     params: dict[str, float]
     frequency_rms: float
     damping_rms: float
+    ci95: dict[str, tuple[float, float]]
 
 
 def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray) -> np.ndarray:
@@ -164,8 +168,12 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
     for _ in range(REWEIGHT):
         rf, rz = groups(x)
         sf, sz = (max(float(np.sqrt(np.mean(r[rest]**2))), 1e-9) for r in (rf, rz))
-        x = least_squares(weighted, x, args=(sf, sz), bounds=(lo, hi), method="trf",
-                          max_nfev=200).x
+        sol = least_squares(weighted, x, args=(sf, sz), bounds=(lo, hi), method="trf",
+                            max_nfev=200)
+        x = sol.x
+    sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))
+    ci = {n: (float(np.exp(max(v - 1.96 * s, -700.0))), float(np.exp(min(v + 1.96 * s, 700.0))))
+          for n, v, s in zip(names, x, sd)}
     rf, rz = groups(x)
     return JointFit({n: float(v) for n, v in zip(names, np.exp(x))},
-                    float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))))
+                    float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))), ci)

@@ -140,12 +140,12 @@ class SteppedSearch(Search):
         est = backbone_estimate(self.model, c, self.recs)
         if est is None:
             return None
-        params, rms = est
+        params, ci, rms = est
         x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
         if x2 is None:
             return None
         ev = dict(estimator=BACKBONE_ESTIMATOR, **rms)
-        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
+        return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
         """The library screened; each memory kind (location, compensation) refined from its

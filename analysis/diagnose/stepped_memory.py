@@ -160,10 +160,12 @@ def backbone_applies(tables: list, c: Candidate) -> bool:
 
 
 def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
-                      ) -> tuple[dict[str, float], dict[str, float]] | None:
+                      ) -> tuple[dict[str, float], dict[str, list[float]],
+                                 dict[str, float]] | None:
     """A slider fitted to the backbone of response-controlled levels
     (`analysis.backbone.fit_joint`) on the model's own mode at the held point; None when
-    that mode cannot be found. Returns the parameters and the fit's relative rms residuals.
+    that mode cannot be found. Returns the parameters, their 95 % intervals and the fit's
+    relative rms residuals.
 
     A response-controlled level is one quasi-linear mode at its amplitude, so its natural
     frequency and damping are what a joint law must reproduce; levels measured at different
@@ -181,7 +183,8 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
     kd_max = min(stuck_limit(model, c),
                  MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
     jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
-    return jf.params, {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms}
+    return (jf.params, {n: list(v) for n, v in jf.ci95.items()},
+            {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms})
 
 
 def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
