@@ -4,7 +4,7 @@ force-controlled: phase resonance of the step-wise inverse FRF).
 
 Modules behind this API: ``_single_mode`` (the single-mode rational fit with its intervals),
 ``_backbone`` (levels to a `Backbone`), ``_joint`` (a joint element fitted to a backbone,
-single nonlinear mode). Code inside this package imports its siblings by their
+single nonlinear mode), ``_simulated`` (a model through the same test, as tables). Code inside this package imports its siblings by their
 private module path.
 """
 
@@ -12,7 +12,9 @@ from ._single_mode import ModeFit, fit_single_mode, frf_noise
 from ._backbone import (FORCE_METHOD, RESPONSE_METHOD, SCHEMA_VERSION, Backbone, BackbonePoint,
                         backbone, stepwise_modal)
 from ._joint import JointFit, LinearMode, describing, fit_joint, joint_backbone
+from ._simulated import model_tables
 
 __all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "JointFit", "LinearMode", "ModeFit",
            "RESPONSE_METHOD", "SCHEMA_VERSION", "backbone", "describing", "fit_joint",
-           "fit_single_mode", "frf_noise", "joint_backbone", "stepwise_modal"]
+           "fit_single_mode", "frf_noise", "joint_backbone", "model_tables",
+           "stepwise_modal"]

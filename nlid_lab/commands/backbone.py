@@ -1,5 +1,6 @@
-"""``nlid-lab backbone RUN... [--json FILE] [--plot FILE.png]``: natural frequency and damping
-ratio of the mode in the run's band against its amplitude, one point per stepped-sine level
+"""``nlid-lab backbone RUN... [--model MODEL.toml] [--json FILE] [--plot FILE.png]``: natural
+frequency and damping ratio of the mode in the run's band against its amplitude, one point per
+stepped-sine level; with a model, the model's backbone through the same test beside it
 (docs/backbone.md)."""
 
 from __future__ import annotations
@@ -53,6 +54,21 @@ def format_summary(bb: Backbone) -> str:
     return "\n".join(lines)
 
 
+def model_backbone(path: str, tables: list[StepTable], channel: int) -> Backbone:
+    """The backbone of the model in ``path`` simulated at every step's measured force
+    (harmonic balance), read as the measured one was."""
+    from analysis.backbone import backbone, model_tables
+    from analysis.models import Model
+
+    model = Model.load(path)
+    model.require_complete("a backbone of the model")
+    if model.n_dof != tables[0].n_dof:
+        raise InputError(f"--model {path}: the model has {model.n_dof} DOFs but the levels "
+                         f"{tables[0].n_dof} response channels; give the model of these "
+                         "channels (fit-linear or diagnose of this run)")
+    return backbone(model_tables(model, tables), channel)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab backbone`` on the parsed ``args``; returns the exit code."""
     from analysis.backbone import backbone
@@ -63,12 +79,20 @@ def run(args: argparse.Namespace) -> int:
     check_runs(args.runs, args.repair)
     tables = levels(args.runs)
     bb = backbone(tables, args.channel)
-    print(format_summary(bb), file=summary_stream(args.json, args.quiet))
+    out = summary_stream(args.json, args.quiet)
+    print(format_summary(bb), file=out)
+    result = bb.to_json()
+    model = None
+    if args.model:
+        model = model_backbone(args.model, tables, bb.channel)
+        print(f"the model {args.model} through the same steps (harmonic balance at each "
+              "step's measured force):\n" + format_summary(model), file=out)
+        result["model"] = {"path": str(args.model), **model.to_json()}
     if args.plot:
         from ..reports import backbone_figure
-        backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs)
-                        ).savefig(args.plot)
-    write_json(bb.to_json(), args.json)
+        backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs),
+                        model=model).savefig(args.plot)
+    write_json(result, args.json)
     return 0
 
 
@@ -80,6 +104,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "stepped-sine levels (tables or time blocks)")
     p.add_argument("--channel", type=int, metavar="J", help="response channel to read "
                    "(default: the held one, else the driving point)")
+    p.add_argument("--model", metavar="MODEL.toml", help="also the backbone of this model "
+                   "through the same steps (harmonic balance at each step's measured force)")
     p.add_argument("--plot", metavar="PNG", help="write frequency and damping against "
                    "amplitude, with the levels' FRFs and fits")
     p.add_argument("--json", metavar="FILE", help="write the backbone as JSON ('-' for stdout)")
