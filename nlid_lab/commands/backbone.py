@@ -55,8 +55,9 @@ def format_summary(bb: Backbone) -> str:
 
 
 def model_backbone(path: str, tables: list[StepTable], channel: int) -> Backbone:
-    """The backbone of the model in ``path`` simulated at every step's measured force
-    (harmonic balance), read as the measured one was."""
+    """The backbone of the model in ``path`` through the same steps (harmonic balance,
+    holding what each level held: `analysis.backbone.model_tables`), read as the measured
+    one was."""
     from analysis.backbone import backbone, model_tables
     from analysis.models import Model
 
@@ -85,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
     model = None
     if args.model:
         model = model_backbone(args.model, tables, bb.channel)
-        print(f"the model {args.model} through the same steps (harmonic balance at each "
-              "step's measured force):\n" + format_summary(model), file=out)
+        print(f"the model {args.model} through the same steps (harmonic balance, holding "
+              "what each level held):\n" + format_summary(model), file=out)
         result["model"] = {"path": str(args.model), **model.to_json()}
     if args.plot:
         from ..reports import backbone_figure
@@ -105,7 +106,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--channel", type=int, metavar="J", help="response channel to read "
                    "(default: the held one, else the driving point)")
     p.add_argument("--model", metavar="MODEL.toml", help="also the backbone of this model "
-                   "through the same steps (harmonic balance at each step's measured force)")
+                   "through the same steps (harmonic balance, holding what each level held)")
     p.add_argument("--plot", metavar="PNG", help="write frequency and damping against "
                    "amplitude, with the levels' FRFs and fits")
     p.add_argument("--json", metavar="FILE", help="write the backbone as JSON ('-' for stdout)")
