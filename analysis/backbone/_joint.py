@@ -172,8 +172,10 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
                             max_nfev=200)
         x = sol.x
     sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))
-    ci = {n: (float(np.exp(max(v - 1.96 * s, -700.0))), float(np.exp(min(v + 1.96 * s, 700.0))))
-          for n, v, s in zip(names, x, sd)}
+    # an interval reaching a bound ends there (its side is then not determined)
+    ci = {n: (float(np.exp(max(v - 1.96 * s, a, -700.0))),
+              float(np.exp(min(v + 1.96 * s, b, 700.0))))
+          for n, v, s, a, b in zip(names, x, sd, lo, hi)}
     rf, rz = groups(x)
     return JointFit({n: float(v) for n, v in zip(names, np.exp(x))},
                     float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))), ci)

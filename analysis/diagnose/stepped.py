@@ -36,7 +36,7 @@ from .replay import periodic_replay
 from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
-from .select import Fit, Search, candidate_extras, screened, unit_params
+from .select import SHORTLIST, Fit, Search, candidate_extras, screened, unit_params
 from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
                              backbone_estimate, hbm_refit, hbm_sweep, motion_chi2, refine,
                              simulated_chi2, slip_grid, stuck_limit, transfer)
@@ -148,11 +148,13 @@ class SteppedSearch(Search):
         return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
-        """The library screened; each memory kind (location, compensation) refined from its
-        best grid point, or fitted to the backbone of response-controlled tables."""
+        """The library screened; the `SHORTLIST` best memory candidates (kind, location,
+        compensation) refined from their best grid point (the others are left out), or every
+        one fitted to the backbone of response-controlled tables."""
         fits = super().screen()
         out = [f for f in fits if not f.cand.memory]
-        out += [r for r in (self.fit_memory(f) for f in fits if f.cand.memory) if r]
+        memory = [f for f in fits if f.cand.memory]          # best first
+        out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
         out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
         return sorted(out, key=lambda f: -f.delta_bic)
 

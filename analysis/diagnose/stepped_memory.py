@@ -32,8 +32,8 @@ from .select import MARGIN, Fit, corrected_model
 HARMONICS = (1, 3, 5, 7)
 N_TIME = 256
 PERIODS_MEMORY = 3
-SLIP_GRID = 32
-"""Slip displacements tried, log-spaced from `SLIP_SPAN` [0] times the smallest fundamental
+SLIP_GRID = 16
+"""Slip displacements tried (the best one starts a continuous fit), log-spaced from `SLIP_SPAN` [0] times the smallest fundamental
 deformation amplitude of the fitting levels to [1] times the largest (a slider that slips
 at every level down to one that sticks at all but the top one)."""
 SLIP_SPAN = (0.05, 1.2)
@@ -240,8 +240,9 @@ def hbm_refit(model: Model, fit: Fit, levels: list[LevelFRF], frfs: list[Stepped
     dof = max(sol.fun.size - sol.x.size, 1)
     cov = float(sol.fun @ sol.fun) / dof * np.linalg.pinv(sol.jac.T @ sol.jac)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    ci = {n: [float(np.exp(z - 1.96 * s)), float(np.exp(z + 1.96 * s))]
-          for n, z, s in zip(KINDS[c.kind].params, sol.x, sd)}
+    # an interval reaching a fit bound ends there (its side is then not determined)
+    ci = {n: [float(np.exp(max(z - 1.96 * s, a))), float(np.exp(min(z + 1.96 * s, b)))]
+          for n, z, s, a, b in zip(KINDS[c.kind].params, sol.x, sd, lo, hi)}
     warnings = [f"{c.kind} {n} reached its fit bound {params[n]:.4g}"
                 for n, z, a, b in zip(KINDS[c.kind].params, sol.x, lo, hi)
                 if z <= a + 1e-6 or z >= b - 1e-6]
