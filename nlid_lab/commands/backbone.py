@@ -17,6 +17,7 @@ from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
     from analysis.backbone import Backbone
+    from analysis.models import Model
     from analysis.recordings import StepTable
 
 
@@ -54,11 +55,8 @@ def format_summary(bb: Backbone) -> str:
     return "\n".join(lines)
 
 
-def model_backbone(path: str, tables: list[StepTable], channel: int) -> Backbone:
-    """The backbone of the model in ``path`` through the same steps (harmonic balance,
-    holding what each level held: `analysis.backbone.model_tables`), read as the measured
-    one was."""
-    from analysis.backbone import backbone, model_tables
+def load_model(path: str, tables: list[StepTable]) -> Model:
+    """The complete model in ``path``, one DOF per response channel of the levels."""
     from analysis.models import Model
 
     model = Model.load(path)
@@ -67,32 +65,34 @@ def model_backbone(path: str, tables: list[StepTable], channel: int) -> Backbone
         raise InputError(f"--model {path}: the model has {model.n_dof} DOFs but the levels "
                          f"{tables[0].n_dof} response channels; give the model of these "
                          "channels (fit-linear or diagnose of this run)")
-    return backbone(model_tables(model, tables), channel)
+    return model
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab backbone`` on the parsed ``args``; returns the exit code."""
-    from analysis.backbone import backbone
+    from analysis.backbone import backbone, model_tables
 
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(f"--plot {args.plot}: the figure is written as PNG; name it *.png")
     refuse_overwrite(args.force, args.plot, args.json)
     check_runs(args.runs, args.repair)
     tables = levels(args.runs)
+    model = load_model(args.model, tables) if args.model else None
     bb = backbone(tables, args.channel)
     out = summary_stream(args.json, args.quiet)
     print(format_summary(bb), file=out)
     result = bb.to_json()
-    model = None
-    if args.model:
-        model = model_backbone(args.model, tables, bb.channel)
+    simulated = None
+    if model is not None:
+        # the model through the same steps, holding what each level held, read alike
+        simulated = backbone(model_tables(model, tables), bb.channel)
         print(f"the model {args.model} through the same steps (harmonic balance, holding "
-              "what each level held):\n" + format_summary(model), file=out)
-        result["model"] = {"path": str(args.model), **model.to_json()}
+              "what each level held):\n" + format_summary(simulated), file=out)
+        result["model"] = {"path": str(args.model), **simulated.to_json()}
     if args.plot:
         from ..reports import backbone_figure
         backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs),
-                        model=model).savefig(args.plot)
+                        model=simulated).savefig(args.plot)
     write_json(result, args.json)
     return 0
 
