@@ -198,8 +198,8 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
 
 
 class SteppedFlow(Flow):
-    """Stepped-sine levels in ascending order, one held back; the model's curves by
-    harmonic balance, with periodic replays from the fitted harmonics."""
+    """Stepped-sine levels in ascending order, some held back (`policy.pick_holdout`); the
+    model's curves by harmonic balance, with periodic replays from the fitted harmonics."""
 
     metric = METRIC
 
@@ -212,9 +212,11 @@ class SteppedFlow(Flow):
         if len(frfs) < 2 or holdout == "segment":
             raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
                              "back); record another level")
-        self.hold = pick_holdout([f.level for f in self.frfs], holdout)[0]   # one level
+        # as random data: the lowest of two, the middle one of three, every other interior
+        # level of four or more (`policy.pick_holdout`)
+        self.hold = pick_holdout([f.level for f in self.frfs], holdout)
         self.model, self.floor = model, floor
-        self.held = tuple(i == self.hold for i in range(len(self.frfs)))
+        self.held = tuple(i in self.hold for i in range(len(self.frfs)))
         self._cache: dict[tuple[int, int], tuple[Model, np.ndarray]] = {}
         self.floors = [level_floor(_level(model, r, f, {}, floor, ""), floor)
                        for r, f in zip(self.recs, self.frfs)]
@@ -244,8 +246,8 @@ class SteppedFlow(Flow):
         return search, _pool(current, search, self.warnings)
 
     def held_levels(self) -> list[LevelFRF]:
-        return [_level(self.model, self.recs[self.hold], self.frfs[self.hold], {}, self.floor,
-                       "held")]
+        return [_level(self.model, self.recs[i], self.frfs[i], {}, self.floor, "held")
+                for i in self.hold]
 
     def evidence(self, first: SearchPass, common: Evidence) -> Evidence:
         return replace(common, odd_harmonic_ratio=_odd_ratio(first.search.frfs[-1]))
