@@ -3,13 +3,18 @@ stepped-sine levels (response-controlled: a single-mode fit per held amplitude;
 force-controlled: phase resonance of the step-wise inverse FRF).
 
 Modules behind this API: ``_single_mode`` (the single-mode rational fit with its intervals),
-``_backbone`` (levels to a `Backbone`). Code inside this package imports its siblings by their
+``_backbone`` (levels to a `Backbone`), ``_joint`` (a joint element fitted to a backbone,
+single nonlinear mode), ``_simulated`` (a model through the same test, as tables). Code inside this package imports its siblings by their
 private module path.
 """
 
 from ._single_mode import ModeFit, fit_single_mode, frf_noise
 from ._backbone import (FORCE_METHOD, RESPONSE_METHOD, SCHEMA_VERSION, Backbone, BackbonePoint,
                         backbone, stepwise_modal)
+from ._joint import JointFit, LinearMode, describing, fit_joint, joint_backbone
+from ._simulated import model_tables
 
-__all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "ModeFit", "RESPONSE_METHOD",
-           "SCHEMA_VERSION", "backbone", "fit_single_mode", "frf_noise", "stepwise_modal"]
+__all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "JointFit", "LinearMode", "ModeFit",
+           "RESPONSE_METHOD", "SCHEMA_VERSION", "backbone", "describing", "fit_joint",
+           "fit_single_mode", "frf_noise", "joint_backbone", "model_tables",
+           "stepwise_modal"]

@@ -8,10 +8,12 @@ construction), each candidate's restoring force is evaluated on it and its funda
     H_model = H_L (B F_1 - w G_1) / F_1
 
 With ``T = G_1 / F_1`` this is the random-data identity, so the same `select.Search` ranks
-the memoryless kinds and the linear errors; the memory kinds are fitted by nonlinear least
-squares on the same residual (starts from their `analysis.models._kinds.Search`). The chosen element
-is then refitted by the harmonic-balance FRF fit (`analysis.hbm.fit_hbm`, paper eq 33)
-and the held-back level is compared with a harmonic-balance simulation of the corrected model.
+the memoryless kinds and the linear errors; the memory kinds (sliders, also with their
+stuck stiffness taken from the linear part) are screened on a slip-displacement grid with
+``kd`` in closed form and fitted continuously from the best grid point
+(`.stepped_memory`). The leading slider is then refitted by harmonic balance at each step's
+own force (paper eq 33) and the held-back level is compared with a harmonic-balance
+simulation of the corrected model.
 """
 
 from __future__ import annotations
@@ -20,11 +22,9 @@ from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..models import KINDS, Candidate, Element, Model, library, restoring_force
-from ..errors import EstimationError, InputError
-from ..hbm import HBMSystem, fit_hbm
+from ..models import KINDS, Candidate, Model, library
+from ..errors import InputError
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .compare import LevelFRF, chi2, stuck_stiffness
@@ -35,11 +35,10 @@ from .replay import periodic_replay
 from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
-from .select import Fit, Search, candidate_extras, unit_params
-
-HARMONICS = (1, 3, 5, 7)
-N_TIME = 256
-PERIODS_MEMORY = 3
+from .select import SHORTLIST, Fit, Search, candidate_extras, screened, unit_params
+from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
+                             backbone_estimate, hbm_refit, log_fitted, hbm_sweep, motion_chi2, refine,
+                             simulated_chi2, slip_grid, stuck_limit, transfer)
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
 
@@ -81,25 +80,6 @@ def _motion(frf: SteppedSineFRF, w: np.ndarray, s: int) -> tuple[np.ndarray, np.
     return (e @ U).real, (e @ (1j * h * om * U)).real
 
 
-def _transfer(frf: SteppedSineFRF, kind: str, params: dict[str, float], w: np.ndarray
-              ) -> np.ndarray:
-    """``G_1 / F_1`` of every step, shape (n_steps, 1): the fundamental of the element force
-    along the steady periodic motion (memory kinds: the last of `PERIODS_MEMORY` periods)."""
-    n_s, h = frf.freqs.size, np.asarray(frf.harmonics)
-    Uh = frf.X @ w                                                        # (n_s, n_h)
-    spec = np.zeros((2, n_s, N_TIME // 2 + 1), dtype=complex)
-    spec[0][:, h] = Uh * (N_TIME / 2)
-    spec[1][:, h] = 1j * h * 2 * np.pi * frf.freqs[:, None] * Uh * (N_TIME / 2)
-    # FFTs, not small matrix products: BLAS threads stall on a busy machine.
-    u, v = np.fft.irfft(spec, N_TIME, axis=-1)                            # (n_s, N) each
-    # All steps in one call of the force law (per-call overhead dominates otherwise); a
-    # memory element carries its state into the next step and settles there in two periods.
-    reps = PERIODS_MEMORY if KINDS[kind].memory else 1
-    g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
-    g1 = np.fft.rfft(g.reshape(n_s, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1] * (2 / N_TIME)
-    return (g1 / frf.force)[:, None]
-
-
 def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor: float,
            label: str) -> LevelFRF:
     H = frf.frf[:, :, None]
@@ -108,11 +88,11 @@ def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor
     B[frf.force_dof, 0] = 1.0
     # model elements in the stuck form (`.compare.stuck_linear`): less the stuck stiffness
     x1 = frf.X[:, list(frf.harmonics).index(1)]                 # fundamental, (n_s, n_dof)
-    T = {("model", i): _transfer(frf, el.kind, el.params, el.w) - stuck_stiffness(el)
+    T = {("model", i): transfer(frf, el.kind, el.params, el.w) - stuck_stiffness(el)
          * (x1 @ el.w / frf.force)[:, None] for i, el in enumerate(model.elements)}
     for c, extras in extra.items():
         for e in extras:
-            T[(c, e)] = _transfer(frf, c.kind, unit_params(c.kind, e), c.w)
+            T[(c, e)] = transfer(frf, c.kind, unit_params(c.kind, e), c.w, c.compensated)
     return LevelFRF(label, frf.level, frf.freqs, H, np.ones(H.shape), var, B, T, 1.0)
 
 
@@ -121,7 +101,7 @@ class SteppedSearch(Search):
 
     def __init__(self, model: Model, frfs: list[SteppedSineFRF], recs: list[Recording],
                  floor: float) -> None:
-        self.frfs = frfs
+        self.frfs, self.recs = frfs, recs
         low = min(range(len(frfs)), key=lambda i: frfs[i].level)
         motion = [_motion(frfs[low], np.eye(model.n_dof)[:, d], s) for s in
                   range(frfs[low].freqs.size) for d in range(model.n_dof)]
@@ -130,112 +110,76 @@ class SteppedSearch(Search):
         x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
         v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
         extra = candidate_extras(model, (x, v), (x, v))
+        self.on_backbone = [c for c in library(model.n_dof, model.points, model.support)
+                            if c.memory and screened(c) and backbone_applies(recs, c)]
+        for c in library(model.n_dof, model.points, model.support):
+            if c.memory and screened(c) and log_fitted(c) and c not in self.on_backbone:
+                extra[c] = slip_grid(frfs, c.w)
         levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
 
-    def _chi2_memory(self, c: Candidate, params: dict[str, float]) -> float:
-        total = 0.0
-        for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
-            d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
-            total += chi2(lf, h0 - d)
-        return total
-
-    def fit_memory(self, c: Candidate) -> Fit | None:
-        """Nonlinear least squares of a memory element (log parameters, a few starts)."""
-        names = KINDS[c.kind].params
-        k_w = self.model.stiffness_along(c.w)
-        amps = [float(np.abs(f.X[:, 0] @ c.w).max()) for f in self.frfs]
-        u_amp, u_max = float(np.median(amps)), max(amps)
-        best = None
-
-        def resid(z: np.ndarray) -> np.ndarray:
-            params = dict(zip(names, np.exp(z)))
-            out = []
-            for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
-                d = (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
-                r = (lf.H - h0 + d) / np.sqrt(lf.var / 2)
-                out += [r.real.ravel(), r.imag.ravel()]
-            return np.concatenate(out)
-
-        search = KINDS[c.kind].search
-        starts = [np.log(p) for p in search.starts(k_w, u_amp)]
-        # Local searches from the two most promising starts only (each costs ~40 sweeps).
-        costs = [float(np.sum(resid(z) ** 2)) for z in starts]
-        for i in np.argsort(costs)[:2]:
-            z0 = starts[i]
-            try:
-                sol = least_squares(resid, z0, max_nfev=40, method="trf",
-                                    bounds=(z0 - 9, z0 + 9))
-            except (ValueError, FloatingPointError):
-                continue
-            if best is None or sol.cost < best.cost:
-                best = sol
-        if best is None:
+    def fit_memory(self, fit: Fit) -> Fit | None:
+        """A screened slider (best slip-displacement grid point, closed-form ``kd``) with
+        every parameter fitted continuously (`.stepped_memory.refine`); None when it never
+        slips in the data (then it is a stiffness error, one parameter fewer)."""
+        c = fit.cand
+        params, x2 = refine(fit, self.levels, self.frfs, self.H_lins, self.H0s,
+                            stuck_limit(self.model, c))
+        u_max = max(float(np.abs(f.X[:, list(f.harmonics).index(1)] @ c.w).max())
+                    for f in self.frfs)
+        if KINDS[c.kind].search.inactive(params, u_max):
             return None
-        params = {n: float(v) for n, v in zip(names, np.exp(best.x))}
-        if search.inactive(params, u_max):
-            # The element never reaches its slip force in the data: it acts as a linear
-            # spring, which the library holds as a stiffness error (one parameter fewer).
+        ev = dict(fit.evidence, estimator="measured-motion harmonic balance")
+        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params), ev)
+
+    def backbone_fit(self, c: Candidate) -> Fit | None:
+        """A slider fitted to the levels' backbone (`.stepped_memory.backbone_estimate`),
+        its misfit that of the levels simulated by harmonic balance."""
+        est = backbone_estimate(self.model, c, self.recs)
+        if est is None:
             return None
-        x2 = self._chi2_memory(c, params)
-        return Fit(c, params, {}, x2, self.bic_gain(x2, c.n_params),
-                   {"estimator": "measured-motion harmonic balance"})
+        params, ci, rms = est
+        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
+        if x2 is None:
+            return None
+        ev = dict(estimator=BACKBONE_ESTIMATOR, **rms)
+        return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev)
 
-    def memory_fits(self) -> list[Fit]:
-        m = self.model
-        fits = [self.fit_memory(c) for c in library(m.n_dof, m.points, m.support)
-                if c.memory and not c.compensated]
-        return [f for f in fits if f is not None]
-
-
-def _hbm(model: Model, frf: SteppedSineFRF) -> np.ndarray:
-    """Harmonics of a harmonic-balance sweep at each step's own force amplitude (as the fit,
-    `analysis.hbm.fit_hbm`: a response-controlled level's force varies tenfold across the
-    band, where scaling one solution at the mean force would be far off for a nonlinear
-    model): shape (n_steps, n_h, n_dof)."""
-    system = HBMSystem(model, [frf.force_dof], HARMONICS)
-    return system.sweep(frf.freqs, frf.force[:, None]).X
+    def screen(self) -> list[Fit]:
+        """The library screened; the `SHORTLIST` best memory candidates (kind, location,
+        compensation) refined from their best grid point (the others are left out), or every
+        one fitted to the backbone of response-controlled tables."""
+        fits = super().screen()
+        out = [f for f in fits if not f.cand.memory]
+        memory = [f for f in fits if f.cand.memory and log_fitted(f.cand)]   # best first
+        out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
+        out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
+        return sorted(out, key=lambda f: -f.delta_bic)
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
     return float(np.sqrt(np.sum(np.abs(frf.frf - h) ** 2) / np.sum(np.abs(frf.frf) ** 2)))
 
 
-def _refit(model: Model, fit: Fit, frfs: list[SteppedSineFRF]) -> tuple[Fit, list[str]]:
-    """Harmonic-balance FRF fit (paper eq 33) of the chosen nonlinear element."""
-    c = fit.cand
-    trial = model.with_elements(model.elements + [Element(c.kind, c.w, {})])
-    names = KINDS[c.kind].params
-    start = np.array([[fit.params[n] for n in names]])
-    try:
-        res = fit_hbm(trial, frfs, HARMONICS, starts=start,
-                      dofs=list(range(model.n_dof)))
-    except (InputError, EstimationError) as exc:
-        return fit, [f"harmonic-balance refit failed ({exc}); kept the screening estimate"]
-    e = len(model.elements)
-    params = dict(fit.params)
-    ci = {}
-    for n in names:
-        params[n] = float(res.params[(e, n)])
-        ci[n] = list(res.ci95[(e, n)])
-    ev = dict(fit.evidence, estimator="harmonic-balance fit", hbm_cost=res.cost)
-    return Fit(c, params, ci, fit.chi2, fit.delta_bic, ev), list(res.warnings)
-
-
 def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
     """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
     if linear_only(search):
         return [f for f in search.screen() if f.cand.linear]
-    pool = sorted(search.screen() + search.memory_fits(), key=lambda f: -f.delta_bic)
+    pool = search.screen()
     best = pool[0]
     reduction = (search.chi2_0 - best.chi2) / search.chi2_0
-    if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION):
+    if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION
+            and best.evidence.get("estimator") != BACKBONE_ESTIMATOR):
         return pool
     # Stick-slip is hysteresis with n -> infinity: the nested pair is decided by the
     # harmonic-balance fit itself (BIC with the residual variance unknown).
     rivals = [f for f in pool[:3] if f.cand.memory and f.cand.dofs == best.cand.dofs]
-    refits = [_refit(model, f, search.frfs) for f in rivals]
+    refits = [hbm_refit(model, f, search.levels, search.frfs) for f in rivals]
+    for f, _ in refits:
+        f.chi2 = motion_chi2(f.cand, f.params, search.levels, search.frfs, search.H_lins,
+                             search.H0s)
+        f.delta_bic = search.bic_gain(f.chi2, f.cand.n_params)
     n_res = 2 * sum(f.frf.size for f in search.frfs)
 
     def hbm_bic(item: tuple[Fit, list[str]]) -> float:
@@ -253,8 +197,8 @@ def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]
 
 
 class SteppedFlow(Flow):
-    """Stepped-sine levels in ascending order, one held back; the model's curves by
-    harmonic balance, with periodic replays from the fitted harmonics."""
+    """Stepped-sine levels in ascending order, some held back (`policy.pick_holdout`); the
+    model's curves by harmonic balance, with periodic replays from the fitted harmonics."""
 
     metric = METRIC
 
@@ -267,19 +211,21 @@ class SteppedFlow(Flow):
         if len(frfs) < 2 or holdout == "segment":
             raise InputError("a stepped-sine diagnosis needs two or more levels (one is held "
                              "back); record another level")
-        self.hold = pick_holdout([f.level for f in self.frfs], holdout)[0]   # one level
+        # as random data: the lowest of two, the middle one of three, every other interior
+        # level of four or more (`policy.pick_holdout`)
+        self.hold = pick_holdout([f.level for f in self.frfs], holdout)
         self.model, self.floor = model, floor
-        self.held = tuple(i == self.hold for i in range(len(self.frfs)))
+        self.held = tuple(i in self.hold for i in range(len(self.frfs)))
         self._cache: dict[tuple[int, int], tuple[Model, np.ndarray]] = {}
         self.floors = [level_floor(_level(model, r, f, {}, floor, ""), floor)
                        for r, f in zip(self.recs, self.frfs)]
 
     def _hbm(self, m: Model, i: int) -> np.ndarray:
-        """`_hbm` of level ``i``, cached per model (the entry keeps the model, so that its
+        """`hbm_sweep` of level ``i``, cached per model (the entry keeps the model, so that its
         id is not reused by another one)."""
         hit = self._cache.get((id(m), i))
         if hit is None or hit[0] is not m:
-            hit = self._cache[(id(m), i)] = (m, _hbm(m, self.frfs[i]))
+            hit = self._cache[(id(m), i)] = (m, hbm_sweep(m, self.frfs[i]))
         return hit[1]
 
     def curve(self, start: Model, fixed: Model, i: int) -> LevelCurves:
@@ -299,8 +245,8 @@ class SteppedFlow(Flow):
         return search, _pool(current, search, self.warnings)
 
     def held_levels(self) -> list[LevelFRF]:
-        return [_level(self.model, self.recs[self.hold], self.frfs[self.hold], {}, self.floor,
-                       "held")]
+        return [_level(self.model, self.recs[i], self.frfs[i], {}, self.floor, "held")
+                for i in self.hold]
 
     def evidence(self, first: SearchPass, common: Evidence) -> Evidence:
         return replace(common, odd_harmonic_ratio=_odd_ratio(first.search.frfs[-1]))

@@ -32,7 +32,7 @@ TOP_KEYS = ("name", "points", "linear", "modal", "element", "support")
 SUPPORT_KEYS = ("points", "free")
 LINEAR_KEYS = ("mass", "damping", "stiffness")
 MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
-              "residual_damping_ratios", "residual_shapes")
+              "residual_damping_ratios", "residual_shapes", "damping_coupling")
 MAX_ELEMENTS = 100
 MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
 MAX_PARAM = 1e30          # largest |element parameter|
@@ -163,11 +163,14 @@ class Model:
     def modal(cls, freqs_hz: Any, damping_ratios: Any, shapes: Any, *,
               elements: list[Element] | None = None, name: str = "model",
               points: list[str] | None = None, residual_freqs_hz: Any = (),
-              residual_damping: Any = (), residual_shapes: Any = None) -> "Model":
+              residual_damping: Any = (), residual_shapes: Any = None,
+              damping_coupling: Any = None) -> "Model":
         """Model of the ``[modal]`` form: modes (and residual pseudo-modes) at the points.
 
         ``shapes`` is (n_modes, n_points), mass-normalised (1/sqrt(kg)); the residual
-        pseudo-modes, outside the band, stand for the modes the table leaves out.
+        pseudo-modes, outside the band, stand for the modes the table leaves out;
+        ``damping_coupling`` (square over all modes, zero diagonal, symmetric) the off-diagonal
+        modal damping a correction leaves (`modal_coupling`).
         """
         f, z, phi = modal_table(freqs_hz, damping_ratios, shapes, "modal")
         nr = len(residual_freqs_hz)
@@ -176,7 +179,8 @@ class Model:
                                  "modal.residual", n_points=phi.shape[1])
             f, z, phi = np.r_[f, fr], np.r_[z, zr], np.vstack([phi, phr])
         w = 2 * np.pi * f
-        return cls(np.eye(f.size), np.diag(2 * z * w), np.diag(w ** 2), list(elements or []),
+        c = np.diag(2 * z * w) + _coupling(damping_coupling, f.size)
+        return cls(np.eye(f.size), c, np.diag(w ** 2), list(elements or []),
                    name, points, phi.T, nr)
 
     @property
@@ -320,6 +324,10 @@ class Model:
                 lines += [f"{key}frequencies_hz = {toml_list(f)}",
                           f"{key}damping_ratios = {toml_list(z)}",
                           f"{key}shapes = [\n    {rows},\n]"]
+            coupling = modal_coupling(self)
+            if coupling is not None:
+                rows = ",\n    ".join(toml_list(row) for row in coupling)
+                lines.append(f"damping_coupling = [\n    {rows},\n]")
         else:
             lines += ["", "[linear]"]
             for key in ("mass", "damping", "stiffness"):
@@ -401,7 +409,8 @@ class Model:
                           elements=elements, name=name, points=names,
                           residual_freqs_hz=modal.get("residual_frequencies_hz", []),
                           residual_damping=modal.get("residual_damping_ratios", []),
-                          residual_shapes=modal.get("residual_shapes"))
+                          residual_shapes=modal.get("residual_shapes"),
+                          damping_coupling=modal.get("damping_coupling"))
         model.support = support
         return model
 
@@ -445,6 +454,37 @@ class Model:
             Unreadable file, invalid TOML or schema.
         """
         return cls.loads(read_text(path, "model file", ModelError), str(path))
+
+
+def _coupling(value: Any, n: int) -> np.ndarray:
+    """The validated ``damping_coupling`` of a ``[modal]`` table (zeros when absent)."""
+    if value is None:
+        return np.zeros((n, n))
+    check_toml_matrix(value, "modal.damping_coupling")
+    c = np.array(value, dtype=float)
+    if c.shape != (n, n) or not np.all(np.isfinite(c)):
+        raise ModelError(f"modal.damping_coupling must be {n} x {n} (every mode, pseudo-modes "
+                         f"last), got shape {c.shape}")
+    if np.any(np.diag(c) != 0) or not np.allclose(c, c.T, rtol=1e-9, atol=0.0):
+        raise ModelError("modal.damping_coupling must be symmetric with a zero diagonal (the "
+                         "diagonal is damping_ratios)")
+    return c
+
+
+def modal_coupling(model: Model) -> np.ndarray | None:
+    """Off-diagonal modal damping (N s/m per unit modal mass) in the modes a ``[modal]`` file
+    writes, when a correction left one (a stuck stiffness taken out of the linear part
+    couples the modes through a non-proportional damping); None when the damping is
+    diagonal there (within 1e-12 of its largest entry)."""
+    m, c, k = model.mass, model.damping, model.stiffness
+    if model.decoupled and np.all(np.diag(m) == 1):
+        return None
+    vec = eigh(k, m)[1]
+    cq = vec.T @ c @ vec
+    off = cq - np.diag(np.diag(cq))
+    if not np.abs(off).max() > 1e-12 * np.abs(cq).max():
+        return None
+    return (off + off.T) / 2
 
 
 def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:

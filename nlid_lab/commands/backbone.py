@@ -1,5 +1,6 @@
-"""``nlid-lab backbone RUN... [--json FILE] [--plot FILE.png]``: natural frequency and damping
-ratio of the mode in the run's band against its amplitude, one point per stepped-sine level
+"""``nlid-lab backbone RUN... [--model MODEL.toml] [--json FILE] [--plot FILE.png]``: natural
+frequency and damping ratio of the mode in the run's band against its amplitude, one point per
+stepped-sine level; with a model, the model's backbone through the same test beside it
 (docs/backbone.md)."""
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
     from analysis.backbone import Backbone
+    from analysis.models import Model
     from analysis.recordings import StepTable
 
 
@@ -53,22 +55,45 @@ def format_summary(bb: Backbone) -> str:
     return "\n".join(lines)
 
 
+def load_model(path: str, tables: list[StepTable]) -> Model:
+    """The complete model in ``path``, one DOF per response channel of the levels."""
+    from analysis.models import Model
+
+    model = Model.load(path)
+    model.require_complete("a backbone of the model")
+    if model.n_dof != tables[0].n_dof:
+        raise InputError(f"--model {path}: the model has {model.n_dof} DOFs but the levels "
+                         f"{tables[0].n_dof} response channels; give the model of these "
+                         "channels (fit-linear or diagnose of this run)")
+    return model
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``nlid-lab backbone`` on the parsed ``args``; returns the exit code."""
-    from analysis.backbone import backbone
+    from analysis.backbone import backbone, model_tables
 
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(f"--plot {args.plot}: the figure is written as PNG; name it *.png")
     refuse_overwrite(args.force, args.plot, args.json)
     check_runs(args.runs, args.repair)
     tables = levels(args.runs)
+    model = load_model(args.model, tables) if args.model else None
     bb = backbone(tables, args.channel)
-    print(format_summary(bb), file=summary_stream(args.json, args.quiet))
+    out = summary_stream(args.json, args.quiet)
+    print(format_summary(bb), file=out)
+    result = bb.to_json()
+    simulated = None
+    if model is not None:
+        # the model through the same steps, holding what each level held, read alike
+        simulated = backbone(model_tables(model, tables), bb.channel)
+        print(f"the model {args.model} through the same steps (harmonic balance, holding "
+              "what each level held):\n" + format_summary(simulated), file=out)
+        result["model"] = {"path": str(args.model), **simulated.to_json()}
     if args.plot:
         from ..reports import backbone_figure
-        backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs)
-                        ).savefig(args.plot)
-    write_json(bb.to_json(), args.json)
+        backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs),
+                        model=simulated).savefig(args.plot)
+    write_json(result, args.json)
     return 0
 
 
@@ -80,6 +105,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "stepped-sine levels (tables or time blocks)")
     p.add_argument("--channel", type=int, metavar="J", help="response channel to read "
                    "(default: the held one, else the driving point)")
+    p.add_argument("--model", metavar="MODEL.toml", help="also the backbone of this model "
+                   "through the same steps (harmonic balance, holding what each level held)")
     p.add_argument("--plot", metavar="PNG", help="write frequency and damping against "
                    "amplitude, with the levels' FRFs and fits")
     p.add_argument("--json", metavar="FILE", help="write the backbone as JSON ('-' for stdout)")

@@ -1,5 +1,7 @@
-"""``nlid-lab predict MODEL.toml --force-dof D --amplitude A... --band LO HI``: what the
-model predicts a sine test shows, through the folds (harmonic balance + arc-length continuation).
+"""``nlid-lab predict MODEL.toml --force-dof D --amplitude A... --band LO HI [--step DF]``:
+what the model predicts a sine test shows, through the folds (harmonic balance + arc-length
+continuation), or as a stepped-sine test steps it (``--step``: fixed frequencies, each step
+solved from the previous one).
 """
 
 from __future__ import annotations
@@ -16,7 +18,17 @@ from ..outputs import (add_force_option, add_quiet_option, atomic_path, refuse_o
                        summary_stream, write_json)
 
 if TYPE_CHECKING:
-    from analysis.hbm import Branch
+    from analysis.hbm import Branch, HBMSystem
+
+
+def _peak(branch: Branch, dof: int) -> dict[str, float]:
+    """The largest fundamental amplitude of ``dof`` on the curve, as displacement, velocity
+    and acceleration at its frequency."""
+    amp = branch.amplitude(dof)
+    i = int(np.argmax(amp))
+    w = 2 * np.pi * float(branch.freqs[i])
+    return {"freq": float(branch.freqs[i]), "displacement": float(amp[i]),
+            "velocity": float(amp[i] * w), "acceleration": float(amp[i] * w**2)}
 
 
 def _curve(branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> dict[str, Any]:
@@ -25,6 +37,7 @@ def _curve(branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> d
         "force_amplitude": amplitude,
         "freqs": branch.freqs,
         "amplitude": {str(d): branch.amplitude(d) for d in dofs},
+        "peak": {str(d): _peak(branch, d) for d in dofs},
         "stable": branch.stable,
         "folds": [{"freq": float(branch.freqs[i]),
                    "amplitude": {str(d): float(branch.amplitude(d)[i]) for d in dofs}}
@@ -33,13 +46,26 @@ def _curve(branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> d
     }
 
 
+def _stepped(system: HBMSystem, lo: float, hi: float, step: float,
+             amplitudes: list[float]) -> list[Branch]:
+    """Curves as a stepped-sine test gives them: frequencies from ``lo`` to ``hi`` every
+    ``step`` Hz, each solved from the previous step's response (a fold is jumped, as the test
+    jumps it); ``stable`` holds whether each step's balance converged."""
+    from analysis.hbm import Branch
+    n = max(int(np.ceil(abs(hi - lo) / step - 1e-9)), 1) + 1
+    freqs = np.linspace(lo, hi, n)          # steps of at most ``step``, both ends included
+    out = []
+    for a in amplitudes:
+        res = system.sweep(freqs, np.full((n, 1), a))
+        out.append(Branch(freqs, res.X, np.asarray(res.converged, dtype=bool),
+                          np.zeros(0, dtype=int)))
+    return out
+
+
 def _summary(curves: list[dict[str, Any]], dof: int) -> str:
     lines = []
     for c in curves:
-        amp = np.asarray(c["amplitude"][str(dof)])
-        peak = int(np.argmax(amp))
-        text = (f"{c['force_amplitude']:g} N: peak {amp[peak]:.4g} m at "
-                f"{c['freqs'][peak]:.3f} Hz (DOF {dof})")
+        text = _peak_line(c, dof)
         if c["folds"]:
             text += "; folds at " + ", ".join(f"{f['freq']:.3f}" for f in c["folds"]) + " Hz" \
                     " (jump between them in a sweep; the branch between is unstable)"
@@ -47,6 +73,12 @@ def _summary(curves: list[dict[str, Any]], dof: int) -> str:
             text += f"; stopped at {c['freqs'][-1]:.3f} Hz (continuation step underflow)"
         lines.append(text)
     return "\n".join(lines)
+
+
+def _peak_line(curve: dict[str, Any], dof: int) -> str:
+    p = curve["peak"][str(dof)]
+    return (f"{curve['force_amplitude']:g} N: peak {p['displacement']:.4g} m, "
+            f"{p['acceleration']:.4g} m/s² at {p['freq']:.3f} Hz (DOF {dof}, fundamental)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
     lo, hi = args.band
     if not (0 < lo and 0 < hi and lo != hi):
         raise InputError(f"--band {lo:g} {hi:g}: give two different positive frequencies (Hz)")
+    if args.step is not None and not args.step > 0:
+        raise InputError(f"--step {args.step:g}: give a positive frequency step (Hz)")
     if args.plot and Path(args.plot).suffix.lower() != ".png":
         raise InputError(f"--plot {args.plot}: the figure is written as PNG; name it *.png")
     refuse_overwrite(args.force, args.plot, args.json)
@@ -69,10 +103,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"DOF {bad[0]} outside the model's DOFs 0..{model.n_dof - 1} "
                          "(0-based)")
     system = HBMSystem(model, [args.force_dof], args.harmonics)
-    branches = response_curves(system, lo, hi, args.amplitude)
+    if args.step is None:
+        branches = response_curves(system, lo, hi, args.amplitude)
+    else:
+        branches = _stepped(system, lo, hi, args.step, args.amplitude)
     curves = [_curve(b, a, hi, dofs) for b, a in zip(branches, args.amplitude)]
     result = {"model": model.name, "force_dof": args.force_dof,
-              "harmonics": system.harmonics, "band_hz": [lo, hi], "curves": curves}
+              "harmonics": system.harmonics, "band_hz": [lo, hi],
+              "method": "continuation" if args.step is None else "stepped",
+              "curves": curves}
     shown = dofs[0] if args.dof is not None else args.force_dof
     out = summary_stream(args.json, args.quiet)
     print(_summary(curves, shown), file=out)
@@ -95,6 +134,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="force amplitude(s), N: one curve each")
     p.add_argument("--band", type=float, nargs=2, required=True, metavar=("LO", "HI"),
                    help="sweep from LO to HI Hz (start off resonance, on a stable branch)")
+    p.add_argument("--step", type=float, metavar="DF",
+                   help="step the frequency every DF Hz from LO to HI as a stepped-sine test "
+                        "does (each step from the previous one; folds jumped, not traced)")
     p.add_argument("--dof", type=int, nargs="+", help="response DOFs to report (default all)")
     p.add_argument("--harmonics", default="1,3,5,7", help="harmonic orders (default 1,3,5,7)")
     p.add_argument("--plot", metavar="FILE.png", help="draw the curves (unstable dashed)")

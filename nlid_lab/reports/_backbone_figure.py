@@ -23,9 +23,11 @@ if TYPE_CHECKING:
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
 
 
-def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "") -> Figure:
+def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "",
+                    model: Backbone | None = None) -> Figure:
     """Frequency and damping against amplitude (error bars: 95 % intervals) beside the
-    measured FRF magnitude of every level (dots) with its single-mode fit (line)."""
+    measured FRF magnitude of every level (dots) with its single-mode fit (line); ``model``:
+    a model's backbone through the same steps, drawn beside the measured one."""
 
     fig = Figure(figsize=(11.0, 6.4), dpi=DPI, layout="constrained")
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.1))
@@ -43,9 +45,16 @@ def backbone_figure(bb: Backbone, tables: Sequence[StepTable], title: str = "") 
         value, ci = np.asarray(value), np.asarray(ci)
         err = np.abs(np.stack([value - ci[:, 0], ci[:, 1] - value]))
         ax.errorbar(amp, value, yerr=err, fmt="o-", color="C0", ecolor="C3", capsize=4,
-                    lw=1.2, ms=5)
+                    lw=1.2, ms=5, label="measured")
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
+    if model is not None:
+        m_amp = [p.amplitude for p in model.points]
+        ax_f.plot(m_amp, [p.frequency_hz for p in model.points], "s--", color="C2", ms=4,
+                  label="model, same steps")
+        ax_z.plot(m_amp, [100 * p.damping_ratio for p in model.points], "s--", color="C2",
+                  ms=4, label="model, same steps")
+        ax_f.legend(fontsize=8)
     ax_z.set_xlabel(f"response amplitude at channel {bb.channel} [{UNITS.get(kind, kind)}]")
     ax_f.set_title("backbone (error bars: 95 % intervals)")
     colours = level_colours(len(tables), [t.level for t in tables])

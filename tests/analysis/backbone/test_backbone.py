@@ -133,3 +133,46 @@ def test_time_blocks_give_the_tables_backbone():
         assert b.frequency_hz == pytest.approx(a.frequency_hz, rel=1e-9)
         assert b.damping_ratio == pytest.approx(a.damping_ratio, rel=1e-6)
         assert b.amplitude == pytest.approx(a.amplitude, rel=1e-9)
+
+
+def test_describing_function_of_a_slider_is_the_closed_form():
+    from analysis.backbone import describing
+    a = np.geomspace(1e-5, 1e-3, 9)
+    N = describing("stick_slip", {"kd": TWIN.kd, "fd": TWIN.fd}, a)
+    # 512 samples per period: the slip onset is located within one sample
+    np.testing.assert_allclose(N, TWIN.describing(a), rtol=2e-3)
+
+
+def test_joint_fitted_to_an_exact_backbone_is_the_twins():
+    """The exact backbone of the twin (stuck mode, compensated slider): kd and fd back
+    within the describing function's sampling error, from the grid's starts."""
+    from analysis.backbone import BackbonePoint, LinearMode, fit_joint
+    a = np.array([2e-5, 5e-5, 1e-4, 2e-4, 4e-4, 8e-4])
+    f, z = TWIN.backbone_at(a)
+    pts = [BackbonePoint(1.0, x, "displacement", x, fi, (fi * (1 - 1e-6), fi * (1 + 1e-6)), zi,
+                         (zi * 0.99, zi * 1.01), 1.0, 0.0, "exact", 1)
+           for x, fi, zi in zip(a, f, z)]
+    w0 = np.sqrt((TWIN.k + TWIN.kd) / TWIN.m)
+    mode = LinearMode(w0 / (2 * np.pi), TWIN.c / (2 * TWIN.m * w0), 1 / TWIN.m)
+    fit = fit_joint(pts, mode, "stick_slip", compensated=True, kd_max=0.9 * w0**2)
+    assert fit.params["kd"] == pytest.approx(TWIN.kd, rel=2e-3)
+    assert fit.params["fd"] == pytest.approx(TWIN.fd, rel=2e-3)
+    assert fit.damping_rms < 2e-3
+
+
+def test_model_through_the_same_held_steps_gives_the_measured_backbone():
+    """The twin as a model (stick-slip element) run through its own response-controlled
+    tables holds their amplitudes and gives their backbone (harmonics 1, 3, 5, 7 against the
+    single-harmonic twin: frequencies within 1e-5, damping within 1 %)."""
+    from analysis.backbone import model_tables
+    from analysis.models import Element, Model
+    model = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k]]),
+                  [Element("stick_slip", np.array([1.0]), {"kd": TWIN.kd, "fd": TWIN.fd})])
+    tables = [held_displacement(a) for a in (1e-5, 6e-5, 2.5e-4)]
+    sim = model_tables(model, tables)
+    for t, s in zip(tables, sim):
+        np.testing.assert_allclose(np.abs(s.response_phasor), np.abs(t.response_phasor),
+                                   rtol=1e-5)
+    for p, q in zip(backbone(tables).points, backbone(sim).points):
+        assert q.frequency_hz == pytest.approx(p.frequency_hz, rel=1e-5)
+        assert q.damping_ratio == pytest.approx(p.damping_ratio, rel=0.01)

@@ -289,3 +289,24 @@ def test_bad_modal_files_name_the_problem(tmp_path, change, match):
     path.write_text(MODAL.replace(*change))
     with pytest.raises(ModelError, match=match):
         Model.load(path)
+
+
+def test_modal_file_keeps_the_damping_coupling_a_correction_leaves(tmp_path):
+    """A stuck stiffness taken out of a modal model with a pseudo-mode couples its modes
+    through the damping; the [modal] file writes the off-diagonal part (damping_coupling) and
+    reads the same receptance back (the diagonal alone changed the beam's damping by 40 %)."""
+    from analysis.models import Model
+    base = Model.modal([80.0], [0.0015], [[0.73]], residual_freqs_hz=[39.5],
+                       residual_damping=[0.05], residual_shapes=[[0.98]])
+    wq = base.to_q(np.array([1.0]))
+    model = base.with_linear(base.mass, base.damping, base.stiffness - 3e4 * np.outer(wq, wq))
+    model.save(tmp_path / "m.toml")
+    text = (tmp_path / "m.toml").read_text()
+    assert "damping_coupling" in text
+    back = Model.load(tmp_path / "m.toml")
+    f = np.linspace(20, 100, 81)
+    np.testing.assert_allclose(back.linear_frf(f), model.linear_frf(f), rtol=1e-10)
+    bad = text.replace("damping_coupling = [\n    [0.0,", "damping_coupling = [\n    [1.0,")
+    (tmp_path / "bad.toml").write_text(bad)
+    with pytest.raises(Exception, match="zero diagonal"):
+        Model.load(tmp_path / "bad.toml")

@@ -202,3 +202,41 @@ def test_analyze_hbm_recovers_a_jenkins_joint_from_response_controlled_tables(tm
     for name, true in (("kd", tw.kd), ("fd", tw.fd)):
         lo, hi = el["ci95"][name]
         assert lo <= true <= hi and el["params"][name] == pytest.approx(true, rel=0.05)
+
+
+def test_backbone_with_a_model_holds_its_levels_and_reads_them_alike(tmp_path, capsys):
+    """``backbone RUN --model M``: the Jenkins twin as a model file through its own held
+    levels gives their backbone (JSON ``model``); a model of other DOFs is one line."""
+    from jenkins_twin import JenkinsSDOF
+    from nlid_lab.formats._recordings_io import recording_keys
+
+    tw = JenkinsSDOF(kd=1.25e4, fd=0.5)
+    paths = []
+    for i, a in enumerate([1e-5, 1.2e-4]):
+        fn = tw.backbone_at(np.array([a]))[0][0]
+        f = np.arange(fn - 1.0, fn + 1.0, 0.05)
+        force = tw.dynamic_stiffness(2 * np.pi * f, np.full(f.shape, a)) * a
+        t = StepTable(f, force[:, None], np.full((f.size, 1), a, complex), [0], "response", a,
+                      control_dof=0)
+        paths.append(str(tmp_path / f"l{i}.npz"))
+        np.savez(paths[-1], **recording_keys(t))
+    run = str(tmp_path / "twin.h5")
+    assert main(["import", *paths, "--out", run]) == 0
+    model = tmp_path / "twin.toml"
+    model.write_text(f'[linear]\nmass = [[{tw.m}]]\ndamping = [[{tw.c}]]\nstiffness = '
+                     f'[[{tw.k}]]\n[[element]]\nkind = "stick_slip"\nw = [1.0]\n'
+                     f'kd = {tw.kd}\nfd = {tw.fd}\n')
+    out = tmp_path / "bb.json"
+    assert main(["backbone", run, "--model", str(model), "--json", str(out)]) == 0
+    bb = json.loads(out.read_text())
+    for p, q in zip(bb["levels"], bb["model"]["levels"]):
+        assert q["amplitude"] == pytest.approx(p["amplitude"], rel=1e-5)     # held
+        assert q["frequency_hz"] == pytest.approx(p["frequency_hz"], rel=1e-5)
+        assert q["damping_ratio"] == pytest.approx(p["damping_ratio"], rel=0.01)
+    two = tmp_path / "two.toml"
+    two.write_text("[linear]\nmass = [[1.0, 0.0], [0.0, 1.0]]\ndamping = [[1.0, 0.0], "
+                   "[0.0, 1.0]]\nstiffness = [[1e4, 0.0], [0.0, 1e4]]\n")
+    capsys.readouterr()
+    assert main(["backbone", run, "--model", str(two)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "2 DOFs" in err and "\n" not in err

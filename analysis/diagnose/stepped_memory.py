@@ -1,0 +1,260 @@
+"""Memory kinds (sliders) on stepped-sine levels: slip-displacement grid, continuous fit and
+harmonic-balance refit.
+
+A slider's force at a fixed slip displacement ``d = fd / kd`` is ``kd J(u; d)``: linear in
+``kd``. Along the measured motion the level FRF of the candidate model is linear in ``kd``
+too (`transfer`), so every ``d`` of a log grid spanning the measured deformation amplitudes
+(`slip_grid`) gets its ``kd`` in closed form and the best grid point is the start; the
+misfit of a slider over ``(kd, fd)`` is narrow and curved (the resonance moves by many
+half-power bandwidths between the levels), and starts tied to the linear stiffness alone
+land in far minima. From there the parameters are fitted continuously on the same
+measured-motion residual (`refine`), and finally by harmonic balance at each step's own force
+(`hbm_refit`: the model is simulated, not fed the measured motion). A *compensated*
+candidate (its stuck stiffness taken from the linear part, as a model fitted at a low level
+holds it) is fitted the same way: its transfer carries the element's force less ``kd u``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..backbone import LinearMode, backbone, fit_joint, fit_single_mode
+from ..errors import EstimationError, ModelError
+from ..hbm import HBMError, HBMSystem
+from ..models import KINDS, Candidate, Model, restoring_force
+from ..recordings import Control, StepTable
+from ..spectral import SteppedSineFRF
+from .compare import LevelFRF, chi2
+from .select import MARGIN, Fit, corrected_model
+
+HARMONICS = (1, 3, 5, 7)
+N_TIME = 256
+PERIODS_MEMORY = 3
+SLIP_GRID = 16
+"""Slip displacements tried (the best one starts a continuous fit), log-spaced from `SLIP_SPAN` [0] times the smallest fundamental
+deformation amplitude of the fitting levels to [1] times the largest (a slider that slips
+at every level down to one that sticks at all but the top one)."""
+SLIP_SPAN = (0.05, 1.2)
+LOG_REACH = 3.0
+"""Continuous fits stay within ``exp(LOG_REACH)`` of their start (a factor 20)."""
+
+
+def transfer(frf: SteppedSineFRF, kind: str, params: dict[str, float], w: np.ndarray,
+             compensated: bool = False) -> np.ndarray:
+    """``G_1 / F_1`` of every step, shape (n_steps, 1): the fundamental of the element force
+    along the steady periodic motion (memory kinds: the last of `PERIODS_MEMORY` periods);
+    ``compensated``: less the stuck stiffness times the deformation."""
+    n_s, h = frf.freqs.size, np.asarray(frf.harmonics)
+    Uh = frf.X @ w                                                        # (n_s, n_h)
+    spec = np.zeros((2, n_s, N_TIME // 2 + 1), dtype=complex)
+    spec[0][:, h] = Uh * (N_TIME / 2)
+    spec[1][:, h] = 1j * h * 2 * np.pi * frf.freqs[:, None] * Uh * (N_TIME / 2)
+    # FFTs, not small matrix products: BLAS threads stall on a busy machine.
+    u, v = np.fft.irfft(spec, N_TIME, axis=-1)                            # (n_s, N) each
+    # All steps in one call of the force law (per-call overhead dominates otherwise); a
+    # memory element carries its state into the next step and settles there in two periods.
+    reps = PERIODS_MEMORY if KINDS[kind].memory else 1
+    g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
+    g1 = np.fft.rfft(g.reshape(n_s, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1] * (2 / N_TIME)
+    if compensated:
+        g1 = g1 - params[KINDS[kind].initial_stiffness] * Uh[:, list(h).index(1)]
+    return (g1 / frf.force)[:, None]
+
+
+def slip_grid(frfs: list[SteppedSineFRF], w: np.ndarray) -> list[float]:
+    """Slip displacements screened for a slider along ``w`` (`SLIP_GRID`, `SLIP_SPAN`)."""
+    amps = [np.abs(f.X[:, list(f.harmonics).index(1)] @ w) for f in frfs]
+    lo, hi = min(float(a.min()) for a in amps), max(float(a.max()) for a in amps)
+    if not lo > 0:
+        lo = hi * 1e-3
+    return np.geomspace(SLIP_SPAN[0] * lo, SLIP_SPAN[1] * hi, SLIP_GRID).tolist()
+
+
+def log_fitted(c: Candidate) -> bool:
+    """Whether every parameter of ``c``'s kind is positive, as the slip grid and the backbone
+    fit need (they fit logarithms); a kind with a signed exponent (``iwan``'s ``chi``) is
+    left to the random-data and `analyze hbm` fits."""
+    kind = KINDS[c.kind]
+    return all(kind.param(n).positive for n in kind.params)
+
+
+def _params(c: Candidate, z: np.ndarray) -> dict[str, float]:
+    """Physical parameters of ``c`` from log values (kind's parameter order)."""
+    return {n: float(v) for n, v in zip(KINDS[c.kind].params, np.exp(z))}
+
+
+def _start(fit: Fit) -> np.ndarray:
+    return np.log([fit.params[n] for n in KINDS[fit.cand.kind].params])
+
+
+def stuck_limit(model: Model, c: Candidate) -> float:
+    """Largest stuck stiffness a compensated candidate may take from the linear part:
+    `MARGIN` of the static stiffness at its location, ``1 / (w^T K^-1 w)`` (more leaves the
+    stiffness indefinite); infinite for other candidates or a free structure."""
+    if not c.compensated:
+        return np.inf
+    try:
+        flex = float((c.w @ model.linear_frf(np.zeros(1))[0] @ c.w).real)
+    except np.linalg.LinAlgError:
+        return np.inf
+    return MARGIN / flex if flex > 0 else np.inf
+
+
+def _bounds(c: Candidate, z0: np.ndarray, kd_max: float = np.inf
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Log bounds: `LOG_REACH` around the start, within the kind's own parameter bounds and
+    a compensated stuck stiffness below ``kd_max``."""
+    lo, hi = z0 - LOG_REACH, z0 + LOG_REACH
+    for i, n in enumerate(KINDS[c.kind].params):
+        b = KINDS[c.kind].param(n).bounds
+        if b is not None:
+            lo[i], hi[i] = max(lo[i], np.log(b[0])), min(hi[i], np.log(b[1]))
+        if n == KINDS[c.kind].initial_stiffness:
+            hi[i] = min(hi[i], np.log(kd_max))
+    return lo, np.maximum(hi, lo + 1e-6)
+
+
+def _inside(z0: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    return np.clip(z0, lo + 1e-9, hi - 1e-9)
+
+
+def refine(fit: Fit, levels: list[LevelFRF], frfs: list[SteppedSineFRF],
+           H_lins: list[np.ndarray], H0s: list[np.ndarray], kd_max: float = np.inf
+           ) -> tuple[dict[str, float], float]:
+    """Every parameter of a screened slider fitted continuously on the measured-motion
+    residual (`transfer`), from its best grid point; returns the parameters and their
+    ``chi2``."""
+    c = fit.cand
+
+    def resid(z: np.ndarray) -> np.ndarray:
+        params = _params(c, z)
+        out = []
+        for lf, hl, h0, frf in zip(levels, H_lins, H0s, frfs):
+            d = (hl @ c.w)[:, :, None] * transfer(frf, c.kind, params, c.w,
+                                                  c.compensated)[:, None, :]
+            r = (lf.H - h0 + d) / np.sqrt(lf.var / 2)
+            out += [r.real.ravel(), r.imag.ravel()]
+        return np.concatenate(out)
+
+    lo, hi = _bounds(c, _start(fit), kd_max)
+    sol = least_squares(resid, _inside(_start(fit), lo, hi), bounds=(lo, hi), method="trf",
+                        x_scale=1.0, max_nfev=60)
+    params = _params(c, sol.x)
+    return params, motion_chi2(c, params, levels, frfs, H_lins, H0s)
+
+
+def motion_chi2(c: Candidate, params: dict[str, float], levels: list[LevelFRF],
+                frfs: list[SteppedSineFRF], H_lins: list[np.ndarray], H0s: list[np.ndarray]
+                ) -> float:
+    """``chi2`` of the levels with ``c`` at ``params`` along the measured motion."""
+    return float(sum(chi2(lf, h0 - (hl @ c.w)[:, :, None]
+                          * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :])
+                     for lf, hl, h0, frf in zip(levels, H_lins, H0s, frfs)))
+
+
+BACKBONE_ESTIMATOR = "backbone fit (single nonlinear mode)"
+
+
+def backbone_applies(tables: list, c: Candidate) -> bool:
+    """A slider can be fitted to the backbone of response-controlled table levels when it
+    acts from the held point (driven there) to ground."""
+    if not all(isinstance(t, StepTable) and t.control == Control.RESPONSE for t in tables):
+        return False
+    dof = tables[0].control_dof
+    return (len(c.dofs) == 1 and c.dofs[0] == dof and KINDS[c.kind].search.grid is not None
+            and log_fitted(c)
+            and all(t.control_dof == dof and list(t.force_dofs) == [dof] for t in tables))
+
+
+def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
+                      ) -> tuple[dict[str, float], dict[str, list[float]],
+                                 dict[str, float]] | None:
+    """A slider fitted to the backbone of response-controlled levels
+    (`analysis.backbone.fit_joint`) on the model's own mode at the held point; None when
+    that mode cannot be found. Returns the parameters, their 95 % intervals and the fit's
+    relative rms residuals.
+
+    A response-controlled level is one quasi-linear mode at its amplitude, so its natural
+    frequency and damping are what a joint law must reproduce; levels measured at different
+    times also drift in frequency by what no joint law explains (the Brake-Reuss beam: 0.4 Hz
+    up and down), and a fit of the whole FRFs lets that drift, many half-power bandwidths
+    wide, decide the damping law (docs/backbone.md)."""
+    dof = tables[0].control_dof
+    freqs = np.unique(np.concatenate([t.freqs for t in tables]))
+    try:
+        mf = fit_single_mode(freqs, model.linear_frf(freqs)[:, dof, dof], 0)
+        points = list(backbone(tables, dof).points)
+    except (EstimationError, ValueError):
+        return None
+    mode = LinearMode(mf.frequency_hz, mf.damping_ratio, float(mf.modal_constant.real))
+    kd_max = min(stuck_limit(model, c),
+                 MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
+    jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
+    return (jf.params, {n: list(v) for n, v in jf.ci95.items()},
+            {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms})
+
+
+def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
+                   levels: list[LevelFRF], frfs: list[SteppedSineFRF]) -> float | None:
+    """``chi2`` of the levels simulated by harmonic balance with ``c`` added; None when the
+    candidate leaves the model's valid range or the balance fails."""
+    try:
+        m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
+        i1 = HARMONICS.index(1)
+        return float(sum(chi2(lf, (hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None])
+                         for lf, frf in zip(levels, frfs)))
+    except (ModelError, HBMError):
+        return None
+
+
+def hbm_sweep(model: Model, frf: SteppedSineFRF) -> np.ndarray:
+    """Harmonics of a harmonic-balance sweep at each step's own force amplitude (a
+    response-controlled level's force varies tenfold across the band, where scaling one
+    solution at the mean force would be far off for a nonlinear model): shape
+    (n_steps, n_h, n_dof)."""
+    system = HBMSystem(model, [frf.force_dof], HARMONICS)
+    return system.sweep(frf.freqs, frf.force[:, None]).X
+
+
+def hbm_refit(model: Model, fit: Fit, levels: list[LevelFRF], frfs: list[SteppedSineFRF]
+              ) -> tuple[Fit, list[str]]:
+    """Output-error fit of a slider by harmonic balance (paper eq 33 on the fitting levels'
+    fundamentals, each step at its own force), from its measured-motion estimate.
+
+    Written here rather than through `analysis.hbm.fit_hbm` because a compensated candidate
+    moves ``kd`` out of the linear part, which `fit_hbm` holds fixed. The 95 % intervals are
+    the linearised ones (log parameters) with the residual variance estimated from the fit.
+    """
+    c, i1 = fit.cand, HARMONICS.index(1)
+    bad = np.full(2 * sum(lf.H.size for lf in levels), 1e6)
+
+    def resid(z: np.ndarray) -> np.ndarray:
+        try:
+            m = corrected_model(model, Fit(c, _params(c, z), {}, 0.0, 0.0))
+            out = []
+            for lf, frf in zip(levels, frfs):
+                h = (hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None]
+                r = (lf.H - h) / np.sqrt(lf.var / 2)
+                out += [r.real.ravel(), r.imag.ravel()]
+            return np.concatenate(out)
+        except (ModelError, HBMError):
+            return bad
+
+    lo, hi = _bounds(c, _start(fit), stuck_limit(model, c))
+    sol = least_squares(resid, _inside(_start(fit), lo, hi), bounds=(lo, hi), method="trf",
+                        x_scale=1.0, max_nfev=40)
+    params = _params(c, sol.x)
+    dof = max(sol.fun.size - sol.x.size, 1)
+    cov = float(sol.fun @ sol.fun) / dof * np.linalg.pinv(sol.jac.T @ sol.jac)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    # an interval reaching a fit bound ends there (its side is then not determined)
+    ci = {n: [float(np.exp(max(z - 1.96 * s, a))), float(np.exp(min(z + 1.96 * s, b)))]
+          for n, z, s, a, b in zip(KINDS[c.kind].params, sol.x, sd, lo, hi)}
+    warnings = [f"{c.kind} {n} reached its fit bound {params[n]:.4g}"
+                for n, z, a, b in zip(KINDS[c.kind].params, sol.x, lo, hi)
+                if z <= a + 1e-6 or z >= b - 1e-6]
+    ev = dict(fit.evidence, estimator="harmonic-balance fit",
+              hbm_cost=float(np.linalg.norm(sol.fun)),
+              measured_motion_estimate={k: float(v) for k, v in fit.params.items()})
+    return Fit(c, params, ci, fit.chi2, fit.delta_bic, ev), warnings
