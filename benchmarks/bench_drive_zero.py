@@ -37,8 +37,9 @@ def trials(backend: str, fault: str, n: int, folder: Path, tag: str = "new",
         try:
             out.append(measure(backend, fault, folder / f"{tag}-{backend}-{fault}-{k}.h5",
                                **changes).seconds)
-        except FalseTrip:
+        except FalseTrip as exc:
             false += 1
+            print(f"    false trip: {exc}", file=sys.stderr, flush=True)
     return out, false
 
 

@@ -24,6 +24,10 @@ QUANTITIES = ("force", "displacement", "velocity", "acceleration")
 #: s of silence beyond a transport frame's interval that count as a stalled stream: the
 #: drive must be zero within 100 ms of a stall (docs/drivers.md "Drive-zero latency")
 STALL_MARGIN = 0.06
+#: s a live stream (heartbeats coming: the device is there) may go without samples before a
+#: read gives up: room for an emulator computing its plant on a busy CPU; a device that
+#: stops altogether is a stall, seen after `stall_timeout`
+DATA_TIMEOUT = 0.5
 UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 

@@ -135,6 +135,8 @@ class CanDaq(Acquirer):
                     raise DriverTimeout(f"CAN DAQ stream stalled: no frame for "
                                         f"{self.stall_timeout:g} s")
                 continue
+            if msg.arbitration_id == proto.STATUS_ID and not msg.is_extended_id:
+                continue        # a status frame while streaming: a heartbeat, the DAQ is alive
             group = msg.arbitration_id - proto.SAMPLES_ID
             if not 0 <= group < self._groups or msg.is_extended_id:
                 self.stats.garbage_bytes += len(msg.data)

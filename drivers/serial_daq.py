@@ -88,7 +88,10 @@ class SerialDaq(Acquirer):
             self.stats.bad_frames = self._parser.bad_frames
 
     def _accept(self, frame: Frame) -> Block | None:
-        """Check sequence and size; count losses and duplicates; convert to units."""
+        """Check sequence and size; count losses and duplicates; convert to units. A frame of
+        no samples is a heartbeat: it kept the stream from counting as stalled, no more."""
+        if not frame.volts.shape[0]:
+            return None
         if frame.volts.shape[1] != len(self.channels):
             raise ProtocolError(f"DAQ sent {frame.volts.shape[1]} channels, configured "
                                 f"{len(self.channels)}")

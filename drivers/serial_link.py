@@ -25,6 +25,8 @@ class SerialLink:
         self._left = b""  # bytes read past a reply line, handed out by the next read
         self.lock = threading.Lock()
         self.last_command = 0.0  # monotonic time the last command was sent
+        self._owed: list[float] = []    # send times of lines sent without waiting (`post`)
+        self.owed_error: str | None = None  # an ERR reply one of them got
         try:
             self.ser = serial.serial_for_url(port, baudrate=baud, timeout=0.0)
         except (serial.SerialException, OSError, ValueError) as exc:
@@ -72,11 +74,50 @@ class SerialLink:
         finally:
             self.lock.release()
 
-    def _command(self, line: str, timeout: float) -> str:
-        self._discard_input()  # a late reply to a timed-out command must not answer this one
+    def post(self, line: str) -> None:
+        """Send one command line without waiting for its reply (the caller holds `lock`): the
+        reply is collected by `collect` or before the next `command`, replies coming in order.
+        """
         self.write(line.encode("ascii") + b"\n")
         self.last_command = time.monotonic()
+        self._owed.append(self.last_command)
+
+    def collect(self, timeout: float = 0.0) -> float:
+        """Read the replies owed to `post` that arrive within ``timeout`` (the caller holds
+        `lock`); an ``ERR`` one is kept in ``owed_error``. Returns the age (s) of the oldest
+        reply still owed, 0 if none."""
+        deadline = time.monotonic() + timeout
+        buf, self._left = self._left, b""
+        while self._owed:
+            if b"\n" not in buf:
+                data = self.read_some(max(deadline - time.monotonic(), 0.0), 256)
+                if not data:
+                    self._left = buf
+                    return time.monotonic() - self._owed[0]
+                buf += data
+                continue
+            raw, _, buf = buf.partition(b"\n")
+            self._owed.pop(0)
+            reply = raw.decode("ascii", "replace").strip()
+            if reply.startswith("ERR") and self.owed_error is None:
+                self.owed_error = reply[3:].strip()
+        self._left = buf
+        return 0.0
+
+    def forget_owed(self) -> None:
+        """Expect no more replies to posted lines (the link lost them; the caller holds
+        `lock`)."""
+        self._owed.clear()
+
+    def _command(self, line: str, timeout: float) -> str:
+        if not (self._owed and self.collect()):  # replies owed to posted lines all came:
+            self._discard_input()  # a late reply to a timed-out command must not answer this
+        self.write(line.encode("ascii") + b"\n")   # at once, even with replies owed (ABOR)
+        self.last_command = time.monotonic()
         deadline = self.last_command + timeout
+        if self._owed and self.collect(timeout):    # they come before this one's, in order
+            raise DriverTimeout(f"{self.what} on {self.port} did not answer '{line}' "
+                                f"within {timeout:g} s")
         buf = b""
         while b"\n" not in buf:
             left = deadline - time.monotonic()

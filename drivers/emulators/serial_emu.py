@@ -244,6 +244,22 @@ class SerialDaqEmulator(PtyServer):
             return BAD_DATA
         return BAD_HEADER
 
+    #: s; a heartbeat (a frame of no samples) goes out when no frame did for this long,
+    #: well within the host's `drivers.base.STALL_MARGIN`
+    HEARTBEAT = 0.01
+
+    def heartbeat(self) -> bytes:
+        """While streaming, a frame of no samples carrying the next frame's sequence number
+        and first sample: the DAQ is alive, samples follow (a real DAQ's acquisition never
+        lags, the emulator's may, computing the plant on a busy CPU); none during an
+        injected stall or after a disconnect (`PtyServer.heartbeat`)."""
+        f, k = self.faults, self._k
+        if not self.streaming or time.monotonic() < self._stall_until or any(
+                at and k >= at for at in (f.stall_at, f.disconnect_at)):
+            return b""
+        first = max(self.rig.sample_index - self._origin, 0)
+        return encode_frame(k, first, np.zeros((0, len(self.wiring)), np.float32))
+
     def tick(self) -> float:
         """Send the frames that are due while streaming (`PtyServer.tick`)."""
         if not self.streaming:

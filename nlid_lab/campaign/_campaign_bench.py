@@ -80,8 +80,11 @@ def open_bench(campaign: Campaign):
         if campaign.simulated:
             rig, model_toml, channels = _rig(campaign)
         emulators: list[Any] = []
-        shaker = stack.enter_context(_open_shaker(campaign, rig, emulators, stack))
+        # the DAQ first: its imports and bus set-up (python-can scans its plugins: 100-300 ms
+        # on a loaded machine, GIL held) must not starve the shaker's watchdog feeder, which
+        # runs from the shaker's opening on; closed in reverse, the drive stops first
         daq = stack.enter_context(_open_daq(campaign, rig, emulators, stack))
+        shaker = stack.enter_context(_open_shaker(campaign, rig, emulators, stack))
         yield Bench(shaker, daq, scheme(campaign.daq_url).replace("-emu", ""), rig,
                     model_toml, emulators, channels)
 
