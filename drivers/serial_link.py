@@ -8,6 +8,7 @@ share the link with the caller.
 
 from __future__ import annotations
 
+import select
 import threading
 import time
 
@@ -32,6 +33,10 @@ class SerialLink:
         except (serial.SerialException, OSError, ValueError) as exc:
             raise DriverConfigError(f"cannot open {what} port {port}: {exc}; check the port "
                                     "name and that nothing else holds it") from None
+        try:
+            self._fd: int | None = self.ser.fileno()
+        except (AttributeError, OSError, ValueError, serial.SerialException):
+            self._fd = None
 
     def write(self, data: bytes) -> None:
         """Write and flush ``data``.
@@ -54,14 +59,26 @@ class SerialLink:
             data, self._left = self._left, b""
             return data
         try:
-            self.ser.timeout = max(timeout, 0.0)
+            # Wait with select and read without blocking: pyserial's own timeout costs two
+            # port reconfigurations (tcsetattr) per read, each a GIL hand-off that a thread
+            # computing in Python makes wait up to 5 ms; the port stays at timeout 0.
+            if self._fd is not None:
+                waiting = self.ser.in_waiting
+                if not waiting and timeout > 0:
+                    if not select.select([self._fd], [], [], timeout)[0]:
+                        return b""
+                    waiting = self.ser.in_waiting
+                    if not waiting:   # ready without data: pyserial raises "disconnected"
+                        return self.ser.read(1)
+                return self.ser.read(min(waiting, size)) if waiting else b""
+            self.ser.timeout = max(timeout, 0.0)     # a port without a descriptor
             first = self.ser.read(1)
             if not first:
                 return b""
             waiting = self.ser.in_waiting
             self.ser.timeout = 0
             return first + (self.ser.read(min(waiting, size)) if waiting else b"")
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, OSError, ValueError) as exc:
             raise Disconnected(f"{self.what} on {self.port} went away: {exc}") from None
 
     def command(self, line: str, timeout: float) -> str:
@@ -77,8 +94,12 @@ class SerialLink:
     def post(self, line: str) -> None:
         """Send one command line without waiting for its reply (the caller holds `lock`): the
         reply is collected by `collect` or before the next `command`, replies coming in order.
-        """
-        self.write(line.encode("ascii") + b"\n")
+        Not drained (``tcdrain`` would wait until the far end has read it)."""
+        try:
+            self.ser.write(line.encode("ascii") + b"\n")
+        except (serial.SerialException, OSError) as exc:
+            raise Disconnected(f"{self.what} on {self.port} went away while writing: "
+                               f"{exc}") from None
         self.last_command = time.monotonic()
         self._owed.append(self.last_command)
 
@@ -86,6 +107,12 @@ class SerialLink:
         """Read the replies owed to `post` that arrive within ``timeout`` (the caller holds
         `lock`); an ``ERR`` one is kept in ``owed_error``. Returns the age (s) of the oldest
         reply still owed, 0 if none."""
+        if not timeout and not self._left and self._fd is not None and self._owed:
+            try:
+                if not self.ser.in_waiting:      # one ioctl: nothing came yet
+                    return time.monotonic() - self._owed[0]
+            except (serial.SerialException, OSError) as exc:
+                raise Disconnected(f"{self.what} on {self.port} went away: {exc}") from None
         deadline = time.monotonic() + timeout
         buf, self._left = self._left, b""
         while self._owed:

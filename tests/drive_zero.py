@@ -26,9 +26,9 @@ from nlid_lab.campaign import parse_campaign, run_campaign
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 BACKENDS = ("serial", "can")
 FAULTS = ("daq-stall", "daq-disconnect", "shaker-cut", "shaker-stall")
-#: DAQ frame of the DAQ faults: ~0.8 s into the stream at the emulators' default pace (8x);
-#: CAN counts one frame per sample row
-DAQ_FAULT_FRAME = {"serial": 200, "can": 6400}
+#: DAQ frame of the DAQ faults: ~0.8 s into the stream at the emulators' default pace (8x
+#: serial, 4x CAN); CAN counts one frame per sample row
+DAQ_FAULT_FRAME = {"serial": 200, "can": 3200}
 SHAKER_FAULT_AFTER = 0.5  # s after the output went on
 
 
