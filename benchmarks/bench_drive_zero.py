@@ -5,7 +5,10 @@ The goal is 100 ms for every fault. Baseline timed in the same run: the previous
 (stall 0.25 s, watchdog 0.5 s). A run the defaults stopped before its fault is a false trip:
 counted and repeated.
 
-    python benchmarks/bench_drive_zero.py [--trials 3] [--baseline]
+With ``--healthy K``, K healthy campaigns per DAQ also run under ``--load N`` spinning
+processes (synthetic CPU load on top of the machine's), and their false trips are counted.
+
+    python benchmarks/bench_drive_zero.py [--trials 3] [--baseline] [--healthy 5 --load 2]
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
-from drive_zero import BACKENDS, FAULTS, FalseTrip, measure  # noqa: E402
+from drive_zero import BACKENDS, FAULTS, FalseTrip, false_trips, measure  # noqa: E402
 
 OLD = {"daq": {"comms_timeout": 0.25}, "shaker": {"watchdog": 0.5}}
 MAX_ATTEMPTS = 6
@@ -47,8 +50,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=3)
     ap.add_argument("--baseline", action="store_true", help="also time the old defaults")
+    ap.add_argument("--healthy", type=int, default=0, help="healthy campaigns per DAQ")
+    ap.add_argument("--load", type=int, default=2, help="spinning processes meanwhile")
     args = ap.parse_args()
     folder = Path(tempfile.mkdtemp())
+    for backend in BACKENDS if args.healthy else ():
+        bad = false_trips(backend, args.healthy, folder, args.load)
+        print(f"{backend:8s}healthy campaigns under {args.load} spinning processes: "
+              f"{len(bad)} false trips of {args.healthy} {bad}", flush=True)
     print(f"{'backend':8s}{'fault':16s}{'latency, ms (default)':30s}{'false trips':12s}"
           + ("old defaults, ms" if args.baseline else ""))
     for backend in BACKENDS:

@@ -11,7 +11,9 @@ controller's own link watchdog) plus the controller's emergency ramp (`ESTOP_RAM
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import multiprocessing
 import threading
 import time
 import tomllib
@@ -143,3 +145,42 @@ def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str,
     except CommsError as exc:
         status = f"{type(exc).__name__}: {exc}"
     return status, len(benches[0].shaker_emulator.trips)
+
+
+def _spin(stop) -> None:
+    """Burn one core until ``stop`` is set (a child process of `cpu_load`)."""
+    x = 0
+    while not stop.is_set():
+        for _ in range(100000):
+            x += 1
+
+
+@contextlib.contextmanager
+def cpu_load(processes: int):
+    """``processes`` child processes spinning on the CPU while the block runs (synthetic load
+    on top of whatever else the machine does)."""
+    ctx = multiprocessing.get_context("spawn")
+    stop = ctx.Event()
+    procs = [ctx.Process(target=_spin, args=(stop,), daemon=True) for _ in range(processes)]
+    for p in procs:
+        p.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for p in procs:
+            p.join(5)
+            if p.is_alive():
+                p.terminate()
+
+
+def false_trips(backend: str, runs: int, folder: Path, load: int) -> list[str]:
+    """How ``runs`` healthy campaigns (`normal_run`, default settings) ended under ``load``
+    spinning processes: the outcome of each that a timeout or the watchdog stopped."""
+    bad = []
+    with cpu_load(load):
+        for k in range(runs):
+            status, trips = normal_run(backend, folder / f"load-{backend}-{k}.h5")
+            if (status, trips) != ("complete", 0):
+                bad.append(f"{status} ({trips} watchdog trips)")
+    return bad
