@@ -38,6 +38,10 @@ class SerialLink:
         except (AttributeError, OSError, ValueError, serial.SerialException):
             self._fd = None
 
+    def fileno(self) -> int | None:
+        """The port's descriptor (None for a port without one)."""
+        return self._fd
+
     def write(self, data: bytes) -> None:
         """Write and flush ``data``.
 

@@ -1,15 +1,17 @@
 """``serial://`` shaker controller speaking the SCPI-style command set of docs/drivers.md.
 
-Link watchdog: the driver arms the controller's watchdog (``SYST:WDOG <s>``) and a daemon
-thread feeds it (``SYST:WDOG:FEED``) whenever no other command went out for an eighth of the
-period. If the host dies (even by SIGKILL) or the cable is pulled, the feeds stop and the
-controller ramps the drive to zero on its own once the period has passed.
+Link watchdog: the driver arms the controller's watchdog (``SYST:WDOG <s>``); a small process
+of its own (`drivers.watchdog_beat`) writes ``SYST:WDOG:BEAT`` (no reply) every eighth of the
+period, and a daemon thread checks the link (``SYST:WDOG:FEED``, whose reply says the
+controller hears us) every period. A controller without ``BEAT`` is fed by that thread
+alone, every eighth of the period. If the host dies (even by SIGKILL) or the cable is
+pulled, the beats stop and the controller ramps the drive to zero on its own once the period
+has passed.
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import threading
 import time
 
@@ -18,6 +20,7 @@ from .base import (MultisineOutput, Output, RandomOutput, SignalGenerator, SineO
                    check_output)
 from .errors import CommsError, DeviceError, DriverConfigError, DriverTimeout
 from .serial_link import SerialLink
+from .watchdog_beat import BeatProcess
 
 FEEDS_PER_PERIOD = 8
 MIN_WATCHDOG = 0.02  # s; shorter periods leave no room for a feed round trip
@@ -27,7 +30,9 @@ DEFAULT_WATCHDOG = 0.08
 #: s a feed's reply may take before the link counts as dead; longer than the period, as the
 #: controller was fed when the line arrived and zeroes the drive by itself if none does
 FEED_REPLY_TIMEOUT = 0.25
-SWITCH_INTERVAL = 0.001  # s, the interpreter's GIL hand-off interval while a feeder runs
+#: s; with beats feeding the controller (`drivers.watchdog_beat`) the thread's feed replies
+#: only tell the host the link is alive (the controller zeroes the drive by itself)
+LINK_CHECK_PATIENCE = 0.5
 
 
 class SerialShaker(SignalGenerator):
@@ -58,29 +63,41 @@ class SerialShaker(SignalGenerator):
         self.feed_error: CommsError | None = None
         self._halt = threading.Event()
         self._feeder: threading.Thread | None = None
+        self._beat: BeatProcess | None = None
         try:
             self.idn = self.link.command("*IDN?", 1.0)
             if self.watchdog:
                 self._arm_watchdog()
         except BaseException:
+            if self._beat is not None:
+                self._beat.stop()
             self.link.close()
             raise
 
     def _arm_watchdog(self) -> None:
+        self._beat = self._start_beat()     # beating before the watchdog is armed
         try:
             self.link.command(f"SYST:WDOG {self.watchdog:.6g}", 1.0)
         except DeviceError as exc:
             raise DriverConfigError(f"shaker on {self.link.port} has no link watchdog "
                                     f"(SYST:WDOG: {exc}); use a controller that has one, or "
                                     "open it with ?watchdog=0 to run unguarded") from None
-        # Each feed needs the GIL a few times (the lock, a look at the input, the write);
-        # behind threads computing in Python each hand-off waits up to the interpreter's
-        # switch interval, 5 ms by default: feeds 20-40 ms apart instead of 10 on a loaded
-        # machine, sometimes over the period. 1 ms hand-offs while a feeder runs.
-        sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
         self._feeder = threading.Thread(target=self._feed, name="shaker-watchdog",
                                         daemon=True)
         self._feeder.start()
+
+    def _start_beat(self) -> BeatProcess | None:
+        """The beat process, if the controller takes ``SYST:WDOG:BEAT`` and the port has a
+        descriptor to hand it; None otherwise (the feeder thread then feeds alone)."""
+        fd = self.link.fileno()
+        if fd is None:
+            return None
+        try:
+            if self.link.command("SYST:WDOG:BEAT?", 1.0) != "1":
+                return None
+        except DeviceError:
+            return None
+        return BeatProcess(fd, self.watchdog / FEEDS_PER_PERIOD)
 
     def _feed(self) -> None:
         """Feed the controller's watchdog until closed; stop at the first failure (the
@@ -90,8 +107,11 @@ class SerialShaker(SignalGenerator):
         by the next command): a feed's round trip through a busy host and controller may
         take longer than the period, and waiting for it spaced the feeds out by as much
         (20-40 ms apart instead of 10, gaps over 80 ms on a loaded machine: false trips)."""
-        period = self.watchdog / FEEDS_PER_PERIOD
-        patience = max(self.watchdog, FEED_REPLY_TIMEOUT)
+        if self._beat is not None:       # beats feed it: this thread only checks the link
+            period, patience = self.watchdog, LINK_CHECK_PATIENCE
+        else:
+            period = self.watchdog / FEEDS_PER_PERIOD
+            patience = max(self.watchdog, FEED_REPLY_TIMEOUT)
         while not self._halt.wait(period):
             if not self.link.lock.acquire(blocking=False):
                 continue  # a command is going out: that feeds it
@@ -100,6 +120,8 @@ class SerialShaker(SignalGenerator):
                 if self.link.owed_error is not None:
                     raise DeviceError(f"shaker rejected 'SYST:WDOG:FEED': "
                                       f"{self.link.owed_error}")
+                if self._beat is not None and not self._beat.alive():
+                    raise DriverTimeout("the shaker watchdog's beat process ended")
                 if late > patience:
                     raise DriverTimeout(f"shaker on {self.link.port} did not answer "
                                         f"'SYST:WDOG:FEED' within {patience:g} s")
@@ -186,5 +208,7 @@ class SerialShaker(SignalGenerator):
         except CommsError:
             pass
         finally:
+            if self._beat is not None:      # after the disarm: it fed the controller so far
+                self._beat.stop()
             self.link.close()
             self._state = "closed"

@@ -111,7 +111,7 @@ class SerialShakerEmulator(PtyServer):
         self.trips.append((deadline, now))
         return float("inf")
 
-    def _dispatch(self, head: str, arg: str) -> str:
+    def _dispatch(self, head: str, arg: str) -> str | None:
         rig = self.rig
         if head == "*IDN?":
             return self.IDN
@@ -125,6 +125,10 @@ class SerialShakerEmulator(PtyServer):
             return f"{self.watchdog:.6g}"
         if head == "SYST:WDOG:FEED":
             return EXPIRED if self.tripped else "OK"
+        if head == "SYST:WDOG:BEAT":       # a heartbeat: feeds it, no reply
+            return None
+        if head == "SYST:WDOG:BEAT?":
+            return "1"
         if head == "*RST":
             rig.set_on(False, self._ramp)
             return "OK"
