@@ -78,6 +78,8 @@ class SerialDaq(Acquirer):
             if left <= 0:
                 raise DriverTimeout(f"no DAQ frame within {timeout:g} s")
             data = self.link.read_some(min(left, self.stall_timeout))
+            if not data:    # one more look: this thread may run late after its wait ended
+                data = self.link.read_some(0.0)
             if not data:
                 if left > self.stall_timeout:
                     raise DriverTimeout(f"DAQ stream stalled: no data for "

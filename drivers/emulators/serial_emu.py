@@ -6,6 +6,7 @@ shared `SimRig`; the DAQ streams `drivers.frame` frames and injects faults from 
 
 from __future__ import annotations
 
+import select
 import time
 from collections import deque
 
@@ -106,6 +107,13 @@ class SerialShakerEmulator(PtyServer):
         now = time.monotonic()
         if now < deadline:
             return deadline - now
+        # A line that reached the port before this look feeds it: this thread may look late
+        # (it shares the host's interpreter lock), after a `select` that timed out while
+        # the line was on its way; a controller's own clock would have seen it.
+        if select.select([self.master], [], [], 0)[0]:
+            self._read()
+            if self.fed_at + self.watchdog > now:
+                return 0.0
         self.rig.set_on(False, min(self._ramp, ESTOP_RAMP))
         self.tripped = True
         self.trips.append((deadline, now))
