@@ -12,14 +12,18 @@ values are in the channel's physical unit.
 from __future__ import annotations
 
 import math
+import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
+from typing import TypeVar
 
 import numpy as np
 
 from .errors import CommsError, DriverConfigError, StateError
 
+T = TypeVar("T")
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
 #: s of silence beyond a transport frame's interval that count as a stalled stream: the
 #: drive must be zero within 100 ms of a stall (docs/drivers.md "Drive-zero latency")
@@ -269,6 +273,38 @@ def default_stall_timeout(interval: float) -> float:
         and a stall is seen `STALL_MARGIN` after the frame that did not come.
     """
     return max(float(interval), 0.0) + STALL_MARGIN
+
+
+#: s a wait may overrun before its thread counts as having been starved (`wait_for_data`)
+LATE = 0.005
+
+
+def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
+    """``wait(timeout)``, not blaming the device for this process's own lateness.
+
+    When the wait comes back empty, it looks once more without waiting (the thread may run
+    well after its wait ended: data that came meanwhile counts). When it also came back late
+    by more than `LATE` (this process was not running: a device emulated in it could not
+    send either), it waits once more for that lateness, at most `STALL_MARGIN`.
+
+    Parameters
+    ----------
+    wait : callable
+        ``wait(seconds)``: what arrives within ``seconds``, falsy if nothing.
+    timeout : float
+        Seconds of the first wait.
+
+    Returns
+    -------
+    object
+        What ``wait`` returned last.
+    """
+    start = time.monotonic()
+    got = wait(timeout)
+    if got:
+        return got
+    late = time.monotonic() - start - timeout
+    return wait(min(late, STALL_MARGIN) if late > LATE else 0.0)
 
 
 def check_stall_timeout(value: float | None) -> float | None:

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import can_protocol as proto
 from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
-                   default_stall_timeout)
+                   default_stall_timeout, wait_for_data)
 from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
 
 
@@ -129,7 +129,7 @@ class CanDaq(Acquirer):
             left = deadline - time.monotonic()
             if left <= 0:
                 raise DriverTimeout(f"no CAN sample block within {timeout:g} s")
-            msg = self._recv(min(left, self.stall_timeout))
+            msg = wait_for_data(self._recv, min(left, self.stall_timeout))
             if msg is None:
                 if left > self.stall_timeout:
                     raise DriverTimeout(f"CAN DAQ stream stalled: no frame for "

@@ -8,7 +8,7 @@ from collections import deque
 import numpy as np
 
 from .base import (Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
-                   default_stall_timeout)
+                   default_stall_timeout, wait_for_data)
 from .errors import DriverTimeout, ProtocolError
 from .frame import Frame, FrameParser
 from .serial_link import SerialLink
@@ -77,9 +77,7 @@ class SerialDaq(Acquirer):
             left = deadline - time.monotonic()
             if left <= 0:
                 raise DriverTimeout(f"no DAQ frame within {timeout:g} s")
-            data = self.link.read_some(min(left, self.stall_timeout))
-            if not data:    # one more look: this thread may run late after its wait ended
-                data = self.link.read_some(0.0)
+            data = wait_for_data(self.link.read_some, min(left, self.stall_timeout))
             if not data:
                 if left > self.stall_timeout:
                     raise DriverTimeout(f"DAQ stream stalled: no data for "

@@ -44,7 +44,7 @@ def run(name: str, n: int, seed: int | None = None) -> tuple[Counter, list]:
     while skip < n:
         with tempfile.TemporaryDirectory() as folder:
             code = CHILD.format(root=str(ROOT), tests=str(ROOT / "tests"), name=name, n=n,
-                                folder=folder, skip=skip)
+                                folder=folder, skip=skip, seed=seed)
             proc = subprocess.run([sys.executable, "-c", code], capture_output=True,
                                   text=True, env=env)
         done = [json.loads(ln) for ln in proc.stdout.splitlines() if ln.startswith("[")]
