@@ -30,20 +30,23 @@ MAX_ATTEMPTS = 6
 
 
 def trials(backend: str, fault: str, n: int, folder: Path, tag: str = "new",
-           **changes) -> tuple[list, int]:
-    """``n`` latencies (s) and the false trips met on the way (at most `MAX_ATTEMPTS` n
-    attempts)."""
-    out, false = [], 0
+           **changes) -> tuple[list, int, list]:
+    """``n`` latencies (s), the false trips met on the way (at most `MAX_ATTEMPTS` n
+    attempts) and, for shaker faults, the latencies by the controller's deadline."""
+    out, false, due = [], 0, []
     for k in range(MAX_ATTEMPTS * n):
         if len(out) == n:
             break
         try:
-            out.append(measure(backend, fault, folder / f"{tag}-{backend}-{fault}-{k}.h5",
-                               **changes).seconds)
+            got = measure(backend, fault, folder / f"{tag}-{backend}-{fault}-{k}.h5",
+                          **changes)
+            out.append(got.seconds)
+            if got.deadline_seconds is not None:
+                due.append(got.deadline_seconds)
         except FalseTrip as exc:
             false += 1
             print(f"    false trip: {exc}", file=sys.stderr, flush=True)
-    return out, false
+    return out, false, due
 
 
 def main() -> None:
@@ -62,12 +65,15 @@ def main() -> None:
           + ("old defaults, ms" if args.baseline else ""))
     for backend in BACKENDS:
         for fault in FAULTS:
-            lat, false = trials(backend, fault, args.trials, folder)
+            lat, false, due = trials(backend, fault, args.trials, folder)
             text = " ".join(f"{1000 * x:5.0f}" for x in lat) or "no run reached its fault"
             flag = "  > 100 ms" if lat and max(lat) > 0.1 else ""
             line = f"{backend:8s}{fault:16s}{text + flag:30s}{false:<12d}"
+            if due:
+                line += "by the controller's deadline " + " ".join(f"{1000 * x:3.0f}"
+                                                                    for x in due) + "  "
             if args.baseline:
-                old, _ = trials(backend, fault, args.trials, folder, "old", **OLD)
+                old, _, _ = trials(backend, fault, args.trials, folder, "old", **OLD)
                 ratio = np.median(old) / np.median(lat) if lat and old else float("nan")
                 line += " ".join(f"{1000 * x:5.0f}" for x in old) + f"  ({ratio:.1f}x)"
             print(line, flush=True)

@@ -42,6 +42,10 @@ class Latency:
     fault: str
     seconds: float          # fault -> drive at zero, s
     error: str              # what the campaign ended with
+    #: shaker faults: fault -> the controller's trip deadline + its ramp, s: when a controller
+    #: on its own clock zeroes the drive (the emulated one shares this busy process and may
+    #: act late); None for DAQ faults
+    deadline_seconds: float | None = None
 
 
 def campaign_doc(backend: str, name: str, **changes: dict[str, Any]) -> dict:
@@ -127,7 +131,10 @@ def measure(backend: str, fault: str, out: Path, **changes: dict[str, Any]) -> L
     zero = next((t for t in offs[0] if t >= t_fault), None)
     if zero is None:
         raise AssertionError(f"{backend} {fault}: the drive was never zeroed ({error})")
-    return Latency(backend, fault, zero + ESTOP_RAMP - t_fault, error)
+    due = next((d for d in tripped if d >= t_fault), None) if fault.startswith("shaker-") \
+        else None
+    return Latency(backend, fault, zero + ESTOP_RAMP - t_fault, error,
+                   None if due is None else due + ESTOP_RAMP - t_fault)
 
 
 def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str, int]:
