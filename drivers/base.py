@@ -275,8 +275,9 @@ def default_stall_timeout(interval: float) -> float:
     return max(float(interval), 0.0) + STALL_MARGIN
 
 
-#: s a wait may overrun before its thread counts as having been starved (`wait_for_data`)
-LATE = 0.005
+#: s a wait may overrun before its thread counts as having been starved, and the longest
+#: second wait then (`wait_for_data`): time for the process's other threads to run once
+LATE, LATE_GRACE = 0.005, 0.02
 
 
 def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
@@ -285,7 +286,7 @@ def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
     When the wait comes back empty, it looks once more without waiting (the thread may run
     well after its wait ended: data that came meanwhile counts). When it also came back late
     by more than `LATE` (this process was not running: a device emulated in it could not
-    send either), it waits once more for that lateness, at most `STALL_MARGIN`.
+    send either), it waits once more for that lateness, at most `LATE_GRACE`.
 
     Parameters
     ----------
@@ -304,7 +305,7 @@ def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
     if got:
         return got
     late = time.monotonic() - start - timeout
-    return wait(min(late, STALL_MARGIN) if late > LATE else 0.0)
+    return wait(min(late, LATE_GRACE) if late > LATE else 0.0)
 
 
 def check_stall_timeout(value: float | None) -> float | None:

@@ -46,7 +46,9 @@ class BeatProcess:
         # beating once it returns (an interpreter starts in 30-100 ms on a loaded machine:
         # the watchdog is armed after this)
         ready = select.select([self.proc.stdout], [], [], timeout)[0]
-        if not ready or self.proc.stdout.read(2) != b"up":
+        up = ready and self.proc.stdout.read(2) == b"up"
+        self.proc.stdout.close()
+        if not up:
             self.stop()
             raise DriverTimeout(f"the shaker watchdog's beat process did not start within "
                                 f"{timeout:g} s")
