@@ -105,8 +105,8 @@ class PtyServer(threading.Thread):
             if due > 0:
                 self._halt.wait(due)
                 continue
-            data = self.heartbeat()
-            with self._write_lock:
+            with self._write_lock:  # decided and queued at once: never after a last reply
+                data = self.heartbeat()
                 if data and not self.out:
                     self.out += data
             if self.out:
