@@ -21,6 +21,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from . import pauses
 from .errors import CommsError, DriverConfigError, StateError
 
 T = TypeVar("T")
@@ -284,9 +285,10 @@ def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
     """``wait(timeout)``, not blaming the device for this process's own lateness.
 
     When the wait comes back empty, it looks once more without waiting (the thread may run
-    well after its wait ended: data that came meanwhile counts). When it also came back late
-    by more than `LATE` (this process was not running: a device emulated in it could not
-    send either), it waits once more for that lateness, at most `LATE_GRACE`.
+    well after its wait ended: data that came meanwhile counts). When this process was
+    paused for more than `LATE` of the wait (`drivers.pauses`, or the wait came back that
+    late: a device emulated in it could not send either), it waits once more for that long,
+    at most `LATE_GRACE`.
 
     Parameters
     ----------
@@ -300,12 +302,14 @@ def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
     object
         What ``wait`` returned last.
     """
+    pauses.start()
     start = time.monotonic()
     got = wait(timeout)
     if got:
         return got
-    late = time.monotonic() - start - timeout
-    return wait(min(late, LATE_GRACE) if late > LATE else 0.0)
+    now = time.monotonic()
+    lost = max(now - start - timeout, pauses.paused(start, now))
+    return wait(min(lost, LATE_GRACE) if lost > LATE else 0.0)
 
 
 def check_stall_timeout(value: float | None) -> float | None:
