@@ -27,9 +27,12 @@ _CHILD = """
 import os, select, sys
 fd, period = int(sys.argv[1]), float(sys.argv[2])
 os.write(1, b"up")                                 # the host waits for this
+line = rest = %r
 while not select.select([0], [], [], period)[0]:   # the host's pipe: EOF or a byte = stop
     try:
-        os.write(fd, %r)
+        rest = rest[os.write(fd, rest):] or line    # a line cut short is finished first
+    except BlockingIOError:      # the line is full (the port is non-blocking): next period
+        pass
     except OSError:                               # the port went away
         break
 """ % BEAT
