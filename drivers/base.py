@@ -12,19 +12,28 @@ values are in the channel's physical unit.
 from __future__ import annotations
 
 import math
+import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from types import TracebackType
+from typing import TypeVar
 
 import numpy as np
 
+from . import pauses
 from .errors import CommsError, DriverConfigError, StateError
 
+T = TypeVar("T")
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
 #: s of silence beyond a transport frame's interval that count as a stalled stream: the
 #: drive must be zero within 100 ms of a stall (docs/drivers.md "Drive-zero latency")
 STALL_MARGIN = 0.06
+#: s a live stream (heartbeats coming: the device is there) may go without samples before a
+#: read gives up: room for an emulator computing its plant on a busy CPU; a device that
+#: stops altogether is a stall, seen after `stall_timeout`
+DATA_TIMEOUT = 0.5
 UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 
 
@@ -280,6 +289,42 @@ def default_stall_timeout(interval: float) -> float:
         and a stall is seen `STALL_MARGIN` after the frame that did not come.
     """
     return max(float(interval), 0.0) + STALL_MARGIN
+
+
+#: s a wait may overrun before its thread counts as having been starved, and the longest
+#: second wait then (`wait_for_data`): time for the process's other threads to run once
+LATE, LATE_GRACE = 0.005, 0.02
+
+
+def wait_for_data(wait: Callable[[float], T], timeout: float) -> T:
+    """``wait(timeout)``, not blaming the device for this process's own lateness.
+
+    When the wait comes back empty, it looks once more without waiting (the thread may run
+    well after its wait ended: data that came meanwhile counts). When this process was
+    paused for more than `LATE` of the wait (`drivers.pauses`, or the wait came back that
+    late: a device emulated in it could not send either), it waits once more for that long,
+    at most `LATE_GRACE`.
+
+    Parameters
+    ----------
+    wait : callable
+        ``wait(seconds)``: what arrives within ``seconds``, falsy if nothing.
+    timeout : float
+        Seconds of the first wait.
+
+    Returns
+    -------
+    object
+        What ``wait`` returned last.
+    """
+    pauses.start()
+    start = time.monotonic()
+    got = wait(timeout)
+    if got:
+        return got
+    now = time.monotonic()
+    lost = max(now - start - timeout, pauses.paused(start, now))
+    return wait(min(lost, LATE_GRACE) if lost > LATE else 0.0)
 
 
 def check_stall_timeout(value: float | None) -> float | None:

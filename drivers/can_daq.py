@@ -14,7 +14,7 @@ import numpy as np
 
 from . import can_protocol as proto
 from .base import (DeviceState, Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
-                   default_stall_timeout)
+                   default_stall_timeout, wait_for_data)
 from .errors import DeviceError, Disconnected, DriverConfigError, DriverTimeout
 
 
@@ -130,12 +130,14 @@ class CanDaq(Acquirer):
             left = deadline - time.monotonic()
             if left <= 0:
                 raise DriverTimeout(f"no CAN sample block within {timeout:g} s")
-            msg = self._recv(min(left, self.stall_timeout))
+            msg = wait_for_data(self._recv, min(left, self.stall_timeout))
             if msg is None:
                 if left > self.stall_timeout:
                     raise DriverTimeout(f"CAN DAQ stream stalled: no frame for "
                                         f"{self.stall_timeout:g} s")
                 continue
+            if msg.arbitration_id == proto.STATUS_ID and not msg.is_extended_id:
+                continue        # a status frame while streaming: a heartbeat, the DAQ is alive
             group = msg.arbitration_id - proto.SAMPLES_ID
             if not 0 <= group < self._groups or msg.is_extended_id:
                 self.stats.garbage_bytes += len(msg.data)

@@ -8,7 +8,7 @@ Layout (little-endian; documented in docs/drivers.md)::
     3       1     channel count C (1..64)
     4       4     sequence counter (uint32, +1 per frame, wraps)
     8       8     index of the first sample since stream start (uint64)
-    16      2     samples per channel N (1..4096)
+    16      2     samples per channel N (0..4096; 0: a heartbeat, the stream is alive)
     18      2     header CRC: CRC-16/CCITT (binascii.crc_hqx, init 0xFFFF) of bytes 2..17
     20      4*N*C samples, float32 volts, sample-major (s0c0, s0c1, ..., s1c0, ...)
     end     4     CRC-32 (zlib.crc32) of bytes 2..end of samples
@@ -98,7 +98,7 @@ class FrameParser:
             if len(buf) - pos < HEADER.size:
                 break
             _, ver, c, seq, first, n, hcrc = HEADER.unpack_from(buf, pos)
-            if (ver != VERSION or not 1 <= c <= MAX_CHANNELS or not 1 <= n <= MAX_SAMPLES
+            if (ver != VERSION or not 1 <= c <= MAX_CHANNELS or not 0 <= n <= MAX_SAMPLES
                     or binascii.crc_hqx(bytes(buf[pos + 2:pos + 18]), 0xFFFF) != hcrc):
                 self.garbage_bytes += 1
                 pos += 1

@@ -8,7 +8,7 @@ from collections import deque
 import numpy as np
 
 from .base import (DeviceState, Acquirer, Block, Channel, STALL_MARGIN, check_stall_timeout,
-                   default_stall_timeout)
+                   default_stall_timeout, wait_for_data)
 from .errors import DriverTimeout, ProtocolError
 from .frame import Frame, FrameParser
 from .serial_link import SerialLink
@@ -78,7 +78,7 @@ class SerialDaq(Acquirer):
             left = deadline - time.monotonic()
             if left <= 0:
                 raise DriverTimeout(f"no DAQ frame within {timeout:g} s")
-            data = self.link.read_some(min(left, self.stall_timeout))
+            data = wait_for_data(self.link.read_some, min(left, self.stall_timeout))
             if not data:
                 if left > self.stall_timeout:
                     raise DriverTimeout(f"DAQ stream stalled: no data for "
@@ -89,7 +89,10 @@ class SerialDaq(Acquirer):
             self.stats.bad_frames = self._parser.bad_frames
 
     def _accept(self, frame: Frame) -> Block | None:
-        """Check sequence and size; count losses and duplicates; convert to units."""
+        """Check sequence and size; count losses and duplicates; convert to units. A frame of
+        no samples is a heartbeat: it kept the stream from counting as stalled, no more."""
+        if not frame.volts.shape[0]:
+            return None
         if frame.volts.shape[1] != len(self.channels):
             raise ProtocolError(f"DAQ sent {frame.volts.shape[1]} channels, configured "
                                 f"{len(self.channels)}")

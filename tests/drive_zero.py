@@ -11,7 +11,9 @@ controller's own link watchdog) plus the controller's emergency ramp (`ESTOP_RAM
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import multiprocessing
 import threading
 import time
 import tomllib
@@ -26,9 +28,9 @@ from nlid_lab.campaign import parse_campaign, run_campaign
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 BACKENDS = ("serial", "can")
 FAULTS = ("daq-stall", "daq-disconnect", "shaker-cut", "shaker-stall")
-#: DAQ frame of the DAQ faults: ~0.8 s into the stream at the emulators' default pace (8x);
-#: CAN counts one frame per sample row
-DAQ_FAULT_FRAME = {"serial": 200, "can": 6400}
+#: DAQ frame of the DAQ faults: ~0.8 s into the stream at the emulators' default pace (8x
+#: serial, 4x CAN); CAN counts one frame per sample row
+DAQ_FAULT_FRAME = {"serial": 200, "can": 3200}
 SHAKER_FAULT_AFTER = 0.5  # s after the output went on
 
 
@@ -40,6 +42,10 @@ class Latency:
     fault: str
     seconds: float          # fault -> drive at zero, s
     error: str              # what the campaign ended with
+    #: shaker faults: fault -> the controller's trip deadline + its ramp, s: when a controller
+    #: on its own clock zeroes the drive (the emulated one shares this busy process and may
+    #: act late); None for DAQ faults
+    deadline_seconds: float | None = None
 
 
 def campaign_doc(backend: str, name: str, **changes: dict[str, Any]) -> dict:
@@ -125,7 +131,10 @@ def measure(backend: str, fault: str, out: Path, **changes: dict[str, Any]) -> L
     zero = next((t for t in offs[0] if t >= t_fault), None)
     if zero is None:
         raise AssertionError(f"{backend} {fault}: the drive was never zeroed ({error})")
-    return Latency(backend, fault, zero + ESTOP_RAMP - t_fault, error)
+    due = next((d for d in tripped if d >= t_fault), None) if fault.startswith("shaker-") \
+        else None
+    return Latency(backend, fault, zero + ESTOP_RAMP - t_fault, error,
+                   None if due is None else due + ESTOP_RAMP - t_fault)
 
 
 def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str, int]:
@@ -143,3 +152,42 @@ def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str,
     except CommsError as exc:
         status = f"{type(exc).__name__}: {exc}"
     return status, len(benches[0].shaker_emulator.trips)
+
+
+def _spin(stop) -> None:
+    """Burn one core until ``stop`` is set (a child process of `cpu_load`)."""
+    x = 0
+    while not stop.is_set():
+        for _ in range(100000):
+            x += 1
+
+
+@contextlib.contextmanager
+def cpu_load(processes: int):
+    """``processes`` child processes spinning on the CPU while the block runs (synthetic load
+    on top of whatever else the machine does)."""
+    ctx = multiprocessing.get_context("spawn")
+    stop = ctx.Event()
+    procs = [ctx.Process(target=_spin, args=(stop,), daemon=True) for _ in range(processes)]
+    for p in procs:
+        p.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for p in procs:
+            p.join(5)
+            if p.is_alive():
+                p.terminate()
+
+
+def false_trips(backend: str, runs: int, folder: Path, load: int) -> list[str]:
+    """How ``runs`` healthy campaigns (`normal_run`, default settings) ended under ``load``
+    spinning processes: the outcome of each that a timeout or the watchdog stopped."""
+    bad = []
+    with cpu_load(load):
+        for k in range(runs):
+            status, trips = normal_run(backend, folder / f"load-{backend}-{k}.h5")
+            if (status, trips) != ("complete", 0):
+                bad.append(f"{status} ({trips} watchdog trips)")
+    return bad

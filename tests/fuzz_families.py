@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, seed as hypothesis_seed, settings, strategies as st
 
 from fuzz_inputs import (CAMPAIGN, MODEL, TimeLimit, bad_arrays, campaign_number_invalid,
                          model_number_invalid, mutations, run_cli, toml_text)
@@ -80,7 +80,13 @@ def text_damage(draw, text: str) -> tuple[bytes, str, Callable[[str], Any] | Non
     thousands deep. Returns the bytes, the description, and whether it is damaged (a cut
     whose document parses the same, or is invalid TOML anyway, is judged by the parser)."""
     raw = text.encode()
-    kind = draw(st.sampled_from(["cut", "byte", "deep"]))
+    kind = draw(st.sampled_from(["cut", "byte", "deep", "duplicate"]))
+    if kind == "duplicate":          # a key written twice: TOML forbids it
+        lines = [ln for ln in text.splitlines(keepends=True) if " = " in ln]
+        line = draw(st.sampled_from(lines))
+        at = draw(st.integers(0, len(lines)))
+        out = "".join(lines[:at] + [line] + lines[at:])
+        return out.encode(), f"key {line.split(' = ')[0]} written twice", True
     if kind == "cut":
         at = draw(st.integers(1, len(raw) - 1))
         end = " (a line end)" if b"\n" in raw[at - 1:at + 1] else ""
@@ -192,7 +198,10 @@ def recording_case(data: st.DataObject, folder: Path) -> Result:
     keys = _recording(folder)
     out = folder / "run.h5"
     out.unlink(missing_ok=True)
-    fmt = data.draw(st.sampled_from(["npz", "csv", "mat"]))
+    fmt = data.draw(st.sampled_from(["npz", "csv", "mat", "csv dialect", "npz objects",
+                                     "mat v7.3"]))
+    if fmt in ("csv dialect", "npz objects", "mat v7.3"):
+        return _new_recording_case(data, folder, fmt, keys, out)
     argv = ["import", str(folder / f"r.{fmt}"), "--out", str(out)]
     if fmt == "npz":
         key = data.draw(st.sampled_from(sorted(keys)))
@@ -236,6 +245,66 @@ def recording_case(data: st.DataObject, folder: Path) -> Result:
             savemat(folder / "r.mat", mat)
         argv += ["--map", "force=Force", "response=Acc", "fs=Fs", "force_dofs=0"]
     result = run_classified(argv, damaged)
+    result.what = what
+    return result
+
+
+MAT_MAP = ["--map", "force=Force", "response=Acc", "fs=Fs", "force_dofs=0"]
+MATLAB_73_HEADER = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Fri Nov 27 "
+                    b"00:00:00 2026 HDF5 schema 1.00 .").ljust(116) + b"\x00" * 8 + b"\x00\x02IM"
+
+
+def _same_as_stored(out: Path, keys: dict) -> bool:
+    """Whether the run ``out`` holds the recording ``keys`` (to the CSV's printed digits)."""
+    from nlid_lab.store import open_run
+    rec = open_run(out).recordings()[0]
+    return (rec.fs == float(keys["fs"]) and rec.force.shape == keys["force"].shape
+            and rec.response.shape == keys["response"].shape
+            and np.allclose(rec.force, keys["force"], rtol=1e-9, atol=0)
+            and np.allclose(rec.response, keys["response"], rtol=1e-9, atol=0))
+
+
+def _new_recording_case(data: st.DataObject, folder: Path, fmt: str, keys: dict,
+                        out: Path) -> Result:
+    """Inputs beyond the first round: a CSV written with a byte-order mark, CRLF line ends,
+    semicolons or decimal commas (the same numbers: accepted only if read as written);
+    an NPZ holding an object (pickled) array; a MATLAB v7.3 (HDF5) file, whole or cut."""
+    from nlid_lab.formats import _recordings_io as rio
+    import h5py
+
+    if fmt == "csv dialect":
+        path = folder / "r.csv"
+        rio.write_csv(path, rio.recording_from_keys(keys, path))
+        text = path.read_text()
+        dialect = data.draw(st.sampled_from(["bom", "crlf", "semicolons", "decimal commas",
+                                             "tabs"]))
+        text = {"bom": "\ufeff" + text, "crlf": text.replace("\n", "\r\n"),
+                "semicolons": text.replace(",", ";"), "tabs": text.replace(",", "\t"),
+                "decimal commas": text.replace(",", ";").replace(".", ",")}[dialect]
+        path.write_bytes(text.encode())
+        result = run_classified(["import", str(path), "--out", str(out)], False)
+        what = f"csv with {dialect}"
+    elif fmt == "npz objects":
+        key = data.draw(st.sampled_from(sorted(keys)))
+        keys[key] = np.array([np.asarray(keys[key]), None], dtype=object)
+        np.savez(folder / "r.npz", **keys)
+        result = run_classified(["import", str(folder / "r.npz"), "--out", str(out)], True)
+        what = f"npz {key} an object array"
+    else:
+        path = folder / "r.mat"
+        with h5py.File(path, "w", userblock_size=512) as f:
+            f["Force"], f["Acc"], f["Fs"] = keys["force"][:, 0], keys["response"], 1024.0
+        with open(path, "r+b") as f:
+            f.write(MATLAB_73_HEADER)
+        raw = path.read_bytes()
+        at = data.draw(st.sampled_from([None, None, 600, 4096, len(raw) // 2, len(raw) - 1]))
+        if at is not None:
+            path.write_bytes(raw[:at])
+        result = run_classified(["import", str(path), "--out", str(out)] + MAT_MAP,
+                                at is not None)
+        what = "mat v7.3" + (f" cut at {at} of {len(raw)}" if at else "")
+    if result.outcome is Outcome.ACCEPTED and not _same_as_stored(out, keys):
+        result = Result(Outcome.SILENT, result.said + "; stored other numbers")
     result.what = what
     return result
 
@@ -334,16 +403,75 @@ def fault_campaign_case(data: st.DataObject, folder: Path) -> Result:
     return Result(Outcome.ACCEPTED, said + f"; DAQ lost {seen} frames", what)
 
 
+# --- family 6: damaged run files -----------------------------------------------------------
+RUN_BLOCKS, RUN_BLOCK = 6, 512
+
+
+def _run_file(folder: Path) -> tuple[Path, np.ndarray]:
+    """A small complete run (one level of `RUN_BLOCKS` blocks), written once per folder, and
+    its force samples."""
+    from nlid_lab.store import RunWriter
+
+    path = folder / "whole.h5"
+    force = np.random.default_rng(2).normal(size=(RUN_BLOCKS * RUN_BLOCK, 1))
+    if not path.exists():
+        with RunWriter(folder / "whole.tmp.h5", fs=1024.0, excitation="random",
+                       force_dofs=[0], n_dof=2) as w:
+            lv = w.level(0, 1.0)
+            for b in np.split(force, RUN_BLOCKS):
+                lv.append_block(b, 1e-5 * b @ np.ones((1, 2)))
+            lv.complete()
+        (folder / "whole.tmp.h5").rename(path)
+    return path, force
+
+
+def run_file_case(data: st.DataObject, folder: Path) -> Result:
+    """A run file cut at a 4 kB boundary, or with bytes overwritten (one flipped bit, or 64
+    bytes of 0xFF), through ``export``. A cut file is damaged. Otherwise accepted correctly
+    when the exported samples are the written ones but for the blocks the command named as
+    left out; silent when other numbers come out unannounced."""
+    import re
+
+    whole, force = _run_file(folder)
+    raw = bytearray(whole.read_bytes())
+    path, out = folder / "run.h5", folder / "out.npz"
+    out.unlink(missing_ok=True)
+    kind = data.draw(st.sampled_from(["cut", "bit", "0xFF x 64"]))
+    if kind == "cut":
+        at = 4096 * data.draw(st.integers(1, (len(raw) - 1) // 4096))
+        raw, what = raw[:at], f"cut at {at} of {len(raw)}"
+    else:
+        at = data.draw(st.integers(0, len(raw) - 1))
+        if kind == "bit":
+            raw[at] ^= 1 << data.draw(st.integers(0, 7))
+        else:
+            raw[at:at + 64] = b"\xff" * len(raw[at:at + 64])
+        what = f"{kind} at byte {at} of {len(raw)}"
+    path.write_bytes(bytes(raw))
+    result = run_classified(["export", str(path), "--out", str(out)], kind == "cut")
+    result.what = what
+    if result.outcome is not Outcome.ACCEPTED:
+        return result
+    err = result.said
+    dropped = {int(b) for b in re.findall(r"level 0 block (\d+)", err)}
+    kept = np.concatenate([b for i, b in enumerate(np.split(force, RUN_BLOCKS))
+                           if i not in dropped])
+    got = np.load(out)["force"]
+    if got.shape != kept.shape or not np.array_equal(got, kept):
+        return Result(Outcome.SILENT, err + "; exported other samples", what)
+    return result
+
+
 FAMILIES: dict[str, Callable[[st.DataObject, Path], Result]] = {
     "model files": model_case, "campaign files": campaign_case,
     "recordings (NPZ, CSV, MAT)": recording_case, "serial streams": stream_case,
-    "device-fault campaigns": fault_campaign_case}
+    "device-fault campaigns": fault_campaign_case, "run files (HDF5)": run_file_case}
 
 #: cases per family: a few in the fast suite, the table's counts in the slow one
 FAST = {"model files": 30, "campaign files": 30, "recordings (NPZ, CSV, MAT)": 30,
-        "serial streams": 200, "device-fault campaigns": 2}
+        "serial streams": 200, "device-fault campaigns": 2, "run files (HDF5)": 20}
 TABLE = {"model files": 300, "campaign files": 300, "recordings (NPZ, CSV, MAT)": 300,
-         "serial streams": 3000, "device-fault campaigns": 30}
+         "serial streams": 3000, "device-fault campaigns": 30, "run files (HDF5)": 200}
 
 
 @dataclass
@@ -356,14 +484,17 @@ class Tally:
 
 
 def run_family(name: str, n: int, folder: Path, skip: int = 0,
-               report: Callable[[int, Result], None] | None = None) -> Tally:
+               report: Callable[[int, Result], None] | None = None,
+               seed: int | None = None) -> Tally:
     """Draw ``n`` cases of family ``name`` (the first ``skip`` drawn, not run) and classify
-    each; ``report(index, outcome)`` hears of every case as it ends."""
+    each; ``report(index, outcome)`` hears of every case as it ends. Without ``seed`` the
+    draws are derandomized (the same cases on every run); a ``seed`` draws other cases,
+    the same again for the same seed."""
     tally = Tally(Counter(), [])
     index = [0]
     case = FAMILIES[name]
 
-    @settings(max_examples=n, deadline=None, database=None, derandomize=True,
+    @settings(max_examples=n, deadline=None, database=None, derandomize=seed is None,
               suppress_health_check=list(HealthCheck))
     @given(data=st.data())
     def one(data: st.DataObject) -> None:
@@ -378,7 +509,7 @@ def run_family(name: str, n: int, folder: Path, skip: int = 0,
         if report is not None:
             report(i, result)
 
-    one()
+    (one if seed is None else hypothesis_seed(seed)(one))()
     return tally
 
 

@@ -5,7 +5,9 @@ Each family runs in a child process that reports every case as it ends, so that 
 it in a fresh child. Cases are those of tests/fuzz_families.py (derandomized hypothesis
 draws: the same on every run).
 
-    python tools/fuzz_table.py [--scale 1.0] [--family NAME]
+    python tools/fuzz_table.py [--scale 1.0] [--family NAME] [--seed N]
+
+``--seed N`` draws other cases than the derandomized default (the same again for the same N).
 """
 
 from __future__ import annotations
@@ -31,18 +33,18 @@ sys.path[:0] = [{root!r}, {tests!r}]
 from fuzz_families import run_family
 def report(i, r):
     print(json.dumps([i, r.outcome.value, r.what, r.said]), flush=True)
-run_family({name!r}, {n}, Path({folder!r}), skip={skip}, report=report)
+run_family({name!r}, {n}, Path({folder!r}), skip={skip}, report=report, seed={seed!r})
 """
 
 
-def run(name: str, n: int) -> tuple[Counter, list]:
+def run(name: str, n: int, seed: int | None = None) -> tuple[Counter, list]:
     """Outcome counts of family ``name`` over ``n`` cases, and its bad cases."""
     counts, bad, skip = Counter(), [], 0
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
     while skip < n:
         with tempfile.TemporaryDirectory() as folder:
             code = CHILD.format(root=str(ROOT), tests=str(ROOT / "tests"), name=name, n=n,
-                                folder=folder, skip=skip)
+                                folder=folder, skip=skip, seed=seed)
             proc = subprocess.run([sys.executable, "-c", code], capture_output=True,
                                   text=True, env=env)
         done = [json.loads(ln) for ln in proc.stdout.splitlines() if ln.startswith("[")]
@@ -66,6 +68,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", type=float, default=1.0, help="fraction of the table's counts")
     ap.add_argument("--family", choices=sorted(FAMILIES))
+    ap.add_argument("--seed", type=int, help="draw other cases (default: derandomized)")
     args = ap.parse_args()
     names = [args.family] if args.family else list(FAMILIES)
     head = ["family", "inputs tried"] + [o.value for o in Outcome]
@@ -73,7 +76,7 @@ def main() -> None:
     print("|" + "---|" * len(head))
     for name in names:
         n = max(1, round(TABLE[name] * args.scale))
-        counts, bad = run(name, n)
+        counts, bad = run(name, n, args.seed)
         print("| " + " | ".join([name, str(sum(counts[o.value] for o in Outcome))]
                                 + [str(counts[o.value]) for o in Outcome]) + " |", flush=True)
         if counts["line-end cuts accepted"]:

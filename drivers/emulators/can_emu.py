@@ -18,6 +18,10 @@ from ..faults import FaultSpec
 from .faults import FaultPlan
 
 ROWS_PER_TICK = 16
+#: s; a status frame (state streaming) goes out this often while streaming: the DAQ is alive
+#: even while the emulator's plant falls behind on a busy CPU (well within the host's
+#: `drivers.base.STALL_MARGIN`); none during an injected stall or after a disconnect
+HEARTBEAT = 0.01
 
 
 class CanDaqEmulator(threading.Thread):
@@ -58,7 +62,9 @@ class CanDaqEmulator(threading.Thread):
 
     def run(self) -> None:
         """Thread body: answer control messages and stream samples until closed or disconnected."""
+        beat = threading.Thread(target=self._beat, name="can-daq-heartbeat", daemon=True)
         try:
+            beat.start()
             while not self._halt.is_set() and self.connected:
                 msg = self.bus.recv(0.0 if self.streaming else 0.01)
                 if msg is not None and msg.arbitration_id == proto.CONTROL_ID:
@@ -70,7 +76,20 @@ class CanDaqEmulator(threading.Thread):
         except BaseException as exc:  # noqa: BLE001 - reported to the test via .error
             self.error = exc
         finally:
+            self.connected = False
+            beat.join()          # it sends on the bus: stopped before the bus is
             self.bus.shutdown()
+
+    def _beat(self) -> None:
+        """Heartbeat thread: a status frame every `HEARTBEAT` s while streaming (a thread of
+        its own, so it keeps coming while `_tick` computes or waits for the CPU)."""
+        data = self._status.encode({"State": proto.STATE_STREAMING, "ErrorCode": 0})
+        while not self._halt.wait(HEARTBEAT) and self.connected:
+            f = self.faults
+            if self.streaming and not any(at and self._k >= at
+                                          for at in (f.stall_at, f.disconnect_at)):
+                self.bus.send(can.Message(arbitration_id=proto.STATUS_ID, data=data,
+                                          is_extended_id=False))
 
     def _on_control(self, msg: can.Message) -> None:
         cmd = self._control.decode(msg.data, decode_choices=False)

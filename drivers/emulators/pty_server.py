@@ -37,6 +37,8 @@ class PtyServer(threading.Thread):
         os.set_blocking(self.master, False)
         self._inbuf = bytearray()
         self.out = bytearray()
+        self._write_lock = threading.Lock()   # the loop and a heartbeat thread both write
+        self.written_at = time.monotonic()    # when bytes last went out
         self._halt = threading.Event()
         self.connected = True
         self.error: BaseException | None = None
@@ -61,10 +63,23 @@ class PtyServer(threading.Thread):
         (0: call again at once, inf: idle)."""
         return float("inf")
 
+    #: s between heartbeats when nothing else went out (0: none; see `heartbeat`)
+    HEARTBEAT = 0.0
+
+    def heartbeat(self) -> bytes:
+        """What to send when nothing went out for `HEARTBEAT` s (b"": nothing now). Sent by
+        a thread of its own, so it keeps coming while `tick` computes or waits for the CPU,
+        and stops when the device stalls or disconnects."""
+        return b""
+
     # --- loop --------------------------------------------------------------------------
     def run(self) -> None:
         """Thread body: read lines, answer them (`handle`) and send output (`tick`) until closed."""
+        beat = threading.Thread(target=self._beat, name=f"{self.name}-heartbeat",
+                                daemon=True) if self.HEARTBEAT else None
         try:
+            if beat is not None:
+                beat.start()
             wait = 0.0
             while not self._halt.is_set() and self.connected:
                 wlist = [self.master] if self.out else []
@@ -77,7 +92,30 @@ class PtyServer(threading.Thread):
         except BaseException as exc:  # noqa: BLE001 - reported to the test via .error
             self.error = exc
         finally:
+            self.connected = False
+            if beat is not None:
+                beat.join()      # never write to a closed (maybe reused) descriptor
             self._close_fds()
+
+    def _beat(self) -> None:
+        """Heartbeat thread: `heartbeat` bytes whenever nothing went out for `HEARTBEAT` s,
+        at frame boundaries only (never inside output the loop queued)."""
+        while not self._halt.is_set() and self.connected:
+            due = self.written_at + self.HEARTBEAT - time.monotonic()
+            if due > 0:
+                self._halt.wait(due)
+                continue
+            with self._write_lock:  # decided and queued at once: never after a last reply
+                data = self.heartbeat()
+                if data and not self.out:
+                    self.out += data
+            if self.out:
+                try:
+                    self._write()
+                except OSError:      # the line went down: the loop ends the server
+                    return
+            if time.monotonic() - self.written_at >= self.HEARTBEAT:  # idle, or line full
+                self._halt.wait(self.HEARTBEAT if not data else self.HEARTBEAT / 4)
 
     def _read(self) -> None:
         try:
@@ -98,11 +136,13 @@ class PtyServer(threading.Thread):
                     self.out += reply.encode("ascii") + b"\n"
 
     def _write(self) -> None:
-        try:
-            n = os.write(self.master, self.out)
-        except (BlockingIOError, InterruptedError):
-            return
-        del self.out[:n]
+        with self._write_lock:     # a copy: `out` may grow in another thread meanwhile
+            try:
+                n = os.write(self.master, bytes(self.out))
+            except (BlockingIOError, InterruptedError):
+                return
+            del self.out[:n]
+            self.written_at = time.monotonic()
 
     def flush_out(self, timeout: float = 1.0) -> None:
         """Write everything queued (used before a deliberate disconnect)."""

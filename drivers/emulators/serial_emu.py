@@ -6,6 +6,7 @@ shared `SimRig`; the DAQ streams `drivers.frame` frames and injects faults from 
 
 from __future__ import annotations
 
+import select
 import time
 from collections import deque
 
@@ -106,12 +107,19 @@ class SerialShakerEmulator(PtyServer):
         now = time.monotonic()
         if now < deadline:
             return deadline - now
+        # A line that reached the port before this look feeds it: this thread may look late
+        # (it shares the host's interpreter lock), after a `select` that timed out while
+        # the line was on its way; a controller's own clock would have seen it.
+        if select.select([self.master], [], [], 0)[0]:
+            self._read()
+            if self.fed_at + self.watchdog > now:
+                return 0.0
         self.rig.set_on(False, min(self._ramp, ESTOP_RAMP))
         self.tripped = True
         self.trips.append((deadline, now))
         return float("inf")
 
-    def _dispatch(self, head: str, arg: str) -> str:
+    def _dispatch(self, head: str, arg: str) -> str | None:
         rig = self.rig
         if head == "*IDN?":
             return self.IDN
@@ -125,6 +133,10 @@ class SerialShakerEmulator(PtyServer):
             return f"{self.watchdog:.6g}"
         if head == "SYST:WDOG:FEED":
             return EXPIRED if self.tripped else "OK"
+        if head == "SYST:WDOG:BEAT":       # a heartbeat: feeds it, no reply
+            return None
+        if head == "SYST:WDOG:BEAT?":
+            return "1"
         if head == "*RST":
             rig.set_on(False, self._ramp)
             return "OK"
@@ -243,6 +255,22 @@ class SerialDaqEmulator(PtyServer):
         except ValueError:
             return BAD_DATA
         return BAD_HEADER
+
+    #: s; a heartbeat (a frame of no samples) goes out when no frame did for this long,
+    #: well within the host's `drivers.base.STALL_MARGIN`
+    HEARTBEAT = 0.01
+
+    def heartbeat(self) -> bytes:
+        """While streaming, a frame of no samples carrying the next frame's sequence number
+        and first sample: the DAQ is alive, samples follow (a real DAQ's acquisition never
+        lags, the emulator's may, computing the plant on a busy CPU); none during an
+        injected stall or after a disconnect (`PtyServer.heartbeat`)."""
+        f, k = self.faults, self._k
+        if not self.streaming or time.monotonic() < self._stall_until or any(
+                at and k >= at for at in (f.stall_at, f.disconnect_at)):
+            return b""
+        first = max(self.rig.sample_index - self._origin, 0)
+        return encode_frame(k, first, np.zeros((0, len(self.wiring)), np.float32))
 
     def tick(self) -> float:
         """Send the frames that are due while streaming (`PtyServer.tick`)."""

@@ -22,7 +22,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from analysis.recordings import PeriodicLayout
-from drivers.base import Block, MultisineOutput, Output, RandomOutput, SineOutput
+from drivers.base import DATA_TIMEOUT, Block, MultisineOutput, Output, RandomOutput, SineOutput
 from drivers.errors import CommsError
 
 from ._campaign_bench import Bench, open_bench
@@ -119,7 +119,8 @@ class _Runner:
         if self.stop is not None and self.stop.is_set():
             raise KeyboardInterrupt("campaign stopped by the user")
         self.bench.shaker.check_link()
-        block = daq.read(timeout=max(daq.stall_timeout, 4 * self.c.frame_size / self.c.fs))
+        block = daq.read(timeout=max(daq.stall_timeout, 4 * self.c.frame_size / self.c.fs,
+                                     DATA_TIMEOUT))
         for col, name, limit in self.limits:
             peak = float(np.max(np.abs(block.data[:, col])))
             if peak > limit:

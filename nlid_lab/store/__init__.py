@@ -13,7 +13,8 @@ file a live process writes. A writer killed while the header is being built (bef
 block) leaves no run file, only ``RUN.h5.tmp``: nothing was recorded yet.
 
 Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recording helpers),
-`tables` (result tables of reanalysis), `_common` (schema constants and HDF5 helpers).
+`tables` (result tables of reanalysis), `_verified` (the samples a check read, kept for
+the read that follows), `_common` (schema constants and HDF5 helpers).
 """
 
 from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
@@ -21,6 +22,7 @@ from .reader import (DamagedRunError, Level, Run, check_result_target, open_run,
                      repair_run, save_recording, save_result)
 from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_text
 from ._space import DiskFullError, require_room
+from ._verified import release_checked
 from .tables import TableError, read_table, write_table
 from .mat73 import read_mat73
 from .writer import LevelWriter, RunWriter
@@ -28,7 +30,7 @@ from .writer import LevelWriter, RunWriter
 __all__ = [
     "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now", "DiskFullError", "require_room",
     "DamagedRunError", "LeftOut", "LeftOutReason", "Repaired", "RunCheck",
-    "left_out_text",
+    "left_out_text", "release_checked",
     "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
     "save_result",
     "TableError", "read_table", "write_table",

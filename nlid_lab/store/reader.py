@@ -20,6 +20,7 @@ from ._integrity import (Damage, LeftOut, LeftOutReason, Repaired, RunCheck, jso
                          planned_blocks)
 from ._rebuild import REBUILT_ATTRS, _repair
 from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
+from ._verified import VerifiedLevel, identity, keep, take
 from ._steptables import TABLES_SCHEMA_VERSION, is_table_run, read_table, save_tables, table_steps
 from .writer import RunWriter
 
@@ -115,14 +116,16 @@ class Run:
 
     def check(self) -> RunCheck:
         """Verify every block's checksum (reading each level once) and say what readers
-        leave out and how much of its plan the run holds."""
+        leave out and how much of its plan the run holds. The intact blocks read are kept
+        for the `recording` that follows, of this `Run` or of another opening of the same,
+        unchanged file (`nlid_lab.store._verified`): the samples are read once."""
         for lv in self.levels:
             if lv.n_segments and lv.index not in self._checked:
                 if is_table_run(self.meta):     # a damaged table raises, naming the fix
                     self.recording(lv.index)
                     self._checked.add(lv.index)
-                else:
-                    self._verified(lv.index)
+                else:                           # kept for the read that follows: one pass
+                    keep(identity(self.path), lv.index, self._verified(lv.index))
         return RunCheck(str(self.path), self.status,
                         len(self.segments) - sum(b.reason is LeftOutReason.CHECKSUM
                                                  for b in self.left_out),
@@ -153,7 +156,9 @@ class Run:
         if is_table_run(self.meta):
             with _open(self.path, "r") as f:
                 return read_table(f, index, self.meta, self.sensors)
-        seg, parts, extra = self._verified(index)
+        level = take(identity(self.path), index) or self._verified(index)
+        self._note(index, level.bad)
+        seg, parts, extra = level.segments, level.parts, level.extra
         units = self.monitor_units
         if not parts:
             raise StoreError(f"{self.path} level {index}: no intact block (every block failed "
@@ -205,10 +210,10 @@ class Run:
                          control=Control(held.get("control") or Control.FORCE),
                          control_dof=held.get("control_dof"), **common)
 
-    def _verified(self, index: int) -> tuple[np.ndarray, list, list]:
-        """Segments of level ``index`` in ``seq`` order whose checksum holds, their samples
-        (force, response, monitor) and extra JSON; the others are noted in ``left_out`` and
-        ``warnings`` (once per level)."""
+    def _verified(self, index: int) -> VerifiedLevel:
+        """Level ``index`` read and verified: the segments in ``seq`` order whose checksum
+        holds, their samples (force, response, monitor) and extra JSON, and the blocks left
+        out (noted in ``left_out`` and ``warnings``, once per level)."""
         seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
         lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
         with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
@@ -221,14 +226,19 @@ class Run:
         why = [LeftOutReason.CHECKSUM if _crc(*p) != seg["crc"][i] else
                LeftOutReason.TEXT_DAMAGED if extra[i] is Damage else None
                for i, p in enumerate(parts)]
-        keep = [i for i, w in enumerate(why) if w is None]
-        if len(keep) < len(seg) and index not in self._checked:
-            bad = [LeftOut(index, int(seg["seq"][i]), w) for i, w in enumerate(why) if w]
+        keep_ = [i for i, w in enumerate(why) if w is None]
+        bad = tuple(LeftOut(index, int(seg["seq"][i]), w) for i, w in enumerate(why) if w)
+        self._note(index, bad)
+        return VerifiedLevel(seg[keep_], [parts[i] for i in keep_], [extra[i] for i in keep_],
+                             bad)
+
+    def _note(self, index: int, bad: tuple[LeftOut, ...]) -> None:
+        """Note level ``index``'s blocks left out (once per level)."""
+        if bad and index not in self._checked:
             self.left_out += bad
             self.warnings += [f"level {index}: block {b.seq} {b.reason}; left out"
                               for b in bad]
         self._checked.add(index)
-        return seg[keep], [parts[i] for i in keep], [extra[i] for i in keep]
 
     def _layout(self, parts: list) -> PeriodicLayout | None | bool:
         """Periodic layout of a level, one block per realization (the reverse path splits

@@ -11,7 +11,8 @@ from drivers.base import STALL_MARGIN
 from drivers.serial_shaker import DEFAULT_WATCHDOG
 from nlid_lab.campaign import parse_campaign
 
-from drive_zero import BACKENDS, EXAMPLES, FAULTS, FalseTrip, campaign_doc, measure, normal_run
+from drive_zero import (BACKENDS, EXAMPLES, FAULTS, FalseTrip, campaign_doc, false_trips,
+                        measure, normal_run)
 
 LIMIT = 0.1
 
@@ -50,6 +51,15 @@ def test_normal_pacing_does_not_trip(backend, pace, tmp_path):
     watchdog never trips."""
     status, trips = normal_run(backend, tmp_path / f"n{backend}{pace}.h5", pace)
     assert (status, trips) == ("complete", 0)
+
+
+@pytest.mark.realtime
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_no_false_trips_under_cpu_load(backend, tmp_path):
+    """Three healthy campaigns with default settings while two processes spin on the CPU (on
+    top of the machine's own load): none is stopped by a stall timeout or the watchdog
+    (the DAQ emulators' heartbeats, the feeds posted without waiting, docs/reliability-inputs.md)."""
+    assert false_trips(backend, 3, tmp_path, load=2) == []
 
 
 def test_drivers_derive_their_stall_timeout_from_the_frame_interval():
