@@ -137,6 +137,7 @@ def test_two_missing_effects_found_by_a_second_pass():
     check_residuals(d)
 
 
+@pytest.mark.slow      # the multi-pass search and joint refit: test_two_missing_effects_...
 def test_three_missing_effects():
     """The two effects above plus quadratic damping between DOFs 1 and 2: all three found
     by three passes and refitted jointly (measured: stiffness -0.4 %, cubic -0.2 %, damping
