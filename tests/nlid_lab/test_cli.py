@@ -203,9 +203,10 @@ def test_progress_switch(monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_diagnose_prints_its_verdict_unless_quiet(tmp_path, capsys):
+def test_diagnose_prints_its_verdict_unless_quiet(tmp_path, capsys, diagnose_once):
     """With --json FILE the verdict still reaches the terminal; --json - keeps stdout pure
-    JSON (the verdict goes to stderr); --quiet prints nothing."""
+    JSON (the verdict goes to stderr); --quiet prints nothing (one diagnosis for the three
+    calls on the same runs: `diagnose_once`)."""
     from diagnose_scenarios import hidden_cubic
     sc = hidden_cubic(n=1 << 13)
     sc.start.save(tmp_path / "start.toml")

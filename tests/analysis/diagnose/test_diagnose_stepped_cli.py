@@ -48,7 +48,7 @@ def cubic_files(tmp_path_factory):
 
 
 @pytest.mark.parametrize("kind", ["npz", "h5"])
-def test_cli_diagnose_runs_on_npz_and_hdf5(cubic_files, kind):
+def test_cli_diagnose_runs_on_npz_and_hdf5(cubic_files, kind, diagnose_once):
     sc, root, npz, h5 = cubic_files
     runs = npz if kind == "npz" else h5
     out, fixed = root / f"out-{kind}.json", root / f"fixed-{kind}.toml"
@@ -88,12 +88,15 @@ def test_stepped_sine_adequate_model_gives_no_false_alarm():
     assert d.level_dependent is True
 
 
-def test_cli_store_puts_the_diagnosis_into_the_run_report(cubic_files, tmp_path):
+def test_cli_store_puts_the_diagnosis_into_the_run_report(cubic_files, tmp_path,
+                                                          diagnose_once):
+    """The diagnosis of the HDF5 runs (computed once with the test above: `diagnose_once`)
+    stored into a copy of the last one, then in its report."""
     sc, root, _, h5 = cubic_files
     import shutil
     run = tmp_path / "run.h5"
     shutil.copy(h5[-1], run)
-    rc = main(["diagnose", str(root / "start.toml"), *h5[:-1], str(run), "--store", str(run),
+    rc = main(["diagnose", str(root / "start.toml"), *h5, "--store", str(run),
                "--json", str(tmp_path / "out.json")])
     assert rc == 0
     stored = open_run(run).results["diagnose"]
