@@ -12,30 +12,28 @@ import numpy as np
 from ..errors import ModelError
 from ..models import Model
 from .candidates import Candidate
-from .compare import FLOOR
+from .compare import weighted_error
 from .joint import joint_refit
+from .leakage import Floor
 from .locate import level_dependence
 from .prepare import DiagnoseInputError
 from .report import LevelCurves
+from .outofsample import Z as OOS_Z, Score, score
 from .result import GroundedEnd, LocationRow, Misfit, PassSummary, Rejection, Tried, TrendPoint
 from .select import Fit, Search, corrected_model
 
 BIC_MIN = 10.0
-"""Minimum BIC gain ("very strong" evidence, Kass & Raftery) for a discrepancy."""
+"""BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is
+worth its expensive final estimate (reverse path with noise, harmonic-balance refit); not a
+selection rule: selection is `.outofsample`."""
 
 
 MIN_REDUCTION = 0.25
-"""Minimum relative reduction of the weighted misfit for a discrepancy."""
+"""The same gate's relative misfit reduction (stepped sine's harmonic-balance refit)."""
 
 
-MIN_REDUCTION_NEXT = 0.5
-"""The same for a further effect (second pass): what remains after a correction holds the
-first estimate's error and model-form approximations, so a further effect must explain at
-least half of it."""
-
-
-MIN_EFFECT = 2 * FLOOR
-"""Minimum relative change of the fitting levels' model FRFs the correction must make."""
+SCORED = 12
+"""Candidates of a pass judged out of sample: the best in sample (BIC), in every pass."""
 
 
 MAX_EFFECTS = 3
@@ -76,17 +74,19 @@ def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
     return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
 
 
-def pruned(model: Model, search: Search, fits: list[Fit],
-            change: Callable[[Model, list[Fit]], float]) -> list[Fit]:
-    """Joint refit, then drop a later effect that the joint estimate makes irrelevant (its
-    removal changes the model FRFs by less than `MIN_EFFECT`: it only stood in for the
-    sequential error of an earlier estimate) and refit the rest."""
+def distinct(fit: Fit) -> bool:
+    """Every parameter interval of ``fit`` excludes zero (no interval: nothing to judge)."""
+    return all(lo > 0 or hi < 0 for lo, hi in fit.ci95.values())
+
+
+def pruned(model: Model, search: Search, fits: list[Fit]) -> list[Fit]:
+    """Joint refit, then drop the latest effect whose jointly refitted parameter is not
+    distinguishable from zero (it only stood in for the sequential error of an earlier
+    estimate) and refit the rest."""
     chosen = joint_refit(model, search, fits)
-    for k in range(len(chosen) - 1, 0, -1):
-        others = chosen[:k] + chosen[k + 1:]
-        if change(apply_fits(model, others), chosen) < MIN_EFFECT:
-            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
-                           change)
+    for k in range(len(chosen) - 1, -1, -1):
+        if len(chosen) > 1 and not distinct(chosen[k]):
+            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand])
     return chosen
 
 
@@ -122,44 +122,60 @@ class SearchPass:
 
 
 MAX_TRIED = 4
-"""Candidates passing the thresholds that a pass tries when a better one is vetoed."""
+"""Candidates with a significant out-of-sample gain that lose on another count and are
+listed as rejected (per pass)."""
 
 
-def decide(model: Model, search: Search, pool: list[Fit],
-           change: Callable[[Model], float], *, further: bool = False,
-           accepted: Sequence[Candidate] = (),
-           veto: Callable[[Fit], str | None] | None = None) -> SearchPass:
-    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass that passes
-    all three thresholds (a stricter misfit reduction for a ``further`` effect) and that
-    ``veto`` (candidate -> reason or None) does not reject; the vetoed ones are kept
-    in ``rejected`` with their reason, and the next candidate is tried (at most
-    `MAX_TRIED`)."""
+def misfits_low(search: Search, floors: Sequence[Floor]) -> bool:
+    """Whether the search's model misfits its lowest fitting level beyond that level's floor
+    (``floors``: per fitting level, in the search's order): its linear part is off."""
+    low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
+    return weighted_error(search.levels[low], search.H0s[low]) > floors[low].limit
+
+
+def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Model], float],
+           *, joint: bool = False, accepted: Sequence[Candidate] = ()) -> SearchPass:
+    """Accept the candidate of ``pool`` (not ``accepted`` in an earlier pass) with the largest
+    out-of-sample gain that wins (`.outofsample.Score.wins`); the `SCORED` best in sample
+    are judged, nonlinear ones jointly with a stiffness correction at their location when
+    ``joint`` (the model misfits its lowest level, `misfits_low`). Candidates with a
+    significant gain that lose on another count, or that leave the model's valid range, are
+    kept in ``rejected`` with their reason."""
     pool = [f for f in pool if f.cand not in accepted]
-    min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
+    labels = [lf.label for lf in search.levels]
+    scored: list[tuple[Fit, Score]] = []
+    for f in pool[:SCORED]:
+        both = joint and not f.cand.linear and not (f.cand.memory and f.extra is None)
+        s = score(search.levels, search.H0s, search.predictor(f, both))
+        f.evidence.update(s.evidence())
+        scored.append((f, s))
+    scored.sort(key=lambda fs: -fs[1].gain)
+    ranked = [f for f, _ in scored] + pool[SCORED:]
     rejected: list[Rejection] = []
-    first = (search.chi2_0 - pool[0].chi2) / search.chi2_0 if pool else 0.0
-    first_effect = 0.0
-    for best in pool[:MAX_TRIED]:
-        reduction = (search.chi2_0 - best.chi2) / search.chi2_0
-        if not (best.delta_bic > BIC_MIN and reduction > min_red):
-            break
-        try:
-            fixed = corrected_model(model, best)
-        except ModelError as exc:   # this candidate only: the next one is tried
-            rejected.append(Rejection(best.cand.label, str(exc)))
-            best.evidence["rejected"] = str(exc)
+
+    def reject(f: Fit, reason: str) -> None:
+        if len(rejected) < MAX_TRIED:
+            rejected.append(Rejection(f.cand.label, reason))
+            f.evidence["rejected"] = reason
+
+    for f, s in scored:
+        if not s.wins:
+            if s.gain > OOS_Z * s.sd:
+                reject(f, s.reason(labels))
             continue
-        effect = change(fixed)
-        first_effect = first_effect or effect
-        if effect < MIN_EFFECT:
-            break
-        reason = veto(best) if veto is not None else None
-        if reason is None:
-            rest = [f for f in pool if f is not best]
-            return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
-        rejected.append(Rejection(best.cand.label, reason))
-        best.evidence["rejected"] = reason
-    return SearchPass(search, pool, first, False, model, first_effect, rejected)
+        try:
+            fixed = corrected_model(model, f)
+        except ModelError as exc:   # this candidate only: the next one is tried
+            reject(f, str(exc))
+            continue
+        return SearchPass(search, [f] + [g for g in ranked if g is not f],
+                          _reduction(search, f), True, fixed, change(fixed), rejected)
+    first = _reduction(search, ranked[0]) if ranked else 0.0
+    return SearchPass(search, ranked, first, False, model, 0.0, rejected)
+
+
+def _reduction(search: Search, fit: Fit) -> float:
+    return float((search.chi2_0 - fit.chi2) / search.chi2_0)
 
 
 def location_table(search: Search, pool: list[Fit], top: int = 8) -> tuple[LocationRow, ...]:
@@ -216,22 +232,8 @@ def misfit_summary(curves: Sequence[LevelCurves], first: SearchPass,
     best = first.pool[0] if first.pool else None
     tried = Tried(len(first.search.cands), best.cand.label if best else None,
                   float(first.reduction), float(best.delta_bic) if best else None,
-                  MIN_REDUCTION, BIC_MIN, tuple(r.candidate for r in rejected))
+                  0.0, 0.0, tuple(r.candidate for r in rejected))
     return Misfit(c.label, (float(c.freqs[i0]), float(c.freqs[i1])), tuple(dofs),
                   tuple(first.search.model.points[i] for i in dofs), tuple(per_dof),
                   tuple(TrendPoint(x.level, x.error_after, x.floor.limit)
                         for x in sorted(curves, key=lambda x: x.level)), tried)
-
-
-def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
-               judge: Callable[[Model, Model], str | None]) -> Callable[[Fit], str | None]:
-    """Veto of a further candidate: the accepted effects plus it, refitted jointly on the
-    first search's levels (as the final correction will be), judged against the correction
-    without it (``judge(previous, corrected)`` -> reason or None). The first estimates of a
-    sequential search are biased by the effects not yet found, so the sequentially corrected
-    model is not what is judged."""
-    if not accepted:
-        return lambda fit: judge(model, corrected_model(model, fit))
-    previous = apply_fits(model, joint_refit(model, first(), accepted))
-    return lambda fit: judge(previous, apply_fits(model, joint_refit(model, first(),
-                                                                 accepted + [fit])))

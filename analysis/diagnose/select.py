@@ -34,7 +34,8 @@ from .candidates import LINEAR_PARAM, Candidate, library
 from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
 from .leakage import leakage_bias
-from .linear_update import Z95, fit_linear_error, updated_frf
+from .linear_update import Z95, fit_linear_error, stiffened, updated_frf
+from .outofsample import Predictor
 from .prepare import Prepared
 from .result import CandidateFit
 
@@ -186,6 +187,44 @@ class Search:
         lo = -MARGIN / flex / kt.max() if kt.max() > 0 else -np.inf
         hi = MARGIN / flex / -kt.min() if kt.min() < 0 else np.inf
         return float(lo), float(hi)
+
+    def predictor(self, fit: Fit, joint: bool = False) -> Predictor:
+        """``fit``'s model FRFs on the fitting levels as a function of its parameters
+        (`.outofsample`); ``joint``: a nonlinear candidate with a stiffness correction at its
+        own location, fitted together."""
+        c = fit.cand
+        if c.linear:
+            name = LINEAR_PARAM[c.kind]
+
+            def linear(t: np.ndarray) -> list[np.ndarray]:
+                return [updated_frf(c, t[0], lf.freqs, hl, h0)
+                        for lf, hl, h0 in zip(self.levels, self.H_lins, self.H0s)]
+            return Predictor(linear, np.array([fit.params[name]]), 1,
+                             np.array([_size(fit.params[name], fit.ci95.get(name))]))
+        if c.memory and fit.extra is None:   # a memory law fitted in all its parameters
+            names = list(KINDS[c.kind].params)
+            theta = np.array([fit.params[n] for n in names])
+            return Predictor(lambda t: self.memory_frfs(c, dict(zip(names, t))), theta,
+                             len(names), np.abs(theta), positive=True)
+        self.ensure_basis(c, fit.extra)
+        key = (c, fit.extra)
+
+        def element(t: np.ndarray) -> list[np.ndarray]:
+            out = []
+            for lf, hl in zip(self.levels, self.H_lins):
+                hl = stiffened(hl, c.w, t[1]) if t.size > 1 else hl
+                out.append(model_frf(hl, lf, self.terms + [(c.w, t[0], key)]))
+            return out
+        name = coef_name(c.kind)
+        p = fit.params[name]
+        scale = [_size(p, fit.ci95.get(name)), 1e-3 * abs(self.model.stiffness_along(c.w))]
+        theta = np.array([p, 0.0] if joint else [p])
+        return Predictor(element, theta, 1, np.array(scale[:theta.size]))
+
+    def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
+        """Model FRFs of the fitting levels with memory element ``c`` (``params``) added;
+        only searches that fit memory laws in all their parameters have it."""
+        raise NotImplementedError(f"{type(self).__name__} fits no memory law directly")
 
     # --- screening ---------------------------------------------------------------------
     def _fit_coefficient(self, c: Candidate, extra: float | None) -> tuple[float, float, float]:
@@ -366,6 +405,12 @@ class RandomSearch(Search):
             return fit
         return Fit(c, params, {name: [float(coef.ci95[0]), float(coef.ci95[1])]}, x2,
                    self.bic_gain(x2, c.n_params), evidence, extra=fit.extra)
+
+
+def _size(value: float, ci: list[float] | tuple[float, float] | None) -> float:
+    """Typical size of a parameter (its value, or its interval's half width when larger)."""
+    half = abs(ci[1] - ci[0]) / 2 if ci is not None and np.all(np.isfinite(ci)) else 0.0
+    return max(abs(value), half, 1e-300)
 
 
 def corrected_model(model: Model, fit: Fit) -> Model:

@@ -135,6 +135,10 @@ class SteppedSearch(Search):
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
 
+    def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
+        return [h0 - (hl @ c.w)[:, :, None] * _transfer(frf, c.kind, params, c.w)[:, None, :]
+                for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)]
+
     def _chi2_memory(self, c: Candidate, params: dict[str, float]) -> float:
         total = 0.0
         for lf, hl, h0, frf in zip(self.levels, self.H_lins, self.H0s, self.frfs):
