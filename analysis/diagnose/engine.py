@@ -25,8 +25,8 @@ from ..plant import PlantError
 from .compare import LevelFRF
 from .leakage import Floor
 from .locate import level_dependence, mismatch_band
-from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, misfits_low,
-                     model_change, pruned, pruned_labels)
+from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, model_change,
+                     pruned, pruned_labels)
 from .joint import joint_refit
 from .replay import Replay
 from .report import LevelCurves, explain, fit_summary
@@ -169,7 +169,7 @@ def search_passes(flow: Flow, tick: Tick) -> Passes:
         start = current
         step = decide(current, search, pool, lambda fixed: model_change(
             [flow.curve(start, fixed, i) for i in flow.fit_idx]),
-            joint=misfits_low(search, floors), accepted=[f.cand for f in found])
+            floors, earlier=found)
         passes.append(step)
         if not step.found:
             break

@@ -21,7 +21,10 @@ A candidate *wins* when its parameter is distinguishable from zero, its gain exc
 its standard deviations and no left-out level is predicted worse by more than `Z` of that
 level's. Where the current model misfits its lowest fitting level beyond the floor (its
 linear part is off), a nonlinear candidate is scored jointly with a stiffness correction at
-its own location (`Predictor.joint`), so that the linear error does not count against it.
+its own location (`Predictor.joint_at`), so that the linear error does not count against it;
+a further candidate is scored with the effects already accepted free (a scale of each
+element's force, a correction of each linear error), so that it is not credited with their
+estimation error.
 
 The fit on a fold is the weighted least-squares step from the candidate's estimate on all
 fitting levels (Gauss-Newton, numerical Jacobian: exact for the kinds linear in their
@@ -68,6 +71,8 @@ class Predictor:
     positive : bool
         The own parameters are positive by nature (memory laws): a fold estimating one
         at or below zero makes no claim.
+    joint_at : int, optional
+        Index in ``theta`` of a stiffness correction fitted jointly (reported).
     """
 
     predict: Predict
@@ -75,10 +80,11 @@ class Predictor:
     own: int
     scale: np.ndarray
     positive: bool = False
+    joint_at: int | None = None
 
     @property
-    def joint(self) -> bool:
-        """Whether a stiffness correction is fitted jointly."""
+    def nuisance(self) -> bool:
+        """Whether parameters beyond the candidate's own are fitted with it."""
         return self.theta.size > self.own
 
 
@@ -149,7 +155,7 @@ def halves(n: int) -> np.ndarray:
 def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor) -> Score:
     """Out-of-sample score of ``pred`` against the current model FRFs ``H0s``."""
     theta = np.asarray(pred.theta, dtype=float).copy()
-    for _ in range(3 if pred.joint else 0):   # Gauss-Newton on all levels for the joint fit
+    for _ in range(3 if pred.nuisance else 0):   # Gauss-Newton: the nuisance starts at 0
         cells = _cells(levels, pred, theta)
         theta = theta + np.linalg.lstsq(sum(c[2] for c in cells), sum(c[3] for c in cells),
                                         rcond=1e-12)[0]
@@ -158,8 +164,12 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     bf = float(np.mean([lf.bin_factor for lf in levels]))
     own = slice(0, pred.own)
 
+    top = float(np.abs(np.linalg.eigvalsh(A_all)).max())
+
     def distinct(t: np.ndarray, A: np.ndarray) -> bool:
-        se = np.sqrt(np.clip(np.diag(np.linalg.pinv(A)), 0, None) * bf / 2)
+        if np.linalg.eigvalsh(A).min() <= 1e-10 * top:
+            return False                    # the data leave a parameter undetermined
+        se = np.sqrt(np.clip(np.diag(np.linalg.inv(A)), 0, None) * bf / 2)
         ok = np.all(np.abs(t[own]) > Z95 * se[own])
         return bool(ok and (not pred.positive or np.all(t[own] > 0)))
 
@@ -168,7 +178,7 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
         A = A_all - sum(c[2] for c in out)
         t = theta + np.linalg.lstsq(A, g_all - sum(c[3] for c in out), rcond=1e-12)[0]
         if not distinct(t, A):      # not identifiable without the left-out data: no claim
-            if not pred.joint:
+            if not pred.nuisance:
                 return H0s[lv]
             t[own] = 0.0
         return pred.predict(t)[lv]
@@ -186,7 +196,8 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
         lg.append(g_)
         ls.append(float(np.sqrt(v_)))
     return Score(float(gain), float(np.sqrt(var)), tuple(lg), tuple(ls),
-                 distinct(theta, A_all), float(theta[pred.own]) if pred.joint else None)
+                 distinct(theta, A_all),
+                 None if pred.joint_at is None else float(theta[pred.joint_at]))
 
 
 def _cells(levels: Sequence[LevelFRF], pred: Predictor, theta: np.ndarray

@@ -126,27 +126,38 @@ MAX_TRIED = 4
 listed as rejected (per pass)."""
 
 
-def misfits_low(search: Search, floors: Sequence[Floor]) -> bool:
-    """Whether the search's model misfits its lowest fitting level beyond that level's floor
-    (``floors``: per fitting level, in the search's order): its linear part is off."""
-    low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
-    return weighted_error(search.levels[low], search.H0s[low]) > floors[low].limit
+def beyond_floor(search: Search, floors: Sequence[Floor]) -> list[bool]:
+    """Per fitting level of ``search`` (``floors`` in its order), whether its model misfits
+    the level beyond the level's floor."""
+    return [weighted_error(lf, h) > fl.limit
+            for lf, h, fl in zip(search.levels, search.H0s, floors)]
 
 
 def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Model], float],
-           *, joint: bool = False, accepted: Sequence[Candidate] = ()) -> SearchPass:
-    """Accept the candidate of ``pool`` (not ``accepted`` in an earlier pass) with the largest
-    out-of-sample gain that wins (`.outofsample.Score.wins`); the `SCORED` best in sample
-    are judged, nonlinear ones jointly with a stiffness correction at their location when
-    ``joint`` (the model misfits its lowest level, `misfits_low`). Candidates with a
-    significant gain that lose on another count, or that leave the model's valid range, are
-    kept in ``rejected`` with their reason."""
-    pool = [f for f in pool if f.cand not in accepted]
+           floors: Sequence[Floor], *, earlier: Sequence[Fit] = ()) -> SearchPass:
+    """Nothing when every fitting level lies within its floor (``floors``, in the search's
+    order: the model is adequate there); else accept the candidate of ``pool`` with the
+    largest out-of-sample gain that wins
+    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged, nonlinear ones
+    jointly with a stiffness correction at their location when the model misfits its lowest
+    level (its linear part is off), every one with the ``earlier`` accepted effects free.
+    An element kind already accepted at a location is not offered again there (either
+    form: the joint refit corrects its estimate). Candidates with a significant gain that
+    lose on another count, or that leave the model's valid range, are kept in ``rejected``
+    with their reason."""
+    beyond = beyond_floor(search, floors)
+    low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
+    joint = beyond[low]
+    if not any(beyond):
+        return SearchPass(search, pool, _reduction(search, pool[0]) if pool else 0.0, False,
+                          model, 0.0)
+    taken = {(f.cand.kind, f.cand.dofs) for f in earlier}
+    pool = [f for f in pool if (f.cand.kind, f.cand.dofs) not in taken]
     labels = [lf.label for lf in search.levels]
     scored: list[tuple[Fit, Score]] = []
     for f in pool[:SCORED]:
         both = joint and not f.cand.linear and not (f.cand.memory and f.extra is None)
-        s = score(search.levels, search.H0s, search.predictor(f, both))
+        s = score(search.levels, search.H0s, search.predictor(f, both, earlier))
         f.evidence.update(s.evidence())
         scored.append((f, s))
     scored.sort(key=lambda fs: -fs[1].gain)
