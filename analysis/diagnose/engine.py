@@ -122,7 +122,7 @@ class Passes:
     @property
     def found(self) -> list[Fit]:
         """The effects accepted, in the order found."""
-        return [s.best for s in self.passes if s.found]
+        return found(self.passes)
 
 
 @dataclass(frozen=True)
@@ -134,6 +134,12 @@ class Correction:
     model: Model
     curves: tuple[LevelCurves, ...]
     rejected: tuple[Rejection, ...]
+
+
+def found(passes: Sequence[SearchPass]) -> list[Fit]:
+    """The effects accepted by ``passes``, in the order found (a jointly accepted linear
+    correction after its effect)."""
+    return [f for s in passes if s.found for f in [s.best] + s.linear]
 
 
 def ticker(progress: Progress | None, total: int) -> Tick:
@@ -164,19 +170,18 @@ def search_passes(flow: Flow, tick: Tick) -> Passes:
     current, settled = model, False
     for k in range(MAX_EFFECTS):
         tick(f"search pass {k + 1}")
-        found = [s.best for s in passes if s.found]
+        accepted = found(passes)
         search, pool = flow.pool(current, settled)
         start = current
         step = decide(current, search, pool, lambda fixed: model_change(
             [flow.curve(start, fixed, i) for i in flow.fit_idx]),
-            floors, earlier=found)
+            floors, earlier=accepted)
         passes.append(step)
         if not step.found:
             break
         current = step.fixed
         if flow.settle:
-            joint = apply_fits(model, joint_refit(model, passes[0].search,
-                                                  [s.best for s in passes if s.found]))
+            joint = apply_fits(model, joint_refit(model, passes[0].search, found(passes)))
             settled = all(flow.curve(model, joint, i).error_after <= flow.floors[i].limit
                           for i in flow.fit_idx)
     return Passes(tuple(passes))

@@ -38,7 +38,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .compare import LevelFRF
+from .compare import LevelFRF, chi2 as _chi2
 from .linear_update import Z95
 
 Z = 3.72
@@ -102,6 +102,11 @@ class Score:
         Every own parameter's 95 % interval on all fitting levels excludes zero.
     joint : float or None
         The stiffness correction fitted jointly on all fitting levels, if any.
+    estimate, interval : tuple
+        Every parameter (own, then nuisance) fitted on all fitting levels and its 95 %
+        interval (``(0, 0)`` for one fixed at zero: not distinguishable from it).
+    chi2 : float
+        The misfit of that fit on all fitting levels.
     """
 
     gain: float
@@ -110,6 +115,9 @@ class Score:
     level_sd: tuple[float, ...]
     distinct: bool
     joint: float | None = None
+    estimate: tuple[float, ...] = ()
+    interval: tuple[tuple[float, float], ...] = ()
+    chi2: float = 0.0
 
     @property
     def harmed(self) -> int | None:
@@ -163,24 +171,16 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     A_all, g_all = sum(c[2] for c in cells), sum(c[3] for c in cells)
     bf = float(np.mean([lf.bin_factor for lf in levels]))
     own = slice(0, pred.own)
-
-    top = float(np.abs(np.linalg.eigvalsh(A_all)).max())
-
-    def distinct(t: np.ndarray, A: np.ndarray) -> bool:
-        if np.linalg.eigvalsh(A).min() <= 1e-10 * top:
-            return False                    # the data leave a parameter undetermined
-        se = np.sqrt(np.clip(np.diag(np.linalg.inv(A)), 0, None) * bf / 2)
-        ok = np.all(np.abs(t[own]) > Z95 * se[own])
-        return bool(ok and (not pred.positive or np.all(t[own] > 0)))
+    d_ref = np.diag(A_all)
 
     def predicted(lv: int, out: list) -> np.ndarray:
-        """Level ``lv`` predicted by the fit without the cells ``out``."""
-        A = A_all - sum(c[2] for c in out)
-        t = theta + np.linalg.lstsq(A, g_all - sum(c[3] for c in out), rcond=1e-12)[0]
-        if not distinct(t, A):      # not identifiable without the left-out data: no claim
-            if not pred.nuisance:
-                return H0s[lv]
-            t[own] = 0.0
+        """Level ``lv`` predicted by the fit without the cells ``out`` (no claim, the
+        current model, when the candidate's own parameters are not identified)."""
+        t, free = _fold(theta, A_all - sum(c[2] for c in out),
+                        g_all - sum(c[3] for c in out), bf, d_ref)
+        if (not free[own].all() and not pred.nuisance) or (pred.positive
+                                                           and np.any(t[own] <= 0)):
+            return H0s[lv]
         return pred.predict(t)[lv]
 
     gain = var = 0.0
@@ -195,9 +195,39 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
                        np.ones(lf.freqs.size, dtype=bool))
         lg.append(g_)
         ls.append(float(np.sqrt(v_)))
-    return Score(float(gain), float(np.sqrt(var)), tuple(lg), tuple(ls),
-                 distinct(theta, A_all),
-                 None if pred.joint_at is None else float(theta[pred.joint_at]))
+    free = _fold(theta, A_all, g_all, bf, d_ref)[1]
+    distinct = bool(free[own].all() and (not pred.positive or np.all(theta[own] > 0)))
+    se = np.sqrt(np.clip(np.diag(np.linalg.pinv(A_all, rcond=1e-14)), 0, None) * bf / 2)
+    interval = tuple((float(t - Z95 * e), float(t + Z95 * e)) if f else (0.0, 0.0)
+                     for t, e, f in zip(theta, se, free))
+    x2 = sum(_chi2(lf, h) for lf, h in zip(levels, pred.predict(theta)))
+    return Score(float(gain), float(np.sqrt(var)), tuple(lg), tuple(ls), distinct,
+                 None if pred.joint_at is None else float(theta[pred.joint_at]),
+                 tuple(float(t) for t in theta), interval, float(x2))
+
+
+def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted least-squares step from ``theta`` on the normal equations ``A``, ``g``
+    of a fold's data, with each parameter that those data leave undetermined or not
+    distinguishable from zero (95 %) fixed at zero -- the current model's value, no claim --
+    and the rest refitted (the weakest dropped first). Returns the parameters and the mask
+    of the free ones."""
+    free = np.diag(A) > 1e-10 * d_ref
+    t = np.zeros_like(theta)
+    while free.any():
+        n = 1 / np.sqrt(np.diag(A)[free])        # normalised: parameters of any scale
+        C = A[np.ix_(free, free)] * n[:, None] * n[None, :]
+        rhs = g[free] + A[np.ix_(free, ~free)] @ theta[~free]
+        Ci = np.linalg.pinv(C, rcond=1e-10)
+        t = np.zeros_like(theta)
+        t[free] = theta[free] + n * (Ci @ (n * rhs))
+        se = n * np.sqrt(np.clip(np.diag(Ci), 0, None) * bf / 2)
+        z = np.abs(t[free]) / np.maximum(se, 1e-300)
+        if z.min() > Z95:
+            break
+        free[np.flatnonzero(free)[np.argmin(z)]] = False
+    return t, free
 
 
 def _cells(levels: Sequence[LevelFRF], pred: Predictor, theta: np.ndarray

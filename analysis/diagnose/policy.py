@@ -20,7 +20,7 @@ from .prepare import DiagnoseInputError
 from .report import LevelCurves
 from .outofsample import Z as OOS_Z, Score, score
 from .result import GroundedEnd, LocationRow, Misfit, PassSummary, Rejection, Tried, TrendPoint
-from .select import Fit, Search, corrected_model
+from .select import Fit, Search, coef_name, corrected_model, scaled_params
 
 BIC_MIN = 10.0
 """BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is
@@ -71,7 +71,8 @@ def pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] 
 def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
     """Labels of accepted candidates that `pruned` dropped."""
     kept = [f.cand for f in chosen]
-    return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
+    return [f.cand.label for s in passes if s.found for f in [s.best] + s.linear
+            if f.cand not in kept]
 
 
 def distinct(fit: Fit) -> bool:
@@ -108,6 +109,8 @@ class SearchPass:
     fixed: Model
     effect: float
     rejected: list[Rejection] = field(default_factory=list)
+    linear: list[Fit] = field(default_factory=list)
+    """The linear correction accepted jointly with ``best`` (`with_linear_part`)."""
 
     @property
     def best(self) -> Fit:
@@ -174,15 +177,34 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
             if s.gain > OOS_Z * s.sd:
                 reject(f, s.reason(labels))
             continue
+        fits = with_linear_part(search, f, s)
         try:
-            fixed = corrected_model(model, f)
+            fixed = apply_fits(model, fits)
         except ModelError as exc:   # this candidate only: the next one is tried
             reject(f, str(exc))
             continue
-        return SearchPass(search, [f] + [g for g in ranked if g is not f],
-                          _reduction(search, f), True, fixed, change(fixed), rejected)
+        return SearchPass(search, [fits[0]] + [g for g in ranked if g is not f],
+                          _reduction(search, fits[0]), True, fixed, change(fixed), rejected,
+                          fits[1:])
     first = _reduction(search, ranked[0]) if ranked else 0.0
     return SearchPass(search, ranked, first, False, model, 0.0, rejected)
+
+
+def with_linear_part(search: Search, fit: Fit, s: Score) -> list[Fit]:
+    """The accepted effect, and with it the stiffness correction at its location when it was
+    scored jointly with one distinguishable from zero: both at their joint estimate."""
+    if s.joint is None or s.interval[1] == (0.0, 0.0):
+        return [fit]
+    c = fit.cand
+    ev = {"estimator": f"joint fit with {c.label}"}
+    params = scaled_params(c.kind, s.estimate[0], fit.extra)
+    name = coef_name(c.kind)
+    own = Fit(c, params, {name: list(s.interval[0])}, s.chi2, fit.delta_bic,
+              dict(fit.evidence, estimator="joint fit with the stiffness correction",
+                   sequential_estimate=fit.params[name]), extra=fit.extra)
+    lin = Candidate("stiffness_error", c.dofs, c.n_dof, names=c.names)
+    return [own, Fit(lin, {"delta_stiffness": s.estimate[1]},
+                     {"delta_stiffness": list(s.interval[1])}, s.chi2, fit.delta_bic, ev)]
 
 
 def _reduction(search: Search, fit: Fit) -> float:
