@@ -10,8 +10,10 @@ judgement:
   over the half-levels. An effect seen at one level only is still confirmed out of sample
   this way;
 * **levels** (no harm): each fitting level is predicted by the candidate fitted on the other
-  fitting levels alone. A parameter that the other levels leave indistinguishable from zero
-  makes no claim there (predicts no change);
+  fitting levels alone (its nuisance parameters, below, at their estimate on all levels: one
+  strongly nonlinear level cannot separate a linear correction from the candidate). A
+  parameter that the other levels leave indistinguishable from zero makes no claim there
+  (predicts no change);
 * **uncertainty**: the standard deviation of a gain is that of ``2 Re <e, m>`` under the
   left-out data's noise (``e`` its misfit, ``m`` the predicted change): ``sqrt(8 |m|^2 /
   bin_factor)`` in ``chi2`` units; a candidate's parameter must be distinguishable from zero
@@ -145,10 +147,10 @@ class Score:
 
     def evidence(self) -> dict[str, float]:
         """The numbers for a candidate's evidence mapping."""
-        out = {"oos_gain": float(self.gain), "oos_sd": float(self.sd),
-               "oos_worst_level_z": float(min((g / s if s > 0 else 0.0)
-                                              for g, s in zip(self.level_gain,
-                                                              self.level_sd)))}
+        out = {"oos_gain": float(self.gain), "oos_sd": float(self.sd)}
+        if self.level_gain:
+            out["oos_worst_level_z"] = float(min((g / s if s > 0 else 0.0) for g, s in
+                                                 zip(self.level_gain, self.level_sd)))
         if self.joint is not None:
             out["joint_delta_stiffness"] = float(self.joint)
         return out
@@ -173,11 +175,12 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     own = slice(0, pred.own)
     d_ref = np.diag(A_all)
 
-    def predicted(lv: int, out: list) -> np.ndarray:
+    def predicted(lv: int, out: list, hold: int = 0) -> np.ndarray:
         """Level ``lv`` predicted by the fit without the cells ``out`` (no claim, the
-        current model, when the candidate's own parameters are not identified)."""
+        current model, when the candidate's own parameters are not identified; ``hold``:
+        the nuisance stays at its estimate on all levels)."""
         t, free = _fold(theta, A_all - sum(c[2] for c in out),
-                        g_all - sum(c[3] for c in out), bf, d_ref)
+                        g_all - sum(c[3] for c in out), bf, d_ref, hold)
         if (not free[own].all() and not pred.nuisance) or (pred.positive
                                                            and np.any(t[own] <= 0)):
             return H0s[lv]
@@ -191,7 +194,8 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
         gain, var = gain + g_, var + v_
     lg, ls = [], []
     for lv, lf in enumerate(levels if len(levels) > 1 else []):
-        g_, v_ = _gain(lf, H0s[lv], predicted(lv, [c for c in cells if c[0] == lv]),
+        g_, v_ = _gain(lf, H0s[lv], predicted(lv, [c for c in cells if c[0] == lv],
+                                              pred.own if pred.nuisance else 0),
                        np.ones(lf.freqs.size, dtype=bool))
         lg.append(g_)
         ls.append(float(np.sqrt(v_)))
@@ -206,21 +210,26 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
                  tuple(float(t) for t in theta), interval, float(x2))
 
 
-def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray]:
+def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray,
+          hold: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """The weighted least-squares step from ``theta`` on the normal equations ``A``, ``g``
     of a fold's data, with each parameter that those data leave undetermined or not
     distinguishable from zero (95 %) fixed at zero -- the current model's value, no claim --
-    and the rest refitted (the weakest dropped first). Returns the parameters and the mask
-    of the free ones."""
-    free = np.diag(A) > 1e-10 * d_ref
-    t = np.zeros_like(theta)
+    and the rest refitted (the weakest dropped first); the parameters from index ``hold``
+    on (when positive) stay at ``theta``. Returns the parameters and the mask of the free
+    ones."""
+    held = np.zeros(theta.size, dtype=bool)
+    if hold:
+        held[hold:] = True
+    free = (np.diag(A) > 1e-10 * d_ref) & ~held
+    t = np.where(held, theta, 0.0)
     while free.any():
         n = 1 / np.sqrt(np.diag(A)[free])        # normalised: parameters of any scale
         C = A[np.ix_(free, free)] * n[:, None] * n[None, :]
-        rhs = g[free] + A[np.ix_(free, ~free)] @ theta[~free]
+        zero = ~free & ~held
+        rhs = g[free] + A[np.ix_(free, zero)] @ theta[zero]
         Ci = np.linalg.pinv(C, rcond=1e-10)
-        t = np.zeros_like(theta)
+        t = np.where(held, theta, 0.0)
         t[free] = theta[free] + n * (Ci @ (n * rhs))
         se = n * np.sqrt(np.clip(np.diag(Ci), 0, None) * bf / 2)
         z = np.abs(t[free]) / np.maximum(se, 1e-300)

@@ -141,9 +141,9 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     """Nothing when every fitting level lies within its floor (``floors``, in the search's
     order: the model is adequate there); else accept the candidate of ``pool`` with the
     largest out-of-sample gain that wins
-    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged, nonlinear ones
-    jointly with a stiffness correction at their location when the model misfits its lowest
-    level (its linear part is off), every one with the ``earlier`` accepted effects free.
+    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when
+    none wins and the model misfits its lowest level (its linear part is off), nonlinear
+    ones jointly with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
     An element kind already accepted at a location is not offered again there (either
     form: the joint refit corrects its estimate). Candidates with a significant gain that
     lose on another count, or that leave the model's valid range, are kept in ``rejected``
@@ -157,13 +157,18 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     taken = {(f.cand.kind, f.cand.dofs) for f in earlier}
     pool = [f for f in pool if (f.cand.kind, f.cand.dofs) not in taken]
     labels = [lf.label for lf in search.levels]
-    scored: list[tuple[Fit, Score]] = []
-    for f in pool[:SCORED]:
-        both = joint and not f.cand.linear and not (f.cand.memory and f.extra is None)
-        s = score(search.levels, search.H0s, search.predictor(f, both, earlier))
-        f.evidence.update(s.evidence())
-        scored.append((f, s))
-    scored.sort(key=lambda fs: -fs[1].gain)
+
+    def judge(jointly: bool) -> list[tuple[Fit, Score]]:
+        out = []
+        for f in pool[:SCORED]:
+            both = jointly and not f.cand.linear and not (f.cand.memory and f.extra is None)
+            s = score(search.levels, search.H0s, search.predictor(f, both, earlier))
+            f.evidence.update(s.evidence())
+            out.append((f, s))
+        return sorted(out, key=lambda fs: -fs[1].gain)
+    scored = judge(False)
+    if joint and not any(s.wins for _, s in scored):
+        scored = judge(True)     # the simpler explanation first, then with the linear part
     ranked = [f for f, _ in scored] + pool[SCORED:]
     rejected: list[Rejection] = []
 
