@@ -141,9 +141,9 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     """Nothing when every fitting level lies within its floor (``floors``, in the search's
     order: the model is adequate there); else accept the candidate of ``pool`` with the
     largest out-of-sample gain that wins
-    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when
-    none wins and the model misfits its lowest level (its linear part is off), nonlinear
-    ones jointly with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
+    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when the
+    model misfits its lowest level (its linear part is off), nonlinear ones also jointly
+    with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
     An element kind already accepted at a location is not offered again there (either
     form: the joint refit corrects its estimate). Candidates with a significant gain that
     lose on another count, or that leave the model's valid range, are kept in ``rejected``
@@ -166,10 +166,10 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
             f.evidence.update(s.evidence())
             out.append((f, s))
         return sorted(out, key=lambda fs: -fs[1].gain)
-    scored = judge(False)
-    if joint and not any(s.wins for _, s in scored):
-        scored = judge(True)     # the simpler explanation first, then with the linear part
-    ranked = [f for f, _ in scored] + pool[SCORED:]
+    scored = judge(False) + (judge(True) if joint else [])
+    scored.sort(key=lambda fs: -fs[1].gain)
+    winning = {id(f) for f, s in scored if s.wins}
+    ranked = list({id(f): f for f, _ in scored}.values()) + pool[SCORED:]
     rejected: list[Rejection] = []
 
     def reject(f: Fit, reason: str) -> None:
@@ -179,7 +179,7 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
 
     for f, s in scored:
         if not s.wins:
-            if s.gain > OOS_Z * s.sd:
+            if s.gain > OOS_Z * s.sd and id(f) not in winning:
                 reject(f, s.reason(labels))
             continue
         fits = with_linear_part(search, f, s)
