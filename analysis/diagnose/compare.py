@@ -29,11 +29,10 @@ import numpy as np
 from ..models import KINDS, Element, Model, restoring_force
 from ..modal import welch_smoothing
 from ..recordings import KIND_ORDER
-from ..spectral import h1, hold_gain, multiple_coherence, spectral_matrix
+from ..spectral import excited_lines, h1, hold_gain, multiple_coherence, spectral_matrix
 from .prepare import Prepared
 
 GROUP = 8
-EXCITED = 1e-3
 FLOOR = 0.01
 """Model-precision floor: FRF deviations below 1 % of |H| are not treated as significant."""
 
@@ -207,9 +206,9 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
     n_dof, n_in = p.x.shape[1], p.force.shape[1]
     sp = _spectra(p, band, nperseg, np.concatenate([p.x, p.force], axis=1))
     xi, fi = list(range(n_dof)), list(range(n_dof, n_dof + n_in))
-    # Unexcited bins (between multisine lines, outside the drive band) carry no FRF.
+    # Only the lines the force excites carry an FRF (`analysis.spectral.excited_lines`).
     fpsd = np.einsum("fii->f", sp.block(fi, fi)).real
-    keep = fpsd >= EXCITED * np.median(fpsd)
+    keep = _excited(p, sp.freqs, fpsd, band)
     sp.freqs, sp.S = sp.freqs[keep], sp.S[keep]
     S_ff = sp.block(fi, fi)
     S_xf = sp.block(xi, fi)
@@ -232,6 +231,35 @@ def level_frf(p: Prepared, band: tuple[float, float], nperseg: int,
         "hann", nperseg, p.fs, input_spectrum=(sp.freqs, fpsd[keep]))
     return LevelFRF(p.label, p.level, sp.freqs, H, coh, var, B, T, sp.bin_factor, n_eff,
                     smoothing, noise_dof=dof, kind_order=KIND_ORDER[p.response_kind])
+
+
+MAINS_HZ = (50.0, 60.0)
+"""Mains frequencies: their first three harmonics are interference on periodic records."""
+
+
+def _excited(p: Prepared, freqs: np.ndarray, fpsd: np.ndarray, band: tuple[float, float]
+             ) -> np.ndarray:
+    """Mask of the lines of ``freqs`` the force excites (`analysis.spectral.excited_lines`:
+    the project's one rule; for a periodic record with the steadiness of each line over the
+    periods). A periodic record also leaves out its lines at the mains frequencies and their
+    harmonics: mains pick-up on a response is steady from period to period, so where the
+    drive excites that line too nothing tells the two apart (measured: a 50 Hz line at 5 %
+    of the rms put a linear model's FRF error at 0.050 against a floor of 0.0105)."""
+    noise = None
+    if p.period is not None and p.x.shape[0] >= 2 * p.period:
+        n_per = p.force.shape[0] // p.period
+        per = p.force[:n_per * p.period].reshape(n_per, p.period, -1)
+        F = np.fft.rfft(per, axis=1)[:, np.rint(freqs * p.period / p.fs).astype(int)]
+        noise = np.sum(np.var(F, axis=0), axis=-1) / n_per * np.sum(fpsd) / max(
+            float(np.sum(np.abs(F.mean(axis=0)) ** 2)), 1e-300)
+    keep = np.zeros(freqs.size, dtype=bool)
+    keep[excited_lines(freqs, fpsd, noise, band=band).lines] = True
+    if p.period is not None:
+        df = p.fs / p.period
+        for f0 in MAINS_HZ:
+            for k in (1, 2, 3):
+                keep &= np.abs(freqs - k * f0) > df / 2
+    return keep
 
 
 def _spectra(p: Prepared, band: tuple[float, float], nperseg: int, data: np.ndarray):

@@ -3,10 +3,10 @@
 1. prepare: a `Flow` holds the levels in its order, which are held back and their floors
    (`.search.RandomFlow`, `.stepped.SteppedFlow`);
 2. `search_passes`: each pass screens and locates every candidate of the library on the
-   current model (`Flow.pool`) and `policy.decide`s; a found effect is added and the library
-   searched again (at most `policy.MAX_EFFECTS`);
+   current model (`Flow.pool`) and `policy.decide`s out of sample (`.outofsample`); a found
+   effect is added and the library searched again (at most `policy.MAX_EFFECTS`);
 3. `correct`: joint refit and pruning of the found effects, then the final correction, which
-   must worsen no level (and, with replays, must replay);
+   must replay (where the flow has replays);
 4. `conclude`: verdict, location, held-back fit, evidence and the explanation.
 
 What differs between the data types is passed in by the flow, as scipy.signal's
@@ -25,11 +25,11 @@ from ..plant import PlantError
 from .compare import LevelFRF
 from .leakage import Floor
 from .locate import level_dependence, mismatch_band
-from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, joint_veto, misfit_summary,
-                     model_change, pruned, pruned_labels)
+from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, model_change,
+                     pruned, pruned_labels)
 from .joint import joint_refit
 from .replay import Replay
-from .report import LevelCurves, explain, fit_summary, worsened
+from .report import LevelCurves, explain, fit_summary
 from .result import Diagnosis, Evidence, Location, Rejection, Verdict
 from .select import Fit, Search
 from .where import alternatives
@@ -84,11 +84,6 @@ class Flow(ABC):
         """Indices of the fitting levels."""
         return [i for i, h in enumerate(self.held) if not h]
 
-    @property
-    def judged(self) -> list[int]:
-        """Level order of a rejection's reason: fitting levels, then the held-back ones."""
-        return self.fit_idx + [i for i, h in enumerate(self.held) if h]
-
     @abstractmethod
     def curve(self, start: Model, fixed: Model, i: int) -> LevelCurves:
         """Level ``i`` measured and modelled by ``start`` (before) and ``fixed`` (after)."""
@@ -128,7 +123,7 @@ class Passes:
     @property
     def found(self) -> list[Fit]:
         """The effects accepted, in the order found."""
-        return [s.best for s in self.passes if s.found]
+        return found(self.passes)
 
 
 @dataclass(frozen=True)
@@ -140,6 +135,12 @@ class Correction:
     model: Model
     curves: tuple[LevelCurves, ...]
     rejected: tuple[Rejection, ...]
+
+
+def found(passes: Sequence[SearchPass]) -> list[Fit]:
+    """The effects accepted by ``passes``, in the order found (a jointly accepted linear
+    correction after its effect)."""
+    return [f for s in passes if s.found for f in [s.best] + s.linear]
 
 
 def ticker(progress: Progress | None, total: int) -> Tick:
@@ -162,31 +163,26 @@ def run(flow: Flow, progress: Progress | None = None) -> Diagnosis:
 
 
 def search_passes(flow: Flow, tick: Tick) -> Passes:
-    """Search passes until one finds nothing (at most `MAX_EFFECTS`); a further candidate
-    is vetoed when the effects refitted jointly with it worsen a level."""
-    model, judged = flow.model, flow.judged
-
-    def judge(previous: Model, fixed: Model) -> str | None:
-        return worsened([flow.curve(previous, fixed, i) for i in judged],
-                        [flow.floors[i] for i in judged])
+    """Search passes until one finds nothing (at most `MAX_EFFECTS`); each accepts the
+    candidate that wins out of sample (`policy.decide`)."""
+    model = flow.model
+    floors = [flow.floors[i] for i in flow.fit_idx]
     passes: list[SearchPass] = []
     current, settled = model, False
     for k in range(MAX_EFFECTS):
         tick(f"search pass {k + 1}")
-        found = [s.best for s in passes if s.found]
+        accepted = found(passes)
         search, pool = flow.pool(current, settled)
         start = current
         step = decide(current, search, pool, lambda fixed: model_change(
-            [flow.curve(start, fixed, i) for i in flow.fit_idx]), further=bool(found),
-            accepted=[f.cand for f in found],
-            veto=joint_veto(model, lambda: passes[0].search, found, judge))
+            [flow.curve(start, fixed, i) for i in flow.fit_idx]),
+            floors, earlier=accepted)
         passes.append(step)
         if not step.found:
             break
         current = step.fixed
         if flow.settle:
-            joint = apply_fits(model, joint_refit(model, passes[0].search,
-                                                  [s.best for s in passes if s.found]))
+            joint = apply_fits(model, joint_refit(model, passes[0].search, found(passes)))
             settled = all(flow.curve(model, joint, i).error_after <= flow.floors[i].limit
                           for i in flow.fit_idx)
     return Passes(tuple(passes))
@@ -194,23 +190,18 @@ def search_passes(flow: Flow, tick: Tick) -> Passes:
 
 def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
     """Joint refit and pruning of the found effects; the last effect is dropped while the
-    correction worsens a level beyond its floor or its replay fails."""
+    corrected model's replay fails."""
     model, first = flow.model, passes.first
-
-    def change(without: Model, fits: list[Fit]) -> float:
-        return model_change([flow.curve(without, apply_fits(model, fits), i)
-                             for i in flow.fit_idx])
     tick("joint refit")
-    chosen = pruned(model, first.search, passes.found, change)
+    chosen = pruned(model, first.search, passes.found)
     rejected = [replace(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes.passes)
                 for r in s.rejected]
     before = flow.start_replays(tick)
     while True:
         current = apply_fits(model, chosen)
         curves = [flow.curve(model, current, i) for i in range(len(flow.held))]
-        reason = worsened(curves, flow.floors) if chosen else None
-        after = None
-        if reason is None and chosen:
+        reason = after = None
+        if chosen:
             try:
                 after = flow.corrected_replays(current, tick)
             except PlantError as exc:
@@ -219,7 +210,7 @@ def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
             break
         rejected.append(Rejection(chosen[-1].cand.label, reason, "joint correction"))
         if flow.refit_on_reject:
-            chosen = pruned(model, first.search, chosen[:-1], change) if chosen[1:] else []
+            chosen = pruned(model, first.search, chosen[:-1]) if chosen[1:] else []
         else:
             chosen = chosen[:-1]
     curves = [replace(c, floor=fl) for c, fl in zip(curves, flow.floors)]

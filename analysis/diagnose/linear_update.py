@@ -37,6 +37,15 @@ def updated_frf(cand: Candidate, delta: float, freqs: np.ndarray, H_lin: np.ndar
     return H0 - (ds / (1 + ds * c))[:, None, None] * a[:, :, None] * b[:, None, :]
 
 
+def updated_receptance(H_lin: np.ndarray, kind: str, w: np.ndarray, delta: float,
+                       freqs: np.ndarray) -> np.ndarray:
+    """Receptance after adding the linear error ``delta`` of ``kind`` at ``w w^T``
+    (Sherman-Morrison; ``H_lin`` symmetric), shape like ``H_lin``."""
+    a = H_lin @ w
+    ds = delta * _scale(kind, freqs)
+    return H_lin - (ds / (1 + ds * (a @ w)))[:, None, None] * a[:, :, None] * a[:, None, :]
+
+
 def fit_linear_error(cand: Candidate, levels: list, H_lins: list[np.ndarray],
                      H0s: list[np.ndarray]) -> tuple[float, float]:
     """Least-squares ``delta`` (and its standard error) over all given levels.

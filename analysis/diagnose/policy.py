@@ -11,30 +11,29 @@ import numpy as np
 
 from ..errors import ModelError
 from ..models import Candidate, Model
-from .compare import FLOOR
+from .compare import weighted_error
 from .joint import joint_refit
+from .leakage import Floor
 from .locate import level_dependence
 from .prepare import DiagnoseInputError
 from .report import LevelCurves
+from .outofsample import Z as OOS_Z, Score, score
 from .result import Misfit, PassSummary, Rejection, Tried, TrendPoint
-from .select import Fit, Search, corrected_model
+from .select import Fit, Search, coef_name, corrected_model, scaled_params
 
 BIC_MIN = 10.0
-"""Minimum BIC gain ("very strong" evidence, Kass & Raftery) for a discrepancy."""
+"""BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is
+worth its expensive final estimate (reverse path with noise, harmonic-balance refit); not a
+selection rule: selection is `.outofsample`."""
 
 
 MIN_REDUCTION = 0.25
-"""Minimum relative reduction of the weighted misfit for a discrepancy."""
+"""The same gate's relative misfit reduction (stepped sine's harmonic-balance refit)."""
 
 
-MIN_REDUCTION_NEXT = 0.5
-"""The same for a further effect (second pass): what remains after a correction holds the
-first estimate's error and model-form approximations, so a further effect must explain at
-least half of it."""
-
-
-MIN_EFFECT = 2 * FLOOR
-"""Minimum relative change of the fitting levels' model FRFs the correction must make."""
+SCORED = 12
+"""Candidates of a pass judged out of sample: the best in sample (BIC), in every pass, and
+beside them the best in sample of every other kind (`judged`)."""
 
 
 MAX_EFFECTS = 3
@@ -72,20 +71,23 @@ def pick_holdout(levels: list[float], holdout: float | str | None) -> list[int] 
 def pruned_labels(passes: list[SearchPass], chosen: list[Fit]) -> list[str]:
     """Labels of accepted candidates that `pruned` dropped."""
     kept = [f.cand for f in chosen]
-    return [s.best.cand.label for s in passes if s.found and s.best.cand not in kept]
+    return [f.cand.label for s in passes if s.found for f in [s.best] + s.linear
+            if f.cand not in kept]
 
 
-def pruned(model: Model, search: Search, fits: list[Fit],
-            change: Callable[[Model, list[Fit]], float]) -> list[Fit]:
-    """Joint refit, then drop a later effect that the joint estimate makes irrelevant (its
-    removal changes the model FRFs by less than `MIN_EFFECT`: it only stood in for the
-    sequential error of an earlier estimate) and refit the rest."""
+def distinct(fit: Fit) -> bool:
+    """Every parameter interval of ``fit`` excludes zero (no interval: nothing to judge)."""
+    return all(lo > 0 or hi < 0 for lo, hi in fit.ci95.values())
+
+
+def pruned(model: Model, search: Search, fits: list[Fit]) -> list[Fit]:
+    """Joint refit, then drop the latest effect whose jointly refitted parameter is not
+    distinguishable from zero (it only stood in for the sequential error of an earlier
+    estimate) and refit the rest."""
     chosen = joint_refit(model, search, fits)
-    for k in range(len(chosen) - 1, 0, -1):
-        others = chosen[:k] + chosen[k + 1:]
-        if change(apply_fits(model, others), chosen) < MIN_EFFECT:
-            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand],
-                           change)
+    for k in range(len(chosen) - 1, -1, -1):
+        if len(chosen) > 1 and not distinct(chosen[k]):
+            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand])
     return chosen
 
 
@@ -107,6 +109,8 @@ class SearchPass:
     fixed: Model
     effect: float
     rejected: list[Rejection] = field(default_factory=list)
+    linear: list[Fit] = field(default_factory=list)
+    """The linear correction accepted jointly with ``best`` (`with_linear_part`)."""
 
     @property
     def best(self) -> Fit:
@@ -121,44 +125,119 @@ class SearchPass:
 
 
 MAX_TRIED = 4
-"""Candidates passing the thresholds that a pass tries when a better one is vetoed."""
+"""Candidates with a significant out-of-sample gain that lose on another count and are
+listed as rejected (per pass)."""
 
 
-def decide(model: Model, search: Search, pool: list[Fit],
-           change: Callable[[Model], float], *, further: bool = False,
-           accepted: Sequence[Candidate] = (),
-           veto: Callable[[Fit], str | None] | None = None) -> SearchPass:
-    """Accept the best candidate of ``pool`` not ``accepted`` in an earlier pass that passes
-    all three thresholds (a stricter misfit reduction for a ``further`` effect) and that
-    ``veto`` (candidate -> reason or None) does not reject; the vetoed ones are kept
-    in ``rejected`` with their reason, and the next candidate is tried (at most
-    `MAX_TRIED`)."""
-    pool = [f for f in pool if f.cand not in accepted]
-    min_red = MIN_REDUCTION_NEXT if further else MIN_REDUCTION
+def beyond_floor(search: Search, floors: Sequence[Floor]) -> list[bool]:
+    """Per fitting level of ``search`` (``floors`` in its order), whether its model misfits
+    the level beyond the level's floor."""
+    return [weighted_error(lf, h) > fl.limit
+            for lf, h, fl in zip(search.levels, search.H0s, floors)]
+
+
+def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Model], float],
+           floors: Sequence[Floor], *, earlier: Sequence[Fit] = ()) -> SearchPass:
+    """Nothing when every fitting level lies within its floor (``floors``, in the search's
+    order: the model is adequate there); else accept the candidate of ``pool`` with the
+    largest out-of-sample gain that wins
+    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when the
+    model misfits its lowest level (its linear part is off), nonlinear ones also jointly
+    with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
+    An element kind already accepted at a location is not offered again there (either
+    form: the joint refit corrects its estimate). Candidates with a significant gain that
+    lose on another count, or that leave the model's valid range, are kept in ``rejected``
+    with their reason."""
+    beyond = beyond_floor(search, floors)
+    low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
+    joint = beyond[low]
+    if not any(beyond):
+        return SearchPass(search, pool, _reduction(search, pool[0]) if pool else 0.0, False,
+                          model, 0.0)
+    taken = {(f.cand.kind, f.cand.dofs) for f in earlier}
+    pool = [f for f in pool if (f.cand.kind, f.cand.dofs) not in taken]
+    labels = [lf.label for lf in search.levels]
+
+    candidates = judged(pool)
+
+    def judge(jointly: bool) -> list[tuple[Fit, Score]]:
+        out = []
+        for f in candidates:
+            both = jointly and not f.cand.linear and not (f.cand.memory and f.extra is None)
+            s = score(search.levels, search.H0s, search.predictor(f, both, earlier))
+            f.evidence.update(s.evidence())
+            out.append((f, s))
+        return sorted(out, key=lambda fs: -fs[1].gain)
+    scored = judge(False) + (judge(True) if joint else [])
+    scored.sort(key=lambda fs: -fs[1].gain)
+    winning = {id(f) for f, s in scored if s.wins}
+    ranked = list({id(f): f for f, _ in scored}.values())
+    ranked += [f for f in pool if all(f is not g for g in candidates)]
     rejected: list[Rejection] = []
-    first = (search.chi2_0 - pool[0].chi2) / search.chi2_0 if pool else 0.0
-    first_effect = 0.0
-    for best in pool[:MAX_TRIED]:
-        reduction = (search.chi2_0 - best.chi2) / search.chi2_0
-        if not (best.delta_bic > BIC_MIN and reduction > min_red):
-            break
-        try:
-            fixed = corrected_model(model, best)
-        except ModelError as exc:   # this candidate only: the next one is tried
-            rejected.append(Rejection(best.cand.label, str(exc)))
-            best.evidence["rejected"] = str(exc)
+
+    def reject(f: Fit, reason: str) -> None:
+        if len(rejected) < MAX_TRIED:
+            rejected.append(Rejection(f.cand.label, reason))
+            f.evidence["rejected"] = reason
+
+    for f, s in scored:
+        if not s.wins:
+            if s.gain > OOS_Z * s.sd and id(f) not in winning:
+                reject(f, s.reason(labels))
             continue
-        effect = change(fixed)
-        first_effect = first_effect or effect
-        if effect < MIN_EFFECT:
-            break
-        reason = veto(best) if veto is not None else None
-        if reason is None:
-            rest = [f for f in pool if f is not best]
-            return SearchPass(search, [best] + rest, reduction, True, fixed, effect, rejected)
-        rejected.append(Rejection(best.cand.label, reason))
-        best.evidence["rejected"] = reason
-    return SearchPass(search, pool, first, False, model, first_effect, rejected)
+        fits = with_linear_part(search, f, s)
+        try:
+            fixed = apply_fits(model, fits)
+        except ModelError as exc:   # this candidate only: the next one is tried
+            reject(f, str(exc))
+            continue
+        return SearchPass(search, [fits[0]] + [g for g in ranked if g is not f],
+                          _reduction(search, fits[0]), True, fixed, change(fixed), rejected,
+                          fits[1:])
+    first = _reduction(search, ranked[0]) if ranked else 0.0
+    return SearchPass(search, ranked, first, False, model, 0.0, rejected)
+
+
+def other_kinds(fits: list[Fit], n: int) -> list[Fit]:
+    """The best of ``fits`` (best first) of every kind and form not among the first ``n``."""
+    seen = {(f.cand.kind, f.cand.compensated) for f in fits[:n]}
+    out = []
+    for f in fits[n:]:
+        if (f.cand.kind, f.cand.compensated) not in seen:
+            seen.add((f.cand.kind, f.cand.compensated))
+            out.append(f)
+    return out
+
+
+def judged(pool: Sequence[Fit]) -> list[Fit]:
+    """The candidates of ``pool`` (best in sample first) judged out of sample: the `SCORED`
+    best, and the best of every element kind (and form) not among them. An element kind
+    that explains the data only together with a correction of the linear part ranks low in
+    sample, where the linear error is unexplained; its out-of-sample judgement must not hang
+    on how many other kinds the library holds."""
+    head = list(pool[:SCORED])
+    return head + other_kinds(head + [f for f in pool[SCORED:] if not f.cand.linear], SCORED)
+
+
+def with_linear_part(search: Search, fit: Fit, s: Score) -> list[Fit]:
+    """The accepted effect, and with it the stiffness correction at its location when it was
+    scored jointly with one distinguishable from zero: both at their joint estimate."""
+    if s.joint is None or s.interval[1] == (0.0, 0.0):
+        return [fit]
+    c = fit.cand
+    ev = {"estimator": f"joint fit with {c.label}"}
+    params = scaled_params(c.kind, s.estimate[0], fit.extra)
+    name = coef_name(c.kind)
+    own = Fit(c, params, {name: list(s.interval[0])}, s.chi2, fit.delta_bic,
+              dict(fit.evidence, estimator="joint fit with the stiffness correction",
+                   sequential_estimate=fit.params[name]), extra=fit.extra)
+    lin = Candidate("stiffness_error", c.dofs, c.n_dof, names=c.names)
+    return [own, Fit(lin, {"delta_stiffness": s.estimate[1]},
+                     {"delta_stiffness": list(s.interval[1])}, s.chi2, fit.delta_bic, ev)]
+
+
+def _reduction(search: Search, fit: Fit) -> float:
+    return float((search.chi2_0 - fit.chi2) / search.chi2_0)
 
 
 def linear_only(search: Search) -> bool:
@@ -192,22 +271,8 @@ def misfit_summary(curves: Sequence[LevelCurves], first: SearchPass,
     best = first.pool[0] if first.pool else None
     tried = Tried(len(first.search.cands), best.cand.label if best else None,
                   float(first.reduction), float(best.delta_bic) if best else None,
-                  MIN_REDUCTION, BIC_MIN, tuple(r.candidate for r in rejected))
+                  0.0, 0.0, tuple(r.candidate for r in rejected))
     return Misfit(c.label, (float(c.freqs[i0]), float(c.freqs[i1])), tuple(dofs),
                   tuple(first.search.model.points[i] for i in dofs), tuple(per_dof),
                   tuple(TrendPoint(x.level, x.error_after, x.floor.limit)
                         for x in sorted(curves, key=lambda x: x.level)), tried)
-
-
-def joint_veto(model: Model, first: Callable[[], Search], accepted: list[Fit],
-               judge: Callable[[Model, Model], str | None]) -> Callable[[Fit], str | None]:
-    """Veto of a further candidate: the accepted effects plus it, refitted jointly on the
-    first search's levels (as the final correction will be), judged against the correction
-    without it (``judge(previous, corrected)`` -> reason or None). The first estimates of a
-    sequential search are biased by the effects not yet found, so the sequentially corrected
-    model is not what is judged."""
-    if not accepted:
-        return lambda fit: judge(model, corrected_model(model, fit))
-    previous = apply_fits(model, joint_refit(model, first(), accepted))
-    return lambda fit: judge(previous, apply_fits(model, joint_refit(model, first(),
-                                                                 accepted + [fit])))

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..models import Candidate
 from .leakage import Floor
+from .outofsample import Z as OOS_Z
 from .replay import Replay
 from .result import (Alternative, Diagnosis, FitSummary, LevelError, LevelResiduals,
                      TimeResidual, Verdict)
@@ -80,18 +81,6 @@ def fit_summary(metric: str, curves: Sequence[LevelCurves]) -> FitSummary:
         time_fit(held), tuple(c.level_error() for c in curves), FLOOR_METHOD,
         all(c.floor is None or c.error_after <= c.floor.limit for c in curves),
         float(1 - a2 / b2) if b2 > 0 else 0.0)
-
-
-def worsened(curves: Sequence[LevelCurves], floors: Sequence[Floor]) -> str | None:
-    """Why a correction is rejected: a level whose error rises above both its former value
-    and its floor (None when no level is worsened)."""
-    bad = [(c, f) for c, f in zip(curves, floors)
-           if c.error_after > max(c.error_before, f.limit)]
-    if not bad:
-        return None
-    return "it worsens " + "; ".join(
-        f"{c.label}{' (held back)' if c.held_back else ''}: FRF error "
-        f"{change(c.error_before, c.error_after)}, floor {f.limit:.3g}" for c, f in bad)
 
 
 def change(before: float, after: float) -> str:
@@ -204,11 +193,13 @@ def _unexplained(d: Diagnosis) -> str:
     m = d.evidence.misfit
     tried = m.tried
     how = _trend([t.error for t in m.level_trend])
+    oos = d.ranking[0].evidence if d.ranking else {}
     best = (f" The best candidate ({tried.best}) removes "
-            f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit "
-            f"(needed: {100 * tried.required_chi2_reduction:.3g} % and "
-            f"{tried.required_delta_bic:.3g} BIC points; it gains "
-            f"{tried.best_delta_bic:.3g})." if tried.best else "")
+            f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit in "
+            f"sample; judged out of sample it gains {oos['oos_gain']:.3g} (uncertainty "
+            f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, a "
+            "parameter distinguishable from zero and no level predicted worse by the fit "
+            "on the others." if tried.best and "oos_gain" in oos else "")
     return (f"The model misfits beyond the noise and model-precision floor and nothing "
             f"in the library ({tried.candidates} candidates: {LIBRARY}) explains enough: "
             f"the misfit is largest at {m.level} between {m.band_hz[0]:.3g} and "

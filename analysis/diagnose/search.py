@@ -21,7 +21,7 @@ from .replay import Replay, horizon_samples, replay, steady_replay
 from .report import LevelCurves
 from .result import Diagnosis, Evidence
 from .select import SHORTLIST, Fit, RandomSearch
-from .policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, pick_holdout
+from .policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, other_kinds, pick_holdout
 from .where import location_table
 
 METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
@@ -137,14 +137,19 @@ class RandomFlow(Flow):
         fits = [f for f in search.screen() if not (memoryless and f.cand.memory)]
         if linear_only(search):
             fits = [f for f in fits if f.cand.linear]
-        nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0][:SHORTLIST]
-        refined = [search.refine(f) for f in nonlinear]
-        pool = sorted(refined + [f for f in fits if f.cand.linear], key=lambda f: -f.delta_bic)
-        if pool and not pool[0].cand.linear and pool[0].delta_bic > BIC_MIN:
+        nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0]
+        short = nonlinear[:SHORTLIST]
+        refined = [search.refine(f) for f in short]
+        # Every other kind at its best location joins with its screening fit, so that the
+        # out-of-sample judgement (`policy.judged`) sees it however many kinds rank above it
+        # in sample.
+        pool = sorted(refined + other_kinds(nonlinear, SHORTLIST)
+                      + [f for f in fits if f.cand.linear], key=lambda f: -f.delta_bic)
+        lead = next((i for i, f in enumerate(refined) if f is pool[0]), None) if pool else None
+        if lead is not None and pool[0].delta_bic > BIC_MIN:
             # Final estimate of the leading candidate, debiased for sensor noise when needed.
-            screened = nonlinear[refined.index(pool[0])]
-            final = search.refine(screened, noise="auto")
-            pool[0] = final if final is not screened else pool[0]
+            final = search.refine(short[lead], noise="auto")
+            pool[0] = final if final is not short[lead] else pool[0]
         return search, pool
 
     def held_levels(self) -> list[LevelFRF]:

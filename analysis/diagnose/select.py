@@ -21,7 +21,7 @@ that grid here and fitted by harmonic balance on stepped-sine data (`.stepped`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Hashable
+from typing import Any, Hashable, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -33,7 +33,8 @@ from ..reverse_path import ReversePathOptions, reverse_path
 from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
 from .leakage import leakage_bias
-from .linear_update import Z95, fit_linear_error, updated_frf
+from .linear_update import Z95, fit_linear_error, updated_frf, updated_receptance
+from .outofsample import Predictor
 from .prepare import Prepared
 from .result import CandidateFit
 
@@ -186,6 +187,69 @@ class Search:
         lo = -MARGIN / flex / kt.max() if kt.max() > 0 else -np.inf
         hi = MARGIN / flex / -kt.min() if kt.min() < 0 else np.inf
         return float(lo), float(hi)
+
+    def predictor(self, fit: Fit, joint: bool = False, earlier: Sequence[Fit] = ()
+                  ) -> Predictor:
+        """``fit``'s model FRFs on the fitting levels as a function of its parameters
+        (`.outofsample`). Nuisance parameters after its own: ``joint``, a stiffness
+        correction at its location (nonlinear candidates); ``earlier``, the effects already
+        accepted (in the current model), each free by a correction (linear errors) or a
+        scale of its force (elements), so that a candidate is not credited with the
+        estimation error of an earlier one."""
+        c = fit.cand
+        if c.memory and fit.extra is None:   # a memory law fitted in all its parameters
+            names = list(KINDS[c.kind].params)
+            theta = np.array([fit.params[n] for n in names])
+            return Predictor(lambda t: self.memory_frfs(c, dict(zip(names, t))), theta,
+                             len(names), np.abs(theta), positive=True)
+        name = LINEAR_PARAM[c.kind] if c.linear else coef_name(c.kind)
+        own = [(c.kind, c.w)] if c.linear else []
+        if not c.linear:
+            self.ensure_basis(c, fit.extra)
+        lin = own + ([("stiffness_error", c.w)] if joint and not c.linear else []) + [
+            (f.cand.kind, f.cand.w) for f in earlier if f.cand.linear]
+        scaled = [self._element_index(f) for f in earlier if not f.cand.linear]
+        k_lin = len(lin) - len(own)
+
+        def predict(t: np.ndarray) -> list[np.ndarray]:
+            terms = [(w, p * (1 + t[1 + k_lin + scaled.index(i)]) if i in scaled else p, key)
+                     for i, (w, p, key) in enumerate(self.terms)]
+            if not c.linear:
+                terms.append((c.w, t[0], (c, fit.extra)))
+            out = []
+            for lf, hl in zip(self.levels, self.H_lins):
+                for j, (kind, w) in enumerate(lin):
+                    hl = updated_receptance(hl, kind, w, t[j if c.linear else j + 1],
+                                            lf.freqs)
+                out.append(model_frf(hl, lf, terms))
+            return out
+        theta = np.zeros(1 + k_lin + len(scaled))
+        theta[0] = fit.params[name]
+        scale = np.array([_size(theta[0], fit.ci95.get(name))]
+                         + [self._linear_size(kind, w) for kind, w in lin[len(own):]]
+                         + [1.0] * len(scaled))
+        return Predictor(predict, theta, 1, scale,
+                         joint_at=1 if joint and not c.linear else None)
+
+    def _element_index(self, f: Fit) -> int:
+        """Index of the current model's element added for the accepted fit ``f``."""
+        for i in range(len(self.model.elements) - 1, -1, -1):
+            el = self.model.elements[i]
+            if el.kind == f.cand.kind and np.array_equal(el.w, f.cand.w):
+                return i
+        raise ValueError(f"{f.cand.label} is not in the model")
+
+    def _linear_size(self, kind: str, w: np.ndarray) -> float:
+        """A small linear error of ``kind`` at ``w`` (1e-3 of the model's own along it)."""
+        wq = self.model.to_q(w)
+        mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
+               "stiffness_error": self.model.stiffness}[kind]
+        return 1e-3 * max(abs(float(wq @ mat @ wq)), 1e-300)
+
+    def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
+        """Model FRFs of the fitting levels with memory element ``c`` (``params``) added;
+        only searches that fit memory laws in all their parameters have it."""
+        raise NotImplementedError(f"{type(self).__name__} fits no memory law directly")
 
     # --- screening ---------------------------------------------------------------------
     def _fit_coefficient(self, c: Candidate, extra: float | None) -> tuple[float, float, float]:
@@ -366,6 +430,12 @@ class RandomSearch(Search):
             return fit
         return Fit(c, params, {name: [float(coef.ci95[0]), float(coef.ci95[1])]}, x2,
                    self.bic_gain(x2, c.n_params), evidence, extra=fit.extra)
+
+
+def _size(value: float, ci: list[float] | tuple[float, float] | None) -> float:
+    """Typical size of a parameter (its value, or its interval's half width when larger)."""
+    half = abs(ci[1] - ci[0]) / 2 if ci is not None and np.all(np.isfinite(ci)) else 0.0
+    return max(abs(value), half, 1e-300)
 
 
 def corrected_model(model: Model, fit: Fit) -> Model:

@@ -119,6 +119,13 @@ class SteppedSearch(Search):
                   for r, f in zip(recs, frfs)]
         super().__init__(model, levels, extra)
 
+    def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
+        """Model FRFs of the fitting levels with slider ``c`` (``params``) along the measured
+        motion (`.stepped_memory.transfer`), for the out-of-sample score."""
+        return [h0 - (hl @ c.w)[:, :, None]
+                * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :]
+                for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)]
+
     def fit_memory(self, fit: Fit) -> Fit | None:
         """A screened slider (best slip-displacement grid point, closed-form ``kd``) with
         every parameter fitted continuously (`.stepped_memory.refine`); None when it never

@@ -6,6 +6,9 @@ import numpy as np
 import pytest
 
 from analysis.models import Candidate
+from analysis.diagnose.compare import LevelFRF
+from analysis.diagnose.leakage import Floor
+from analysis.diagnose.outofsample import Predictor
 from analysis.diagnose.policy import decide
 from analysis.diagnose.prepare import Prepared
 from analysis.diagnose.replay import horizon_samples, replay, state_map
@@ -58,7 +61,25 @@ def test_replay_of_a_modal_model_at_fewer_points(kind, params):
 
 
 class _Search:
-    chi2_0 = 100.0
+    """One 1x1 'level' whose measured FRF is ``1 + 0.1 b`` plus 1 % noise; every candidate
+    is scored as that effect (its own `Predictor`), so both below would win out of sample."""
+
+    def __init__(self):
+        rng = np.random.default_rng(4)
+        f = np.linspace(1.0, 50.0, 256)
+        self.b = np.exp(-((f - 20.0) / 8.0) ** 2)[:, None, None] + 0j
+        noise = 0.01 * (rng.standard_normal(self.b.shape) + 1j * rng.standard_normal(
+            self.b.shape)) / np.sqrt(2)
+        ones = np.ones((f.size, 1, 1))
+        self.levels = [LevelFRF(f"level {i}", float(i), f, 1.0 + 0.1 * self.b + noise * k,
+                                ones, 1e-4 * ones, np.ones((1, 1)))
+                       for i, k in ((1, 1.0), (2, -1.0))]
+        self.H0s = [np.ones_like(lf.H) for lf in self.levels]
+        self.chi2_0 = 100.0
+
+    def predictor(self, fit, joint=False, earlier=()):
+        return Predictor(lambda t: [1.0 + t[0] * self.b for _ in self.levels],
+                         np.array([0.1]), 1, np.array([0.1]))
 
 
 def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
@@ -69,7 +90,8 @@ def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
               {"kd": 1e9, "fd": 10.0, "n": 1.0}, {}, 1.0, 1e4)
     good = Fit(Candidate("cubic_spring", (1, 2), 3, names=tuple(POINTS)), {"p": 1e10}, {},
                2.0, 1e4)
-    step = decide(m, _Search(), [bad, good], lambda fixed: 1.0)
+    search = _Search()
+    step = decide(m, search, [bad, good], lambda fixed: 1.0, [Floor(0.0, 0.0, 0.01)] * 2)
     assert step.found and step.best is good
     assert step.rejected[0].candidate == bad.cand.label
     assert "valid range" in step.rejected[0].reason

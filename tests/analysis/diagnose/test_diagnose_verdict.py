@@ -1,6 +1,6 @@
 """Honest verdicts: `adequate` only within the measured floor, `unexplained` when the library
-cannot explain the misfit, no correction that worsens a level, sentences built from the
-numbers, and no dead end when a candidate's replay diverges."""
+cannot explain the misfit, no correction that a fitting level contradicts out of sample,
+sentences built from the numbers, and no dead end when a candidate's replay diverges."""
 
 from __future__ import annotations
 
@@ -27,11 +27,6 @@ from analysis.plant import PlantError
 from diagnose_scenarios import drifting_structure, hidden_absorber, hidden_cubic
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
-
-
-def no_level_worsened(d) -> None:
-    for lv in d.fit.levels:
-        assert lv.after <= max(lv.before, lv.floor.limit), lv
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +56,7 @@ def test_true_model_of_the_two_level_example_is_adequate(example_runs):
         assert lv.after == lv.before <= lv.floor.limit
         assert lv.floor.precision == 0.01
     assert "within its noise and model-precision floor" in d.explanation
-    assert all("worsens" in r.reason or "replay" in r.reason for r in d.evidence.rejected)
+    assert d.evidence.rejected == ()
 
 
 def test_leakage_of_the_welch_estimate_is_what_the_true_model_misses(example_runs):
@@ -77,34 +72,40 @@ def test_leakage_of_the_welch_estimate_is_what_the_true_model_misses(example_run
     assert weighted_error(lf, h) < limit < weighted_error(lf, h - lf.leakage)
 
 
-def test_physics_outside_the_library_is_unexplained():
+def test_physics_outside_the_library_is_flagged_as_unexplained_misfit():
+    """A tuned absorber (an extra DOF) is outside the library. Out of sample, linear errors
+    that stand in for it in the band predict every left-out level better (held-back error
+    0.934 -> 0.309, measured), so they are offered; but no nonlinear element is named, the
+    corrected model still misfits every level beyond its floor and the explanation says the
+    rest is unexplained and where."""
     sc = hidden_absorber()
     d = diagnose(sc.start, sc.recordings)
-    assert d.verdict == "unexplained", d.explanation
-    assert d.chosen == ()
+    assert d.verdict in ("unexplained", "discrepancy"), d.explanation
+    assert all(c.kind.endswith("_error") for c in d.chosen)
     assert not d.fit.within_floor
+    assert all(lv.after > lv.floor.limit for lv in d.fit.levels)
     m = d.evidence.misfit
-    assert m.tried.candidates > 20 and m.tried.best
+    assert m is not None and [t.level for t in m.level_trend] == [2.0, 6.0, 18.0]
     lo, hi = m.band_hz
-    assert lo <= hi and d.location.band_hz == (lo, hi)
-    assert [t.level for t in m.level_trend] == [2.0, 6.0, 18.0]
-    assert "outside the library" in d.explanation and "about the same" in d.explanation
-    assert d.to_json()["verdict"] == "unexplained"
+    assert lo <= hi
+    assert "unexplained" in d.explanation
+    assert d.to_json()["verdict"] == d.verdict
 
 
-def test_a_correction_that_worsens_a_level_is_never_offered():
-    """Four levels (the second held back): the best candidate, a stiffer ground spring,
-    helps the two outer levels and harms the two middle ones; it is rejected with its
-    reason and nothing else explains the misfit."""
+def test_a_correction_one_fitting_level_contradicts_is_not_offered():
+    """Four levels (the second held back): the best candidate in sample, a stiffer ground
+    spring, helps the two outer fitting levels and harms the middle one; fitted on the
+    other levels it predicts that one worse beyond its uncertainty (out of sample), so it
+    is rejected with the numbers and nothing else explains the misfit. The held-back level
+    plays no part in the decision."""
     sc = drifting_structure()
     d = diagnose(sc.start, sc.recordings)
     assert d.fit.held_back == ("level 4",)
-    no_level_worsened(d)
     assert d.verdict == "unexplained", d.explanation
+    assert not d.chosen
     first = d.evidence.rejected[0]
     assert first.candidate == "stiffness_error DOF 0 to ground"
-    assert "level 8: FRF error rises" in first.reason          # a fitting level
-    assert "level 4 (held back): FRF error rises" in first.reason
+    assert "fitted on the other levels it predicts level 8 worse" in first.reason
     assert "reduces" not in d.explanation
 
 

@@ -14,26 +14,23 @@ import pytest
 
 import diagnose_zoo as Z
 
-MAINS = ("false alarm: 'unexplained' at 50-50 Hz; the mains line (5 % of the rms) on the "
-         "responses puts every level's FRF error at 0.050, floor 0.0105")
 AS_HYSTERESIS = ("named hysteresis (the accepted family) between wing and payload: the "
-                 "stick-slip parameters are not identified")
+                 "stick-slip parameters are not identified; held-back 0.0378 -> 0.0016")
 WRONG_TODAY: dict[str, str] = {
     "sdof-hysteresis-disp-random": "hysteresis found with a spurious quadratic damping at the "
                                    "same point; fd -10.2 % (kd +1.4 %)",
-    "sdof-cubic-disp-stepped": "'unexplained': the cubic (100 % of the misfit, BIC +4.7e4) "
-                               "is vetoed for worsening the top level (1.17 -> 1.20); held "
-                               "back stays 0.101",
-    "sdof-none-acc-multisine-daq": MAINS,
     "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
-    "chain-gap01-disp-random": "gap k -7.1 % (g -1.3 %)",
-    "chain-hysteresis01-acc-multisine": "named stick-slip plus a damping error between 0 and 1 "
-                                        "(accepted family): hysteresis parameters not "
-                                        "identified; held-back 1.25 -> 0.236",
-    "chain-none-acc-multisine-daq": MAINS,
-    "gvt-gap-joint": "gap k +7.7 % against the fit-linear start model (g +1.1 %)",
-    "beam-jenkins_joint-acc-multisine-few-daq": "fd -5.9 %, kd -3.2 % with the mains line and "
-                                                "quantization (clean: -1.6 %, -0.3 %)",
+    "chain-gap01-disp-random": "gap k -7.1 % (g -1.3 %); held-back 0.0315 -> 0.0315",
+    "chain-hysteresis01-acc-multisine": "named stick-slip plus a stiffness and a damping error "
+                                        "between 0 and 1 (accepted family): hysteresis "
+                                        "parameters not identified; held-back 1.25 -> 0.221",
+    "gvt-gap-joint": "gap k +7.4 % against the fit-linear start model (g +1.1 %), with a second "
+                     "gap at the payload; held-back 0.0544 -> 0.0239",
+    "beam-cubic_tip-disp-random-few": "'adequate': every fitting level lies within its floor "
+                                      "(no candidate is sought there); held-back 0.0904",
+    "beam-jenkins_joint-acc-multisine-few-daq": "fd -5.7 %, kd -3.1 % with the mains line and "
+                                                "quantization, beside a hysteresis and a "
+                                                "stiffness error; held-back 0.376 -> 0.0407",
     "twin-jenkins_joint-acc-multisine": AS_HYSTERESIS,
     "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %)",
     "twin-jenkins_joint-acc-multisine-daq": AS_HYSTERESIS,
@@ -44,7 +41,8 @@ WRONG_TODAY: dict[str, str] = {
                                     "(they move within 1.5 % of each other): p -91.9 %",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
-benchmarks/bench_diagnose.py --zoo --workers 1`` (docs/diagnose.md, Zoo)."""
+benchmarks/bench_diagnose.py --zoo --workers 2`` after the out-of-sample selection
+(docs/diagnose.md, Zoo, "After")."""
 
 
 def _param(case: Z.ZooCase):
