@@ -133,6 +133,16 @@ class SerialShaker(SignalGenerator):
             finally:
                 self.link.lock.release()
 
+    def _send(self, cmd: str, timeout: float) -> None:
+        """A command; a timeout on a guarded link says the controller zeroes the drive."""
+        try:
+            self.link.command(cmd, timeout)
+        except DriverTimeout as exc:
+            if not self.watchdog:
+                raise
+            raise DriverTimeout(f"{exc}: the link is lost; the controller's watchdog "
+                                f"({self.watchdog:g} s) zeroes the drive by itself") from None
+
     def check_link(self) -> None:
         """Raise the `CommsError` the watchdog feeder met, if any (`SignalGenerator.check_link`)."""
         if self.feed_error is not None:
@@ -162,37 +172,37 @@ class SerialShaker(SignalGenerator):
             cmds = ["SOUR:FUNC SIN", f"SOUR:FREQ {output.freq:.12g}"]
         cmds += [f"SOUR:RAMP {self.ramp_time:.6g}", f"SOUR:VOLT {level:.12g}"]
         for cmd in cmds:
-            self.link.command(cmd, timeout)
+            self._send(cmd, timeout)
         self._state = DeviceState.CONFIGURED
 
     def set_level(self, level: float, *, timeout: float = 1.0) -> None:
         """Change the drive level, V (`SignalGenerator.set_level`)."""
         self._require(DeviceState.CONFIGURED, DeviceState.RUNNING, DeviceState.STOPPED,
                       action="set the level")
-        self.link.command(f"SOUR:VOLT {self.check_level(level):.12g}", timeout)
+        self._send(f"SOUR:VOLT {self.check_level(level):.12g}", timeout)
 
     def set_frequency(self, freq: float, *, timeout: float = 1.0) -> None:
         """Change the sine frequency without stopping (phase-continuous)."""
         self._require(DeviceState.CONFIGURED, DeviceState.RUNNING, DeviceState.STOPPED,
                       action="set the frequency")
         check_output(SineOutput(freq))
-        self.link.command(f"SOUR:FREQ {freq:.12g}", timeout)
+        self._send(f"SOUR:FREQ {freq:.12g}", timeout)
 
     def start(self, *, timeout: float = 1.0) -> None:
         """Switch the output on (ramped; `SignalGenerator.start`)."""
         self._require(DeviceState.CONFIGURED, DeviceState.STOPPED, action="start")
-        self.link.command("OUTP ON", timeout)
+        self._send("OUTP ON", timeout)
         self._state = DeviceState.RUNNING
 
     def stop(self, *, timeout: float = 1.0) -> None:
         """Switch the output off (ramped); nothing if not running."""
         if self._state == DeviceState.RUNNING:
-            self.link.command("OUTP OFF", timeout)
+            self._send("OUTP OFF", timeout)
             self._state = DeviceState.STOPPED
 
     def emergency_stop(self, *, timeout: float = 0.1) -> None:
         """Abort the output at once (`SignalGenerator.emergency_stop`)."""
-        self.link.command("ABOR", timeout)
+        self._send("ABOR", timeout)
         if self._state == DeviceState.RUNNING:
             self._state = DeviceState.STOPPED
 
