@@ -171,27 +171,34 @@ def test_backbone_fit_linear_detect_report_view_on_a_table_run(tmp_path, capsys)
     assert main(["view", run, "--snapshot", str(tmp_path / "view.png")]) == 0
 
 
-def test_analyze_hbm_recovers_a_jenkins_joint_from_response_controlled_tables(tmp_path):
-    """The Jenkins twin (tests/analysis/backbone/jenkins_twin.py: single-harmonic balance)
-    held at five displacement amplitudes, below and through slip: the harmonic-balance fit of
-    a stick-slip element on the underlying linear model finds kd and fd (issue 25: within
-    5 %), inside its own 95 % intervals."""
-    from jenkins_twin import JenkinsSDOF
+def _held_twin_run(tw, amplitudes: list[float], half_span: float, tmp_path) -> str:
+    """A run of the Jenkins twin's response-controlled tables (one level per held
+    displacement amplitude, steps 0.05 Hz apart within ``half_span`` Hz of its backbone)."""
     from nlid_lab.formats._recordings_io import recording_keys
 
-    tw = JenkinsSDOF(kd=1.25e4, fd=0.5)
     paths = []
-    for i, a in enumerate([1e-5, 6e-5, 1.2e-4, 2.5e-4, 5e-4]):
+    for i, a in enumerate(amplitudes):
         fn = tw.backbone_at(np.array([a]))[0][0]
-        f = np.arange(fn - 1.5, fn + 1.5, 0.05)
-        w = 2 * np.pi * f
-        force = tw.dynamic_stiffness(w, np.full(w.shape, a)) * a
+        f = np.arange(fn - half_span, fn + half_span, 0.05)
+        force = tw.dynamic_stiffness(2 * np.pi * f, np.full(f.shape, a)) * a
         t = StepTable(f, force[:, None], np.full((f.size, 1), a, complex), [0], "response", a,
                       control_dof=0)
         paths.append(str(tmp_path / f"l{i}.npz"))
         np.savez(paths[-1], **recording_keys(t))
     run = str(tmp_path / "twin.h5")
     assert main(["import", *paths, "--out", run]) == 0
+    return run
+
+
+def test_analyze_hbm_recovers_a_jenkins_joint_from_response_controlled_tables(tmp_path):
+    """The Jenkins twin (tests/analysis/backbone/jenkins_twin.py: single-harmonic balance)
+    held at five displacement amplitudes, below and through slip: the harmonic-balance fit of
+    a stick-slip element on the underlying linear model finds kd and fd (issue 25: within
+    5 %), inside its own 95 % intervals."""
+    from jenkins_twin import JenkinsSDOF
+
+    tw = JenkinsSDOF(kd=1.25e4, fd=0.5)
+    run = _held_twin_run(tw, [1e-5, 6e-5, 1.2e-4, 2.5e-4, 5e-4], 1.5, tmp_path)
     model = tmp_path / "cand.toml"
     model.write_text(f'name = "twin"\n[linear]\nmass = [[{tw.m}]]\ndamping = [[{tw.c}]]\n'
                      f'stiffness = [[{tw.k}]]\n[[element]]\nkind = "stick_slip"\nw = [1.0]\n')
@@ -208,20 +215,9 @@ def test_backbone_with_a_model_holds_its_levels_and_reads_them_alike(tmp_path, c
     """``backbone RUN --model M``: the Jenkins twin as a model file through its own held
     levels gives their backbone (JSON ``model``); a model of other DOFs is one line."""
     from jenkins_twin import JenkinsSDOF
-    from nlid_lab.formats._recordings_io import recording_keys
 
     tw = JenkinsSDOF(kd=1.25e4, fd=0.5)
-    paths = []
-    for i, a in enumerate([1e-5, 1.2e-4]):
-        fn = tw.backbone_at(np.array([a]))[0][0]
-        f = np.arange(fn - 1.0, fn + 1.0, 0.05)
-        force = tw.dynamic_stiffness(2 * np.pi * f, np.full(f.shape, a)) * a
-        t = StepTable(f, force[:, None], np.full((f.size, 1), a, complex), [0], "response", a,
-                      control_dof=0)
-        paths.append(str(tmp_path / f"l{i}.npz"))
-        np.savez(paths[-1], **recording_keys(t))
-    run = str(tmp_path / "twin.h5")
-    assert main(["import", *paths, "--out", run]) == 0
+    run = _held_twin_run(tw, [1e-5, 1.2e-4], 1.0, tmp_path)
     model = tmp_path / "twin.toml"
     model.write_text(f'[linear]\nmass = [[{tw.m}]]\ndamping = [[{tw.c}]]\nstiffness = '
                      f'[[{tw.k}]]\n[[element]]\nkind = "stick_slip"\nw = [1.0]\n'
