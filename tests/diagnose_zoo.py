@@ -207,10 +207,10 @@ def strength(kind: str, model: Model, points: tuple[str, ...], drive: int, exc: 
                       ("k", "g") if reached else ())
     if kind == "stick_slip":
         return Effect(kind, points, {"kd": 0.5 * k, "fd": k * u0}, ("kd", "fd"),
-                      ("hysteresis",))
+                      ("hysteresis", "iwan"))
     if kind == "hysteresis":
         return Effect(kind, points, {"kd": 0.5 * k, "fd": k * u0, "n": 2.0}, ("kd", "fd"),
-                      ("stick_slip",))
+                      ("stick_slip", "iwan"))
     if kind == "coulomb_friction":
         v0 = exc.rms(model, w, drive, levels[0], rate=True)
         return Effect(kind, points, {"fc": 0.05 * levels[0], "v_reg": 0.01 * v0}, ("fc",))
@@ -241,7 +241,7 @@ def joint_slider(kind: str, model: Model, points: tuple[str, str], drive: int,
     u0 = exc.rms(model, point_w(model, points), drive, LEVELS[0])
     params = {"kd": kd, "fd": 2 * kd * u0} | ({"n": 2.0} if kind == "hysteresis" else {})
     other = "hysteresis" if kind == "stick_slip" else "stick_slip"
-    return Effect(kind, points, params, ("kd", "fd"), (other,), stuck=kd)
+    return Effect(kind, points, params, ("kd", "fd"), (other, "iwan"), stuck=kd)
 
 
 def iwan(model: Model, points: tuple[str, str], drive: int, exc: Excitation) -> Effect:
@@ -526,7 +526,8 @@ def _gvt_case(name: str, maker_name: str, effects: tuple[Effect, ...],
 
 D, A = "displacement", "acceleration"
 UNREACHED = "the gap never closes at the recorded levels: nothing to find"
-SLIDER = "stick-slip and hysteresis (a smoothed Jenkins slider) are accepted for each other"
+SLIDER = ("stick-slip, hysteresis (a smoothed Jenkins slider) and iwan (a distribution of "
+          "Jenkins sliders) are accepted for each other")
 STUCK = "; the start model holds the joint's stuck stiffness"
 
 
@@ -607,7 +608,7 @@ def _zoo_existing() -> list[ZooCase]:
         _existing("2dof-jenkins01-disp-stepped-noise10 (masked_friction)", masked_friction,
                   "2-DOF chain", chain_d, "stepped",
                   (Effect("stick_slip", ("0", "1"), {"kd": 8.0e3, "fd": 4.0}, ("kd", "fd"),
-                          ("hysteresis",)),), (15.0,), n_dof=2, note=SLIDER),
+                          ("hysteresis", "iwan")),), (15.0,), n_dof=2, note=SLIDER),
         _existing("chain-stiffness12-disp-stepped (stepped_stiffness_error)",
                   stepped_stiffness_error, chain_s, chain_d, "stepped",
                   (Effect("stiffness_error", ("1", "2"),
@@ -619,7 +620,7 @@ def _zoo_existing() -> list[ZooCase]:
                           ("delta_stiffness",))), (6.0,)),
         _gvt_case("gvt-jenkins-joint", "friction_joint",
                   (Effect("stick_slip", ("joint", "payload"), {"kd": 0.5 * JOINT_K, "fd": 2.0},
-                          ("kd", "fd"), ("hysteresis",)),), note=SLIDER),
+                          ("kd", "fd"), ("hysteresis", "iwan")),), note=SLIDER),
         _gvt_case("gvt-gap-joint", "clearance_joint",
                   (Effect("gap", ("joint", "payload"), {"k": JOINT_K, "g": 7e-4}, ("k", "g")),)),
         _gvt_case("gvt-cubic-tip", "grounded_cubic",
