@@ -51,7 +51,11 @@ def level_dependence(levels: list[LevelFRF]) -> LevelDependence | None:
         return None
     lo = min(levels, key=lambda lf: lf.level)
     hi = max(levels, key=lambda lf: lf.level)
-    z = 2 * np.abs(lo.H - hi.H) ** 2 / (lo.var + hi.var)
+    # the lines both levels hold (each level keeps the lines its own force excites)
+    _, a, b = np.intersect1d(lo.freqs, hi.freqs, assume_unique=True, return_indices=True)
+    if a.size == 0:
+        return None
+    z = 2 * np.abs(lo.H[a] - hi.H[b]) ** 2 / (lo.var[a] + hi.var[b])
     bf = 0.5 * (lo.bin_factor + hi.bin_factor)
     nu = min(lf.noise_dof or np.inf for lf in (lo, hi))
     if np.isfinite(nu) and nu > 2:

@@ -24,7 +24,8 @@ from typing import Sequence
 import numpy as np
 
 from ..models import KINDS, Candidate, Model, library
-from ..errors import InputError
+from ..errors import InputError, ModelError
+from ..hbm import HBMError
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
 from .compare import LevelFRF, chi2, stuck_stiffness
@@ -35,7 +36,8 @@ from .replay import periodic_replay
 from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
-from .select import SHORTLIST, Fit, Search, candidate_extras, screened, unit_params
+from .select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model, screened,
+                     unit_params)
 from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
                              backbone_estimate, hbm_refit, log_fitted, hbm_sweep, motion_chi2, refine,
                              simulated_chi2, slip_grid, stuck_limit, transfer)
@@ -120,11 +122,20 @@ class SteppedSearch(Search):
         super().__init__(model, levels, extra)
 
     def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
-        """Model FRFs of the fitting levels with slider ``c`` (``params``) along the measured
-        motion (`.stepped_memory.transfer`), for the out-of-sample score."""
-        return [h0 - (hl @ c.w)[:, :, None]
-                * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :]
-                for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)]
+        """Model FRFs of the fitting levels with slider ``c`` (``params``) added, for the
+        out-of-sample score: simulated by harmonic balance at each step's own force, as the
+        fits' misfit is (`.stepped_memory.simulated_chi2`; a slider fitted to the backbone
+        is judged on the FRFs it predicts, not along the measured motion); along the
+        measured motion (`.stepped_memory.transfer`) where the balance fails."""
+        try:
+            m = corrected_model(self.model, Fit(c, params, {}, 0.0, 0.0))
+            i1 = HARMONICS.index(1)
+            return [(hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None]
+                    for frf in self.frfs]
+        except (ModelError, HBMError):
+            return [h0 - (hl @ c.w)[:, :, None]
+                    * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :]
+                    for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)]
 
     def fit_memory(self, fit: Fit) -> Fit | None:
         """A screened slider (best slip-displacement grid point, closed-form ``kd``) with

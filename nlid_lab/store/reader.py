@@ -216,10 +216,16 @@ class Run:
         out (noted in ``left_out`` and ``warnings``, once per level)."""
         seg = np.sort(self.segments[self.segments["level"] == index], order="seq")
         lo, hi = seg["start"].min(), (seg["start"] + seg["length"]).max()
-        with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
-            force, response, text = f["data/force"][lo:hi], f["data/response"][lo:hi], f["text"]
-            monitor = f["data/monitor"][lo:hi] if self.monitor_units else None
-            extra = [_extra_json(text, s) for s in seg]
+        try:
+            with _open(self.path, "r") as f:  # one read per dataset, sliced in memory
+                force, response = f["data/force"][lo:hi], f["data/response"][lo:hi]
+                monitor = f["data/monitor"][lo:hi] if self.monitor_units else None
+                extra = [_extra_json(f["text"], s) for s in seg]
+        except (OSError, RuntimeError) as exc:   # HDF5's own structures around the samples
+            what = " ".join(str(exc).split())[:120]
+            raise DamagedRunError(f"{self.path} is damaged: level {index}'s samples cannot "
+                                  f"be read ({type(exc).__name__}: {what}); "
+                                  + UNREPAIRABLE.format(path=self.path)) from None
         parts = [(force[s - lo:s - lo + n], response[s - lo:s - lo + n],
                   None if monitor is None else monitor[s - lo:s - lo + n])
                  for s, n in zip(seg["start"], seg["length"])]

@@ -146,10 +146,10 @@ def compare(path: str, got: dict, clean: dict) -> str:
         return "same" if not worse else "FRF error " + ", ".join(
             f"channel {j} {100 * err[j]:.1f} % (clean {100 * err_c[j]:.1f} %)" for j in worse)
     if path == "diagnose":
-        kind = (r.get("missing_physics") or {}).get("kind")
-        want = (c.get("missing_physics") or {}).get("kind")
+        kind = "+".join(e["kind"] for e in r.get("missing_physics") or [])
+        want = "+".join(e["kind"] for e in c.get("missing_physics") or [])
         same = r["verdict"] == c["verdict"] and (c["verdict"] != "discrepancy" or kind == want)
-        return "same" if same else f"{r['verdict']} {kind or ''}".strip()
+        return "same" if same else f"{r['verdict']} {kind}".strip()
     if path == "reverse-path":
         (e,), (ec,) = r["elements"], c["elements"]
         p, pc = e["params"]["p"], ec["params"]["p"]
