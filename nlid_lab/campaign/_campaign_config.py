@@ -6,7 +6,6 @@ the fix. Relative paths are resolved against the campaign file's folder.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -14,14 +13,16 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from analysis.errors import InputError, RecordingError
-from analysis.models import Model, parse_toml, read_text, unknown_keys
+from analysis.errors import RecordingError
+from analysis.models import Model, parse_toml, read_text
 from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
                                  SweepLaw, table_keys)
 from drivers import DAQS, DEFAULT_RAMP_TIME, SHAKERS, Channel, DriverConfigError
 from drivers.faults import FaultSpec
 
 from ..sim_budget import excess
+from ._campaign_fields import (CampaignError, _choice, _levels, _num, _opt, _table,
+                              _unknown)
 
 DIRECTIONS = ("up", "down", "up-down")
 #: Simulated benches: ``sim`` runs both devices in-process; ``<scheme>-emu`` starts the bundled
@@ -32,10 +33,6 @@ TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "step
             "sweep", "safety", "emulator", "sensors"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
 MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
-
-
-class CampaignError(InputError):
-    """A campaign file is invalid."""
 
 
 class Role(StrEnum):
@@ -238,76 +235,12 @@ def duration(seconds: float) -> str:
     return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
 
 
-# --- parsing helpers ---------------------------------------------------------------------
-def _table(data: dict, key: str, where: str = "", required: bool = True) -> dict:
-    value = data.get(key)
-    name = f"{where}{key}"
-    if value is None:
-        if required:
-            raise CampaignError(f"missing [{name}] table; see docs/campaign-format.md")
-        return {}
-    if not isinstance(value, dict):
-        raise CampaignError(f"'{name}' must be a table ([{name}])")
-    return value
-
-
-def _unknown(table: dict, allowed: set[str], name: str) -> None:
-    message = unknown_keys(table, sorted(allowed), f"[{name}]")
-    if message:
-        raise CampaignError(message)
-
-
-def _num(table: dict, key: str, name: str, *, default: Any = ..., lo: float = -math.inf,
-         hi: float = math.inf, integer: bool = False, open_lo: bool = False) -> Any:
-    if key not in table:
-        if default is ...:
-            raise CampaignError(f"[{name}] needs '{key}'")
-        return default
-    v = table[key]
-    ok_type = isinstance(v, int) if integer else isinstance(v, (int, float))
-    if isinstance(v, bool) or not ok_type or not math.isfinite(v) \
-            or v < lo or v > hi or (open_lo and v == lo):
-        kind = "an integer" if integer else "a number"
-        bound = f"> {lo:g}" if open_lo else f">= {lo:g}"
-        raise CampaignError(f"[{name}] {key} must be {kind} {bound}"
-                            f"{'' if hi == math.inf else f' and <= {hi:g}'}, got {v!r}")
-    return int(v) if integer else float(v)
-
-
-def _opt(table: dict, key: str, name: str, spec: type, attribute: str | None = None,
-         **bounds: Any) -> Any:
-    """`_num` of an optional key whose default is the field ``attribute`` (default ``key``)
-    of the dataclass ``spec``: each default is written once, on its field."""
-    attribute = attribute or key
-    default = next(f.default for f in dataclasses.fields(spec) if f.name == attribute)
-    return _num(table, key, name, default=default, **bounds)
-
-
-def _levels(table: dict, name: str) -> list[float]:
-    levels = table.get("levels")
-    if not isinstance(levels, list) or not levels or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-            and x > 0 for x in levels):
-        raise CampaignError(f"[{name}] levels must be a non-empty list of force levels > 0 N, "
-                            f"got {levels!r}")
-    return [float(x) for x in levels]
-
-
 def _url(table: dict, role: Role) -> str:
     url, allowed = table.get("url"), schemes(role)
     if not isinstance(url, str) or scheme(url) not in allowed:
         raise CampaignError(f"[{role}] url must be a string starting with one of "
                             f"{', '.join(s + '://' for s in allowed)}, got {url!r}")
     return url
-
-
-def _choice(value: Any, vocabulary: type[StrEnum], what: str) -> Any:
-    """``value`` as a member of ``vocabulary``; `CampaignError` listing the members."""
-    try:
-        return vocabulary(value)
-    except ValueError:
-        raise CampaignError(f"{what} must be one of {', '.join(vocabulary)}, got "
-                            f"{value!r}") from None
 
 
 def _channels(raw: Any) -> list[Channel]:
