@@ -1,5 +1,6 @@
 """The tree's structure: imports run one way, no module or room cycles, rooms entered only
-through their ``__init__``, h5py only in the store.
+through their ``__init__``, h5py only in the store, no function over 80 lines but the listed
+numeric kernels and functions being split (``LONG_FUNCTIONS``).
 
 The import graph is read from the source (every ``import``, local ones inside functions
 included; ``if TYPE_CHECKING:`` blocks excluded because they never run). A room is a package
@@ -247,12 +248,11 @@ MAX_FUNCTION_LINES = 80
 #: (`test_long_function_allow_list_is_current` says which).
 LONG_FUNCTIONS = {
     "analysis/plant/_plant_kernels.py::_integrate":
-        "numba kernel, one compiled loop over samples with its element states in registers; "
-        "its matrices are being put into one numba structure and the loop split (issue 22 "
-        "item 4, the plant's work)",
+        "numba kernel of one piece: split into inlined helpers it computed the same bits 8x "
+        "slower (its docstring); the plant's owner is reworking it (issue 22 item 4)",
     "analysis/plant/_plant.py::Plant._discretise":
-        "numeric kernel of the plant (exact discretisation of each sub-step and hold); in "
-        "the room being reworked for issue 22 items 4-5",
+        "numeric set-up of that kernel (exact discretisation of a substep, phi-functions, "
+        "hold weights), 81 lines; the plant's owner is reworking the room (issue 22 items 4-5)",
     "analysis/reverse_path/_noise.py::periodic_reverse_path": "being split (issue 22)",
     "analysis/reverse_path/_estimator.py::reverse_path": "being split (issue 22)",
     "nlid_lab/formats/_recordings_io.py::read_csv": "being split (issue 22)",
