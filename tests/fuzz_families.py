@@ -114,6 +114,16 @@ def cut_damaged(cut: bytes, whole: str) -> bool:
         return True
 
 
+def write_damaged(data: st.DataObject, doc: dict, path: Path) -> tuple[str, bool]:
+    """Write ``doc`` as TOML text to ``path`` with damage drawn from `text_damage`; what was
+    done and whether a reader must see the damage (a cut: `cut_damaged`)."""
+    whole = toml_text(doc)
+    raw, what, damaged = data.draw(text_damage(whole))
+    damaged = cut_damaged(raw, whole) if damaged is None else damaged
+    path.write_bytes(raw)
+    return what, damaged
+
+
 # --- family 1: model files ------------------------------------------------------------------
 def model_case(data: st.DataObject, folder: Path) -> Result:
     """A mutated or damaged model file through ``simulate``."""
@@ -127,10 +137,7 @@ def model_case(data: st.DataObject, folder: Path) -> Result:
         doc, what, damaged = data.draw(mutations(MODEL, model_number_invalid))
         path.write_text(toml_text(doc))
     else:
-        whole = toml_text(MODEL)
-        raw, what, damaged = data.draw(text_damage(whole))
-        damaged = cut_damaged(raw, whole) if damaged is None else damaged
-        path.write_bytes(raw)
+        what, damaged = write_damaged(data, MODEL, path)
     result = run_classified(["simulate", str(path), "--drive", str(drive), "--out", str(out)],
                             damaged)
     result.what = what
@@ -167,10 +174,7 @@ def campaign_case(data: st.DataObject, folder: Path) -> Result:
         damaged, what = fault_value_invalid(key, value), f"faults.{key} = {value!r}"
         path.write_text(toml_text(doc))
     else:
-        whole = toml_text(CAMPAIGN)
-        raw, what, damaged = data.draw(text_damage(whole))
-        damaged = cut_damaged(raw, whole) if damaged is None else damaged
-        path.write_bytes(raw)
+        what, damaged = write_damaged(data, CAMPAIGN, path)
     result = run_classified(["campaign", "check", str(path)], damaged, 30.0)
     result.what = what
     return result

@@ -200,6 +200,63 @@ def _turning_points(y, harm, u, v, tp_at, tp_u, tp_sign, tp_phi):
 
 
 @numba.njit(cache=True)
+def _visit_order(tp_at, n_tp, nt):
+    """The order a memory kind's law visits samples ``n >= 0`` and turning points ``-1 - k``.
+
+    Parameters
+    ----------
+    tp_at : ndarray of int, shape (>= n_tp,)
+        Index of the sample each turning point precedes (from `_turning_points`).
+    n_tp : int
+        Number of turning points.
+    nt : int
+        Samples per period.
+
+    Returns
+    -------
+    period : ndarray of int, shape (nt + n_tp,)
+        One period: each turning point before the sample it precedes.
+    pre : ndarray of int
+        The pre-roll: virgin state -> sample 0 -> the turning points after it -> last sample.
+    """
+    period = np.empty(nt + n_tp, dtype=np.int64)
+    pre = np.empty(n_tp + 2, dtype=np.int64)
+    pre[0] = 0
+    e, k, n_pre = 0, 0, 1
+    for n in range(nt):
+        while k < n_tp and tp_at[k] == n:
+            period[e] = -1 - k
+            if n > 0:
+                pre[n_pre] = -1 - k
+                n_pre += 1
+            e += 1
+            k += 1
+        period[e] = n
+        e += 1
+    pre[n_pre] = nt - 1
+    return period, pre[:n_pre + 1]
+
+
+@numba.njit(cache=True)
+def _repeats(s, start, g, g_prev, periods, tol):
+    """Whether a memory kind's run has become periodic: its state after a period equals the
+    state before it (within ``tol`` relative), or, from the second period on, its force cycle
+    ``g`` equals the previous period's ``g_prev`` (within ``tol`` of its largest value)."""
+    same = True
+    for i in range(N_STATE):
+        if abs(s[i] - start[i]) > tol * max(abs(s[i]), abs(start[i])):
+            same = False
+    if not same and periods > 1:
+        diff = 0.0
+        big = 0.0
+        for n in range(g.shape[0]):
+            diff = max(diff, abs(g[n] - g_prev[n]))
+            big = max(big, abs(g[n]))
+        same = diff <= tol * big
+    return same
+
+
+@numba.njit(cache=True)
 def periodic_forces(code, p, memory, y, omega, phi, dphi, dft, harm, max_periods, tol,
                     G, dG):
     """Fourier coefficients of one element's steady periodic force.
@@ -250,43 +307,15 @@ def periodic_forces(code, p, memory, y, omega, phi, dphi, dft, harm, max_periods
     tp_sign = np.empty(nt)
     tp_phi = np.empty((nt, m))
     n_tp = _turning_points(y, harm, u, v, tp_at, tp_u, tp_sign, tp_phi)
-    # a period: each turning point before the sample it precedes; the pre-roll: virgin
-    # state -> sample 0 -> the turning points after it -> last sample
-    period = np.empty(nt + n_tp, dtype=np.int64)
-    pre = np.empty(n_tp + 2, dtype=np.int64)
-    pre[0] = 0
-    e, k, n_pre = 0, 0, 1
-    for n in range(nt):
-        while k < n_tp and tp_at[k] == n:
-            period[e] = -1 - k
-            if n > 0:
-                pre[n_pre] = -1 - k
-                n_pre += 1
-            e += 1
-            k += 1
-        period[e] = n
-        e += 1
-    pre[n_pre] = nt - 1
-    _run(code, p, pre[:n_pre + 1], u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g,
-         DG)
+    period, pre = _visit_order(tp_at, n_tp, nt)
+    _run(code, p, pre, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g, DG)
     start = s.copy()
     g_prev = np.empty(0)
     periods = 0
     for periods in range(1, max_periods + 1):
         start[:] = s
         _run(code, p, period, u, v, phi, dphi, omega, tp_u, tp_sign, tp_phi, s, ds, g, DG)
-        same = True
-        for i in range(N_STATE):
-            if abs(s[i] - start[i]) > tol * max(abs(s[i]), abs(start[i])):
-                same = False
-        if not same and periods > 1:
-            diff = 0.0
-            big = 0.0
-            for n in range(nt):
-                diff = max(diff, abs(g[n] - g_prev[n]))
-                big = max(big, abs(g[n]))
-            same = diff <= tol * big
-        if same:
+        if _repeats(s, start, g, g_prev, periods, tol):
             break
         g_prev = g.copy()
     G[:] = dft @ g

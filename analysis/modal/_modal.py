@@ -156,29 +156,8 @@ def modal_fit(freqs: np.ndarray, frf: np.ndarray, n_modes: int, *,
     scale = 2 * np.pi * f.max()
     s = 2j * np.pi * f / scale                       # normalised Laplace variable
     wts = np.ones(f.size) if weights is None else np.asarray(weights, dtype=float)
-    pn = _vander(s, nn)
-    pd = _vander(s, nd)
-    den = np.ones(nd + 1)
-    d_prev = np.ones(f.size, dtype=complex)
+    num, den = _rational_fraction(s, h, wts, nn, nd, iterations)
     n_out = h.shape[1]
-    for _ in range(iterations):
-        w = wts / np.abs(d_prev)
-        # Unknowns: numerator coefficients of each output, then d_0..d_{nd-1} (d_nd = 1).
-        rows = []
-        rhs = []
-        for y in range(n_out):
-            blk = np.zeros((f.size, n_out * (nn + 1) + nd), dtype=complex)
-            blk[:, y * (nn + 1):(y + 1) * (nn + 1)] = pn * w[:, None]
-            blk[:, n_out * (nn + 1):] = -(h[:, y] * w)[:, None] * pd[:, :nd]
-            rows.append(blk)
-            rhs.append(h[:, y] * w * pd[:, nd])
-        a = np.concatenate(rows)
-        b = np.concatenate(rhs)
-        sol = np.linalg.lstsq(np.concatenate([a.real, a.imag]),
-                              np.concatenate([b.real, b.imag]), rcond=None)[0]
-        den = np.append(sol[n_out * (nn + 1):], 1.0)
-        d_prev = pd @ den
-    num = sol[: n_out * (nn + 1)].reshape(n_out, nn + 1)
     roots = np.roots(den[::-1])
     poles = roots[roots.imag > 0]
     if poles.size == 0:
@@ -198,6 +177,57 @@ def modal_fit(freqs: np.ndarray, frf: np.ndarray, n_modes: int, *,
     shapes = residues / ref[:, None]
     return ModalResult(np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles), shapes,
                        residues, poles)
+
+
+def _rational_fraction(s: np.ndarray, h: np.ndarray, wts: np.ndarray, nn: int, nd: int,
+                       iterations: int) -> tuple[np.ndarray, np.ndarray]:
+    """Common-denominator rational fraction ``N_y(s) / D(s)`` of FRF columns by
+    Sanathanan-Koerner iterations (Levy's linear least squares re-weighted by the previous
+    denominator).
+
+    Parameters
+    ----------
+    s : ndarray, complex, shape (n_f,)
+        Normalised Laplace variable of each line.
+    h : ndarray, complex, shape (n_f, n_out)
+        FRF columns.
+    wts : ndarray, shape (n_f,)
+        Per-line weights.
+    nn, nd : int
+        Numerator and denominator degrees.
+    iterations : int
+        Re-weightings.
+
+    Returns
+    -------
+    num : ndarray, shape (n_out, nn + 1)
+        Numerator coefficients of each column, ascending powers.
+    den : ndarray, shape (nd + 1,)
+        Denominator coefficients, ascending powers, monic (``d_nd = 1``).
+    """
+    pn = _vander(s, nn)
+    pd = _vander(s, nd)
+    den = np.ones(nd + 1)
+    d_prev = np.ones(s.size, dtype=complex)
+    n_f, n_out = h.shape
+    for _ in range(iterations):
+        w = wts / np.abs(d_prev)
+        # Unknowns: numerator coefficients of each output, then d_0..d_{nd-1} (d_nd = 1).
+        rows = []
+        rhs = []
+        for y in range(n_out):
+            blk = np.zeros((n_f, n_out * (nn + 1) + nd), dtype=complex)
+            blk[:, y * (nn + 1):(y + 1) * (nn + 1)] = pn * w[:, None]
+            blk[:, n_out * (nn + 1):] = -(h[:, y] * w)[:, None] * pd[:, :nd]
+            rows.append(blk)
+            rhs.append(h[:, y] * w * pd[:, nd])
+        a = np.concatenate(rows)
+        b = np.concatenate(rhs)
+        sol = np.linalg.lstsq(np.concatenate([a.real, a.imag]),
+                              np.concatenate([b.real, b.imag]), rcond=None)[0]
+        den = np.append(sol[n_out * (nn + 1):], 1.0)
+        d_prev = pd @ den
+    return sol[: n_out * (nn + 1)].reshape(n_out, nn + 1), den
 
 
 def _refine_smoothed(f: np.ndarray, h: np.ndarray, wts: np.ndarray, poles: np.ndarray,

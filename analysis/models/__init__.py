@@ -2,12 +2,18 @@
 the reverse-path basis functions of a kind, the candidate library (locations x kinds) that the
 diagnosis searches and reverse-path screening locates, bounded text reading.
 
-Modules behind this API: ``_model``, ``_model_file``, ``_model_tables``, ``_kinds``, ``_elements``, ``_basis``,
-``_candidates``, ``_textfile``. Code inside this package imports its siblings by their private module path.
+Modules behind this API: ``_model`` (the `Model`), ``_element`` (`Element`), ``_support``
+(`Support`), ``_receptance`` (the linear part's FRF), ``_model_checks`` (physics checked on
+construction), ``_model_toml`` (the file's tables and text), ``_model_file`` (TOML values,
+element placement), ``_model_tables`` (validated tables and bounds), ``_kinds``, ``_elements``,
+``_basis``, ``_candidates``, ``_textfile``. Code inside this package imports its siblings by
+their private module path.
 """
 
-from ._model import Element, MAX_ELEMENTS, MAX_PARAM, Model, Support
-from ._model_tables import MAX_DOF, MAX_ENTRY
+from ._element import Element
+from ._model import Model
+from ._support import Support
+from ._model_tables import MAX_DOF, MAX_ELEMENTS, MAX_ENTRY, MAX_PARAM
 from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_order
 from ._elements import (N_BUILTIN, N_PARAM, N_STATE, element_force, element_tangent,
                         memoryless_force, pack_params, register_kind, restoring_force,

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import EstimationError, InputError
 from ._kinds import lookup
-from ._model import Element
+from ._element import Element
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,6 @@ An element whose parameters are omitted is *unknown*: it marks what an estimator
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,88 +19,16 @@ from typing import Any
 import numpy as np
 from scipy.linalg import eigh
 
-from ._elements import KINDS
 from ..errors import ModelError
-from ._model_file import (check_keys, check_toml_matrix, default_points, point_index,
-                          short, toml_element, toml_list, toml_num, toml_str, toml_where)
-from ._model_tables import (MAX_DOF, MAX_ENTRY, MAX_MODES, MAX_RATE_HZ, matrix,
+from ._element import Element
+from ._model_checks import check_element, check_physics, check_rates
+from ._model_file import point_index
+from ._model_tables import (MAX_DOF, MAX_ELEMENTS, MAX_MODES, coupling_table, matrix,
                             modal_table, points_table, shapes_table)
+from ._model_toml import from_tables, model_text
+from ._receptance import LinearReceptance
+from ._support import Support
 from ._textfile import parse_toml, read_text
-
-TOP_KEYS = ("name", "points", "linear", "modal", "element", "support")
-SUPPORT_KEYS = ("points", "free")
-LINEAR_KEYS = ("mass", "damping", "stiffness")
-MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
-              "residual_damping_ratios", "residual_shapes", "damping_coupling")
-MAX_ELEMENTS = 100
-MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
-MAX_PARAM = 1e30          # largest |element parameter|
-
-
-@dataclass
-class Element:
-    """One nonlinear element acting on ``u = w.x`` (``w`` over the model's points)."""
-
-    kind: str
-    w: np.ndarray
-    params: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def missing(self) -> list[str]:
-        """Required parameters that have no value (to be estimated)."""
-        return [name for name in KINDS[self.kind].params if name not in self.params]
-
-    @property
-    def known(self) -> bool:
-        """Whether every required parameter has a value."""
-        return not self.missing
-
-    def to_dict(self) -> dict[str, Any]:
-        """The element as ``{kind, w, <param>: value}`` (floats)."""
-        out: dict[str, Any] = {"kind": self.kind, "w": [float(x) for x in self.w]}
-        out.update({k: float(v) for k, v in self.params.items()})
-        return out
-
-
-@dataclass(frozen=True)
-class Support:
-    """Where the structure meets the ground (a model file's ``[support]``, contracts section 7).
-
-    Parameters
-    ----------
-    points : tuple of int
-        Indices of the points held by the supports (``[support] points = [...]``).
-    free : bool
-        A free or suspended structure: no point is held (``[support] free = true``).
-    """
-
-    points: tuple[int, ...] = ()
-    free: bool = False
-
-    def toml(self, names: list[str]) -> list[str]:
-        """The ``[support]`` table's lines."""
-        if self.free:
-            return ["", "[support]", "free = true"]
-        held = ", ".join(toml_str(names[i]) for i in self.points)
-        return ["", "[support]", f"points = [{held}]"]
-
-
-def _support(raw: Any, names: list[str]) -> Support:
-    """`Support` from a ``[support]`` table (exactly one of ``points`` and ``free``)."""
-    check_keys(raw, SUPPORT_KEYS, "[support]")
-    if len(raw) != 1:
-        raise ModelError("[support] takes either points = [...] (the points held) or "
-                         "free = true (a free or suspended structure)")
-    if "free" in raw:
-        if raw["free"] is not True:
-            raise ModelError(f"[support] free = {short(raw['free'])}: write free = true, or "
-                             "give points = [...] instead")
-        return Support(free=True)
-    pts = raw["points"]
-    if not isinstance(pts, list) or not pts:
-        raise ModelError(f"[support] points = {short(pts)} must list the points held, e.g. "
-                         '["root"]')
-    return Support(tuple(sorted({point_index(p, names, "[support] points") for p in pts})))
 
 
 @dataclass
@@ -148,12 +75,12 @@ class Model:
             self.shapes = np.eye(n)
         self.shapes = shapes_table(self.shapes, n)
         self.points = points_table(self.points, self.shapes.shape[0])
-        _check_physics(self)
+        check_physics(self)
         if len(self.elements) > MAX_ELEMENTS:
             raise ModelError(f"{len(self.elements)} elements, more than {MAX_ELEMENTS}")
         for i, el in enumerate(self.elements):
-            _check_element(el, i, self.n_dof)
-        _check_rates(self)
+            check_element(el, i, self.n_dof)
+        check_rates(self)
         if self.support is not None and any(not 0 <= i < self.n_dof
                                             for i in self.support.points):
             raise ModelError(f"support points {list(self.support.points)} outside the "
@@ -179,7 +106,7 @@ class Model:
                                  "modal.residual", n_points=phi.shape[1])
             f, z, phi = np.r_[f, fr], np.r_[z, zr], np.vstack([phi, phr])
         w = 2 * np.pi * f
-        c = np.diag(2 * z * w) + _coupling(damping_coupling, f.size)
+        c = np.diag(2 * z * w) + coupling_table(damping_coupling, f.size)
         return cls(np.eye(f.size), c, np.diag(w ** 2), list(elements or []),
                    name, points, phi.T, nr)
 
@@ -304,42 +231,7 @@ class Model:
 
     def dumps(self) -> str:
         """TOML text of this model (matrices one row per line; loads back exactly)."""
-        # Written by hand: tomli-w puts every matrix entry on its own line, which makes model
-        # files unreadable to the engineers who edit them. The schema is small and fixed.
-        lines = [f"name = {toml_str(self.name)}"]
-        named = self.points != default_points(self.n_dof)
-        if named or self.is_modal:          # a [modal] file names its points (`from_dict`)
-            lines.append(f"points = [{', '.join(toml_str(p) for p in self.points)}]")
-        if self.is_modal:
-            lines += ["", "[modal]                  # mass-normalised shapes: one row per mode, "
-                      "one value per point (1/sqrt(kg))"]
-            freqs, zeta, shapes, nr = _modal_tables(self)
-            for key, f, z, phi in (("", freqs[:-nr or None], zeta[:-nr or None],
-                                    shapes[:-nr or None]),
-                                   ("residual_", freqs[len(freqs) - nr:],
-                                    zeta[len(freqs) - nr:], shapes[len(freqs) - nr:])):
-                if not len(f):
-                    continue
-                rows = ",\n    ".join(toml_list(row) for row in phi)
-                lines += [f"{key}frequencies_hz = {toml_list(f)}",
-                          f"{key}damping_ratios = {toml_list(z)}",
-                          f"{key}shapes = [\n    {rows},\n]"]
-            coupling = modal_coupling(self)
-            if coupling is not None:
-                rows = ",\n    ".join(toml_list(row) for row in coupling)
-                lines.append(f"damping_coupling = [\n    {rows},\n]")
-        else:
-            lines += ["", "[linear]"]
-            for key in ("mass", "damping", "stiffness"):
-                rows = ",\n    ".join(toml_list(row) for row in getattr(self, key))
-                lines.append(f"{key} = [\n    {rows},\n]")
-        if self.support is not None:
-            lines += self.support.toml(self.points)
-        for el in self.elements:
-            lines += ["", "[[element]]", f"kind = {toml_str(el.kind)}",
-                      toml_where(el.w, self.points) if named else f"w = {toml_list(el.w)}"]
-            lines += [f"{name} = {toml_num(value)}" for name, value in el.params.items()]
-        return "\n".join(lines) + "\n"
+        return model_text(self)
 
     def save(self, path: str | Path) -> None:
         """Write the model file (`dumps`) to ``path``.
@@ -354,65 +246,9 @@ class Model:
     def from_dict(cls, data: dict[str, Any], source: str = "model") -> "Model":
         """Model from the tables of a model file (strict schema: see docs/model-format.md)."""
         try:
-            return cls._from_dict(data)
+            return from_tables(cls, data)
         except ModelError as exc:
             raise ModelError(f"{source}: {exc}") from None
-
-    @classmethod
-    def _from_dict(cls, data: dict[str, Any]) -> "Model":
-        check_keys(data, TOP_KEYS, "top level")
-        name = data.get("name", "model")
-        if not isinstance(name, str):
-            raise ModelError(f"name must be a string, got {name!r}")
-        points = data.get("points")
-        if points is not None and (not isinstance(points, list) or not points):
-            raise ModelError(f"points = {short(points)} must be a list of point names, e.g. "
-                             '["drive", "tip"]')
-        raw_elements = data.get("element", [])
-        if not isinstance(raw_elements, list):
-            raise ModelError("element must be an array of tables ([[element]])")
-        if len(raw_elements) > MAX_ELEMENTS:
-            raise ModelError(f"{len(raw_elements)} elements, more than {MAX_ELEMENTS}; "
-                             "split the model or merge elements acting on the same w")
-        linear, modal = data.get("linear"), data.get("modal")
-        if linear is None and modal is None:
-            raise ModelError("no [linear] table; give mass, damping and stiffness matrices "
-                             "under [linear] (or modes under [modal], docs/model-format.md)")
-        if linear is not None and modal is not None:
-            raise ModelError("both [linear] and [modal]: give the linear system in one form")
-        if linear is not None:
-            check_keys(linear, LINEAR_KEYS, "[linear]")
-            for key in LINEAR_KEYS:
-                if key not in linear:
-                    raise ModelError(f"[linear] lacks '{key}'; give an n x n matrix")
-                check_toml_matrix(linear[key], f"linear.{key}")
-            n_points = len(linear["mass"])
-        else:
-            check_keys(modal, MODAL_KEYS, "[modal]")
-            for key in MODAL_KEYS[:3]:
-                if key not in modal:
-                    raise ModelError(f"[modal] lacks '{key}'; see docs/model-format.md")
-            check_toml_matrix(modal["shapes"], "modal.shapes")
-            if points is None:
-                raise ModelError("a [modal] model needs top-level points = [...] naming the "
-                                 "point of each shape column")
-            n_points = len(points)
-        names = points_table(points, n_points)
-        elements = [Element(*toml_element(raw, i, names)) for i, raw in enumerate(raw_elements)]
-        support = None if "support" not in data else _support(data["support"], names)
-        if linear is not None:
-            return cls(linear["mass"], linear["damping"], linear["stiffness"], elements, name,
-                       names, support=support)
-        if "residual_shapes" in modal:
-            check_toml_matrix(modal["residual_shapes"], "modal.residual_shapes")
-        model = cls.modal(modal["frequencies_hz"], modal["damping_ratios"], modal["shapes"],
-                          elements=elements, name=name, points=names,
-                          residual_freqs_hz=modal.get("residual_frequencies_hz", []),
-                          residual_damping=modal.get("residual_damping_ratios", []),
-                          residual_shapes=modal.get("residual_shapes"),
-                          damping_coupling=modal.get("damping_coupling"))
-        model.support = support
-        return model
 
     @classmethod
     def loads(cls, text: str, source: str = "model") -> "Model":
@@ -454,181 +290,3 @@ class Model:
             Unreadable file, invalid TOML or schema.
         """
         return cls.loads(read_text(path, "model file", ModelError), str(path))
-
-
-def _coupling(value: Any, n: int) -> np.ndarray:
-    """The validated ``damping_coupling`` of a ``[modal]`` table (zeros when absent)."""
-    if value is None:
-        return np.zeros((n, n))
-    check_toml_matrix(value, "modal.damping_coupling")
-    c = np.array(value, dtype=float)
-    if c.shape != (n, n) or not np.all(np.isfinite(c)):
-        raise ModelError(f"modal.damping_coupling must be {n} x {n} (every mode, pseudo-modes "
-                         f"last), got shape {c.shape}")
-    if np.any(np.diag(c) != 0) or not np.allclose(c, c.T, rtol=1e-9, atol=0.0):
-        raise ModelError("modal.damping_coupling must be symmetric with a zero diagonal (the "
-                         "diagonal is damping_ratios)")
-    return c
-
-
-def modal_coupling(model: Model) -> np.ndarray | None:
-    """Off-diagonal modal damping (N s/m per unit modal mass) in the modes a ``[modal]`` file
-    writes, when a correction left one (a stuck stiffness taken out of the linear part
-    couples the modes through a non-proportional damping); None when the damping is
-    diagonal there (within 1e-12 of its largest entry)."""
-    m, c, k = model.mass, model.damping, model.stiffness
-    if model.decoupled and np.all(np.diag(m) == 1):
-        return None
-    vec = eigh(k, m)[1]
-    cq = vec.T @ c @ vec
-    off = cq - np.diag(np.diag(cq))
-    if not np.abs(off).max() > 1e-12 * np.abs(cq).max():
-        return None
-    return (off + off.T) / 2
-
-
-def _modal_tables(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Frequencies, damping ratios, shapes (n_modes, n_points) and the number of trailing
-    pseudo-modes of a modal model; matrices changed by a correction are diagonalised again
-    (undamped modes of ``K, M``; damping ratios from the diagonal of the modal damping)."""
-    m, c, k = model.mass, model.damping, model.stiffness
-    if model.decoupled and np.all(np.diag(m) == 1):
-        w = np.sqrt(np.diag(k))
-        return w / (2 * np.pi), np.diag(c) / (2 * w), model.shapes.T, model.n_residual
-    lam, vec = eigh(k, m)
-    w = np.sqrt(np.clip(lam, 0.0, None))
-    zeta = np.einsum("qi,qr,ri->i", vec, c, vec) / (2 * np.maximum(w, 1e-300))
-    return w / (2 * np.pi), zeta, (model.shapes @ vec).T, 0
-
-
-class LinearReceptance:
-    """The receptance ``T (K - w^2 M + i w C)^-1 T'`` of a model's linear part at its points,
-    for any frequencies (`Model.receptance`)."""
-
-    def __init__(self, model: Model, force_dofs: list[int] | None = None) -> None:
-        self.shapes = model.shapes
-        self.cols = model.shapes if force_dofs is None else model.shapes[list(force_dofs)]
-        self.decoupled = model.decoupled
-        self.is_modal = model.is_modal
-        self.mass, self.damping, self.stiffness = model.mass, model.damping, model.stiffness
-        self.diag = tuple(np.diag(a).copy() for a in (model.mass, model.damping,
-                                                       model.stiffness))
-        #: the force columns' DOFs when ``T = I`` (a ``[linear]`` model): the receptance of a
-        #: decoupled one is then ``hq`` on those entries, zero elsewhere
-        self.dofs = None if self.is_modal else np.arange(model.n_q) if force_dofs is None \
-            else np.asarray(force_dofs, dtype=int)
-        self._paths: dict[int, list[Any]] = {}   # einsum's contraction order per n_f
-
-    def __call__(self, freqs: np.ndarray) -> np.ndarray:
-        """Receptance at ``freqs`` (Hz), (n_f, n_dof, n_in)."""
-        w = 2 * np.pi * np.asarray(freqs, dtype=float)
-        if self.decoupled:
-            m, c, k = self.diag
-            hq = 1.0 / (-w[:, None] ** 2 * m + 1j * w[:, None] * c + k)
-            if self.dofs is not None:
-                # what the product with T = I gives: each sum over q has one non-zero term,
-                # times 1.0 (exact), so the entries are hq's bit for bit
-                out = np.zeros((w.size, self.shapes.shape[0], self.dofs.size), dtype=complex)
-                out[:, self.dofs, np.arange(self.dofs.size)] = hq[:, self.dofs]
-                return out
-            # the order einsum's optimizer picks depends on the sizes only: planned once
-            # per number of frequencies (planning cost more than the product)
-            path = self._paths.get(w.size)
-            if path is None:
-                path = self._paths[w.size] = np.einsum_path(
-                    "pq,fq,iq->fpi", self.shapes, hq, self.cols, optimize=True)[0]
-            return np.einsum("pq,fq,iq->fpi", self.shapes, hq, self.cols, optimize=path)
-        z = (-w[:, None, None] ** 2 * self.mass + 1j * w[:, None, None] * self.damping
-             + self.stiffness)
-        h = np.linalg.solve(z, np.broadcast_to(self.cols.T, z.shape[:1] + self.cols.T.shape))
-        return h if not self.is_modal else np.einsum("pq,fqi->fpi", self.shapes, h)
-
-
-def _check_physics(model: Model) -> None:
-    for key, positive in (("mass", True), ("damping", False), ("stiffness", False)):
-        a = getattr(model, key)
-        scale = max(np.abs(a).max(), 1e-300)
-        if np.abs(a - a.T).max() > 1e-9 * scale:
-            raise ModelError(f"linear.{key} is not symmetric; a passive structure has "
-                             f"symmetric {key} (check the off-diagonal terms)")
-        eig = np.linalg.eigvalsh(0.5 * (a + a.T))
-        if positive and eig.min() <= 0:
-            raise ModelError("linear.mass is not positive definite; every DOF needs mass > 0")
-        if positive and eig.min() < MIN_MASS:
-            raise ModelError(f"linear.mass has an eigenvalue of {eig.min():.3g} kg, below "
-                             f"{MIN_MASS:g} kg; give SI units (kg)")
-        if not positive and eig.min() < -1e-9 * scale:
-            raise ModelError(f"linear.{key} has a negative eigenvalue ({eig.min():.3g}); "
-                             f"{key} must be positive semi-definite")
-
-
-def _rates(model: Model, elements: list[Element]) -> tuple[float, float]:
-    """Highest natural frequency and viscous decay rate, Hz, of the linear system stiffened
-    and damped by ``elements`` at rest (their kinds' slopes at zero amplitude: the
-    piecewise-linear and Coulomb kinds' steepest)."""
-    stiff, visc = model.stiffness.copy(), model.damping.copy()
-    for el in elements:
-        wq = model.to_q(el.w)
-        spec, ww = KINDS[el.kind], np.outer(wq, wq)
-        if el.missing:                      # a candidate's unknown element: no slope yet
-            continue
-        if spec.stiffness is not None:
-            stiff += abs(spec.stiffness(el.params, 0.0)) * ww
-        if spec.damping is not None:
-            visc += abs(spec.damping(el.params, 0.0)) * ww
-    lam = eigh(stiff, model.mass, eigvals_only=True).max()
-    rate = eigh(visc, model.mass, eigvals_only=True).max()
-    return math.sqrt(max(lam, 0.0)) / (2 * np.pi), max(rate, 0.0) / (2 * np.pi)
-
-
-def _check_rates(model: Model) -> None:
-    """Refuse time scales no supported sample rate resolves (they stall the simulated plant
-    and overflow the estimators): name the matrix or the first element that makes them."""
-    if max(_rates(model, [])) > MAX_RATE_HZ:
-        raise ModelError(f"linear.stiffness/damping over mass give a natural frequency or decay "
-                         f"rate above {MAX_RATE_HZ:g} Hz; check the units (kg, N s/m, N/m)")
-    if not model.elements or max(_rates(model, model.elements)) <= MAX_RATE_HZ:
-        return
-    for i, el in enumerate(model.elements):
-        if max(_rates(model, model.elements[:i + 1])) > MAX_RATE_HZ:
-            raise ModelError(f"element {i} ({el.kind}) makes a natural frequency or decay "
-                             f"rate above {MAX_RATE_HZ:g} Hz; check its parameter values")
-
-
-def _check_element(el: Element, i: int, n: int) -> None:
-    where = f"element {i} ({el.kind})"
-    if el.kind not in KINDS:
-        raise ModelError(f"element {i}: unknown kind '{el.kind}'; "
-                         f"use one of {', '.join(KINDS)}")
-    spec = KINDS[el.kind]
-    try:
-        el.w = np.array(el.w, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: w must be a list of numbers") from None
-    if el.w.ndim != 1:
-        raise ModelError(f"{where}: w must be a flat list of numbers, got shape {el.w.shape}")
-    if el.w.size != n:
-        raise ModelError(f"{where}: w has {el.w.size} entries but the model has {n} points")
-    if not np.all(np.isfinite(el.w)) or not np.any(el.w):
-        raise ModelError(f"{where}: w must be finite and not all zero")
-    if np.abs(el.w).max() > MAX_ENTRY:
-        raise ModelError(f"{where}: w has an entry above {MAX_ENTRY:g}; w is a position "
-                         "vector of order 1 (e.g. e_j - e_i)")
-    params = {}
-    for name, value in el.params.items():
-        if name not in spec.all_params:
-            raise ModelError(f"{where}: unknown parameter '{name}'; "
-                             f"{el.kind} takes {', '.join(spec.all_params)}")
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
-                or not math.isfinite(value):
-            raise ModelError(f"{where}: parameter {name} = {value!r} is not a finite number")
-        if name in spec.positive and value <= 0:
-            raise ModelError(f"{where}: parameter {name} must be > 0, got {value}")
-        smallest, largest = spec.param(name).smallest, spec.param(name).largest
-        lo = -MAX_PARAM if smallest is None else smallest
-        hi = MAX_PARAM if largest is None else largest
-        if not lo <= value <= hi:
-            raise ModelError(f"{where}: parameter {name} = {value:g} is outside "
-                             f"{lo:g}..{hi:g}")
-        params[name] = float(value)
-    el.params = params

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ._element import Element
 from ._elements import KINDS
 from ..errors import ModelError
 from ._textfile import nearest, unknown_keys
@@ -63,8 +64,9 @@ def check_toml_matrix(value: Any, name: str) -> None:
             if not is_number(x):
                 raise ModelError(f"{name}[{r}][{c}] = {short(x)} is not a number; {hint}")
 
-def toml_element(raw: Any, i: int, points: list[str]) -> tuple[str, Any, dict[str, Any]]:
-    """Kind, position vector and parameters of element table ``i`` (strict schema)."""
+def toml_element(raw: Any, i: int, points: list[str]) -> Element:
+    """The `Element` of ``[[element]]`` table ``i`` (strict schema; its values are checked
+    against the model when the model is built)."""
     if not isinstance(raw, dict):
         raise ModelError(f"element {i} must be a table ([[element]])")
     kind = raw.get("kind")
@@ -87,15 +89,15 @@ def toml_element(raw: Any, i: int, points: list[str]) -> tuple[str, Any, dict[st
     for name, value in params.items():
         if not is_number(value):
             raise ModelError(f"{where}: parameter {name} = {short(value)} is not a number")
-    return kind, w, params
+    return Element(kind, w, params)
 
-def placement(key: str, value: Any, points: list[str], where: str) -> np.ndarray | list:
+def placement(key: str, value: Any, points: list[str], where: str) -> np.ndarray:
     """Position vector of an element from its ``w``, ``at`` or ``between`` entry."""
     if key == "w":
         if not isinstance(value, list) or not all(is_number(x) for x in value):
             raise ModelError(f"{where}: w = {short(value)} must be a flat list of numbers, one "
                              "per point (e.g. [0.0, 1.0])")
-        return value
+        return np.array(value, dtype=float)
     ends = [value] if key == "at" else value
     if key == "between" and not (isinstance(value, list) and len(value) == 2):
         raise ModelError(f'{where}: between = {short(value)} must name two points, e.g. '

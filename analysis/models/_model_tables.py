@@ -9,12 +9,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
-from ._model_file import default_points, is_number, short
+from ._model_file import check_toml_matrix, default_points, is_number, short
 
 MAX_DOF = 100             # points, and DOFs of the [linear] form
 MAX_MODES = 500
 MAX_ENTRY = 1e15          # largest |matrix entry| (SI: kg, N s/m, N/m)
 MAX_RATE_HZ = 1e7         # highest natural frequency or viscous decay rate / (2 pi)
+MAX_ELEMENTS = 100
+MIN_MASS = 1e-12          # kg: smallest eigenvalue of the mass matrix
+MAX_PARAM = 1e30          # largest |element parameter|
 
 
 def points_table(points: Any, n: int) -> list[str]:
@@ -121,3 +124,18 @@ def matrix(value: Any, name: str, n: int | None = None, max_size: int = MAX_DOF
         raise ModelError(f"{name} has an entry of magnitude {big:.3g}, above {MAX_ENTRY:g}; "
                          "give SI units (kg, N s/m, N/m)")
     return arr
+
+
+def coupling_table(value: Any, n: int) -> np.ndarray:
+    """The validated ``damping_coupling`` of a ``[modal]`` table (zeros when absent)."""
+    if value is None:
+        return np.zeros((n, n))
+    check_toml_matrix(value, "modal.damping_coupling")
+    c = np.array(value, dtype=float)
+    if c.shape != (n, n) or not np.all(np.isfinite(c)):
+        raise ModelError(f"modal.damping_coupling must be {n} x {n} (every mode, pseudo-modes "
+                         f"last), got shape {c.shape}")
+    if np.any(np.diag(c) != 0) or not np.allclose(c, c.T, rtol=1e-9, atol=0.0):
+        raise ModelError("modal.damping_coupling must be symmetric with a zero diagonal (the "
+                         "diagonal is damping_ratios)")
+    return c

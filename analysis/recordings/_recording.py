@@ -211,6 +211,15 @@ class Recording:
 
     def validate(self) -> None:
         """Raise `RecordingError` naming the first inconsistency found."""
+        self._validate_settings()
+        self._validate_samples()
+        self._validate_channels()
+        self._validate_drive()
+        self._validate_monitors()
+        self._validate_layout()
+
+    def _validate_settings(self) -> None:
+        """Sample rate, level and the vocabularies (excitation, force hold, response kind)."""
         if not MIN_FS <= self.fs <= MAX_FS:  # False for NaN
             raise RecordingError(f"sample rate fs must be a number in {MIN_FS:g}..{MAX_FS:g} "
                                  f"Hz, got {self.fs}")
@@ -227,6 +236,9 @@ class Recording:
                 self.response_kind == MIXED and self.sensors is not None):
             raise RecordingError(f"response_kind '{self.response_kind}' is not one of "
                                  f"{', '.join(RESPONSE_KINDS)}")
+
+    def _validate_samples(self) -> None:
+        """Force and response: the excitation's shape, finite samples in SI ranges."""
         ndim = 2 if self.excitation in CONTINUOUS else 3
         shape_doc = "(n, channels)" if ndim == 2 else "(n_steps, n, channels)"
         for name in ("force", "response"):
@@ -250,6 +262,9 @@ class Recording:
                 raise RecordingError(f"{name} channel {j} peaks at {peak[j]:.3g}, outside "
                                      f"{MIN_PEAK:g}..{MAX_SAMPLE:g}; check the units (SI) and "
                                      "the scaling")
+
+    def _validate_channels(self) -> None:
+        """Force and response of one length; force DOFs (and the sensor map) agree."""
         if self.force.shape[:-1] != self.response.shape[:-1]:
             raise RecordingError(f"force {self.force.shape} and response "
                                  f"{self.response.shape} differ in length")
@@ -270,6 +285,9 @@ class Recording:
                                      "channels measuring force_points "
                                      f"{list(self.sensors.force_points)}; drop force_dofs or "
                                      "make them agree")
+
+    def _validate_drive(self) -> None:
+        """A stepped sine's frequencies, a swept sine's law, each below fs/2."""
         if self.excitation == "stepped-sine":
             if self.freqs is None or self.freqs.shape != (self.force.shape[0],):
                 raise RecordingError("stepped-sine data needs freqs with one drive frequency "
@@ -283,17 +301,20 @@ class Recording:
         if top >= self.fs / 2:
             raise RecordingError(f"the sweep reaches {top:g} Hz, not below fs/2 = "
                                  f"{self.fs / 2:g} Hz; check sweep_start_hz/sweep_stop_hz")
-        self._validate_monitors()
-        if self.layout is not None:
-            if self.excitation != "random":
-                raise RecordingError("a periodic layout (period, ...) belongs to random "
-                                     f"(multisine) data, not {self.excitation}")
-            lay = self.layout
-            if lay.realizations * lay.realization_samples != self.force.shape[0]:
-                raise RecordingError(
-                    f"{self.force.shape[0]} samples are not {lay.realizations} realization(s) "
-                    f"of ({lay.transient_periods} + {lay.periods}) periods of {lay.period} "
-                    "samples")
+
+    def _validate_layout(self) -> None:
+        """A periodic layout belongs to random data and fills its samples exactly."""
+        if self.layout is None:
+            return
+        if self.excitation != "random":
+            raise RecordingError("a periodic layout (period, ...) belongs to random "
+                                 f"(multisine) data, not {self.excitation}")
+        lay = self.layout
+        if lay.realizations * lay.realization_samples != self.force.shape[0]:
+            raise RecordingError(
+                f"{self.force.shape[0]} samples are not {lay.realizations} realization(s) "
+                f"of ({lay.transient_periods} + {lay.periods}) periods of {lay.period} "
+                "samples")
 
     def _validate_monitors(self) -> None:
         """Monitor channels: named (no comma), real numbers, one force channel's shape."""

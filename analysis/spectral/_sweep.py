@@ -135,27 +135,7 @@ def sweep_frf(force: np.ndarray, response: np.ndarray, fs: float, law: SweepLaw,
     h = np.asarray(sorted(set(int(k) for k in harmonics) | {1}), dtype=int)
     orders = np.concatenate([h, NOISE_ORDERS]).astype(float)
     theta, inst = tracked_phase(force, fs, law)
-    t = np.arange(force.size) / fs
-    if np.any(np.diff(inst) * law.direction <= 0):
-        raise RecordingError("the force does not sweep monotonically as the sweep law says; "
-                             "check sweep_start_hz, sweep_stop_hz, sweep_law and sweep_rate")
-    ordered = slice(None, None, law.direction)
-
-    def time_at(f: np.ndarray) -> np.ndarray:
-        return np.interp(f, inst[ordered], t[ordered])
-
-    spacing = np.geomspace if law.law == "log" else np.linspace
-    # analysis frequencies whose whole window lies in the record, every order below the limit
-    dense = spacing(inst.min(), inst.max(), 50 * points)
-    tc = time_at(dense)
-    ok = (tc - 0.5 * cycles / dense >= 0) & (tc + 0.5 * cycles / dense <= t[-1]) \
-        & (dense * max(NOISE_ORDERS) < FIT_LIMIT * fs)
-    if ok.sum() < 2:
-        raise RecordingError(f"the sweep is too short for windows of {cycles:g} cycles (or "
-                             "too close to Nyquist); use fewer cycles or a longer sweep")
-    grid = spacing(dense[ok].min(), dense[ok].max(), points)
-    grid = grid[::law.direction]
-    centres = time_at(grid)
+    grid, centres = _analysis_grid(inst, fs, law, cycles, points)
     nh = h.size
     X = np.empty((points, nh, y2.shape[1]), dtype=complex)
     F = np.empty(points)
@@ -165,12 +145,7 @@ def sweep_frf(force: np.ndarray, response: np.ndarray, fs: float, law: SweepLaw,
         tc = centres[i]
         a = max(0, int(round((tc - 0.5 * cycles / f) * fs)))
         b = min(force.size, int(round((tc + 0.5 * cycles / f) * fs)) + 1)
-        use = orders * f < FIT_LIMIT * fs           # higher harmonics: left out (NaN)
-        ph = theta[a:b, None] * orders[None, use]
-        design = np.hstack([np.ones((b - a, 1)), np.cos(ph), np.sin(ph)])
-        coef, *_ = np.linalg.lstsq(design, np.column_stack([force[a:b], y2[a:b]]), rcond=None)
-        c = np.full((orders.size, coef.shape[1]), np.nan, dtype=complex)
-        c[use] = coef[1:1 + use.sum()] - 1j * coef[1 + use.sum():]
+        c = _window_orders(theta[a:b], np.column_stack([force[a:b], y2[a:b]]), orders, f, fs)
         f1 = c[0, 0]
         if f1 == 0:
             raise RecordingError(f"no force at {f:.4g} Hz in the sweep; check the force channel")
@@ -183,6 +158,82 @@ def sweep_frf(force: np.ndarray, response: np.ndarray, fs: float, law: SweepLaw,
     return SweepFRF(grid, h, F, X, float(level or F.mean()), force_dof,
                     noise=noise, direction=law.direction, force_harmonics=Fh,
                     times=centres, window_s=cycles / grid)
+
+
+def _analysis_grid(inst: np.ndarray, fs: float, law: SweepLaw, cycles: float, points: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Analysis frequencies of a sweep, in sweep order, and their window centres.
+
+    Parameters
+    ----------
+    inst : ndarray, shape (n,)
+        Tracked instantaneous frequency of the force at every sample, Hz.
+    fs : float
+        Sample rate, Hz.
+    law : SweepLaw
+    cycles : float
+        Window length in cycles of the local frequency.
+    points : int
+        Number of analysis frequencies, spaced like the law.
+
+    Returns
+    -------
+    grid, centres : ndarray, shape (points,)
+        Frequencies (Hz) whose whole window lies in the record with every order below
+        `FIT_LIMIT`, and the time (s) the sweep passes each.
+    """
+    t = np.arange(inst.size) / fs
+    if np.any(np.diff(inst) * law.direction <= 0):
+        raise RecordingError("the force does not sweep monotonically as the sweep law says; "
+                             "check sweep_start_hz, sweep_stop_hz, sweep_law and sweep_rate")
+    ordered = slice(None, None, law.direction)
+
+    def time_at(f: np.ndarray) -> np.ndarray:
+        return np.interp(f, inst[ordered], t[ordered])
+
+    spacing = np.geomspace if law.law == "log" else np.linspace
+    dense = spacing(inst.min(), inst.max(), 50 * points)
+    tc = time_at(dense)
+    ok = (tc - 0.5 * cycles / dense >= 0) & (tc + 0.5 * cycles / dense <= t[-1]) \
+        & (dense * max(NOISE_ORDERS) < FIT_LIMIT * fs)
+    if ok.sum() < 2:
+        raise RecordingError(f"the sweep is too short for windows of {cycles:g} cycles (or "
+                             "too close to Nyquist); use fewer cycles or a longer sweep")
+    grid = spacing(dense[ok].min(), dense[ok].max(), points)
+    grid = grid[::law.direction]
+    return grid, time_at(grid)
+
+
+def _window_orders(theta: np.ndarray, signals: np.ndarray, orders: np.ndarray, f: float,
+                   fs: float) -> np.ndarray:
+    """Complex amplitudes of each order of the sweep phase in one window (least squares).
+
+    Parameters
+    ----------
+    theta : ndarray, shape (m,)
+        Sweep phase over the window, rad.
+    signals : ndarray, shape (m, n_signals)
+        The window of each signal (force first).
+    orders : ndarray, shape (n_orders,)
+        Orders of ``theta`` fitted beside a constant.
+    f : float
+        The window's frequency, Hz.
+    fs : float
+        Sample rate, Hz: orders at or above `FIT_LIMIT` ``* fs`` are left out (NaN), near
+        Nyquist a fit is ill-conditioned.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_orders, n_signals)
+        ``a - i b`` of ``a cos(k θ) + b sin(k θ)`` per order and signal.
+    """
+    use = orders * f < FIT_LIMIT * fs
+    ph = theta[:, None] * orders[None, use]
+    design = np.hstack([np.ones((theta.size, 1)), np.cos(ph), np.sin(ph)])
+    coef, *_ = np.linalg.lstsq(design, signals, rcond=None)
+    c = np.full((orders.size, coef.shape[1]), np.nan, dtype=complex)
+    c[use] = coef[1:1 + use.sum()] - 1j * coef[1 + use.sum():]
+    return c
 
 
 def max_sweep_rate(fn: float, zeta: float, law: str = "linear") -> float:

@@ -1,8 +1,8 @@
 """Campaigns: configuration and validation, devices, the runner and what it tells its watchers.
 
 Modules behind this API: ``_campaign``, ``_campaign_config``, ``_campaign_fields``,
-``_campaign_bench``, ``_campaign_sweep``, ``_observer``. Code inside this package imports its siblings by their
-private module path.
+``_campaign_devices`` (the device tables), ``_campaign_bench``, ``_campaign_sweep``,
+``_observer``. Code inside this package imports its siblings by their private module path.
 """
 
 from ._campaign import CampaignAborted, harmonics, run_campaign

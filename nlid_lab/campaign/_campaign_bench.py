@@ -17,7 +17,8 @@ from drivers.errors import DriverConfigError
 from drivers.registry import open_daq, open_shaker
 from drivers.rig import SimRig
 
-from ._campaign_config import Campaign, CampaignError, load_plant_model, scheme
+from ._campaign_config import Campaign, CampaignError, load_plant_model
+from ._campaign_devices import scheme
 
 #: x real time. CAN at 4: the python-can virtual bus copies every frame (~20 us each), and at
 #: 8x a 1024 Hz stream (8,192 frames/s, the most a 1 Mbit/s bus carries) took the process

@@ -8,46 +8,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import StrEnum
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
 from analysis.errors import RecordingError
 from analysis.models import Model, parse_toml, read_text
 from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
-                                 SweepLaw, table_keys)
-from drivers import DAQS, DEFAULT_RAMP_TIME, SHAKERS, Channel, DriverConfigError
+                                 SweepLaw)
+from drivers import DEFAULT_RAMP_TIME, Channel
 from drivers.faults import FaultSpec
 
 from ..sim_budget import excess
+from ._campaign_devices import (SIMULATED, Role, _channels, _check_channel_set, _emulator,
+                               _limits, _sensor_channels, _sensors, _url, _watchdog, scheme)
 from ._campaign_fields import (CampaignError, _choice, _levels, _num, _opt, _table,
                               _unknown)
 
 DIRECTIONS = ("up", "down", "up-down")
-#: Simulated benches: ``sim`` runs both devices in-process; ``<scheme>-emu`` starts the bundled
-#: emulator of a registered backend and connects that backend's driver to it.
-EMULATED = {"serial-emu": "serial", "can-emu": "can"}
-SIMULATED = ("sim", *EMULATED)
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
             "sweep", "safety", "emulator", "sensors"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
 MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
-
-
-class Role(StrEnum):
-    """The two devices of a campaign, each a table of the campaign file."""
-
-    SHAKER = "shaker"
-    DAQ = "daq"
-
-
-def schemes(role: Role) -> tuple[str, ...]:
-    """The URL schemes a campaign accepts for ``role``: the driver registry's backends
-    (`drivers.SHAKERS`, `drivers.DAQS`), their emulated benches, ``sim``."""
-    backends = SHAKERS if role == Role.SHAKER else DAQS
-    emulated = tuple(emu for emu, real in EMULATED.items() if real in backends)
-    return (*backends, *emulated)
 
 
 @dataclass
@@ -224,100 +205,11 @@ class Campaign:
         return FaultSpec.from_dict(self.faults, "emulator.faults")
 
 
-def scheme(url: str) -> str:
-    return urlsplit(url).scheme
-
-
 def duration(seconds: float) -> str:
     """``seconds`` as s, min or h for the terminal."""
     if seconds < 120:
         return f"{seconds:.0f} s"
     return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
-
-
-def _url(table: dict, role: Role) -> str:
-    url, allowed = table.get("url"), schemes(role)
-    if not isinstance(url, str) or scheme(url) not in allowed:
-        raise CampaignError(f"[{role}] url must be a string starting with one of "
-                            f"{', '.join(s + '://' for s in allowed)}, got {url!r}")
-    return url
-
-
-def _channels(raw: Any) -> list[Channel]:
-    if not isinstance(raw, list) or not raw or not all(isinstance(c, dict) for c in raw):
-        raise CampaignError("give the DAQ inputs as [[channel]] tables (name, quantity, dof, "
-                            "sensitivity)")
-    out = []
-    for i, c in enumerate(raw):
-        _unknown(c, {"name", "quantity", "dof", "sensitivity", "unit"}, f"channel {i}")
-        if not isinstance(c.get("name"), str) or not c["name"]:
-            raise CampaignError(f"[[channel]] {i} needs a non-empty 'name'")
-        dof = c.get("dof")
-        if isinstance(dof, bool) or not isinstance(dof, int):
-            raise CampaignError(f"channel '{c['name']}': dof must be an integer (0-based)")
-        sens = _opt(c, "sensitivity", f"channel {c['name']}", Channel, lo=0.0, open_lo=True)
-        try:
-            out.append(Channel(c["name"], str(c.get("quantity", "")), dof, sens,
-                               str(c.get("unit", ""))))
-        except DriverConfigError as exc:
-            raise CampaignError(str(exc)) from None
-    return out
-
-
-def _sensors(data: dict, daq: dict, daq_url: str) -> SensorMap | None:
-    """The [sensors] table (the vocabulary of a ``--sensors`` file) as a `SensorMap`, or None."""
-    if "sensors" not in data:
-        return None
-    if "channel" in data:
-        raise CampaignError("give [sensors] or [[channel]] tables, not both: with [sensors] the "
-                            "channels are its points, named after them")
-    if scheme(daq_url) != "sim":
-        raise CampaignError(f"[sensors] needs the sim:// backend ({scheme(daq_url)}:// streams "
-                            "one [[channel]] per model DOF); drop [sensors] and give [[channel]] "
-                            "tables, or use sim://")
-    try:
-        keys = table_keys(data["sensors"], "[sensors]")
-    except RecordingError as exc:
-        raise CampaignError(str(exc)) from None
-    for key in ("response_points", "force_points"):
-        if key not in keys:
-            raise CampaignError(f"[sensors] needs {key}, e.g. {key} = [\"drive\"]")
-    if len(keys["force_points"]) != 1:
-        raise CampaignError(f"[sensors] force_points names {len(keys['force_points'])} "
-                            "points; give the one point the shaker drives")
-    try:
-        smap = SensorMap.from_keys(keys, len(keys["response_points"]), [],
-                                   daq.get("response_kind"))
-        smap.validate(len(smap.response_points), 1)
-    except RecordingError as exc:
-        raise CampaignError(f"[sensors] {exc}") from None
-    return smap
-
-
-def _sensor_channels(smap: SensorMap) -> list[Channel]:
-    """The channels a sensor map records: the force (``force@POINT``), then one per response
-    point in its kind, named after the point; ``dof`` is the run's channel number."""
-    force = Channel(f"force@{smap.force_points[0]}", "force", smap.force_channels[0])
-    return [force] + [Channel(p, k, j) for j, (p, k) in
-                      enumerate(zip(smap.response_points, smap.response_kinds))]
-
-
-def _check_channel_set(channels: list[Channel], kind: str) -> None:
-    names = [c.name for c in channels]
-    if len(set(names)) != len(names):
-        raise CampaignError(f"channel names must be unique, got {names}")
-    forces = [c for c in channels if c.quantity == "force"]
-    if len(forces) != 1:
-        raise CampaignError(f"give exactly one force channel (one shaker), got {len(forces)}")
-    resp = [c for c in channels if c.quantity != "force"]
-    if not resp or any(c.quantity != kind for c in resp):
-        raise CampaignError(f"every response channel must measure '{kind}' "
-                            "(daq.response_kind)")
-    if sorted(c.dof for c in resp) != list(range(len(resp))):
-        raise CampaignError("give one response channel per DOF 0..n_dof-1, got DOFs "
-                            f"{sorted(c.dof for c in resp)}")
-    if forces[0].dof >= len(resp):
-        raise CampaignError(f"force channel DOF {forces[0].dof} has no response channel")
 
 
 def _freqs(t: dict) -> list[float]:
@@ -468,6 +360,34 @@ def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
                             f"channel; use one of the response channels' dof {dofs}")
 
 
+def _plant(data: dict[str, Any], base: Path | None, shaker_url: str, daq_url: str
+           ) -> PlantSpec | None:
+    """The ``[plant]`` of a simulated bench (None for real hardware); both devices simulated
+    or both real, and ``sim://`` for both or neither."""
+    sims = [scheme(u) in SIMULATED for u in (shaker_url, daq_url)]
+    if sims[0] != sims[1]:
+        raise CampaignError("shaker and DAQ must both be simulated (sim://, serial-emu://, "
+                            "can-emu://) or both real: one simulated plant is one loop")
+    if (scheme(shaker_url) == "sim") != (scheme(daq_url) == "sim"):
+        raise CampaignError("sim:// is in-process: use it for both shaker and DAQ, or use "
+                            "emulators for both")
+    if not sims[0]:
+        return None
+    p = _table(data, "plant")
+    _unknown(p, {"model", "seed", "shaker_gain", "noise_std", "oversample"}, "plant")
+    if not isinstance(p.get("model"), str):
+        raise CampaignError("[plant] model must be the path of a model TOML file")
+    model = Path(p["model"])
+    if not model.is_absolute() and base is not None:
+        model = base / model
+    over = p.get("oversample")
+    if over is not None:
+        over = _num(p, "oversample", "plant", lo=1, integer=True, hi=1000)
+    return PlantSpec(model, _opt(p, "seed", "plant", PlantSpec, lo=0, integer=True),
+                     _opt(p, "shaker_gain", "plant", PlantSpec, lo=0, open_lo=True),
+                     _opt(p, "noise_std", "plant", PlantSpec, lo=0), over)
+
+
 def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
     """Validate a campaign dict (as read from TOML); paths relative to ``base``."""
     if not isinstance(data, dict):
@@ -487,54 +407,10 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         _check_channel_set(channels, response_kind)
     else:
         channels, response_kind = _sensor_channels(sensors), sensors.kind
-    sims = [scheme(u) in SIMULATED for u in (shaker_url, daq_url)]
-    if sims[0] != sims[1]:
-        raise CampaignError("shaker and DAQ must both be simulated (sim://, serial-emu://, "
-                            "can-emu://) or both real: one simulated plant is one loop")
-    if (scheme(shaker_url) == "sim") != (scheme(daq_url) == "sim"):
-        raise CampaignError("sim:// is in-process: use it for both shaker and DAQ, or use "
-                            "emulators for both")
-    plant = None
-    if sims[0]:
-        p = _table(data, "plant")
-        _unknown(p, {"model", "seed", "shaker_gain", "noise_std", "oversample"}, "plant")
-        if not isinstance(p.get("model"), str):
-            raise CampaignError("[plant] model must be the path of a model TOML file")
-        model = Path(p["model"])
-        if not model.is_absolute() and base is not None:
-            model = base / model
-        over = p.get("oversample")
-        if over is not None:
-            over = _num(p, "oversample", "plant", lo=1, integer=True, hi=1000)
-        plant = PlantSpec(model, _opt(p, "seed", "plant", PlantSpec, lo=0, integer=True),
-                          _opt(p, "shaker_gain", "plant", PlantSpec, lo=0, open_lo=True),
-                          _opt(p, "noise_std", "plant", PlantSpec, lo=0), over)
-    safety = _table(data, "safety", required=False)
-    _unknown(safety, {"limits"}, "safety")
-    limits = safety.get("limits", {})
-    if not isinstance(limits, dict):
-        raise CampaignError("[safety] limits must be a table {channel name = max |value|}")
-    for key, value in limits.items():
-        if key not in {c.name for c in channels}:
-            raise CampaignError(f"[safety] limits names unknown channel '{key}' (channels: "
-                                f"{', '.join(c.name for c in channels)})")
-        _num(limits, key, "safety.limits", lo=0.0, open_lo=True)
-    emu = _table(data, "emulator", required=False)
-    _unknown(emu, {"pace", "faults"}, "emulator")
-    pace = _num(emu, "pace", "emulator", default=None, lo=0.0) if "pace" in emu else None
-    faults = emu.get("faults", {})
-    if not isinstance(faults, dict):
-        raise CampaignError("[emulator] faults must be a table")
-    try:
-        FaultSpec.from_dict(faults, "emulator.faults")
-    except DriverConfigError as exc:
-        raise CampaignError(str(exc)) from None
-    watchdog = None
-    if "watchdog" in shaker:
-        watchdog = _num(shaker, "watchdog", "shaker", lo=0.0, hi=60)
-        if 0 < watchdog < 0.02:
-            raise CampaignError(f"[shaker] watchdog must be 0 (off) or 0.02..60 s, got "
-                                f"{watchdog!r}")
+    plant = _plant(data, base, shaker_url, daq_url)
+    limits = _limits(data, channels)
+    pace, faults = _emulator(data)
+    watchdog = _watchdog(shaker)
     frame_default = max(1, min(256, int(fs / 32)))
     name = data.get("name", "campaign")
     if not isinstance(name, str):
@@ -553,7 +429,7 @@ def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
         gain_guess=_opt(shaker, "gain_guess", "shaker", Campaign, lo=0.0, open_lo=True),
         max_drive=_opt(shaker, "max_drive", "shaker", Campaign, lo=0.0, open_lo=True),
         watchdog=watchdog,
-        limits={k: float(v) for k, v in limits.items()}, pace=pace, faults=dict(faults),
+        limits=limits, pace=pace, faults=dict(faults),
         source=None, raw=data, sensors=sensors)
 
 

@@ -331,8 +331,9 @@ def test_store_imports_only_analysis_and_h5py():
 
 
 def test_campaign_config_does_not_import_emulators():
-    for level, module in _imports(ROOT / "nlid_lab" / "campaign" / "_campaign_config.py"):
-        assert "emulators" not in module
+    for name in ("_campaign_config.py", "_campaign_devices.py"):
+        for level, module in _imports(ROOT / "nlid_lab" / "campaign" / name):
+            assert "emulators" not in module, name
 
 
 class _Stop(Exception):
