@@ -12,8 +12,9 @@ import numpy as np
 from analysis.recordings import KEYS as SENSOR_KEYS
 from analysis.recordings import MAX_FS, MAX_SAMPLE, MIN_FS, names
 
-from ._recordings_io import (RecordingFileError, _array, _extra, _layout, _level, _load_npz,
-                             _scalar, sweep_fields)
+from ._recording_keys import (RecordingFileError, array_key, extra_keys, layout_of, level_of,
+                              load_npz_file, scalar_key)
+from ._sweep_keys import sweep_fields
 
 
 def read_drive(path: str | os.PathLike) -> dict:
@@ -30,7 +31,7 @@ def read_drive(path: str | os.PathLike) -> dict:
     ``force_points`` then name the model points the forces act on).
     """
     path = Path(path)
-    data = _load_npz(path, "drive")
+    data = load_npz_file(path, "drive")
     missing = {"fs", "force", "force_dofs"} - set(data)
     if missing == {"force_dofs"} and "force_points" in data:
         missing = set()
@@ -40,19 +41,19 @@ def read_drive(path: str | os.PathLike) -> dict:
     try:
         points = names(data["force_points"], "force_points") if "force_points" in data \
             else None
-        drive = {"fs": _scalar(data, "fs", float, path),
-                 "force": _array(data, "force", path),
-                 "force_dofs": (_array(data, "force_dofs", path, integer=True)
+        drive = {"fs": scalar_key(data, "fs", float, path),
+                 "force": array_key(data, "force", path),
+                 "force_dofs": (array_key(data, "force_dofs", path, integer=True)
                                 if "force_dofs" in data else np.arange(len(points))),
-                 "freqs": _array(data, "freqs", path) if "freqs" in data else None,
+                 "freqs": array_key(data, "freqs", path) if "freqs" in data else None,
                  # sensor-map keys: where the forces act and what the channels measure
                  "sensors": {k: names(data[k], k) for k in SENSOR_KEYS if k in data}}
         stepped = drive["freqs"] is not None
         swept = not stepped and "excitation" in data \
-            and _scalar(data, "excitation", str, path) == "swept-sine"
+            and scalar_key(data, "excitation", str, path) == "swept-sine"
         drive["excitation"] = "stepped-sine" if stepped else "swept-sine" if swept else "random"
-        drive["level"], level_from = _level(data, path, drive["excitation"])
-        drive["extra"] = _extra(data, drive["excitation"], level_from)
+        drive["level"], level_from = level_of(data, path, drive["excitation"])
+        drive["extra"] = extra_keys(data, drive["excitation"], level_from)
     except (TypeError, ValueError) as exc:
         raise RecordingFileError(f"{path}: {exc}") from None
     force, n_in = drive["force"], drive["force_dofs"].size
@@ -82,7 +83,7 @@ def read_drive(path: str | os.PathLike) -> dict:
         raise RecordingFileError(f"{path}: the level (force_rms/force_amplitude) must be a "
                                  f"number in (0, {MAX_SAMPLE:g}] N")
     try:
-        drive["layout"] = None if stepped else _layout(data, path, force.shape[0])
+        drive["layout"] = None if stepped else layout_of(data, path, force.shape[0])
         drive["sweep"] = None
         if drive["excitation"] == "swept-sine":     # a sweep drive plays from its first sample
             drive["sweep"], drive["force"], _, level = sweep_fields(data, force, force,

@@ -16,7 +16,7 @@ from analysis.errors import InputError
 from analysis.plant import multisine, periodic
 from analysis.models import Element, Model
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, model_at_sensors, one_kind
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab import store
 from nlid_lab.cli import main
 from nlid_lab.commands.simulate import simulate_drive

@@ -12,7 +12,7 @@ import scipy.io
 from analysis.models import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recordings import SweepLaw
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"

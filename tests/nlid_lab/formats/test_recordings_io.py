@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from analysis.recordings import Recording
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.formats import read_drive
 from nlid_lab import store
 

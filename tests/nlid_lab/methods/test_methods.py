@@ -13,7 +13,7 @@ import pytest
 from analysis.spectral import default_nperseg, longest_nperseg, resolving_nperseg
 from analysis.models import Element, Model
 from nlid_lab import methods, reanalyze as rea, store
-from nlid_lab.formats import _recordings_io as recordings_io
+from nlid_lab import formats as recordings_io
 from nlid_lab.cli import build_parser, main
 from nlid_lab.reports import Section, estimate_rows, load_run, write_report
 from test_report import random_run
