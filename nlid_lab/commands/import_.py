@@ -27,7 +27,7 @@ def _sweep_keys(args: argparse.Namespace) -> dict:
         if args.excitation not in (None, "swept-sine"):
             raise InputError(f"--sweep describes a swept sine; drop it or use --excitation "
                              f"swept-sine (not {args.excitation})")
-        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep)}
+        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep).keys()}
     return keys
 
 

@@ -16,13 +16,13 @@ from ._sensor_files import read_sensors, with_sensors
 from ._drives import Drive, read_drive
 from ._mat_io import ChannelMap, apply_map, read_mat_tree
 from ._mat_recording import is_recording, read_mat_recording, write_mat
-from ._sweep_keys import describe, parse_sweep_option
+from ._sweep_keys import SweepOption, describe, parse_sweep_option
 from ._units import G0, split_label
 from ._tables import TableMap
 from ._fe_modes import FEModes, parse_point, read_modes, to_model
 
-__all__ = ["ChannelMap", "Drive", "FEModes", "G0", "LAYOUT_KEYS", "RecordingFileError", "TableMap",
-           "apply_map", "describe", "is_recording", "load_npz_keys", "load_recordings",
+__all__ = ["ChannelMap", "Drive", "FEModes", "G0", "LAYOUT_KEYS", "RecordingFileError",
+           "SweepOption", "TableMap", "apply_map", "describe", "is_recording", "load_npz_keys", "load_recordings",
            "parse_point", "parse_sweep_option",
            "read_csv", "read_csv_columns", "read_drive", "read_mat_recording", "read_mat_tree",
            "read_modes", "read_npz", "read_sensors", "recording_from_keys", "recording_keys",

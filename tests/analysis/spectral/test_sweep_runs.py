@@ -106,6 +106,13 @@ def test_partial_sweep_option_overrides_the_estimate(tmp_path):
     assert abs(rec.sweep.law.rate / 4.0 - 1) < 0.005 and rec.sweep.estimated
 
 
+def test_sweep_option_parses_into_its_fields():
+    assert rio.parse_sweep_option("15:2:linear:0.05") == rio.SweepOption(15.0, 2.0, "linear",
+                                                                         0.05)
+    option = rio.parse_sweep_option("3:12")
+    assert option.keys() == {"sweep_start_hz": 3.0, "sweep_stop_hz": 12.0}   # rest estimated
+
+
 def test_bad_sweep_option_is_one_line(tmp_path, capsys):
     np.savez(tmp_path / "s.npz", fs=FS, force_dofs=[0], force=np.ones((10, 1)),
              response=np.ones((10, 1)))
