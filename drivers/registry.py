@@ -15,6 +15,8 @@ URL                                        backend
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
@@ -41,8 +43,18 @@ def _number(text: str) -> Any:
     return text
 
 
-def parse_url(url: str) -> tuple[str, list[str], dict[str, Any]]:
-    """Split a device URL into scheme, positional arguments and keyword arguments."""
+@dataclass(frozen=True)
+class DeviceUrl:
+    """A device URL parsed: its scheme, the backend's positional arguments (a serial port;
+    a CAN interface and channel) and its query options (numbers where they read as such)."""
+
+    scheme: str
+    args: tuple[str, ...]
+    options: Mapping[str, Any]
+
+
+def parse_url(url: str) -> DeviceUrl:
+    """Split a device URL into scheme, positional arguments and keyword options."""
     parts = urlsplit(url)
     if not parts.scheme:
         raise DriverConfigError(f"device URL '{url}' has no scheme; write e.g. sim://, "
@@ -60,11 +72,12 @@ def parse_url(url: str) -> tuple[str, list[str], dict[str, Any]]:
         args = [parts.netloc, parts.path.strip("/")]
     else:
         args = [parts.netloc] if parts.netloc else []
-    return parts.scheme, args, query
+    return DeviceUrl(parts.scheme, tuple(args), query)
 
 
-def _open(table: dict[str, tuple[str, str]], what: str, url: str, kwargs: dict[str, Any]):
-    scheme, args, query = parse_url(url)
+def _open(table: dict[str, tuple[str, str]], what: str, url: str, kwargs: Mapping[str, Any]):
+    parsed = parse_url(url)
+    scheme = parsed.scheme
     if scheme not in table:
         raise UnknownBackendError(f"no {what} backend for '{scheme}://'; available: "
                                   f"{', '.join(s + '://' for s in table)}")
@@ -75,7 +88,7 @@ def _open(table: dict[str, tuple[str, str]], what: str, url: str, kwargs: dict[s
         raise UnknownBackendError(f"the {scheme}:// {what} backend needs a missing package "
                                   f"({exc.name}); install nlid-lab[can]") from None
     try:
-        return getattr(module, cls_name)(*args, **{**query, **kwargs})
+        return getattr(module, cls_name)(*parsed.args, **{**parsed.options, **kwargs})
     except TypeError as exc:
         raise DriverConfigError(f"bad option for the {scheme}:// {what}: {exc}") from None
 

@@ -197,4 +197,4 @@ def with_checks(result: dict[str, Any], checks: Sequence[Any]) -> dict[str, Any]
     """``result`` with the data checks of its input runs (`nlid_lab.store.RunCheck`, from
     `nlid_lab.commands.repair.check_runs`) under ``"data_checks"``: each run's status,
     blocks stored and planned, whether it is incomplete, and the blocks left out and why."""
-    return {**result, "data_checks": [c.as_dict() for c in checks]}
+    return {**result, "data_checks": [c.to_json() for c in checks]}

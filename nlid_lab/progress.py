@@ -8,11 +8,11 @@ from __future__ import annotations
 import os
 import sys
 import time
-from typing import Any, Iterable, TextIO, TypeVar
+from typing import Iterable, TextIO, TypeVar
 
 from tqdm.auto import tqdm
 
-from .campaign import LevelStatus, LevelSummary
+from .campaign import CampaignStart, LevelStatus, LevelSummary
 
 T = TypeVar("T")
 
@@ -46,11 +46,11 @@ class CampaignProgress:
         self.stored_here = 0
         self.t0 = time.monotonic()
 
-    def campaign_started(self, info: dict[str, Any]) -> None:
+    def campaign_started(self, info: CampaignStart) -> None:
         """Count the blocks or steps still to store."""
-        self.n_levels = len(info["levels"])
-        self.remaining = sum(max(info["planned"] - n, 0) for n in info["stored"])
-        self.unit = info["unit"]
+        self.n_levels = len(info.levels)
+        self.remaining = sum(max(info.planned - n, 0) for n in info.stored)
+        self.unit = info.unit
         self.t0 = time.monotonic()
 
     def level_progress(self, s: LevelStatus) -> None:

@@ -17,7 +17,7 @@ import os
 import statistics
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,11 +36,41 @@ HEAD = ("path", "level_index", "level", "excitation", "method", "status")
 TAIL = ("coherence_min", "cost", "warnings", "error")
 CONNECT_TIMEOUT_S = 10.0
 MAX_LISTED = 20  # failed rows named in the summary
+SCHEMA_VERSION = 1
+"""Version of the reanalysis JSON (`Reanalysis.to_json`, ``reanalyze --json``)."""
 NANNY_ENVIRON = "distributed.nanny.pre-spawn-environ"
 
 
 class ReanalysisError(InputError):
     """Bad reanalysis input: no runs, unknown method, unreachable scheduler."""
+
+
+@dataclass(frozen=True)
+class LevelRow:
+    """One level of one run in the reanalysis table (a run that cannot be read: one failed
+    row with ``level_index`` -1).
+
+    ``estimates`` holds the estimated parameters by column, ``e{i}.{kind}.{param}``, each with
+    its 95 % interval as ``....ci95_lo`` / ``....ci95_hi`` (None where the estimator gave
+    none); ``warnings`` are joined by `` | ``, ``error`` is one line.
+    """
+
+    path: str
+    level_index: int
+    level: float | None
+    excitation: str | None
+    method: str
+    status: str                   # "ok" or "failed"
+    estimates: Mapping[str, float | None] = field(default_factory=dict)
+    coherence_min: float | None = None
+    cost: float | None = None
+    warnings: str = ""
+    error: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """Whether the level was estimated."""
+        return self.status == "ok"
 
 
 @dataclass
@@ -49,8 +79,8 @@ class Reanalysis:
 
     Attributes
     ----------
-    rows : list of dict
-        One row per run and level, every row holding every column (missing -> None).
+    rows : list of LevelRow
+        One row per run and level, input order (run, then level).
     method : str
     n_runs : int
     n_workers : int
@@ -63,7 +93,7 @@ class Reanalysis:
         Extra table attributes: model name and TOML, estimator options.
     """
 
-    rows: list[dict[str, Any]]
+    rows: list[LevelRow]
     method: str
     n_runs: int
     n_workers: int
@@ -74,7 +104,7 @@ class Reanalysis:
     @property
     def n_ok(self) -> int:
         """Number of rows estimated."""
-        return sum(row["status"] == "ok" for row in self.rows)
+        return sum(row.ok for row in self.rows)
 
     @property
     def n_failed(self) -> int:
@@ -84,40 +114,40 @@ class Reanalysis:
     @property
     def failed_runs(self) -> list[str]:
         """Paths with at least one failed row, in input order."""
-        return list(dict.fromkeys(r["path"] for r in self.rows if r["status"] != "ok"))
+        return list(dict.fromkeys(r.path for r in self.rows if not r.ok))
 
     def parameter_columns(self) -> list[str]:
         """Estimate columns (``e{i}.{kind}.{param}``), without their intervals."""
-        return [c for c in self.rows[0] if c not in HEAD + TAIL and ".ci95_" not in c] \
-            if self.rows else []
+        columns = dict.fromkeys(c for row in self.rows for c in row.estimates)
+        return [c for c in columns if ".ci95_" not in c]
 
     def summary(self) -> str:
         """A few lines for the terminal: counts, failures, parameter spread."""
         lines = [f"reanalysed {self.n_runs} run(s), {len(self.rows)} level(s) with "
                  f"{self.method} on {self.n_workers} worker(s) in {self.elapsed_s:.1f} s: "
                  f"{self.n_ok} ok, {self.n_failed} failed"]
-        failed = [row for row in self.rows if row["status"] != "ok"]
+        failed = [row for row in self.rows if not row.ok]
         for row in failed[:MAX_LISTED]:
-            where = "" if row["level_index"] < 0 else f" level {row['level_index']}"
-            lines.append(f"  FAILED {row['path']}{where}: {row['error']}")
+            where = "" if row.level_index < 0 else f" level {row.level_index}"
+            lines.append(f"  FAILED {row.path}{where}: {row.error}")
         if len(failed) > MAX_LISTED:
             lines.append(f"  ... and {len(failed) - MAX_LISTED} more failed rows (see the table)")
-        ok = [row for row in self.rows if row["status"] == "ok"]
+        ok = [row for row in self.rows if row.ok]
         for col in self.parameter_columns():
-            values = [row[col] for row in ok if _finite(row[col])]
+            values = [v for row in ok if _finite(v := row.estimates.get(col))]
             if values:
                 lines.append(f"  {col}: median {statistics.median(values):.5g} "
                              f"[{min(values):.5g} .. {max(values):.5g}] over {len(values)}")
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
-        """The reanalysis as JSON: counts, workers, timing and rows."""
-        return {"method": self.method, "n_runs": self.n_runs, "n_rows": len(self.rows),
-                "n_ok": self.n_ok, "n_failed": self.n_failed, "n_workers": self.n_workers,
+        """The reanalysis as JSON: ``schema_version``, counts, workers, timing and rows."""
+        return {"schema_version": SCHEMA_VERSION, "method": self.method, "n_runs": self.n_runs,
+                "n_rows": len(self.rows), "n_ok": self.n_ok, "n_failed": self.n_failed, "n_workers": self.n_workers,
                 "scheduler": self.scheduler, "elapsed_s": self.elapsed_s,
                 "failed_runs": self.failed_runs,
                 "rows": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                          for k, v in row.items()} for row in self.rows]}
+                          for k, v in row.items()} for row in table_json(self.rows)]}
 
 
 # --- inputs --------------------------------------------------------------------------------
@@ -158,8 +188,8 @@ def check_request(model: Model, method: str, run_timeout_s: float | None = None)
 
 
 # --- the task ------------------------------------------------------------------------------
-def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
-                timeout_s: float | None = None) -> list[dict[str, Any]]:
+def analyse_run(path: str, model: Model, method: str, options: Mapping[str, Any],
+                timeout_s: float | None = None) -> list[LevelRow]:
     """Rows of one run: open ``path`` here (on the worker), estimate every level.
 
     Never raises for a bad run: failures become rows with ``status = "failed"``; a run that
@@ -178,7 +208,7 @@ def analyse_run(path: str, model: Model, method: str, options: dict[str, Any],
 
 
 def _analyse_levels(path: str, model: Model, method: str,
-                    options: dict[str, Any]) -> list[dict[str, Any]]:
+                    options: Mapping[str, Any]) -> list[LevelRow]:
     from nlid_lab.formats import load_recordings  # the worker opens the file itself
     try:
         recordings = load_recordings(path)
@@ -192,16 +222,16 @@ def _analyse_levels(path: str, model: Model, method: str,
             rows.append(_failed_row(path, index, rec.level, rec.excitation, method, exc))
             continue
         try:
-            result = estimate(rec, model, chosen, options)
+            result = estimate_json(rec, model, chosen, options)
         except Exception as exc:  # noqa: BLE001 - one bad level must not stop the others
             rows.append(_failed_row(path, index, rec.level, rec.excitation, chosen, exc))
         else:
-            rows.append(_ok_row(path, index, rec, chosen, result))
+            rows.append(_row_from_json(path, index, rec, chosen, result))
     return rows
 
 
-def estimate(rec: Recording, model: Model, method: str,
-             options: dict[str, Any]) -> dict[str, Any]:
+def estimate_json(rec: Recording, model: Model, method: str,
+                  options: Mapping[str, Any]) -> dict[str, Any]:
     """The estimator's JSON (contracts section 4) for one level.
 
     ``options`` maps option names to values (None: the method's default); names of other
@@ -215,10 +245,10 @@ def _method_for(rec: Recording, method: str) -> str:
     return methods.for_excitation(rec.excitation).name if method == AUTO else method
 
 
-def _ok_row(path: str, index: int, rec: Recording, method: str,
-            result: dict[str, Any]) -> dict[str, Any]:
-    row: dict[str, Any] = {"path": path, "level_index": index, "level": rec.level,
-                           "excitation": rec.excitation, "method": method, "status": "ok"}
+def _row_from_json(path: str, index: int, rec: Recording, method: str,
+                   result: dict[str, Any]) -> LevelRow:
+    """The row of a level the estimator's JSON (`estimate_json`) describes."""
+    estimates: dict[str, float | None] = {}
     for i, el in enumerate(result.get("elements", [])):
         ci95 = el.get("ci95") or {}
         estimated = el.get("estimated", el.get("params", {}))  # hbm lists known ones too
@@ -227,22 +257,20 @@ def _ok_row(path: str, index: int, rec: Recording, method: str,
                 continue
             col = f"e{i}.{el['kind']}.{name}"
             lo, hi = ci95.get(name) or (None, None)
-            row.update({col: _num(value), f"{col}.ci95_lo": _num(lo), f"{col}.ci95_hi": _num(hi)})
+            estimates.update({col: _num(value), f"{col}.ci95_lo": _num(lo),
+                              f"{col}.ci95_hi": _num(hi)})
     coherence = result.get("multiple_coherence") or {}
-    row["coherence_min"] = _num(coherence.get("min"))
-    row["cost"] = _num(result.get("cost"))
-    row["warnings"] = " | ".join(str(w) for w in result.get("warnings", []))
-    row["error"] = ""
-    return row
+    return LevelRow(path, index, rec.level, rec.excitation, method, "ok", estimates,
+                    _num(coherence.get("min")), _num(result.get("cost")),
+                    " | ".join(str(w) for w in result.get("warnings", [])))
 
 
 def _failed_row(path: str, index: int, level: float | None, excitation: str | None,
-                method: str, exc: BaseException | str) -> dict[str, Any]:
+                method: str, exc: BaseException | str) -> LevelRow:
     text = " ".join(str(exc).split()) or "no message"
     if isinstance(exc, BaseException) and not isinstance(exc, InputError):
         text = f"{type(exc).__name__}: {text}"
-    return {"path": path, "level_index": index, "level": level, "excitation": excitation,
-            "method": method, "status": "failed", "warnings": "", "error": text}
+    return LevelRow(path, index, level, excitation, method, "failed", error=text)
 
 
 def _num(value: Any) -> float | None:
@@ -306,7 +334,7 @@ def worker_environ() -> dict[str, Any]:
 
 
 def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
-              method: str = "reverse-path", options: dict[str, Any] | None = None,
+              method: str = "reverse-path", options: Mapping[str, Any] | None = None,
               progress: bool = True, run_timeout_s: float | None = None) -> Reanalysis:
     """Map `analyse_run` over ``runs`` on ``client`` and gather one table.
 
@@ -349,7 +377,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     futures = client.map(analyse_run, paths, model=model, method=method, options=options,
                          timeout_s=run_timeout_s, pure=False)
     order = {f.key: i for i, f in enumerate(futures)}
-    gathered: list[list[dict[str, Any]]] = [[] for _ in paths]
+    gathered: list[list[LevelRow]] = [[] for _ in paths]
     failed = 0
     with tqdm(total=len(paths), unit="run", file=sys.stderr, disable=not progress,
               desc="reanalyze") as bar:
@@ -359,11 +387,11 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
                 result = [_failed_row(paths[i], -1, None, None, method,
                                       _lost(future.exception(), run_timeout_s))]
             gathered[i] = result
-            failed += any(row["status"] != "ok" for row in result)
+            failed += any(not row.ok for row in result)
             bar.set_postfix(failed=failed, refresh=False)
             bar.update()
     elapsed = time.perf_counter() - start
-    rows = _complete_columns([row for rows in gathered for row in rows])
+    rows = [row for rows in gathered for row in rows]
     return Reanalysis(rows, method, len(paths), n_workers, client.scheduler.address, elapsed,
                       {"model_name": model.name, "model_toml": model.dumps(),
                        "options": options})
@@ -380,15 +408,18 @@ def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | st
             f"{exc.allowed_failures + 1} attempt(s))")
 
 
-def _complete_columns(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Every row with every column: head, parameters (first-seen order), tail."""
+def table_json(rows: Sequence[LevelRow]) -> list[dict[str, Any]]:
+    """The rows as the table stores and the JSON lists them: every row with every column,
+    head, parameters (first-seen order), tail (coherence and cost only when some row has
+    them)."""
+    flat = [{**{k: getattr(row, k) for k in HEAD + TAIL}, **row.estimates} for row in rows]
     middle: list[str] = []
-    for row in rows:
+    for row in flat:
         middle += [k for k in row if k not in HEAD + TAIL and k not in middle]
-    tail = [k for k in TAIL if any(row.get(k) is not None for row in rows) or k in
+    tail = [k for k in TAIL if any(row.get(k) is not None for row in flat) or k in
             ("warnings", "error")]
     columns = list(HEAD) + middle + tail
-    return [{c: row.get(c) for c in columns} for row in rows]
+    return [{c: row.get(c) for c in columns} for row in flat]
 
 
 def write_results(result: Reanalysis, out: str | Path) -> None:
@@ -396,4 +427,4 @@ def write_results(result: Reanalysis, out: str | Path) -> None:
     attrs = {"kind": "nlid-lab reanalysis", "method": result.method,
              "n_runs": result.n_runs, "n_ok": result.n_ok, "n_failed": result.n_failed,
              "n_workers": result.n_workers, "elapsed_s": result.elapsed_s, **result.attrs}
-    write_table(out, result.rows, attrs)
+    write_table(out, table_json(result.rows), attrs)

@@ -196,7 +196,7 @@ def csv_cut_damaged(text: str, at: int) -> bool:
 
 def recording_case(data: st.DataObject, folder: Path) -> Result:
     """A mutated, cut or damaged NPZ, CSV or MAT recording through ``import``."""
-    from nlid_lab.formats import _recordings_io as rio
+    from nlid_lab import formats as rio
     from scipy.io import savemat
 
     keys = _recording(folder)
@@ -273,7 +273,7 @@ def _new_recording_case(data: st.DataObject, folder: Path, fmt: str, keys: dict,
     """Inputs beyond the first round: a CSV written with a byte-order mark, CRLF line ends,
     semicolons or decimal commas (the same numbers: accepted only if read as written);
     an NPZ holding an object (pickled) array; a MATLAB v7.3 (HDF5) file, whole or cut."""
-    from nlid_lab.formats import _recordings_io as rio
+    from nlid_lab import formats as rio
     import h5py
 
     if fmt == "csv dialect":

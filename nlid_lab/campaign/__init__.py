@@ -7,7 +7,8 @@ Modules behind this API: ``_campaign``, ``_campaign_config``, ``_campaign_fields
 
 from ._campaign import CampaignAborted, harmonics, run_campaign
 from ._campaign_config import CampaignError, load_campaign, load_plant_model, parse_campaign
-from ._observer import LevelStatus, LevelSummary, NullObserver
+from ._observer import CampaignStart, LevelStatus, LevelSummary, NullObserver
 
-__all__ = ["CampaignAborted", "CampaignError", "LevelStatus", "LevelSummary", "NullObserver",
+__all__ = ["CampaignAborted", "CampaignError", "CampaignStart", "LevelStatus", "LevelSummary",
+           "NullObserver",
            "harmonics", "load_campaign", "load_plant_model", "parse_campaign", "run_campaign"]

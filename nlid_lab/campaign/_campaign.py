@@ -30,7 +30,7 @@ from analysis.recordings import Control
 
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from ._campaign_sweep import run_sweeps
-from ._observer import CampaignObserver, LevelStatus, LevelSummary, Watchers
+from ._observer import CampaignObserver, CampaignStart, LevelStatus, LevelSummary, Watchers
 from ..store import DiskFullError, LevelWriter, RunWriter, left_out_text, require_room
 
 
@@ -47,6 +47,10 @@ class CampaignAborted(RuntimeError):
     data kept)."""
 
 
+SCHEMA_VERSION = 1
+"""Version of the ``campaign run --json`` layout (`CampaignResult.to_json`)."""
+
+
 @dataclass
 class CampaignResult:
     """What a finished campaign did."""
@@ -60,12 +64,13 @@ class CampaignResult:
     warnings: list[str] = field(default_factory=list)
     levels: list[LevelSummary] = field(default_factory=list)
 
-    def as_dict(self) -> dict[str, Any]:
-        return {"out": str(self.out), "status": self.status,
+    def to_json(self) -> dict[str, Any]:
+        """The JSON ``campaign run`` writes (``--json``), ``schema_version`` first."""
+        return {"schema_version": SCHEMA_VERSION, "out": str(self.out), "status": self.status,
                 "segments": {str(k): v for k, v in self.segments.items()},
                 "lost_frames": self.lost_frames, "lost_samples": self.lost_samples,
                 "daq_stats": self.daq_stats, "warnings": self.warnings,
-                "levels": [lv.as_dict() for lv in self.levels]}
+                "levels": [lv.to_json() for lv in self.levels]}
 
 
 def harmonics(block: np.ndarray, freq: float, fs: float, orders: int) -> np.ndarray:
@@ -465,23 +470,23 @@ class _Runner:
         c = self.c
         per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else \
             1 if isinstance(c.plan, SweepSpec) else len(c.plan.freqs)
-        info = {"fs": c.fs, "excitation": c.kind, "force_dofs": [c.force_dof],
-                "n_dof": c.n_dof, "response_kind": c.response_kind,
-                "sensors": None if c.sensors is None else dict(vars(c.sensors)),
-                "channels": [(ch.name, ch.unit) for ch in c.channels], "levels": c.levels,
-                "block_len": c.plan.block_size, "averages": getattr(c.plan, "averages", None)}
-        if isinstance(c.plan, SweepSpec):    # one block per level: the sweep (H1 live)
-            info.update(averages=1, sweeps=[dict(law.__dict__) for law in c.plan.laws])
-        if isinstance(c.plan, RandomSpec) and c.plan.periodic:   # a block = a realization
-            info["block_len"] *= c.plan.transient_periods + c.plan.periods
-            info.update(period=c.plan.block_size, transient_periods=c.plan.transient_periods)
-        if isinstance(c.plan, SteppedSpec):  # steps per level; harmonic order of each row
-            info.update(n_steps=per_level, harmonics=list(range(c.plan.harmonics + 1)))
-        info.update(planned=per_level, unit="step" if isinstance(c.plan, SteppedSpec) else
-                    "sweep" if isinstance(c.plan, SweepSpec) else
-                    "realization" if self._skip else "block",
-                    stored=[self.writer.level(i, x).n_segments
-                            for i, x in enumerate(c.levels)])
+        periodic = isinstance(c.plan, RandomSpec) and c.plan.periodic   # block = realization
+        stepped, swept = isinstance(c.plan, SteppedSpec), isinstance(c.plan, SweepSpec)
+        unit = "step" if stepped else "sweep" if swept else \
+            "realization" if self._skip else "block"
+        info = CampaignStart(
+            fs=c.fs, excitation=c.kind, force_dofs=(c.force_dof,), n_dof=c.n_dof,
+            response_kind=c.response_kind, sensors=c.sensors,
+            channels=tuple((ch.name, ch.unit) for ch in c.channels), levels=tuple(c.levels),
+            block_len=c.plan.block_size * ((c.plan.transient_periods + c.plan.periods)
+                                           if periodic else 1),
+            averages=1 if swept else getattr(c.plan, "averages", None),   # sweep: H1 live
+            planned=per_level, unit=unit,
+            stored=tuple(self.writer.level(i, x).n_segments for i, x in enumerate(c.levels)),
+            period=c.plan.block_size if periodic else None,
+            transient_periods=c.plan.transient_periods if periodic else 1,
+            n_steps=per_level if stepped else None,
+            harmonics=tuple(range(c.plan.harmonics + 1)) if stepped else None)
         self.observer.campaign_started(info)
         try:
             if isinstance(c.plan, RandomSpec):
@@ -507,13 +512,15 @@ class _Runner:
                 pass
 
 
-def _store_channels(c: Campaign) -> list[dict[str, Any]]:
+def _channels_json(c: Campaign) -> list[dict[str, Any]]:
+    """The run's channel attributes (stored as JSON): forces first, then responses by DOF."""
     return [{"name": ch.name, "unit": ch.unit, "dof": ch.dof, "sensitivity": ch.sensitivity,
              "kind": "force" if ch.quantity == "force" else "response"}
             for ch in sorted(c.channels, key=lambda ch: (ch.quantity != "force", ch.dof))]
 
 
-def _excitation(c: Campaign) -> dict[str, Any]:
+def _excitation_json(c: Campaign) -> dict[str, Any]:
+    """The run's ``excitation_settings`` attribute (stored as JSON): the kind and its plan."""
     plan = dict(c.plan.__dict__)
     if isinstance(c.plan, SweepSpec):
         plan["laws"] = [dict(law.__dict__) for law in c.plan.laws]
@@ -563,9 +570,9 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
                     "source_file": str(c.source) if c.source else None}
         # the simulated rig holds the drive linearly between samples (analysis.plant)
         hold = "linear" if bench.rig is not None else "none"
-        with RunWriter(out, fs=c.fs, excitation=_excitation(c), force_dofs=[c.force_dof],
+        with RunWriter(out, fs=c.fs, excitation=_excitation_json(c), force_dofs=[c.force_dof],
                        n_dof=c.n_dof, response_kind=c.response_kind,
-                       channels=_store_channels(c), settings=settings, force_hold=hold,
+                       channels=_channels_json(c), settings=settings, force_hold=hold,
                        layout=_layout(c), sensors=c.sensors,
                        model_toml=bench.model_toml, source=bench.source,
                        mode="resume" if resume else "overwrite" if overwrite else "create"

@@ -12,6 +12,38 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from analysis.recordings import SensorMap
+
+
+@dataclass(frozen=True)
+class CampaignStart:
+    """What a campaign tells its watchers as it starts.
+
+    ``unit`` is what a level stores: block, realization (periodic random: ``period``
+    samples, ``transient_periods`` dropped), sweep or step; ``planned`` of them per level,
+    ``stored`` per level already in the run. ``channels`` are (name, unit), forces first.
+    Stepped sine gives ``n_steps`` and the harmonic order of each row of a step's
+    harmonics; random ``averages`` blocks of ``block_len`` samples.
+    """
+
+    fs: float
+    excitation: str
+    force_dofs: tuple[int, ...]
+    n_dof: int
+    response_kind: str = "displacement"
+    sensors: SensorMap | None = None
+    channels: tuple[tuple[str, str], ...] = ()
+    levels: tuple[float, ...] = ()
+    block_len: int | None = None
+    averages: int | None = None
+    planned: int = 0
+    unit: str = "block"
+    stored: tuple[int, ...] = ()
+    period: int | None = None
+    transient_periods: int = 1
+    n_steps: int | None = None
+    harmonics: tuple[int, ...] | None = None
+
 
 @dataclass(frozen=True)
 class LevelStatus:
@@ -69,7 +101,7 @@ class LevelSummary:
         return text + (f", {self.seconds:.1f} s" if self.drive is not None
                        else ", already stored")
 
-    def as_dict(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, Any]:
         """The summary as a JSON-ready dict."""
         return asdict(self)
 
@@ -77,10 +109,8 @@ class LevelSummary:
 class CampaignObserver(Protocol):
     """What a running campaign tells its watchers (live view, terminal progress); every method
     is optional to implement."""
-    def campaign_started(self, info: dict[str, Any]) -> None:
-        """``info``: fs, excitation, force_dofs, n_dof, channel names and units, levels,
-        ``planned`` blocks/steps per level, ``stored`` per level already in the run, ``unit``
-        (block, realization or step)."""
+    def campaign_started(self, info: CampaignStart) -> None:
+        """The campaign's layout and what the run already holds (`CampaignStart`)."""
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         """A random-excitation block: force (n, n_in), response (n, n_dof)."""
@@ -103,7 +133,7 @@ class CampaignObserver(Protocol):
 class NullObserver:
     """Observer that ignores everything (the default)."""
 
-    def campaign_started(self, info: dict[str, Any]) -> None:
+    def campaign_started(self, info: CampaignStart) -> None:
         """Ignore the start."""
         pass
 
@@ -141,7 +171,7 @@ class Watchers:
             if method is not None:
                 method(*args)
 
-    def campaign_started(self, info: dict[str, Any]) -> None:
+    def campaign_started(self, info: CampaignStart) -> None:
         """Tell every watcher the campaign started."""
         self._tell("campaign_started", info)
 

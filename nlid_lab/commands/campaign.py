@@ -199,7 +199,7 @@ def _run(args: argparse.Namespace) -> int:
         raise DiskFullError(f"{exc}; campaign stopped, drive at zero: "
                             f"{_kept(args, unit, planned)}; free space, then continue with: "
                             f"{resume_command(args)}") from None
-    write_json(result.as_dict(), args.json)
+    write_json(result.to_json(), args.json)
     lost = (f", lost {result.lost_samples} samples in {result.lost_frames} frames (counted in "
             "the run)" if result.lost_samples or result.lost_frames else "")
     print(f"campaign '{campaign.name}' {result.status}: {sum(result.segments.values())} "

@@ -27,7 +27,7 @@ def _sweep_keys(args: argparse.Namespace) -> dict:
         if args.excitation not in (None, "swept-sine"):
             raise InputError(f"--sweep describes a swept sine; drop it or use --excitation "
                              f"swept-sine (not {args.excitation})")
-        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep)}
+        keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep).keys()}
     return keys
 
 
@@ -56,7 +56,7 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
         tree, units = formats.read_csv_columns(src)
         cmap = _channel_map(args.map).with_units(units)
         if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
-            cmap.fs = "fs"                               # a '# fs = ...' line
+            cmap = dataclasses.replace(cmap, fs="fs")    # a '# fs = ...' line
         elif cmap.fs == "Fs" and "Fs" not in tree:
             raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
                              "(e.g. --map force=Force response=Acceleration1,Acceleration2 "

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,40 +24,78 @@ _NORMALISATION = {
 }
 
 
+SCHEMA_VERSION = 1
+"""Version of the ``import-modes --json`` layout (`ModesImport.to_json`)."""
+
+
+@dataclass(frozen=True)
+class ImportedMode:
+    """One mode of the imported model, with where its damping came from."""
+
+    freq_hz: float
+    damping_ratio: float
+    damping_from: str             # the file's damping record, or "--damping Z"
+    complexity: float
+
+
+@dataclass(frozen=True)
+class ModesImport:
+    """What an import made of a UFF file's modes (the ``import-modes`` result)."""
+
+    analysis_type: str            # "normal modes" or "complex modes"
+    normalisation: str            # a key of `_NORMALISATION`
+    points: tuple[str, ...]
+    modes: tuple[ImportedMode, ...]
+    skipped_zero_hz: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The command's JSON: ``schema_version``, then the fields (modes as objects)."""
+        return {"schema_version": SCHEMA_VERSION, "analysis_type": self.analysis_type,
+                "normalisation": self.normalisation, "points": list(self.points),
+                "modes": [asdict(m) for m in self.modes],
+                "skipped_zero_hz": self.skipped_zero_hz}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> ModesImport:
+        """The import `to_json` wrote (a later ``schema_version`` refused)."""
+        if data.get("schema_version", SCHEMA_VERSION) != SCHEMA_VERSION:
+            raise ValueError(f"import-modes JSON schema_version {data['schema_version']}: "
+                             f"this nlid-lab reads {SCHEMA_VERSION}; update nlid-lab")
+        return cls(data["analysis_type"], data["normalisation"], tuple(data["points"]),
+                   tuple(ImportedMode(**m) for m in data["modes"]), data["skipped_zero_hz"])
+
+
 def summary(modes: FEModes, model: Model, index: np.ndarray, damping: float | None
-            ) -> dict[str, Any]:
-    """JSON of an import: modes with the source of their damping, points, normalisation."""
+            ) -> ModesImport:
+    """What an import made: modes with the source of their damping, points, normalisation."""
     zeta = np.diag(model.damping) / (2 * np.sqrt(np.diag(model.stiffness)))
-    return {
-        "analysis_type": "normal modes" if modes.analysis_type == 2 else "complex modes",
-        "normalisation": modes.normalised_by,
-        "points": list(model.points),
-        "modes": [{"freq_hz": float(modes.freqs_hz[i]), "damping_ratio": float(z),
-                   "damping_from": (modes.damping_source[i] if modes.damping_source[i] != "none"
-                                    else f"--damping {damping:g}"),
-                   "complexity": float(modes.complexity[i])}
-                  for i, z in zip(index, zeta)],
-        "skipped_zero_hz": len(modes.skipped_hz),
-    }
+    return ModesImport(
+        "normal modes" if modes.analysis_type == 2 else "complex modes", modes.normalised_by,
+        tuple(model.points),
+        tuple(ImportedMode(float(modes.freqs_hz[i]), float(z),
+                           modes.damping_source[i] if modes.damping_source[i] != "none"
+                           else f"--damping {damping:g}", float(modes.complexity[i]))
+              for i, z in zip(index, zeta)),
+        len(modes.skipped_hz))
 
 
-def format_summary(s: dict[str, Any]) -> str:
+def format_summary(s: ModesImport) -> str:
     """The import's summary for people: points, normalisation, modes with the source of their
     damping."""
-    lines = [f"{len(s['modes'])} {s['analysis_type']} at {len(s['points'])} point(s): "
-             + ", ".join(s["points"]),
-             "normalisation: " + _NORMALISATION[s["normalisation"]],
-             "  mode    f [Hz]   zeta [%]  damping from" + ("   complexity"
-                                                         if s["analysis_type"] != "normal modes"
+    complex_modes = s.analysis_type != "normal modes"
+    lines = [f"{len(s.modes)} {s.analysis_type} at {len(s.points)} point(s): "
+             + ", ".join(s.points),
+             "normalisation: " + _NORMALISATION[s.normalisation],
+             "  mode    f [Hz]   zeta [%]  damping from" + ("   complexity" if complex_modes
                                                          else "")]
-    for i, m in enumerate(s["modes"]):
-        line = (f"  {i + 1:4d} {m['freq_hz']:9.3f} {100 * m['damping_ratio']:9.3f}  "
-                f"{m['damping_from']:<13s}")
-        if s["analysis_type"] != "normal modes":
-            line += f" {100 * m['complexity']:8.2f} %"
+    for i, m in enumerate(s.modes):
+        line = (f"  {i + 1:4d} {m.freq_hz:9.3f} {100 * m.damping_ratio:9.3f}  "
+                f"{m.damping_from:<13s}")
+        if complex_modes:
+            line += f" {100 * m.complexity:8.2f} %"
         lines.append(line.rstrip())
-    if s["skipped_zero_hz"]:
-        lines.append(f"skipped {s['skipped_zero_hz']} mode(s) at 0 Hz (rigid-body modes have "
+    if s.skipped_zero_hz:
+        lines.append(f"skipped {s.skipped_zero_hz} mode(s) at 0 Hz (rigid-body modes have "
                      "no place in [modal])")
     return "\n".join(lines)
 
@@ -73,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     result = summary(modes, model, index, args.damping)
     print(format_summary(result) + f"\nwrote {args.out}", file=summary_stream(args.json,
                                                                              args.quiet))
-    write_json(result, args.json)
+    write_json(result.to_json(), args.json)
     return 0
 
 

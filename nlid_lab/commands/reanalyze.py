@@ -42,7 +42,9 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.out) as tmp:
             write_results(result, tmp)
         print(f"results: {args.out}", file=to)
-    write_json(with_checks({"out": args.out, **result.to_json()}, checks), args.json)
+    data = result.to_json()          # schema_version first, then where the table went
+    write_json(with_checks({"schema_version": data.pop("schema_version"), "out": args.out,
+                            **data}, checks), args.json)
     return 0 if result.n_failed == 0 else 1
 
 

@@ -26,7 +26,7 @@ def check_runs(paths: Sequence[str], repair: bool = False, skip_unreadable: bool
     incomplete run ("run is incomplete: 3 of 8 blocks"), the blocks left out and why
     (checksums verified); runs still flagged by a killed writer are repaired (or, at a
     terminal, offered a repair). Returns the `nlid_lab.store.RunCheck` of each run, whose
-    ``as_dict`` commands add to their JSON (`nlid_lab.outputs.with_checks`). With
+    ``to_json`` commands add to their JSON (`nlid_lab.outputs.with_checks`). With
     ``skip_unreadable`` a run that cannot be opened is left to the command (reanalysis
     reports it as a failed run) instead of raising."""
     from ..store import StoreError, open_run, repair_run

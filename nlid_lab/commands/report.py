@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from .. import methods
@@ -25,9 +26,10 @@ def run(args: argparse.Namespace) -> int:
     with progress(desc="report: figures", unit="fig") as bar, atomic_dir(args.out) as tmp:
         result = write_report(data, tmp, bar.update, frfs=frfs, candidate=candidate,
                               estimators=methods)
-    result["html"] = str(Path(args.out) / "index.html")   # figures and page moved there whole
-    print(result["html"])
-    write_json(with_checks(result, checks), args.json)
+    # figures and page moved there whole
+    result = replace(result, html=str(Path(args.out) / "index.html"))
+    print(result.html)
+    write_json(with_checks(result.to_json(), checks), args.json)
     return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -13,7 +14,7 @@ from analysis.errors import InputError
 from analysis.recordings import (ARTIFACTS, RESPONSE_KINDS, DaqArtifacts, Recording, SensorMap,
                                  apply_daq_artifacts, shaker_force)
 
-from ..formats import read_drive, read_sensors, write_npz
+from ..formats import Drive, read_drive, read_sensors, write_npz
 from .. import sim_budget
 from ..outputs import add_force_option, atomic_path, refuse_overwrite, write_json
 from ..progress import progress
@@ -24,14 +25,14 @@ if TYPE_CHECKING:
 OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
 
 
-def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacement",
+def simulate_drive(model: Model, drive: Drive, *, response_kind: str = "displacement",
                    noise_std: float = 0.0, seed: int | None = None,
                    oversample: int | None = None) -> Recording:
     """Run a drive (see `nlid_lab.formats.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
     a real shaker; each step's response is recorded in full. A drive with sensor-map keys
-    (``drive["sensors"]``) is simulated at its forces' points and recorded at its response
+    (``drive.sensors``) is simulated at its forces' points and recorded at its response
     points, each channel in its own kind. The drive's periodic layout
     and other keys are carried to the recording. The response is anti-aliased
     (`analysis.plant.remove_hold_images`) like a DAQ's.
@@ -40,54 +41,54 @@ def simulate_drive(model: Model, drive: dict, *, response_kind: str = "displacem
 
     model.require_complete("simulation")
     smap = _sensor_map(model, drive, response_kind)
-    dofs = drive["force_dofs"] if smap is None else np.array(
+    dofs = drive.force_dofs if smap is None else np.array(
         [model.point_index(p) for p in smap.force_points])
     if dofs.min() < 0 or dofs.max() >= model.n_dof:
         raise InputError(f"drive force_dofs {dofs.tolist()} outside the model's DOFs "
                          f"0..{model.n_dof - 1} (0-based)")
-    too_much = sim_budget.excess(model, drive["fs"], drive["force"][..., 0].size, oversample)
+    too_much = sim_budget.excess(model, drive.fs, drive.force[..., 0].size, oversample)
     if too_much:
         raise InputError(f"{too_much}; shorten the drive, raise its fs, or check the model's "
                          "stiffness and units")
-    plant = Plant(model, drive["fs"], dofs, oversample=oversample,
+    plant = Plant(model, drive.fs, dofs, oversample=oversample,
                   noise_std=noise_std if smap is None else 0.0,
                   response_kind=response_kind, seed=seed)
-    force = drive["force"]
+    force = drive.force
     whole = force.reshape(-1, force.shape[-1])      # stepped sine: the steps back to back
-    step = max(1, int(drive["fs"]))  # one-second pieces for the progress bar
+    step = max(1, int(drive.fs))  # one-second pieces for the progress bar
     outs = [plant.run(whole[i:i + step]) for i in progress(range(0, len(whole), step),
                                                          desc="simulate", unit="s")]
     if smap is None:
         # the sensors' anti-alias filter (analysis.plant, Sensor sampling), whole record
         response = remove_hold_images(np.concatenate([o.response for o in outs]), whole,
-                                      drive["fs"], response_kind, plant.image_gains)
+                                      drive.fs, response_kind, plant.image_gains)
     else:
-        response = _at_sensors(model, smap, outs, whole, drive["fs"], plant.image_gains)
+        response = _at_sensors(model, smap, outs, whole, drive.fs, plant.image_gains)
         response += np.random.default_rng(seed).standard_normal(response.shape) * noise_std
     response = response.reshape(force.shape[:-1] + (-1,))
     if smap is not None:
         dofs = np.asarray(smap.force_channels)
-    return Recording(fs=drive["fs"], excitation=drive["excitation"], force_dofs=dofs,
+    return Recording(fs=drive.fs, excitation=drive.excitation, force_dofs=dofs,
                      force=force, response=response, response_kind=response_kind,
-                     freqs=drive["freqs"], level=drive["level"],
+                     freqs=drive.freqs, level=drive.level,
                      force_hold="linear",  # the plant's drive definition
-                     layout=drive["layout"], sweep=drive.get("sweep"), extra=drive["extra"],
+                     layout=drive.layout, sweep=drive.sweep, extra=drive.extra,
                      meta={"model": model.name, "noise_std": noise_std, "seed": seed,
                            # substeps per sample at the end, times step doubling raised them
                            "oversample": plant.oversample, "oversample_raised": plant.raised},
                      sensors=smap)
 
 
-def _sensor_map(model: Model, drive: dict, response_kind: str) -> SensorMap | None:
+def _sensor_map(model: Model, drive: Drive, response_kind: str) -> SensorMap | None:
     """The drive's sensor map over ``model``'s points (None: every point, one kind)."""
-    keys = drive.get("sensors") or {}
+    keys = drive.sensors
     if not keys:
         return None
     points = keys.get("response_points", list(model.points))
     kinds = keys.get("response_kinds", [response_kind] * len(points))
-    forces = keys.get("force_points", [model.points[d] for d in drive["force_dofs"]])
+    forces = keys.get("force_points", [model.points[d] for d in drive.force_dofs])
     smap = SensorMap(tuple(points), tuple(kinds), tuple(forces))
-    smap.validate(len(points), drive["force"].shape[-1])
+    smap.validate(len(points), drive.force.shape[-1])
     for p in smap.response_points + smap.force_points:
         model.point_index(p)        # a point the model does not have: exit 2 naming it
     return smap
@@ -117,18 +118,18 @@ def _artifact_names(text: str | None) -> list[str]:
     return names
 
 
-def _with_force_dips(model: Model, drive: dict) -> dict:
+def _with_force_dips(model: Model, drive: Drive) -> Drive:
     """The drive as a force cell behind a shaker measures it (`shaker_force`): each input
     through its own drive point's receptance (cross terms between shakers left out)."""
-    force = drive["force"]
+    force = drive.force
     if force.ndim != 2:
         raise InputError("--daq-artifacts force-dips applies to random and swept-sine drives; "
                          "leave it out for a stepped sine")
-    f = np.fft.rfftfreq(force.shape[0], 1 / drive["fs"])
-    h = model.linear_frf(f, list(drive["force_dofs"]))
-    cols = [shaker_force(force[:, i], drive["fs"], h[:, d, i])
-            for i, d in enumerate(drive["force_dofs"])]
-    return {**drive, "force": np.column_stack(cols)}
+    f = np.fft.rfftfreq(force.shape[0], 1 / drive.fs)
+    h = model.linear_frf(f, list(drive.force_dofs))
+    cols = [shaker_force(force[:, i], drive.fs, h[:, d, i])
+            for i, d in enumerate(drive.force_dofs)]
+    return dataclasses.replace(drive, force=np.column_stack(cols))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -147,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     model = Model.load(model_path)
     drive = read_drive(args.drive)
     if args.sensors:
-        drive["sensors"] = read_sensors(args.sensors)
+        drive = dataclasses.replace(drive, sensors=read_sensors(args.sensors))
     artifacts = _artifact_names(args.daq_artifacts)
     if "force-dips" in artifacts:
         drive = _with_force_dips(model, drive)

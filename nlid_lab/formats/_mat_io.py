@@ -84,9 +84,10 @@ class Selection:
         return cls(m["key"], sel, m["unit"], points)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ChannelMap:
-    """Where the force, responses and sample rate of a recording are in a MAT tree."""
+    """Where the force, responses and sample rate of a recording are in a MAT tree (the
+    ``--map`` words or the map file, parsed)."""
 
     force: list[Selection]
     response: list[Selection]
@@ -104,12 +105,8 @@ class ChannelMap:
     def from_items(cls, items: list[str]) -> "ChannelMap":
         """From ``KEY=VALUE`` words (``--map force=Force response=Acc[0:3]:g fs=Fs``)."""
         data: dict[str, Any] = {}
-        for item in items:
-            key, sep, value = item.partition("=")
-            if not sep or not value:
-                raise MatFileError(f"channel map item {item!r}: write KEY=VALUE, e.g. "
-                                   "force=Force")
-            data.setdefault(key.strip(), []).append(_literal(value.strip()))
+        for key, value in map_items(items, "channel map", "force=Force", MatFileError):
+            data.setdefault(key, []).append(map_value(value))
         return cls.from_dict({k: v if k in ROLES else v[-1] for k, v in data.items()}, "--map")
 
     def with_units(self, units: dict[str, str]) -> "ChannelMap":
@@ -180,7 +177,20 @@ def _selections(text: str, role: str) -> list[Selection]:
     return sels
 
 
-def _literal(text: str) -> Any:
+def map_items(items: list[str], what: str, example: str, error: type[InputError]
+              ) -> list[tuple[str, str]]:
+    """The ``KEY=VALUE`` words of a map given on the command line (``--map ...``) as
+    (key, value) pairs, stripped; a word without ``=`` or value raises ``error``."""
+    pairs = []
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not value.strip():
+            raise error(f"{what} item {item!r}: write KEY=VALUE, e.g. {example}")
+        pairs.append((key.strip(), value.strip()))
+    return pairs
+
+
+def map_value(text: str) -> Any:
     """A map value as TOML reads it (``0``, ``2.5``, ``[0, 1]``), else the text itself."""
     try:
         return parse_toml(f"v = {text}", "map value")["v"]

@@ -1,6 +1,6 @@
 """Recordings as MAT files: `nlid-lab export RUN.h5 --out REC.mat` and its import back.
 
-Every recording key (`recordings_io.recording_keys`) is a MATLAB variable of the same name
+Every recording key (`nlid_lab.formats._npz.recording_keys`) is a MATLAB variable of the same name
 (``force``, ``response``, ``fs``, ``sweep_start_hz``...), readable in MATLAB as it is. MAT
 files know no 1-D arrays, 0-d scalars or NumPy dtypes, so a text variable ``nlid_recording``
 (JSON) keeps each key's shape and dtype, and the exact value of text keys (MAT pads char
@@ -21,7 +21,8 @@ import numpy as np
 
 from analysis.recordings import Recording
 
-from ._recordings_io import RecordingFileError, recording_from_keys, recording_keys
+from ._npz import recording_from_keys, recording_keys
+from ._recording_keys import RecordingFileError
 
 #: the variable holding the keys' shapes and dtypes (and text values)
 INDEX = "nlid_recording"

@@ -12,7 +12,7 @@ from analysis.errors import RecordingError
 from analysis.models import parse_toml, read_text
 from analysis.recordings import Recording, SensorMap, sensor_map, table_keys
 
-from ._recordings_io import RecordingFileError
+from ._recording_keys import RecordingFileError
 
 
 def read_sensors(path: str | os.PathLike) -> dict[str, list[str]]:

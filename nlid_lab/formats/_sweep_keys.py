@@ -11,6 +11,7 @@ give override the estimate, and ``sweep_estimated`` is set.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,21 +22,37 @@ from analysis.recordings import LAW_KEYS, SWEEP_LAWS, Sweep, SweepLaw, estimate_
 _SPEC = re.compile(r"^\s*([^:]+):([^:]+)(?::(linear|log))?(?::([^:]+))?\s*$")
 
 
-def parse_sweep_option(text: str) -> dict[str, Any]:
-    """Keys of ``--sweep START:STOP[:LAW[:RATE]]`` (Hz, Hz, linear|log, Hz/s or oct/min)."""
+@dataclass(frozen=True)
+class SweepOption:
+    """``--sweep START:STOP[:LAW[:RATE]]`` parsed: Hz, Hz, linear|log (None: estimated),
+    Hz/s or octaves/min (None: estimated from the force)."""
+
+    start_hz: float
+    stop_hz: float
+    law: str | None = None
+    rate: float | None = None
+
+    def keys(self) -> dict[str, Any]:
+        """The sweep keys of a recording file this option gives (the others estimated)."""
+        out: dict[str, Any] = {"sweep_start_hz": self.start_hz, "sweep_stop_hz": self.stop_hz}
+        if self.law is not None:
+            out["sweep_law"] = self.law
+        if self.rate is not None:
+            out["sweep_rate"] = self.rate
+        return out
+
+
+def parse_sweep_option(text: str) -> SweepOption:
+    """``--sweep START:STOP[:LAW[:RATE]]`` (Hz, Hz, linear|log, Hz/s or oct/min)."""
     m = _SPEC.match(text)
     try:
         if not m:
             raise ValueError
-        out: dict[str, Any] = {"sweep_start_hz": float(m[1]), "sweep_stop_hz": float(m[2])}
-        if m[3]:
-            out["sweep_law"] = m[3]
-        if m[4]:
-            out["sweep_rate"] = float(m[4])
+        return SweepOption(float(m[1]), float(m[2]), m[3] or None,
+                           float(m[4]) if m[4] else None)
     except ValueError:
         raise InputError(f"--sweep {text!r}: write START:STOP[:LAW[:RATE]], e.g. 15:2:linear:0.05 "
                          f"(Hz, Hz, {' or '.join(SWEEP_LAWS)}, Hz/s or octaves/min)") from None
-    return out
 
 
 def sweep_fields(keys: dict[str, Any], force: np.ndarray, response: np.ndarray, fs: float

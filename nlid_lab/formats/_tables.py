@@ -26,7 +26,7 @@ from analysis.errors import InputError
 from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, SensorMap,
                                  StepTable)
 
-from ._mat_io import _literal
+from ._mat_io import map_items, map_value
 from ._units import lookup
 
 #: complex (n_steps, ...) keys of a table, written as ``.re``/``.im`` columns in CSV
@@ -200,7 +200,7 @@ class FieldSpec:
         return cls(name.strip(), tuple(m.strip() for m in mods if m.strip()))
 
 
-@dataclass
+@dataclass(frozen=True)
 class TableMap:
     """Where a controller export holds its table: one struct-array element per level.
 
@@ -216,14 +216,7 @@ class TableMap:
     @classmethod
     def from_items(cls, items: list[str]) -> "TableMap":
         """From ``KEY=VALUE`` words (``--map table=FRdata.ResponseControl freqs=frequency``)."""
-
-        data: dict[str, Any] = {}
-        for item in items:
-            key, sep, value = item.partition("=")
-            if not sep or not value.strip():
-                raise TableFileError(f"table map item {item!r}: write KEY=VALUE, e.g. "
-                                     "freqs=frequency")
-            data[key.strip()] = value.strip()
+        data = dict(map_items(items, "table map", "freqs=frequency", TableFileError))
         fields = {k: FieldSpec.parse(data.pop(k)) for k in FIELD_KEYS if k in data}
         if "freqs" not in fields:
             raise TableFileError("table map: name the frequency field, e.g. freqs=frequency")
@@ -235,7 +228,7 @@ class TableMap:
         if "control" not in data:
             raise TableFileError("table map: say what the controller held: control=response "
                                  "or control=force")
-        return cls(data.pop("table"), fields, {k: _literal(v) for k, v in data.items()})
+        return cls(data.pop("table"), fields, {k: map_value(v) for k, v in data.items()})
 
     def tables(self, tree: dict[str, Any], source: str) -> list[StepTable]:
         """One `StepTable` per element of the struct array ``table`` names in ``tree``

@@ -13,7 +13,7 @@ drains that queue on a QTimer, folds each random block into a running spectral m
 from __future__ import annotations
 
 import queue
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyqtgraph as pg
@@ -24,6 +24,9 @@ from analysis.spectral import (FRF_UNITS, LevelFRF, Spectra, best_linear_approxi
                                frf_from_bla, frf_from_spectra, sine_fit, spectral_matrix)
 
 from . import plots
+
+if TYPE_CHECKING:
+    from ..campaign import CampaignStart
 
 #: Seconds of time history kept per channel (ring buffer).
 HISTORY_S = 2.0
@@ -41,9 +44,9 @@ class LiveObserver:
     def __init__(self) -> None:
         self.events: queue.SimpleQueue = queue.SimpleQueue()
 
-    def campaign_started(self, info: dict[str, Any]) -> None:
+    def campaign_started(self, info: CampaignStart) -> None:
         """Queue the campaign's start (`CampaignObserver`)."""
-        self.events.put(("started", dict(info)))
+        self.events.put(("started", info))
 
     def block(self, level: int, seq: int, force: np.ndarray, response: np.ndarray) -> None:
         """Queue a copy of a random-excitation block."""
@@ -146,7 +149,7 @@ class LiveView(QtWidgets.QWidget):
         super().__init__(parent)
         self.setWindowTitle("nlid-lab live")
         self.observer = LiveObserver()
-        self.info: dict[str, Any] = {}
+        self.info: CampaignStart | None = None
         self.status = "waiting"
         self.blocks = 0               # blocks or steps received in the whole campaign
         self.level_blocks = 0         # ... in the current level
@@ -190,7 +193,7 @@ class LiveView(QtWidgets.QWidget):
             self._dirty = False
         return n
 
-    def _on_started(self, info: dict[str, Any]) -> None:
+    def _on_started(self, info: CampaignStart) -> None:
         self.info = info
         self.status = "running"
         self.blocks = self.level_blocks = 0
@@ -204,12 +207,12 @@ class LiveView(QtWidgets.QWidget):
         if level != self.level:
             self._finish_level()
             self.level, self.level_blocks = level, 0
-            if self.info.get("period"):
-                self._acc = BlaAccumulator(self.fs, int(self.info["period"]),
-                                           int(self.info.get("transient_periods", 1)))
+            if self.info.period:
+                self._acc = BlaAccumulator(self.fs, self.info.period,
+                                           self.info.transient_periods)
             else:
                 self._acc = FrfAccumulator(self.fs, force.shape[1], live_nperseg(
-                    self.fs, self.info.get("block_len") or force.shape[0]))
+                    self.fs, self.info.block_len or force.shape[0]))
         self._acc.add(force, response)
         self._ring.extend(np.concatenate([force, response], axis=1))
         self.blocks += 1
@@ -247,7 +250,7 @@ class LiveView(QtWidgets.QWidget):
 
     def level_value(self, level: int) -> float | None:
         """Nominal force of level index ``level`` (N rms or N), or None."""
-        levels = self.info.get("levels") or []
+        levels = self.info.levels
         return float(levels[level]) if level is not None and level < len(levels) else None
 
     def level_text(self, level: int | None) -> str:
@@ -261,11 +264,11 @@ class LiveView(QtWidgets.QWidget):
     @property
     def stepped(self) -> bool:
         """Whether the campaign is a stepped sine."""
-        return self.info.get("excitation") == "stepped-sine"
+        return self.info is not None and self.info.excitation == "stepped-sine"
 
     def orders(self, n_rows: int) -> list[int]:
         """Harmonic order of each row of ``harmonics`` (campaign default: 0, 1, ... n-1)."""
-        return [int(k) for k in self.info.get("harmonics") or range(n_rows)]
+        return list(self.info.harmonics or range(n_rows))
 
     def _h1_row(self, n_rows: int) -> int:
         return self.orders(n_rows).index(1)
@@ -278,46 +281,43 @@ class LiveView(QtWidgets.QWidget):
     @property
     def fs(self) -> float:
         """Sample rate of the campaign, Hz."""
-        return float(self.info["fs"])
+        return float(self.info.fs)
 
     @property
     def force_dofs(self) -> list[int]:
         """DOF each force acts on."""
-        return [int(d) for d in self.info.get("force_dofs", [0])]
+        return list(self.info.force_dofs)
 
     @property
     def response_kind(self) -> str:
         """Kind of the response channels (displacement, velocity or acceleration)."""
-        return self.info.get("response_kind", "displacement")
+        return self.info.response_kind
 
     @property
     def sensors(self) -> SensorMap | None:
         """The campaign's sensor map (``[sensors]``), or None."""
-        keys = self.info.get("sensors")
-        return SensorMap(**keys) if keys else None
+        return self.info.sensors
 
     def response_labels(self) -> list[str]:
         """Name of each response channel: ``"point (kind)"`` with a sensor map
         (`analysis.recordings.SensorMap.labels`, as the report's figures), else ``"DOF q"``."""
         smap = self.sensors
         return smap.labels if smap is not None else \
-            [f"DOF {q}" for q in range(int(self.info["n_dof"]))]
+            [f"DOF {q}" for q in range(self.info.n_dof)]
 
     def channel_names(self) -> list[tuple[str, str]]:
         """(name, unit) of every channel, forces first; with a sensor map the responses are
         named ``"point (kind)"``."""
-        chans = self.info.get("channels")
-        if chans:
-            out = [(c["name"], c.get("unit", "")) if isinstance(c, dict) else tuple(c)
-                   for c in chans]
+        if self.info.channels:
+            out = list(self.info.channels)
             if self.sensors is not None:
-                n_in = len(out) - int(self.info["n_dof"])
+                n_in = len(out) - self.info.n_dof
                 out[n_in:] = [(label, unit) for label, (_, unit) in
                               zip(self.response_labels(), out[n_in:])]
             return out
         unit = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
         return ([(f"F{d}", "N") for d in self.force_dofs]
-                + [(f"x{q}", unit[self.response_kind]) for q in range(int(self.info["n_dof"]))])
+                + [(f"x{q}", unit[self.response_kind]) for q in range(self.info.n_dof)])
 
     def _build(self) -> None:
         g = self.graphs
@@ -332,13 +332,13 @@ class LiveView(QtWidgets.QWidget):
             if i:
                 p.setXLink(left.getItem(0, 0))
             self.time_curves.append(p.plot(pen=plots.pen(plots.channel_colour(i), 1)))
-        n_dof = int(self.info["n_dof"])
+        n_dof = self.info.n_dof
         mixed = self.response_kind == MIXED     # a sensor map mixing kinds: each in its own
         units = "SI" if mixed else FRF_UNITS[self.response_kind]
         stepped = self.stepped
         title = ("FRF of the fundamental, per step" if stepped else
                  "FRF: best linear approximation over the realizations"
-                 if self.info.get("period") else "FRF: H1 averaged over the blocks")
+                 if self.info.period else "FRF: H1 averaged over the blocks")
         self.mag, self.phase = plots.frf_plots(right, units, title=title,
                                                quantity="|H| (each in its kind)" if mixed else
                                                plots.FRF_QUANTITY[self.response_kind])
@@ -357,7 +357,7 @@ class LiveView(QtWidgets.QWidget):
         else:
             self.coh_plot = plots.coherence_plot(
                 right, row=2, title="Multiple coherence (across realizations)"
-                if self.info.get("period") else "Multiple coherence")
+                if self.info.period else "Multiple coherence")
             self.coh_plot.setXLink(self.mag)
         g.ci.layout.setColumnStretchFactor(0, 2)
         g.ci.layout.setColumnStretchFactor(1, 3)
@@ -368,13 +368,13 @@ class LiveView(QtWidgets.QWidget):
     def _curves(self, level: int) -> dict[str, list]:
         """The plot items of ``level`` (made on its first data; kept when it is finished)."""
         if level not in self.level_curves:
-            levels = [float(v) for v in self.info.get("levels") or []]
+            levels = [float(v) for v in self.info.levels]
             colour = (plots.level_colours(len(levels), levels) if level < len(levels)
                       else plots.level_colours(level + 1))[level]
             sym = dict(symbol="o", symbolSize=5, symbolBrush=colour, symbolPen=colour) \
                 if self.stepped else {}
             items: dict[str, list] = {"mag": [], "phase": [], "coh": [], "error": []}
-            for q in range(int(self.info["n_dof"])):
+            for q in range(self.info.n_dof):
                 pen = pg.mkPen(colour, width=1.5, style=DOF_STYLES[q % len(DOF_STYLES)])
                 items["mag"].append(self.mag.plot(
                     pen=pen, name=self.level_text(level) if q == 0 else None, **sym))
@@ -410,7 +410,7 @@ class LiveView(QtWidgets.QWidget):
 
     # --- drawing ----------------------------------------------------------------------------
     def _redraw(self) -> None:
-        if not self.info:
+        if self.info is None:
             return
         data = self._ring.view()
         t = (np.arange(data.shape[0]) - data.shape[0]) / self.fs
@@ -472,7 +472,7 @@ class LiveView(QtWidgets.QWidget):
             return
         self.progress.setRange(0, max(total, 1))
         self.progress.setValue(min(done, max(total, 1)))
-        what = "step" if self.stepped else "realization" if self.info.get("period") \
+        what = "step" if self.stepped else "realization" if self.info.period \
             else "block"
         self.progress.setFormat(f"level {self._level_of()} · {what} {done}/{total}")
 
@@ -480,16 +480,16 @@ class LiveView(QtWidgets.QWidget):
         """(done, planned) steps or blocks of the current level."""
         if self.stepped:
             done = (self.step_index + 1) if self.step_index is not None else 0
-            return done, int(self.info.get("n_steps", 0)) or done
-        return self.level_blocks, int(self.info.get("averages", 0)) or self.level_blocks
+            return done, (self.info.n_steps or 0) or done
+        return self.level_blocks, (self.info.averages or 0) or self.level_blocks
 
     def _level_of(self) -> str:
-        n = len(self.info.get("levels") or [])
+        n = len(self.info.levels)
         return f"{self.level + 1}/{n}" if n else f"{self.level + 1}"
 
     def _summary(self) -> str:
-        kind = self.info.get("excitation", "?")
-        if self.info.get("period"):
+        kind = self.info.excitation
+        if self.info.period:
             kind = "periodic random"
         if self.level is None:
             return f"{kind} · {self.status}"
@@ -500,7 +500,7 @@ class LiveView(QtWidgets.QWidget):
             f, _, err = self.steps[-1]
             text += (f" · step {done}/{total} · {f:.2f} Hz · control error "
                      f"{100 * err:+.2f} %")
-        elif self.info.get("period"):
+        elif self.info.period:
             text += f" · realization {done}/{total}"
             if self.frf is not None:
                 text += f" · BLA over {self.frf.n_averages} realizations"

@@ -5,13 +5,12 @@ Modules behind this API: ``_report``, ``_figures``, ``_uff``, ``_rundata``,
 package imports its siblings by their private module path.
 """
 
-from ._report import (Estimators, estimate_rows, modal_fit_section, stored_diagnosis,
-                      write_report)
+from ._report import (Estimators, WrittenReport, estimate_rows, modal_fit_section,
+                      stored_diagnosis, write_report)
 from ._backbone_figure import backbone_figure
-from ._figures import (ModelCurve, coherence_linear_vs_nonlinear, diagnosis_overlay, fitted_frfs,
-                       hysteresis_loops, level_colours, linear_and_coefficients, phase_deg,
-                       phase_lines,
-                       response_curves, stabilisation)
+from ._figures import (LevelBars, ModelCurve, coherence_linear_vs_nonlinear, diagnosis_overlay,
+                       fitted_frfs, hysteresis_loops, level_colours, linear_and_coefficients,
+                       phase_deg, phase_lines, response_curves, stabilisation)
 from ._rundata import (PARAM_UNITS, RunData, Section, all_level_frfs, candidate_model, load_run,
                        reference_model)
 from ._uff import FUNC_COHERENCE, FUNC_FRF, datasets as uff_datasets, read_uff, write_uff
@@ -21,10 +20,11 @@ __all__ = [
     "RunData", "Section", "PARAM_UNITS", "all_level_frfs", "candidate_model", "load_run",
     "reference_model",
     # the HTML report and its sections (the estimator registry handed in: `Estimators`)
-    "Estimators", "estimate_rows", "modal_fit_section", "stored_diagnosis", "write_report",
+    "Estimators", "WrittenReport", "estimate_rows", "modal_fit_section", "stored_diagnosis",
+    "write_report",
     # figures
-    "ModelCurve", "backbone_figure", "coherence_linear_vs_nonlinear", "diagnosis_overlay",
-    "fitted_frfs", "hysteresis_loops", "level_colours", "linear_and_coefficients", "phase_deg", "phase_lines",
+    "LevelBars", "ModelCurve", "backbone_figure", "coherence_linear_vs_nonlinear",
+    "diagnosis_overlay", "fitted_frfs", "hysteresis_loops", "level_colours", "linear_and_coefficients", "phase_deg", "phase_lines",
     "response_curves", "stabilisation",
     # UFF58 export
     "FUNC_COHERENCE", "FUNC_FRF", "read_uff", "uff_datasets", "write_uff",

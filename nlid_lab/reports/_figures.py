@@ -352,18 +352,28 @@ def fitted_frfs(measured: Sequence["LevelFRF"], fitted: Sequence[ModelCurve], ou
     return fig
 
 
+@dataclass(frozen=True)
+class LevelBars:
+    """One level's bar pair of `diagnosis_fit`: its FRF error before and after the
+    correction, and whether the level was held back from the fit."""
+
+    label: str
+    before: float
+    after: float
+    held_back: bool = False
+
+
 def diagnosis_fit(metric: str, before: float, after: float, title: str,
-                  levels: Sequence[dict] | None = None) -> Figure:
+                  levels: Sequence[LevelBars] | None = None) -> Figure:
     """Model-to-measurement discrepancy before and after the diagnosed correction: one bar
-    pair, or one pair per level when ``levels`` (dicts with ``label``, ``before``, ``after``,
-    ``held_back``) are given. ``metric`` (a sentence) is the subtitle."""
+    pair, or one pair per level when ``levels`` are given. ``metric`` (a sentence) is the
+    subtitle."""
     fig = Figure(figsize=(6.4, 4.2), dpi=DPI, layout="constrained")
     ax = fig.subplots()
     if levels:
-        names = [f"{lv['label']}{' (held back)' if lv.get('held_back') else ''}"
-                 for lv in levels]
-        b = [float(lv["before"]) for lv in levels]
-        a = [float(lv["after"]) for lv in levels]
+        names = [f"{lv.label}{' (held back)' if lv.held_back else ''}" for lv in levels]
+        b = [float(lv.before) for lv in levels]
+        a = [float(lv.after) for lv in levels]
     else:
         names, b, a = ["held-back recording"], [before], [after]
     x = np.arange(len(names))

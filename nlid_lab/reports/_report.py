@@ -9,6 +9,7 @@ data is stored in the run or can be computed from it.
 from __future__ import annotations
 
 import html
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
@@ -22,6 +23,7 @@ from analysis.spectral import LevelFRF, level_label
 
 from ..formats import describe
 from . import _figures as figures
+from ._figures import LevelBars
 from ._backbone_figure import backbone_section
 from ._rundata import RunData, Section, all_level_frfs
 
@@ -115,17 +117,16 @@ def diagnosis_section(run: RunData) -> Section | None:
     return sec
 
 
-def diagnosis_levels(d: Diagnosis, unit: str = "N") -> list[dict[str, Any]] | None:
-    """Per-level FRF errors of a diagnosis as the figure's bars: label (the level in
-    ``unit``), before, after, held_back."""
+def diagnosis_levels(d: Diagnosis, unit: str = "N") -> list[LevelBars] | None:
+    """Per-level FRF errors of a diagnosis as the figure's bars (label: the level in
+    ``unit``); None when a level lacks them."""
     out = []
     for i, lv in enumerate(d.fit.levels):
         if lv.before is None or lv.after is None:
             return None
         label = (f"{lv.level:.3g} {unit}" if lv.level is not None
                  else lv.label or f"level {i + 1}")
-        out.append({"label": label, "before": lv.before, "after": lv.after,
-                    "held_back": lv.held_back})
+        out.append(LevelBars(label, lv.before, lv.after, lv.held_back))
     return out or None
 
 
@@ -261,9 +262,26 @@ def sections(run: RunData, frfs: list[LevelFRF], estimators: Estimators, candida
 
 
 # --- writing --------------------------------------------------------------------------------
+SCHEMA_VERSION = 1
+"""Version of the ``report --json`` layout (`WrittenReport.to_json`)."""
+
+
+@dataclass(frozen=True)
+class WrittenReport:
+    """What `write_report` wrote: the page, the figures' file names, the section titles."""
+
+    html: str
+    figures: tuple[str, ...]
+    sections: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``report --json`` result: ``schema_version``, html, figures, sections."""
+        return {"schema_version": SCHEMA_VERSION, "html": self.html,
+                "figures": list(self.figures), "sections": list(self.sections)}
+
 def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], None] | None
                  = None, frfs: list[LevelFRF] | None = None, candidate=None, *,
-                 estimators: Estimators) -> dict[str, Any]:
+                 estimators: Estimators) -> WrittenReport:
     """Write the PNG figures and ``index.html`` into ``out_dir``; returns what was written.
 
     ``candidate`` (a `Model`) enables the reverse-path section for runs without a stored
@@ -282,7 +300,7 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
                 progress(1)
     page = out_dir / "index.html"
     page.write_text(render_html(run, frfs, secs, estimators))
-    return {"html": str(page), "figures": written, "sections": [s.title for s in secs]}
+    return WrittenReport(str(page), tuple(written), tuple(s.title for s in secs))
 
 
 def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],

@@ -28,7 +28,8 @@ class LeftOut:
     seq: int
     reason: LeftOutReason
 
-    def as_dict(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form (an entry of `RunCheck.to_json`'s ``left_out``)."""
         return {"level": self.level, "seq": self.seq, "reason": str(self.reason)}
 
 
@@ -54,11 +55,11 @@ class RunCheck:
     left_out: tuple[LeftOut, ...]
     notes: tuple[str, ...] = ()
 
-    def as_dict(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, Any]:
         """The JSON form commands add to their result (``"runs"`` entries)."""
         return {"path": self.path, "status": self.status, "blocks_stored": self.stored,
                 "blocks_planned": self.planned, "incomplete": self.incomplete,
-                "left_out": [b.as_dict() for b in self.left_out], "notes": list(self.notes)}
+                "left_out": [b.to_json() for b in self.left_out], "notes": list(self.notes)}
 
     def lines(self) -> list[str]:
         """One line per fact for people (empty when the run is whole and complete)."""
@@ -93,7 +94,7 @@ class Repaired:
         return "; ".join(parts)
 
 
-def planned_blocks(excitation_settings: dict[str, Any]) -> int | None:
+def planned_blocks_json(excitation_settings: dict[str, Any]) -> int | None:
     """Blocks (random), sweeps or steps a campaign's plan stores, from the run's
     ``excitation_settings``; None when the run does not say (imported runs)."""
     levels = excitation_settings.get("levels")

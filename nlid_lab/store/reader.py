@@ -17,7 +17,7 @@ from ._common import (FORMAT, StoreError, _append_log, _crc,
                       _json_at, _json_default, _open, _open_swmr_write, _read_extra,
                       _read_status, _valid_segments, writer_left_open)
 from ._integrity import (Damage, LeftOut, LeftOutReason, Repaired, RunCheck, json_text,
-                         planned_blocks)
+                         planned_blocks_json)
 from ._rebuild import REBUILT_ATTRS, _repair
 from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
 from ._verified import VerifiedLevel, identity, keep, take
@@ -95,7 +95,7 @@ class Run:
     @property
     def planned(self) -> int | None:
         """Blocks, steps or sweeps the campaign planned (None when the run does not say)."""
-        return planned_blocks(self.meta.get("excitation_settings") or {})
+        return planned_blocks_json(self.meta.get("excitation_settings") or {})
 
     @property
     def incomplete(self) -> str:
@@ -297,7 +297,7 @@ def _table(f, name: str):
     return f[name]
 
 
-def _meta(f, path: Path) -> dict[str, Any]:
+def _meta_json(f, path: Path) -> dict[str, Any]:
     """Root attributes, JSON ones parsed; `Damage` naming a damaged one."""
     meta = {}
     for key in f.attrs:
@@ -323,7 +323,7 @@ def _meta(f, path: Path) -> dict[str, Any]:
     return meta
 
 
-def _log(f) -> list[dict[str, Any]]:
+def _log_json(f) -> list[dict[str, Any]]:
     """The log's complete entries; `Damage` naming an entry whose text is damaged."""
     text = _table(f, "text")[:]
     out = []
@@ -378,7 +378,7 @@ def open_run(path: str | os.PathLike) -> Run:
 
 
 def _read_run(f, path: Path) -> Run:
-    meta = _meta(f, path)
+    meta = _meta_json(f, path)
     version = int(meta["schema_version"])
     if version > TABLES_SCHEMA_VERSION:
         raise StoreError(f"{path} has run schema {version}; this nlid-lab reads up to "
@@ -396,7 +396,7 @@ def _read_run(f, path: Path) -> Run:
     segments = _valid_segments(f)
     missing = [LeftOut(int(s["level"]), int(s["seq"]), LeftOutReason.NOT_ON_DISK)
                for s in every[~on_disk]]
-    log = _log(f)
+    log = _log_json(f)
     extra = _read_extra(f)
     levels, notes = _levels(f, segments)
     results = {e["name"]: e["value"] for e in log if e["kind"] == "result"}

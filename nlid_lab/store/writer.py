@@ -262,7 +262,7 @@ class RunWriter:
                                  f"{attrs[key]!r}; use the same settings or a new file")
         self._file = f
         self.log("resume", {"rebuilt_after_crash": bool(rebuilt),
-                            "dropped": [b.as_dict() for b in rebuilt.dropped]})
+                            "dropped": [b.to_json() for b in rebuilt.dropped]})
         self.dropped = rebuilt.dropped
         return f
 

@@ -13,7 +13,7 @@ import pytest
 
 from analysis.models import Model
 from analysis.plant import simulate
-from nlid_lab.formats import _recordings_io as recordings_io
+from nlid_lab import formats as recordings_io
 from nlid_lab import store
 from nlid_lab.cli import main
 

@@ -16,7 +16,8 @@ from analysis.errors import ModelError
 from analysis.models import MAX_TOML_DEPTH, Model, parse_toml
 from analysis.models._textfile import toml_depth
 from nlid_lab.campaign import CampaignError, parse_campaign
-from nlid_lab.formats import _recordings_io as rio
+from analysis.recordings import Recording
+from nlid_lab import formats as rio
 
 from fuzz_inputs import check_outcome, run_cli, toml_text
 
@@ -29,7 +30,7 @@ CAMPAIGN["plant"]["model"] = str(EXAMPLES / "models" / "sdof-cubic-quaddamp.toml
 def csv_text(tmp_path) -> str:
     """A CSV written by `export` (``%.17g``): responses ~1e-5 m, written with exponents."""
     rng = np.random.default_rng(4)
-    rec = rio.Recording(fs=256.0, excitation="random", force_dofs=[0],
+    rec = Recording(fs=256.0, excitation="random", force_dofs=[0],
                         force=rng.normal(size=(300, 1)),
                         response=1e-5 * rng.normal(size=(300, 2)) + 3e-5)
     path = tmp_path / "whole.csv"

@@ -136,9 +136,9 @@ def test_mutated_npz_recordings_through_the_commands(data, recordings, tmp_path)
         check_outcome(code, err, False, f"export-uff {what}")
     model = Model.loads(SDOF)
     for row in analyse_run(str(path), model, method, {}):
-        if row["status"] != "ok":  # a reanalysis row names an input problem, not a raw error
-            assert "Error:" not in row["error"], f"reanalyze {what}: {row['error']}"
-            assert not invalid or row["level_index"] == -1 or "level" in row["error"]
+        if not row.ok:  # a reanalysis row names an input problem, not a raw error
+            assert "Error:" not in row.error, f"reanalyze {what}: {row.error}"
+            assert not invalid or row.level_index == -1 or "level" in row.error
         else:
             assert not invalid, f"reanalyze {what}: accepted"
 

@@ -121,7 +121,7 @@ def _csv_levels(d: Path, levels=(1.0, 30.0)) -> list[Path]:
     from analysis.models import Model
     from analysis.plant import simulate
     from analysis.recordings import Recording
-    from nlid_lab.formats import _recordings_io as recordings_io
+    from nlid_lab import formats as recordings_io
 
     rng = np.random.default_rng(3)
     paths = []

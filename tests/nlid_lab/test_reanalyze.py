@@ -123,35 +123,52 @@ def test_expand_runs(campaign, tmp_path):
         rea.expand_runs([tmp_path])
 
 
+def test_rows_flatten_into_one_table_with_every_column():
+    ok = rea.LevelRow("a.h5", 0, 20.0, "random", "reverse-path", "ok",
+                      {P_COL: 6e10, P_COL + ".ci95_lo": 5e10, P_COL + ".ci95_hi": 7e10},
+                      coherence_min=0.99)
+    failed = rea.LevelRow("b.h5", -1, None, None, "reverse-path", "failed", error="cut")
+    table = rea.table_json([ok, failed])
+    assert list(table[0]) == list(table[1]) == [*rea.HEAD, P_COL, P_COL + ".ci95_lo",
+                                                P_COL + ".ci95_hi", "coherence_min",
+                                                "warnings", "error"]     # no row has a cost
+    assert table[0][P_COL] == 6e10 and table[1][P_COL] is None
+    assert table[1]["status"] == "failed" and table[1]["error"] == "cut"
+    result = rea.Reanalysis([ok, failed], "reverse-path", 2, 1, "local", 0.1)
+    assert result.parameter_columns() == [P_COL] and result.failed_runs == ["b.h5"]
+    assert result.to_json()["schema_version"] == 1
+
+
 # --- the task, in this process -----------------------------------------------------------------
 def test_task_matches_direct_reverse_path(campaign):
     """A worker row carries exactly what reverse path reports for that level."""
     model = Model.load(campaign["candidate"])
     rows = rea.analyse_run(campaign["good"][0], model, "reverse-path", {})
-    assert [r["level_index"] for r in rows] == [0, 1]
-    assert [r["level"] for r in rows] == [20.0, 40.0]
+    assert [r.level_index for r in rows] == [0, 1]
+    assert [r.level for r in rows] == [20.0, 40.0]
     for row, rec in zip(rows, load_recordings(campaign["good"][0])):
         direct = reverse_path(rec, model).to_json()
         el = direct["elements"][0]
-        assert row["status"] == "ok"
-        assert row[P_COL] == el["params"]["p"]
-        assert [row[P_COL + ".ci95_lo"], row[P_COL + ".ci95_hi"]] == el["ci95"]["p"]
-        assert row["coherence_min"] == direct["multiple_coherence"]["min"]
-        assert row["warnings"] == " | ".join(direct["warnings"])
+        assert row.status == "ok"
+        assert row.estimates[P_COL] == el["params"]["p"]
+        assert [row.estimates[P_COL + ".ci95_lo"],
+                row.estimates[P_COL + ".ci95_hi"]] == el["ci95"]["p"]
+        assert row.coherence_min == direct["multiple_coherence"]["min"]
+        assert row.warnings == " | ".join(direct["warnings"])
     seq = rea.analyse_run(campaign["good"][1], model, "reverse-path", {"refine": "sequential"})
     direct = reverse_path(load_recordings(campaign["good"][1])[0], model,
                           ReversePathOptions(refine="sequential"))
-    assert seq[0][P_COL] == direct.to_json()["elements"][0]["params"]["p"]
+    assert seq[0].estimates[P_COL] == direct.to_json()["elements"][0]["params"]["p"]
 
 
 def test_task_turns_failures_into_rows(campaign):
     model = Model.load(campaign["candidate"])
     (bad,) = rea.analyse_run(campaign["corrupt"], model, "reverse-path", {})
-    assert bad["status"] == "failed" and bad["level_index"] == -1
-    assert bad["error"] and "\n" not in bad["error"]
+    assert bad.status == "failed" and bad.level_index == -1
+    assert bad.error and "\n" not in bad.error
     (wrong,) = rea.analyse_run(campaign["wrong"], model, "reverse-path", {})
-    assert wrong["status"] == "failed" and wrong["level_index"] == 0
-    assert "DOF" in wrong["error"]
+    assert wrong.status == "failed" and wrong.level_index == 0
+    assert "DOF" in wrong.error
 
 
 @pytest.fixture(scope="module")
@@ -177,12 +194,12 @@ def test_task_hbm_on_stepped_sine(stepped_run):
     cand = true.with_elements([Element("cubic_spring", true.elements[0].w, {}),
                                true.elements[1]])
     (row,) = rea.analyse_run(stepped_run, cand, "auto", {"harmonics": "1,3,5"})
-    assert row["status"] == "ok" and row["method"] == "hbm", row["error"]
-    assert row["cost"] >= 0 and "e1.quadratic_damping.p" not in row
-    half = (row[P_COL + ".ci95_hi"] - row[P_COL + ".ci95_lo"]) / 2
-    assert abs(row[P_COL] - true.elements[0].params["p"]) <= 2 * half
+    assert row.status == "ok" and row.method == "hbm", row.error
+    assert row.cost >= 0 and "e1.quadratic_damping.p" not in row.estimates
+    half = (row.estimates[P_COL + ".ci95_hi"] - row.estimates[P_COL + ".ci95_lo"]) / 2
+    assert abs(row.estimates[P_COL] - true.elements[0].params["p"]) <= 2 * half
     (bad,) = rea.analyse_run(stepped_run, cand, "reverse-path", {})
-    assert bad["status"] == "failed" and bad["error"] and "\n" not in bad["error"]
+    assert bad.status == "failed" and bad.error and "\n" not in bad.error
 
 
 def test_task_reports_a_truncated_run(campaign, tmp_path):
@@ -191,7 +208,7 @@ def test_task_reports_a_truncated_run(campaign, tmp_path):
     truncated.write_bytes(Path(campaign["good"][1]).read_bytes()[:3000])
     (row,) = rea.analyse_run(str(truncated), Model.load(campaign["candidate"]),
                              "reverse-path", {})
-    assert row["status"] == "failed" and "truncated" in row["error"]
+    assert row.status == "failed" and "truncated" in row.error
 
 
 # --- on Dask -----------------------------------------------------------------------------------
@@ -200,9 +217,9 @@ def test_one_and_two_workers_give_identical_tables(campaign, one_worker):
     with rea.dask_client(workers=2) as client:
         two = rea.reanalyze(runs, Model.load(campaign["candidate"]), client, progress=False)
     assert one_worker.n_workers == 1 and two.n_workers == 2
-    assert _differences(one_worker.rows, two.rows) == []
+    assert _differences(rea.table_json(one_worker.rows), rea.table_json(two.rows)) == []
     # Input order (run, then level), whatever the completion order.
-    assert [(r["path"], r["level_index"]) for r in two.rows] == [
+    assert [(r.path, r.level_index) for r in two.rows] == [
         (campaign["good"][0], 0), (campaign["good"][0], 1), (campaign["good"][1], 0),
         (campaign["good"][2], 0), (campaign["corrupt"], -1), (campaign["wrong"], 0)]
     assert (two.n_ok, two.n_failed) == (4, 2)
@@ -212,12 +229,12 @@ def test_one_and_two_workers_give_identical_tables(campaign, one_worker):
 def test_estimates_agree_with_the_true_plant(one_worker, campaign):
     """Cubic stiffness within twice its reported 95 % half-width (about 4 sigma) of the truth."""
     p_true = campaign["true"].elements[0].params["p"]
-    ok = [r for r in one_worker.rows if r["status"] == "ok"]
+    ok = [r for r in one_worker.rows if r.ok]
     assert len(ok) == 4
     for row in ok:
-        half = (row[P_COL + ".ci95_hi"] - row[P_COL + ".ci95_lo"]) / 2
+        half = (row.estimates[P_COL + ".ci95_hi"] - row.estimates[P_COL + ".ci95_lo"]) / 2
         assert 0 < half < 0.2 * p_true
-        assert abs(row[P_COL] - p_true) <= 2 * half, row
+        assert abs(row.estimates[P_COL] - p_true) <= 2 * half, row
 
 
 def test_cli_writes_table_and_reports_failures(campaign, tmp_path, capsys):
@@ -289,8 +306,8 @@ def test_run_time_limit_frees_a_stuck_worker(campaign, tmp_path):
         result = rea.reanalyze([good, str(stuck)], model, client, progress=False,
                                run_timeout_s=3.0)
     ok, lost = result.rows
-    assert ok["status"] == "ok", ok["error"]
-    assert lost["status"] == "failed" and "3 s run time limit" in lost["error"]
+    assert ok.status == "ok", ok.error
+    assert lost.status == "failed" and "3 s run time limit" in lost.error
 
 
 # --- a real cluster on loopback ----------------------------------------------------------------

@@ -119,7 +119,7 @@ def test_a_run_holding_an_earlier_layout_reports_it(tmp_path):
     d = stored_diagnosis(run)
     assert d.verdict is Verdict.ADEQUATE and d.explanation == "adequate"
     bars = diagnosis_levels(d, "N rms")
-    assert [(b["label"], b["before"], b["held_back"]) for b in bars] == [
+    assert [(b.label, b.before, b.held_back) for b in bars] == [
         ("1 N rms", 0.01, False), ("2 N rms", 0.02, True)]
     sec = diagnosis_section(run)
     assert [name for name, _ in sec.figures] == ["diagnosis_fit"]

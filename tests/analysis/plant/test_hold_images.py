@@ -19,6 +19,7 @@ from analysis.reverse_path import ReversePathOptions, reverse_path
 from drivers.base import RandomOutput
 from drivers.rig import SimRig
 from nlid_lab.commands.simulate import simulate_drive
+from nlid_lab.formats import Drive
 
 MODELS = Path(__file__).resolve().parents[3] / "examples" / "models"
 KINDS = ("displacement", "velocity", "acceleration")
@@ -157,8 +158,7 @@ def test_simulate_command_acceleration_of_a_two_dof_covers_truth():
                   [Element("cubic_spring", [-1.0, 1.0], {"p": 2e11})])
     fs, n = 1024.0, 1 << 16
     force = random_gaussian(n, fs, (5.0, 200.0), 10.0, 4)[:, None]
-    drive = {"fs": fs, "force": force, "force_dofs": np.array([0]), "excitation": "random",
-             "freqs": None, "level": 10.0, "layout": None, "extra": {}}
+    drive = Drive(fs, force, np.array([0]), "random", level=10.0)
     cand = truth.with_elements([Element("cubic_spring", [-1.0, 1.0], {})])
     for kind, noise in (("displacement", 7e-6), ("acceleration", 0.05)):
         rec = simulate_drive(truth, drive, response_kind=kind, noise_std=noise, seed=2)

@@ -18,14 +18,15 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from analysis.recordings import PeriodicLayout, Recording
 from analysis.spectral import stepped_sine_frf
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
+from nlid_lab.formats._recording_keys import CORE_KEYS, LEVEL_KEYS, level_key
 from nlid_lab.formats._monitors import MONITOR_KEYS
 from nlid_lab import store
 from nlid_lab.methods.hbm import _stepped
 from nlid_lab.cli import main
 
 ROOT = Path(__file__).resolve().parents[3]
-KNOWN = (set(rio.CORE_KEYS) | set(rio.LEVEL_KEYS) | set(rio.LAYOUT_KEYS) | set(MONITOR_KEYS)
+KNOWN = (set(CORE_KEYS) | set(LEVEL_KEYS) | set(rio.LAYOUT_KEYS) | set(MONITOR_KEYS)
          | {"force_hold"})
 
 
@@ -110,7 +111,7 @@ def npz_keys(draw, *, csv: bool = False) -> dict[str, np.ndarray]:
             keys["monitor_units"] = np.array(draw(st.lists(st.sampled_from(
                 ["V", "A", "", "m/s^2"]), min_size=len(names), max_size=len(names))))
     if draw(st.booleans()):
-        keys[rio.level_key(excitation)] = np.float64(draw(st.floats(0.01, 100)))
+        keys[level_key(excitation)] = np.float64(draw(st.floats(0.01, 100)))
     extras = draw(st.dictionaries(_names, _scalar_extra if csv else _array_extra, max_size=4))
     keys.update(extras)
     return keys

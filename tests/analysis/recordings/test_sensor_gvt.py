@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from analysis.models import Element, Model
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.cli import main
 from sensor_scenarios import mapped_recording, multisine_drive, named_points
 from structures import beam_with_payload

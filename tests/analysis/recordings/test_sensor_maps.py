@@ -9,6 +9,8 @@ the model to the measured points when both ends are measured.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -16,10 +18,11 @@ from analysis.errors import InputError
 from analysis.plant import multisine, periodic
 from analysis.models import Element, Model
 from analysis.recordings import PeriodicLayout, Recording, SensorMap, model_at_sensors, one_kind
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab import store
 from nlid_lab.cli import main
 from nlid_lab.commands.simulate import simulate_drive
+from nlid_lab.formats import Drive
 from structures import beam_with_payload, gvt_recording
 
 MEASURED = ["drive", "joint", "payload"]
@@ -50,11 +53,10 @@ def _between(model, a, b):
 
 def _drive(periods=3, level=2.0, n=N, transient=1):
     f = periodic(multisine(n, FS, (3.0, 200.0), level, seed=7), periods + transient)
-    return {"fs": FS, "force": f[:, None], "force_dofs": np.array([0]), "freqs": None,
-            "excitation": "random", "level": level,
-            "layout": PeriodicLayout(n, transient, periods, 1), "extra": {},
-            "sensors": {"response_points": MEASURED, "response_kinds": KINDS,
-                        "force_points": ["drive"]}}
+    return Drive(FS, f[:, None], np.array([0]), "random", level=level,
+                 layout=PeriodicLayout(n, transient, periods, 1),
+                 sensors={"response_points": MEASURED, "response_kinds": KINDS,
+                          "force_points": ["drive"]})
 
 
 def test_simulate_records_the_mapped_points_each_in_its_kind(named):
@@ -63,7 +65,7 @@ def test_simulate_records_the_mapped_points_each_in_its_kind(named):
     assert rec.sensors == SensorMap(tuple(MEASURED), tuple(KINDS), ("drive",))
     assert rec.response_kind == "mixed" and rec.force_dofs.tolist() == [0]
     # the same drive on the full model, every point, one kind at a time
-    plain = dict(drive, force_dofs=np.array([named.point_index("drive")]), sensors={})
+    plain = replace(drive, force_dofs=np.array([named.point_index("drive")]), sensors={})
     idx = [named.point_index(p) for p in MEASURED]
     for j, kind in enumerate(KINDS):
         full = simulate_drive(named, plain, response_kind=kind)
@@ -117,10 +119,10 @@ def test_import_sensors_toml_and_the_mat_channel_map(tmp_path):
 def test_one_kind_differentiates_a_periodic_displacement_exactly(named):
     # 8 s periods, two of them transient: the free response of the first mode (6.6 Hz, 1 %
     # damping, decay rate 0.41 /s) has fallen to exp(-0.41 * 16) = 1.3e-3 of its start
-    drive = dict(_drive(periods=1, n=8 * N, transient=2))
+    drive = _drive(periods=1, n=8 * N, transient=2)
     rec = simulate_drive(named, drive)
-    acc = simulate_drive(named, dict(drive, sensors={"response_points": MEASURED,
-                                                     "force_points": ["drive"]}),
+    acc = simulate_drive(named, replace(drive, sensors={"response_points": MEASURED,
+                                                        "force_points": ["drive"]}),
                          response_kind="acceleration")
     got = one_kind(rec)
     assert got.response_kind == "acceleration" and got.sensors.kind == "acceleration"

@@ -23,7 +23,7 @@ from analysis.models import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recordings import Recording, SensorMap, model_at_sensors, one_kind
 from analysis.reverse_path import ReversePathOptions, reverse_path
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.cli import main
 from sensor_scenarios import multisine_drive, named_points
 from structures import beam_with_payload

@@ -12,7 +12,7 @@ import scipy.io
 from analysis.models import Element, Model
 from analysis.plant import Plant, add_relative_noise
 from analysis.recordings import SweepLaw
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
@@ -104,6 +104,13 @@ def test_partial_sweep_option_overrides_the_estimate(tmp_path):
     (rec,) = rio.load_recordings(tmp_path / "s.h5")
     assert (rec.sweep.law.start_hz, rec.sweep.law.stop_hz, rec.sweep.law.law) == (3, 12, "log")
     assert abs(rec.sweep.law.rate / 4.0 - 1) < 0.005 and rec.sweep.estimated
+
+
+def test_sweep_option_parses_into_its_fields():
+    assert rio.parse_sweep_option("15:2:linear:0.05") == rio.SweepOption(15.0, 2.0, "linear",
+                                                                         0.05)
+    option = rio.parse_sweep_option("3:12")
+    assert option.keys() == {"sweep_start_hz": 3.0, "sweep_stop_hz": 12.0}   # rest estimated
 
 
 def test_bad_sweep_option_is_one_line(tmp_path, capsys):

@@ -38,7 +38,7 @@ class Spy(live.LiveView):
         return n
 
     def closeEvent(self, event) -> None:  # noqa: N802 - Qt name
-        Spy.seen.append({"status": self.status, "info": dict(self.info), "steps":
+        Spy.seen.append({"status": self.status, "info": self.info, "steps":
                          len(self.steps), "level": self.level, "bar": (
                              self.progress.value(), self.progress.maximum())})
         super().closeEvent(event)
@@ -58,9 +58,9 @@ def test_live_view_follows_campaign_and_closes_when_done(spy, tmp_path):
     assert open_run(out).status == "complete"
     [shown] = spy.seen
     assert shown["status"] == "complete" and shown["level"] == 1
-    assert shown["info"]["n_steps"] == STEPS and shown["steps"] == STEPS
+    assert shown["info"].n_steps == STEPS and shown["steps"] == STEPS
     assert shown["bar"] == (STEPS, STEPS)  # progress bar full for the last level
-    assert shown["info"]["harmonics"][:2] == [0, 1]
+    assert shown["info"].harmonics[:2] == (0, 1)
 
 
 def test_closing_the_window_stops_the_campaign(spy, tmp_path, capsys):

@@ -11,6 +11,7 @@ from scipy.linalg import eigh
 
 from analysis.models import Model
 from nlid_lab.cli import main
+from nlid_lab.commands.import_modes import ModesImport
 from structures import beam_with_payload
 
 PAYLOAD_NODE = 100
@@ -105,7 +106,10 @@ def import_cli(tmp_path, uff_path, *extra):
     code = main(["import-modes", str(uff_path), "--out", str(out), "--points", *points,
                  "--json", str(js), *extra])
     assert code == 0
-    return Model.load(out), json.loads(js.read_text())
+    data = json.loads(js.read_text())
+    assert data["schema_version"] == 1                     # and it reads back as written
+    assert ModesImport.from_json(data).to_json() == data
+    return Model.load(out), data
 
 
 def test_normal_modes_with_modal_mass_give_the_fe_frfs(tmp_path, beam):

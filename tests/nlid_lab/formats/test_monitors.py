@@ -12,7 +12,7 @@ from analysis.recordings import Recording
 from nlid_lab import store
 from nlid_lab.cli import main
 from nlid_lab.formats import ChannelMap, apply_map
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 
 N, FS = 1200, 400.0
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from analysis.recordings import Recording
-from nlid_lab.formats import _recordings_io as rio
+from nlid_lab import formats as rio
 from nlid_lab.formats import read_drive
 from nlid_lab import store
 
@@ -117,11 +117,11 @@ def test_csv_bad_input(tmp_path, text, match):
 def test_read_drive_shapes(tmp_path):
     np.savez(tmp_path / "d.npz", fs=100.0, force_dofs=[0], force=np.ones(20))
     drive = read_drive(tmp_path / "d.npz")
-    assert drive["force"].shape == (20, 1) and drive["excitation"] == "random"
+    assert drive.force.shape == (20, 1) and drive.excitation == "random"
     np.savez(tmp_path / "s.npz", fs=100.0, force_dofs=[0], force=np.ones((2, 20, 1)),
              freqs=[5.0, 6.0], force_amplitude=2.0)
     drive = read_drive(tmp_path / "s.npz")
-    assert drive["excitation"] == "stepped-sine" and drive["level"] == 2.0
+    assert drive.excitation == "stepped-sine" and drive.level == 2.0
     np.savez(tmp_path / "bad.npz", fs=100.0, force_dofs=[0, 1], force=np.ones((20, 1)))
     with pytest.raises(rio.RecordingFileError, match="one column per force_dofs"):
         read_drive(tmp_path / "bad.npz")

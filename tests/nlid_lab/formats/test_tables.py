@@ -38,7 +38,7 @@ def table(level: float, zeta: float = ZETA, fn: float = FN, harmonics: bool = Fa
 
 
 def write_npz(path, t: StepTable):
-    from nlid_lab.formats._recordings_io import recording_keys
+    from nlid_lab.formats import recording_keys
     np.savez(path, **recording_keys(t))
 
 
@@ -174,7 +174,7 @@ def test_backbone_fit_linear_detect_report_view_on_a_table_run(tmp_path, capsys)
 def _held_twin_run(tw, amplitudes: list[float], half_span: float, tmp_path) -> str:
     """A run of the Jenkins twin's response-controlled tables (one level per held
     displacement amplitude, steps 0.05 Hz apart within ``half_span`` Hz of its backbone)."""
-    from nlid_lab.formats._recordings_io import recording_keys
+    from nlid_lab.formats import recording_keys
 
     paths = []
     for i, a in enumerate(amplitudes):

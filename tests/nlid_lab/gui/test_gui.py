@@ -13,6 +13,7 @@ from PySide6 import QtGui  # noqa: E402
 
 from analysis.models import Model  # noqa: E402
 from analysis.plant import Plant  # noqa: E402
+from nlid_lab.campaign import CampaignStart  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
 from nlid_lab.gui import plots, snapshot  # noqa: E402
 from nlid_lab.gui.live import LiveView  # noqa: E402
@@ -39,8 +40,8 @@ def campaign_thread(observer, n_blocks: int, model=LINEAR, rms: float = 2.0):
     def work():
         rng = np.random.default_rng(0)
         plant = Plant(model, FS, [0])
-        observer.campaign_started({"fs": FS, "excitation": "random", "force_dofs": [0],
-                                   "n_dof": model.n_dof, "block_len": BLOCK})
+        observer.campaign_started(CampaignStart(fs=FS, excitation="random", force_dofs=(0,),
+                                                n_dof=model.n_dof, block_len=BLOCK))
         for k in range(n_blocks):
             f = rms * rng.standard_normal((BLOCK, 1))
             observer.block(0, k, f, plant.run(f).response)
@@ -75,8 +76,8 @@ def test_live_view_stepped_sine(qtbot, tmp_path):
     view = LiveView(refresh_ms=10)
     qtbot.addWidget(view)
     obs = view.observer
-    obs.campaign_started({"fs": FS, "excitation": "stepped-sine", "force_dofs": [0],
-                          "n_dof": 3, "harmonics": [1, 3, 5], "n_steps": 10})
+    obs.campaign_started(CampaignStart(fs=FS, excitation="stepped-sine", force_dofs=(0,),
+                                       n_dof=3, harmonics=(1, 3, 5), n_steps=10))
     t = np.arange(1024) / FS
     freqs = np.linspace(50, 95, 8)
     H = LINEAR.linear_frf(freqs, [0])[:, :, 0]

@@ -4,6 +4,8 @@ progress bar telling the same numbers."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,7 @@ from analysis.hbm import HBMSystem  # noqa: E402
 from analysis.models import Model  # noqa: E402
 from analysis.recordings import Recording  # noqa: E402
 from nlid_lab import store  # noqa: E402
+from nlid_lab.campaign import CampaignStart  # noqa: E402
 from nlid_lab.gui import snapshot  # noqa: E402
 from nlid_lab.gui.live import HARMONIC_FLOOR_DB, LiveView  # noqa: E402
 from nlid_lab.gui.offline import OfflineView, harmonic_distortion  # noqa: E402
@@ -196,9 +199,9 @@ def test_view_command_frf_as(qtbot, tmp_path, monkeypatch):
     assert seen == ["Accelerance |A/F| [(m/s²)/N]"]
 
 
-def stepped_info(n_steps: int = 10) -> dict:
-    return {"fs": FS, "excitation": "stepped-sine", "force_dofs": [0], "n_dof": 1,
-            "harmonics": [0, 1, 2, 3], "n_steps": n_steps, "levels": [2.0, 8.0]}
+def stepped_info(n_steps: int = 10) -> CampaignStart:
+    return CampaignStart(fs=FS, excitation="stepped-sine", force_dofs=(0,), n_dof=1,
+                         harmonics=(0, 1, 2, 3), n_steps=n_steps, levels=(2.0, 8.0))
 
 
 def feed_steps(obs, level: int, amp: float, freqs, start: int = 0) -> None:
@@ -259,8 +262,8 @@ def test_live_random_and_periodic_headers(qtbot):
     view.resize(1200, 800)
     view.show()
     rng = np.random.default_rng(1)
-    info = {"fs": 512.0, "excitation": "random", "force_dofs": [0], "n_dof": 1,
-            "levels": [5.0, 20.0], "averages": 8, "block_len": 1024}
+    info = CampaignStart(fs=512.0, excitation="random", force_dofs=(0,), n_dof=1,
+                         levels=(5.0, 20.0), averages=8, block_len=1024)
     view.observer.campaign_started(info)
     for k in range(3):
         f = rng.standard_normal((1024, 1))
@@ -272,7 +275,8 @@ def test_live_random_and_periodic_headers(qtbot):
     assert view.mag.titleLabel.text == "FRF: H1 averaged over the blocks"
     assert legend_names(view.mag) == ["5 N rms"]
     assert_view_holds(qtbot, view.mag)
-    view.observer.campaign_started(dict(info, period=256, transient_periods=1, averages=4))
+    view.observer.campaign_started(replace(info, period=256, transient_periods=1,
+                                           averages=4))
     for k in range(2):
         f = np.tile(rng.standard_normal((256, 1)), (3, 1))
         view.observer.block(0, k, f, 1e-5 * f)

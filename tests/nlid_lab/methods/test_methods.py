@@ -13,7 +13,7 @@ import pytest
 from analysis.spectral import default_nperseg, longest_nperseg, resolving_nperseg
 from analysis.models import Element, Model
 from nlid_lab import methods, reanalyze as rea, store
-from nlid_lab.formats import _recordings_io as recordings_io
+from nlid_lab import formats as recordings_io
 from nlid_lab.cli import build_parser, main
 from nlid_lab.reports import Section, estimate_rows, load_run, write_report
 from test_report import random_run
@@ -121,11 +121,11 @@ def test_toy_method_reaches_analyze_reanalyze_report_and_view(toy, run, candidat
     # report and view find the stored result by its estimator
     data = load_run(run)
     written = write_report(data, tmp_path / "report", estimators=methods)
-    assert "Toy gain" in written["sections"]
+    assert "Toy gain" in written.sections
     assert any(r[0] == "analyze-toy" for r in estimate_rows(data.results, methods))
     methods.unregister("toy")
     written = write_report(load_run(run), tmp_path / "r2", estimators=methods)
-    assert "Toy gain" not in written["sections"]
+    assert "Toy gain" not in written.sections
     assert not any(r[0] == "analyze-toy" for r in estimate_rows(data.results, methods))
 
 

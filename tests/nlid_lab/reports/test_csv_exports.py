@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from analysis.errors import InputError
-from nlid_lab.formats import G0, _recordings_io as rio
+from nlid_lab import formats as rio
+from nlid_lab.formats import G0
 from nlid_lab.cli import main
 
 FS, N = 1024.0, 512

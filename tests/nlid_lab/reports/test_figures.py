@@ -165,9 +165,9 @@ def test_hbm_fit_draws_the_model_through_its_folds():
 def test_diagnosis_bars_per_level_one_title_and_nothing_cut():
     metric = ("coherence-weighted relative FRF error (rms over the analysis band) on the "
               "held-back recording")
-    levels = [{"label": "5 N rms", "before": 0.41, "after": 0.03, "held_back": False},
-              {"label": "10 N rms", "before": 0.52, "after": 0.05, "held_back": True},
-              {"label": "20 N rms", "before": 0.77, "after": 0.04, "held_back": False}]
+    levels = [figures.LevelBars("5 N rms", 0.41, 0.03),
+              figures.LevelBars("10 N rms", 0.52, 0.05, held_back=True),
+              figures.LevelBars("20 N rms", 0.77, 0.04)]
     fig = figures.diagnosis_fit(metric, 0.52, 0.05, "FRF error before and after", levels)
     (ax,) = fig.axes
     assert ax.get_title() == "FRF error before and after"

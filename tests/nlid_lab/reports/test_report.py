@@ -69,18 +69,18 @@ def assert_real_image(path: Path) -> None:
 def test_random_report_sections(tmp_path):
     run = load_run(random_run(tmp_path / "r.h5"))
     out = write_report(run, tmp_path / "rep", estimators=methods)
-    assert out["sections"][:5] == ["FRFs per force level",
-                                   "Multiple coherence per level (linear analysis)",
-                                   "Level dependence of the FRF (random levels)",
-                                   "Modal fit of the lowest level (fit-linear)",
-                                   "Reverse path: underlying linear system and nonlinear "
-                                   "coefficients"]
-    html = Path(out["html"]).read_text()
+    assert list(out.sections[:5]) == ["FRFs per force level",
+                                         "Multiple coherence per level (linear analysis)",
+                                         "Level dependence of the FRF (random levels)",
+                                         "Modal fit of the lowest level (fit-linear)",
+                                         "Reverse path: underlying linear system and nonlinear "
+                                         "coefficients"]
+    html = Path(out.html).read_text()
     assert "the structure is nonlinear" in html
-    for name in out["figures"]:
+    for name in out.figures:
         assert f'src="{name}"' in html
         assert_real_image(tmp_path / "rep" / name)
-    assert "reverse_path_coherence.png" in out["figures"]
+    assert "reverse_path_coherence.png" in out.figures
 
 
 def test_level_frf_tracks_nonlinearity(tmp_path):
@@ -107,11 +107,11 @@ def test_stepped_report_with_hbm_and_diagnosis(tmp_path):
     assert frf.coherence is None and frf.freqs.size == 17
     out = write_report(run, tmp_path / "rep", estimators=methods)
     assert {"Hysteresis loop", "Measured vs estimated model", "Diagnosis"} <= \
-        set(out["sections"])
-    assert not any("Reverse path" in s for s in out["sections"])     # no random levels
-    html = Path(out["html"]).read_text()
+        set(out.sections)
+    assert not any("Reverse path" in s for s in out.sections)     # no random levels
+    html = Path(out.html).read_text()
     assert "2.3e+07" in html and "analyze-hbm" in html
-    for name in out["figures"]:
+    for name in out.figures:
         assert_real_image(tmp_path / "rep" / name)
 
 
@@ -146,7 +146,7 @@ def test_analyze_store_then_report(tmp_path):
     p = {e["kind"]: e["params"]["p"] for e in stored["elements"]}
     assert p["cubic_spring"] == pytest.approx(6e10, rel=0.02)
     out = write_report(load_run(run), tmp_path / "rep", estimators=methods)
-    assert any("hbm_fit" in str(f) for f in out["figures"])
+    assert any("hbm_fit" in str(f) for f in out.figures)
     assert main(["analyze", "hbm", str(run), "--model", str(cand_file), "--store",
                  str(cand_file)]) == 2
 
@@ -176,7 +176,7 @@ def test_periodic_random_report_shows_the_bla_and_its_distortion(tmp_path):
     data = load_run(path)
     assert data.recordings[0].layout.realizations == m
     out = write_report(data, tmp_path / "report", estimators=methods)
-    assert "bla_distortion_out0.png" in out["figures"]
+    assert "bla_distortion_out0.png" in out.figures
     html = (tmp_path / "report" / "index.html").read_text()
     assert "20 N rms, response DOF 0: nonlinear distortion" in html
     assert "1 N rms, response DOF 0: no distortion above the noise" in html

@@ -52,8 +52,8 @@ def test_stabilisation_figure_reads_back(run):
 
 def test_report_page_holds_the_diagram(tmp_path, run):
     out = write_report(run, tmp_path / "rep", estimators=methods)
-    assert TITLE in out["sections"] and "stabilisation.png" in out["figures"]
-    html = Path(out["html"]).read_text()
+    assert TITLE in out.sections and "stabilisation.png" in out.figures
+    html = Path(out.html).read_text()
     assert 'src="stabilisation.png"' in html and "max MAC to another mode" in html
     assert (tmp_path / "rep" / "stabilisation.png").stat().st_size > 10_000
 

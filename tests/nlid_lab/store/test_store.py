@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from analysis.recordings import Recording
-from nlid_lab.formats import _recordings_io as recordings_io
+from nlid_lab import formats as recordings_io
 from nlid_lab import store
 
 BLOCK = 512
