@@ -255,7 +255,6 @@ LONG_FUNCTIONS = {
         "hold weights), 81 lines; the plant's owner is reworking the room (issue 22 items 4-5)",
     "analysis/reverse_path/_noise.py::periodic_reverse_path": "being split (issue 22)",
     "analysis/reverse_path/_estimator.py::reverse_path": "being split (issue 22)",
-    "nlid_lab/formats/_recordings_io.py::read_csv": "being split (issue 22)",
 }
 
 
