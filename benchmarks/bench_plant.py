@@ -21,8 +21,13 @@ Then this tree against a base commit (default HEAD~1) in the same run (`benchmar
 both cases' default-settings runs (10 s), alternately in subprocesses, best wall clock and
 thread CPU time of each.
 
-    python benchmarks/bench_plant.py [--case all|chain|modal] [--seconds 30] [--fs 8192]
-                                     [--base REF | --no-compare]
+Case ``records`` (not in ``all``): the numba structure the kernel's records could be, one
+output stage reading four matrices per call, 80 000 calls from a jitted loop: a NamedTuple, a
+``jitclass`` and a ``structref``, the stage called or inlined (``inline="always"``), with and
+without numba's reference counting (``_nrt``); compile and run time of each.
+
+    python benchmarks/bench_plant.py [--case all|chain|modal|records] [--seconds 30]
+                                     [--fs 8192] [--base REF | --no-compare]
 """
 
 from __future__ import annotations
@@ -52,7 +57,7 @@ MODAL_FS = 4096.0
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--case", choices=("all", "chain", "modal"), default="all")
+    parser.add_argument("--case", choices=("all", "chain", "modal", "records"), default="all")
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--fs", type=float, default=8192.0)
     parser.add_argument("--ref-seconds", type=float, default=0.25)
@@ -62,6 +67,9 @@ def main() -> None:
         chain_case(args)
     if args.case in ("all", "modal"):
         modal_case(args.seconds)
+    if args.case == "records":
+        records_case()
+        return
     if not args.no_compare:
         cases = {"chain": ["bench_plant:chain_run"], "modal": ["bench_plant:modal_run"]}
         compare(cases.get(args.case, cases["chain"] + cases["modal"]), args.base, repeats=2)
@@ -249,6 +257,95 @@ def default_accuracy(name: str, model: Model, rms: float, fs: float, seconds: fl
           f"{rel(x):.2e} (substeps raised {plant.raised}x to {plant.oversample}, "
           f"{n / t:,.0f} samples/s) {'<=' if rel(x) <= 1e-5 else '>'} 1e-5; fixed at the "
           f"starting {start}: {rel(fixed):.2e}")
+
+
+def _record_kinds() -> dict[str, type]:
+    """The three record kinds of case ``records``, each holding ``shapes``, ``tax``, ``tav``
+    (2-D) and ``out_z`` (3-D)."""
+    from typing import NamedTuple
+
+    import numba
+    from numba.core import types
+    from numba.experimental import jitclass, structref
+
+    class Tuple(NamedTuple):
+        shapes: np.ndarray
+        tax: np.ndarray
+        tav: np.ndarray
+        out_z: np.ndarray
+
+    two, three = numba.float64[:, ::1], numba.float64[:, :, ::1]
+
+    @jitclass([("shapes", two), ("tax", two), ("tav", two), ("out_z", three)])
+    class JitClass:
+        def __init__(self, shapes, tax, tav, out_z):
+            self.shapes, self.tax, self.tav, self.out_z = shapes, tax, tav, out_z
+
+    @structref.register
+    class StructType(types.StructRef):
+        def preprocess_fields(self, fields):
+            return tuple((name, types.unliteral(t)) for name, t in fields)
+
+    class StructRef(structref.StructRefProxy):
+        pass
+
+    structref.define_proxy(StructRef, StructType, ["shapes", "tax", "tav", "out_z"])
+    return {"namedtuple": Tuple, "jitclass": JitClass, "structref": StructRef}
+
+
+def _record_loop(inline: str, nrt: bool):
+    """A jitted loop calling an output stage that reads its record's four matrices."""
+    import numba
+
+    flags = {"fastmath": {"reassoc", "contract"}, "error_model": "numpy", "_nrt": nrt}
+
+    @numba.njit(inline=inline, **flags)
+    def stage(d, s, z, k, out):
+        n = s.shape[0] // 2
+        for p in range(d.shapes.shape[0]):
+            x = 0.0
+            for c in range(n):
+                x += d.shapes[p, c] * s[c] + d.tax[p, c] * s[c] + d.tav[p, c] * s[n + c]
+            for c in range(d.out_z.shape[2]):
+                x += d.out_z[0, p, c] * z[c]
+            out[k, p] = x
+
+    @numba.njit(**flags)
+    def loop(d, s, z, out, m):
+        for k in range(out.shape[0]):
+            for _ in range(m):
+                s[0] += 1e-9
+                stage(d, s, z, k, out)
+    return loop
+
+
+def records_case(n: int = 20000, m: int = 4) -> None:
+    """Case ``records`` of the module docstring."""
+    rng = np.random.default_rng(0)
+    arrays = (rng.random((3, 3)), rng.random((3, 3)), rng.random((3, 3)),
+              rng.random((3, 3, 12)))
+    s, z, out = rng.random(6), rng.random(12), np.empty((n, 3))
+    print(f"records: one stage reading 4 matrices, {n * m} calls; compile s, run ns per call")
+    for nrt in (True, False):
+        for inline in ("never", "always"):
+            for name, kind in _record_kinds().items():
+                loop, rec = _record_loop(inline, nrt), kind(*arrays)
+                t0 = time.perf_counter()
+                try:
+                    loop(rec, s, z, out[:2], m)
+                except Exception:     # numba.core.errors.TypingError / NumbaRuntimeError
+                    print(f"  reference counts off, stage {inline:6s} {name:10s}: does not "
+                          f"compile (its instances are reference-counted objects)")
+                    continue
+                compile_s = time.perf_counter() - t0
+                runs = []
+                for _ in range(7):
+                    t0 = time.thread_time()
+                    loop(rec, s, z, out, m)
+                    runs.append(time.thread_time() - t0)
+                print(f"  reference counts {'on ' if nrt else 'off'}, stage {inline:6s} "
+                      f"{name:10s}: compile {compile_s:5.2f} s, run "
+                      f"{1e9 * min(runs) / (n * m):5.1f} ns")
 
 
 if __name__ == "__main__":

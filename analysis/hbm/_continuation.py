@@ -136,11 +136,24 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
 
 def _tangent(A: np.ndarray, previous: np.ndarray | None, direction: float | None) -> np.ndarray:
     """Unit null vector of the augmented Jacobian, oriented along ``previous`` (or so that
-    the frequency moves in ``direction``)."""
-    _, _, vt = np.linalg.svd(A)
-    t = vt[-1]
+    the frequency moves in ``direction``).
+
+    Along the curve, the solution of ``[A; previous] t = e_last`` (the bordered system, one
+    LU) is that null vector scaled, oriented along ``previous``; the first point, or a
+    bordered system that is singular, takes it from the SVD."""
     if previous is not None:
+        K = np.empty((A.shape[1], A.shape[1]))
+        K[:-1] = A
+        K[-1] = previous
+        rhs = np.zeros(A.shape[1])
+        rhs[-1] = 1.0
+        try:
+            t = np.linalg.solve(K, rhs)
+        except np.linalg.LinAlgError:
+            t = np.linalg.svd(A)[2][-1]
+        t = t / np.linalg.norm(t)
         return t if t @ previous >= 0 else -t
+    t = np.linalg.svd(A)[2][-1]
     return t if np.sign(t[-1]) == direction or t[-1] == 0 else -t
 
 
@@ -148,10 +161,15 @@ def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
     """Newton on ``R(z) = 0`` and ``t.(z - zp) = 0``. Returns the point, whether it
     converged, the iterations and the last evaluated iterate ``(z, r, dr/dy, dr/df)``."""
     z = zp.copy()
+    K = np.empty((z.size, z.size))      # the bordered Jacobian, filled in place
+    K[-1] = t
+    F = np.empty(z.size)
     for it in range(1, max_iter + 1):
         r, J, dr_df = aug(z)
-        F = np.append(r, t @ (z - zp))
-        K = np.vstack([np.column_stack([J, dr_df]), t])
+        F[:-1] = r
+        F[-1] = t @ (z - zp)
+        K[:-1, :-1] = J
+        K[:-1, -1] = dr_df
         try:
             dz = np.linalg.solve(K, -F)
         except np.linalg.LinAlgError:

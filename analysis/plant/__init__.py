@@ -1,7 +1,8 @@
 """The simulated plant (exact linear discretisation, element hold, numba kernels) and the
 drives it is run with.
 
-Modules behind this API: ``_plant``, ``_plant_kernels``, ``_excitation``. Code inside this
+Modules behind this API: ``_plant``, ``_plant_kernels`` (the loop), ``_substep`` (its
+stages), ``_hold``, ``_records``, ``_excitation``. Code inside this
 package imports its siblings by their private module path.
 """
 

@@ -93,7 +93,7 @@ from scipy.linalg import eigh, expm
 from scipy.sparse.csgraph import connected_components
 
 from . import _plant_kernels as _k
-from ._plant_kernels import Outputs as _Outputs
+from ._records import Discretisation, Outputs as _Outputs, PlantState
 from ..models import KINDS, N_BUILTIN, N_PARAM, N_STATE, Model, pack_params
 from ..errors import InputError
 from ..recordings import RESPONSE_KINDS, hold_image_response, remove_hold_images
@@ -301,21 +301,7 @@ class Plant:
         # weights of the element force at the node ``d`` substeps before the end node
         wd = [sum(vinv[j, q - d] * mono[j] for j in range(q + 1)) for d in range(q + 1)]
         wf0, wf1 = h * (phis[1] - phis[2]) @ bf, h * phis[2] @ bf    # drive: start, end
-        if q * h * self._decay <= MAX_LOG_GROWTH:
-            # accumulated form: each node's whole influence enters the state once
-            back = [np.eye(2 * n)]
-            inv = _phi_functions(-a * h, 0)[0]          # Phi^-1, as accurate as Phi
-            for _ in range(q):
-                back.append(inv @ back[-1])
-            u_g = sum(back[d] @ wd[d] for d in range(q + 1))
-            r_g = np.array([sum(back[d - b] @ wd[d] for d in range(b + 1, q + 1))
-                            for b in range(q)])
-            inj_f, r_f = [wf1 + inv @ wf0], inv @ wf0
-            inj_g = np.zeros((0, 2 * n, ne))
-        else:
-            u_g, r_g = wd[0], np.zeros((q, 2 * n, ne))
-            inj_f, r_f = [wf1, wf0], np.zeros_like(wf0)
-            inj_g = np.array(wd[1:])
+        u_g, r_g, inj_f, r_f, inj_g = self._hold_weights(h, wd, wf0, wf1)
         proj = np.zeros((2 * ne, 2 * n))
         proj[:ne, :n] = wq
         proj[ne:, n:] = wq
@@ -361,8 +347,28 @@ class Plant:
                                     dtype=np.bool_))
         r_z = np.hstack([r_f, *r_g])
         args["r_v"] = np.ascontiguousarray(wq @ r_z[n:])
-        return {"r_z": r_z, "disc": _k.Discretisation(**{name: args[name] for name in
-                                                         _k.Discretisation._fields})}
+        return {"r_z": r_z, "disc": Discretisation(**{name: args[name] for name in
+                                                         Discretisation._fields})}
+
+    def _hold_weights(self, h: float, wd: list[np.ndarray], wf0: np.ndarray,
+                      wf1: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The hold weights of ``_discretise`` in the accumulated form where ``Phi^-q`` stays
+        moderate, else the direct form (Method): ``u_g`` (end-node force into the state),
+        ``r_g`` (pending part of each history age), ``inj_f`` (drive injected each substep),
+        ``r_f`` (its pending part) and ``inj_g`` (history injected each substep)."""
+        n, q, ne = self.model.n_q, HOLD_DEGREE, self._wq.shape[0]
+        if q * h * self._decay <= MAX_LOG_GROWTH:
+            # accumulated form: each node's whole influence enters the state once
+            back = [np.eye(2 * n)]
+            inv = _phi_functions(-self._a * h, 0)[0]          # Phi^-1, as accurate as Phi
+            for _ in range(q):
+                back.append(inv @ back[-1])
+            u_g = sum(back[d] @ wd[d] for d in range(q + 1))
+            r_g = np.array([sum(back[d - b] @ wd[d] for d in range(b + 1, q + 1))
+                            for b in range(q)])
+            return u_g, r_g, np.array([wf1 + inv @ wf0]), inv @ wf0, np.zeros((0, 2 * n, ne))
+        return (wd[0], np.zeros((q, 2 * n, ne)), np.array([wf1, wf0]), np.zeros_like(wf0),
+                np.array(wd[1:]))
 
     # --- state ------------------------------------------------------------------------
     def reset(self) -> None:
@@ -466,7 +472,7 @@ class Plant:
         kern = self._kernel(m)
         kernel = _k.integrate_strict if any(spec.code >= N_BUILTIN for spec in KINDS.values()) \
             else _k.integrate
-        kernel(force, m, kern["disc"], _k.PlantState(self._s, self._gh, self._uh, self._es,
+        kernel(force, m, kern["disc"], PlantState(self._s, self._gh, self._uh, self._es,
                                                       self._fprev), out, self.stats)
         if not np.all(np.isfinite(self._s)):
             raise PlantError("the simulation diverged; raise oversample or lower the drive")
