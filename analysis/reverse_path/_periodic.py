@@ -142,7 +142,7 @@ def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs
            warnings: list[str]) -> tuple[tuple[float, float], np.ndarray]:
     """The analysis band (the force's excited band unless given) and the excited lines in
     it (`analysis.spectral.excited_lines`, its note added to ``warnings``)."""
-    fpow, fvar = _force_lines(blocks)
+    fpow, fvar, amp, amp_var = _force_lines(blocks)
     if band is None:
         band = excitation_band(freqs, fpow)
     lo, hi = float(band[0]), float(band[1])
@@ -152,7 +152,8 @@ def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs
                          f"{fs / 2:g}")
     if not ((freqs >= lo) & (freqs <= hi) & (freqs > 0)).any():
         raise InputError(f"band {lo:g}-{hi:g} Hz holds no line of the {n}-sample period")
-    picked = excited_lines(freqs, fpow, fvar, band=(lo, hi))
+    picked = excited_lines(freqs, fpow, fvar, band=(lo, hi), amplitudes=amp,
+                           amplitude_noise=amp_var)
     if picked.lines.size == 0:
         raise InputError(f"the force excites no line of the {n}-sample period in "
                          f"{lo:g}-{hi:g} Hz; check the band")
@@ -161,11 +162,15 @@ def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs
     return (lo, hi), picked.lines
 
 
-def _force_lines(blocks: list) -> tuple[np.ndarray, np.ndarray | None]:
+def _force_lines(blocks: list) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None,
+                                        np.ndarray | None]:
     """Force power of the period averages per line, summed over records, realizations and
     forces, and the variance of that average from the spread over the periods (None with a
-    single steady period): the inputs of `analysis.spectral.excited_lines`."""
+    single steady period); the amplitude of each realization's period average per line and
+    its noise variance, of the record with the most realizations (None with one): the
+    inputs of `analysis.spectral.excited_lines`."""
     power, var = 0.0, 0.0
+    amp, amp_var = None, None
     for _, _, fp, _ in blocks:                 # fp: (realizations, periods, n, forces)
         spec = np.fft.rfft(fp, axis=2)
         mean = spec.mean(axis=1)
@@ -176,7 +181,10 @@ def _force_lines(blocks: list) -> tuple[np.ndarray, np.ndarray | None]:
             continue
         dev = np.abs(spec - mean[:, None]) ** 2
         var = var + dev.sum(axis=(0, 1, 3)) / ((n_p - 1) * n_p)
-    return power, var
+        if fp.shape[0] >= 2 and (amp is None or fp.shape[0] > amp.shape[0]):
+            amp = np.sqrt((np.abs(mean) ** 2).sum(axis=2))
+            amp_var = dev.sum(axis=(1, 3)).mean(axis=0) / ((n_p - 1) * n_p)
+    return power, var, (amp if var is not None else None), amp_var
 
 
 def _weak_instruments(coh: list[float], buried: np.ndarray, n_obs: int, n_r: int, unknown,
