@@ -1,10 +1,11 @@
 """The reverse path estimator's entry point: records in, `ReversePathResult` out.
 
 It chooses the route (Welch spectra with or without instrumental variables, or period
-averaging for periodic records, `._iv`, `._periodic`), runs the estimate (`._core`) and the optional
-sequential refinement (`._stages`). How to estimate is one `ReversePathOptions`; what the
-records are (sample rate, forced DOFs, response kind, force hold, periodic layout) stays in
-the arguments, because a `Recording` already carries it.
+averaging for periodic records, `._iv`, `._periodic`), runs the estimate (`._core`), forms
+an integrated record's lowest band through the first estimate (`._low_band`) and runs the
+optional sequential refinement (`._stages`). How to estimate is one `ReversePathOptions`;
+what the records are (sample rate, forced DOFs, response kind, force hold, periodic layout)
+stays in the arguments, because a `Recording` already carries it.
 """
 
 from __future__ import annotations

@@ -24,9 +24,10 @@ Rule, in order:
    realization (a whole number of its cycles per period) while the drive's turns, so their
    sum's amplitude changes. It is left out and named with its level relative to the line's
    drive (the variation's ``sqrt(2) std``: a rough figure with few realizations, with 3 of
-   them within -18..+4 dB of the true level in 95 % of phase draws). Where the variation stays within the noise (a line 40 dB under the drive
-   line with 0.5 % force noise and 3 realizations) nothing is said: the data cannot tell, and
-   the line is as good as its neighbours.
+   them within -18..+4 dB of the true level in 95 % of phase draws). Where the variation
+   stays within the noise (a line 60 dB under the drive line with 0.5 % force noise and 3
+   realizations; at 38 dB under it is told) nothing is said: the data cannot tell, and the
+   line is as good as its neighbours.
 """
 
 from __future__ import annotations
