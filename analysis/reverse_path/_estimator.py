@@ -288,15 +288,8 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
     result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), opts.method,
                        first)
     if info["method"] != "iv" and _integrated(recs) != "displacement":
-        # the integrated displacement's lowest band from the force through the estimate
-        fc = LOW_SHARE * quasi_static_top(result.freqs, abs(result.H_linear).max(axis=(1, 2)))
-        low = LowBand(result.estimated_model(model), fc)
-        built, buried, _ = _built(recs, floors, (lo, hi), edge, opts, force_hold, info,
-                                  unknown, known, [], low)
-        spec = Spectra.pool([spectral_matrix(c, fsr, **welch) for *_, c in built])
-        first = []
-        result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), opts.method,
-                           first)
+        result, first = _low_band_pass(result, first, recs, floors, (lo, hi), edge, opts,
+                                       force_hold, info, model, welch)
     if info["method"] != "iv":
         warnings.extend(first)
     else:
@@ -308,6 +301,27 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
     result.warnings = _merge_alias_warnings(warnings)
     result.noise = info
     return result
+
+
+def _low_band_pass(result: ReversePathResult, first: list[str], recs, floors,
+                   band: tuple[float, float], edge: float, opts: ReversePathOptions,
+                   force_hold: str | None, info: dict[str, Any], model: Model,
+                   welch: dict[str, Any]) -> tuple[ReversePathResult, list[str]]:
+    """The estimate again with every integrated record's lowest band formed from the force
+    through the first one (`._low_band`), and its warnings; the first when the outputs are
+    explained less well (a candidate far from the structure would form a wrong band)."""
+    unknown, known = _elements(model)
+    fc = LOW_SHARE * quasi_static_top(result.freqs, abs(result.H_linear).max(axis=(1, 2)))
+    low = LowBand(result.estimated_model(model), fc)
+    built, _, _ = _built(recs, floors, band, edge, opts, force_hold, info, unknown, known, [],
+                         low)
+    spec = Spectra.pool([spectral_matrix(c, result.spectra.fs, **welch) for *_, c in built])
+    again: list[str] = []
+    low_result = _estimate(spec, model.n_dof, result.force_dofs, unknown, result.inputs, band,
+                           opts.method, again)
+    if low_result.coherence_nonlinear.mean() >= result.coherence_nonlinear.mean():
+        return low_result, again
+    return result, first
 
 
 def _built(recs, floors, band: tuple[float, float], highpass: float, opts: ReversePathOptions,

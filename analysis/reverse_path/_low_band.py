@@ -26,11 +26,10 @@ from ..models import Model, deformation, restoring_force
 #: The crossover sits at this share of the top of the quasi-static band (where the largest
 #: |H| of the forces first doubles its low-frequency value, `quasi_static_top`).
 LOW_SHARE = 0.18
-
-
-#: Passes of forming the low band, each from the elements' forces on the previous motion.
-LOW_PASSES = 8
-RELAX = 0.5
+#: Passes of forming the low band, each from the elements' forces on the previous motion,
+#: and the share of the way to the new band each pass moves (a full step diverged on the
+#: 2-DOF cubic of docs/reverse-path.md after 3-6 passes; half steps settle within 8).
+LOW_PASSES, RELAX = 8, 0.5
 
 
 @dataclass(frozen=True)
