@@ -69,6 +69,22 @@ GVT_ARTIFACTS = ("mains", "dc", "drift", "quantization", "clipping", "delay", "f
                  "zeros", "partial-period")
 
 
+#: the stepped-sine twin: drive frequencies through the first mode (14.9 Hz), amplitude (N),
+#: samples per step
+STEPS, STEP_AMPLITUDE, STEP_SAMPLES = np.linspace(11.0, 19.0, 9), 5.0, 2048
+
+
+def stepped_drive(path: Path) -> Path:
+    """A stepped-sine drive NPZ for ``simulate`` (`STEPS` at `STEP_AMPLITUDE`, each step
+    `STEP_SAMPLES` long, settling included)."""
+    from analysis.plant import sine_block
+
+    force = np.stack([sine_block(f, STEP_AMPLITUDE, STEP_SAMPLES, FS)[:, None] for f in STEPS])
+    np.savez(path, fs=FS, force=force, force_dofs=np.array([0]), freqs=STEPS,
+             level=STEP_AMPLITUDE)
+    return path
+
+
 def export(folder: Path, artifact: str | tuple[str, ...] | None,
            levels: tuple[float, ...] = LEVELS, periods: int = PERIODS) -> list[Path]:
     """One MAT file per level carrying ``artifact`` (several: a tuple; None: clean); the

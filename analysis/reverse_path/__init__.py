@@ -3,9 +3,10 @@
 linear FRF and candidate screening.
 
 Modules behind this API: ``_core`` (records, channels, the conditioned-input estimate and its
-intervals), ``_estimator`` (the entry point), ``_noise`` (noise floor, instrumental variables,
-period averaging), ``_stages`` (sequential refinement), ``_linear`` (residual-force FRF),
-``_screening`` (ranking candidate terms).
+intervals), ``_estimator`` (the entry point), ``_noise`` (noise floor), ``_iv``
+(instrumental variables), ``_periodic``/``_periodic_lines`` (period averaging), ``_low_band``
+(the integrated displacement's lowest band from the model), ``_stages`` (sequential
+refinement), ``_linear`` (residual-force FRF), ``_screening`` (ranking candidate terms).
 """
 
 from ._core import Z95, Coefficient, ReversePathResult

@@ -15,7 +15,7 @@ correlation, and are never narrower than the observed spread over frequency: lin
 (sandwich variance) nor between contiguous sub-bands (batch means, Student t quantile), so
 errors correlated over many lines, such as leakage bias at a resonance, widen the interval.
 
-Sensor noise on the response (errors in variables) is treated in `._noise`:
+Sensor noise on the response (errors in variables) is treated in `._noise` and `._iv`:
 instrumental variables for random records, and period averaging with split-period
 instruments for periodic-random (multisine) records, which this module hands over whole.
 """
@@ -33,6 +33,7 @@ from ..models import Element, Model, restoring_force
 from ..errors import InputError
 from ..recordings import KIND_ORDER, Recording, signal_bandwidth, to_kinematics
 from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
+from ._low_band import LowBand
 
 Z95 = 1.959963984540054
 N_BATCHES = 8             # sub-bands of the batch-means interval
@@ -253,12 +254,15 @@ def noise_edge(recs: Sequence[tuple[Recording, str]], floors: Sequence[np.ndarra
 def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray,
               proc: _Processing, unknown, known, warnings: list[str],
               noise_var: tuple[np.ndarray, np.ndarray] | None,
-              buried: list[float] | None = None) -> tuple[list[np.ndarray], list[str]]:
+              buried: list[float] | None = None,
+              low: LowBand | None = None) -> tuple[list[np.ndarray], list[str]]:
     """Time-domain channels ``[x_0.., f_0.., r_known.., r_1..]`` of one record, input labels.
 
     With ``noise_var`` (the formed displacement's and velocity's noise variance per DOF),
     ``buried`` receives, per unknown element, its deformation's noise std over the rms of
-    what is not noise (`_noise.BURIED_RANDOM`)."""
+    what is not noise (`._noise.BURIED_RANDOM`). With ``low`` (an integrated record), the
+    displacement's and velocity's lowest band is formed through the estimated model
+    (`._low_band`)."""
     fs, n = proc.fs, response.shape[0]
     lo, hi = proc.band
     needs_v = bool(known) or any(fn.variable == "v" for *_, fn in unknown)
@@ -275,6 +279,21 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
         if proc.lowpass is not None and needs_v:
             v = to_kinematics(response, fs, proc.kind, highpass=hp, lowpass=proc.lowpass)[1]
     force = force_in if proc.hold == "none" else _linear_hold(force_in, fs)
+    if low is not None and proc.kind != "displacement":
+        x, v = low.apply(x, v, force, force_dofs, fs)
+    force, cols, labels = _inputs(x, v, force, force_dofs, proc, unknown, known, warnings,
+                                  noise_var, buried, edge)
+    # a list of (strided) columns: spectral_matrix reads them in place, no stacked copy
+    return [c[edge: n - edge] for c in (*x.T, *force.T, *cols)], labels
+
+
+def _inputs(x: np.ndarray, v: np.ndarray | None, force: np.ndarray, force_dofs: np.ndarray,
+            proc: _Processing, unknown, known, warnings: list[str],
+            noise_var: tuple[np.ndarray, np.ndarray] | None, buried: list[float] | None,
+            edge: int) -> tuple[np.ndarray, list[np.ndarray], list[str]]:
+    """The inputs formed from ``x`` and ``v``: the forces (less the known forces on forced
+    DOFs), the other known forces' and the unknown bases' columns, and their labels."""
+    n = x.shape[0]
     cols: list[np.ndarray] = []
     labels: list[str] = []
     for i, el in known:
@@ -300,8 +319,7 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
                 buried.append(float(np.sqrt(s2 / max(core.var() - s2, 1e-12 * s2, 1e-300))))
         cols.append(-bas.evaluate(fn, s, up, s2))
         labels.append(f"-{fn.name}@{i}")
-    # a list of (strided) columns: spectral_matrix reads them in place, no stacked copy
-    return [c[edge: n - edge] for c in (*x.T, *force.T, *cols)], labels
+    return force, cols, labels
 
 
 def _alias_upsampling(fn: bas.Basis, s: np.ndarray, i: int, proc: _Processing,

@@ -1,10 +1,11 @@
 """The reverse path estimator's entry point: records in, `ReversePathResult` out.
 
 It chooses the route (Welch spectra with or without instrumental variables, or period
-averaging for periodic records, `._noise`), runs the estimate (`._core`) and the optional
-sequential refinement (`._stages`). How to estimate is one `ReversePathOptions`; what the
-records are (sample rate, forced DOFs, response kind, force hold, periodic layout) stays in
-the arguments, because a `Recording` already carries it.
+averaging for periodic records, `._iv`, `._periodic`), runs the estimate (`._core`), forms
+an integrated record's lowest band through the first estimate (`._low_band`) and runs the
+optional sequential refinement (`._stages`). How to estimate is one `ReversePathOptions`;
+what the records are (sample rate, forced DOFs, response kind, force hold, periodic layout)
+stays in the arguments, because a `Recording` already carries it.
 """
 
 from __future__ import annotations
@@ -21,9 +22,12 @@ from ..spectral import (Spectra, default_nperseg, longest_nperseg, resolving_npe
                         spectral_matrix)
 from ..models import Model
 from ..recordings import excitation_band
-from . import _noise as noise_mod
+from ._iv import iv_passes
+from ._noise import buried_random, noise_info, noise_variances
+from ._periodic import periodic_layout, periodic_reverse_path
 from ._core import (ReversePathResult, _channels, _elements, _estimate, _integrated,
                     _Processing, _records, noise_edge)
+from ._low_band import LOW_SHARE, LowBand, quasi_static_top
 from ._stages import sequential
 
 
@@ -50,7 +54,7 @@ class ReversePathOptions:
         conditioned, uncorrelated inputs (same estimate, paper section 3.2; random records
         only).
     noise : {"auto", "iv", "none"}
-        "iv": instrumental variables and debiased bases (`._noise`),
+        "iv": instrumental variables and debiased bases (`._iv`, `._noise`),
         "none": H1 (biased low by sensor noise), "auto": "iv" when the response's white
         noise floor exceeds ``NOISE_THRESHOLD`` of its rms (random records) or when there
         are two or more steady periods (periodic records).
@@ -115,7 +119,7 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
         Random-excitation records at one or several levels (pooled). ``response`` holds
         every DOF of the model. Periodic-random (multisine) records, marked by
         a ``layout`` or ``period=``, go to the period-averaging estimator
-        (`._noise.periodic_reverse_path`).
+        (`._periodic.periodic_reverse_path`).
     model : Model
         Candidate: elements with omitted parameters are estimated; complete elements are
         included as known nonlinear forces.
@@ -150,19 +154,7 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
         Invalid options or force hold, records that do not match the model, a band outside
         0..fs/2.
     """
-    if option_fields:
-        unknown_fields = set(option_fields) - {f.name for f in fields(ReversePathOptions)}
-        if unknown_fields:
-            raise TypeError(f"reverse_path() got unexpected keyword arguments "
-                            f"{sorted(unknown_fields)}")
-        if options is not None:
-            raise InputError("give the reverse path options either as options= or as "
-                             "keywords, not both")
-        pywarnings.warn(f"reverse_path(..., {', '.join(sorted(option_fields))}=...) is "
-                        "deprecated: pass options=ReversePathOptions(...)",
-                        DeprecationWarning, stacklevel=2)
-        options = ReversePathOptions(**option_fields)
-    opts = options if options is not None else ReversePathOptions()
+    opts = _options(options, option_fields)
     if force_hold not in (None, "none", "linear"):
         raise InputError(f"force_hold must be none or linear, got '{force_hold}'")
     facts = dict(fs=fs, force_dofs=force_dofs, response_kind=response_kind,
@@ -186,6 +178,24 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
                           "delay?): the force was delayed to match; record aligned channels "
                           "to avoid it")
     return again
+
+
+def _options(options: ReversePathOptions | None,
+             option_fields: dict[str, Any]) -> ReversePathOptions:
+    """The options given as ``options=`` or (deprecated) as keywords; the defaults without."""
+    if option_fields:
+        unknown_fields = set(option_fields) - {f.name for f in fields(ReversePathOptions)}
+        if unknown_fields:
+            raise TypeError(f"reverse_path() got unexpected keyword arguments "
+                            f"{sorted(unknown_fields)}")
+        if options is not None:
+            raise InputError("give the reverse path options either as options= or as "
+                             "keywords, not both")
+        pywarnings.warn(f"reverse_path(..., {', '.join(sorted(option_fields))}=...) is "
+                        "deprecated: pass options=ReversePathOptions(...)",
+                        DeprecationWarning, stacklevel=3)
+        options = ReversePathOptions(**option_fields)
+    return options if options is not None else ReversePathOptions()
 
 
 #: Smallest and largest delay between force and responses (samples) `channel_delay` reads.
@@ -233,7 +243,7 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
                          f"{model.n_dof} DOFs; reverse path needs every DOF measured")
     unknown, known = _elements(model)
     warnings: list[str] = []
-    layouts = [noise_mod.periodic_layout(r, period, transient_periods, realizations)
+    layouts = [periodic_layout(r, period, transient_periods, realizations)
                for r, _ in recs]
     band, nperseg, window, overlap = opts.band, opts.nperseg, opts.window, opts.overlap
     if any(lay is not None for lay in layouts):
@@ -242,7 +252,7 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
             pywarnings.warn(f"reverse path: {', '.join(ignored)} ignored: the records are "
                             "periodic, so they are averaged period by period (no Welch "
                             "segments, one input inversion)", UserWarning, stacklevel=2)
-        return noise_mod.periodic_reverse_path(recs, layouts, model, unknown, known, band,
+        return periodic_reverse_path(recs, layouts, model, unknown, known, band,
                                                opts.antialias, force_hold, opts.noise,
                                                warnings)
     fsr = float(rec0.fs)
@@ -257,7 +267,7 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
     if not 0 <= lo < hi <= fsr / 2:
         raise InputError(f"band {lo:g}-{hi:g} Hz must satisfy 0 <= lo < hi <= fs/2 = "
                          f"{fsr / 2:g}")
-    info, floors = noise_mod.noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
+    info, floors = noise_info([r for r, _ in recs], fsr, hi, opts.noise, warnings)
     if nperseg is None and info["method"] != "iv":
         # with sensor noise, ripples of H1 read as narrow peaks: the default length stays
         nps = _resolving(recs, (lo, hi), n_min, warnings)
@@ -270,31 +280,65 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
         lo = edge + 2 * fsr / nps
     welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
-    built, buried = [], []
-    for (rec, kind), floor in zip(recs, floors):
-        proc = _Processing(fsr, kind, (lo, hi), opts.antialias,
-                           force_hold or rec.force_hold,
-                           info["lowpass_hz"], edge)
-        nvar = noise_mod.noise_variances(proc, floor) if info["method"] == "iv" else None
-        channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
-                                     known, warnings, nvar, buried)
-        built.append((rec, proc, channels))
+    built, buried, labels = _built(recs, floors, (lo, hi), edge, opts, force_hold, info, unknown,
+                                   known, warnings)
     inputs += labels
     spec = Spectra.pool([spectral_matrix(c, fsr, **welch) for *_, c in built])
     first: list[str] = []
     result = _estimate(spec, model.n_dof, fdofs, unknown, inputs, (lo, hi), opts.method,
                        first)
+    if info["method"] != "iv" and _integrated(recs) != "displacement":
+        result, first = _low_band_pass(result, first, recs, floors, (lo, hi), edge, opts,
+                                       force_hold, info, model, welch)
     if info["method"] != "iv":
         warnings.extend(first)
     else:
-        result = noise_mod.iv_passes(result, model, built, unknown, known, welch, info,
+        result = iv_passes(result, model, built, unknown, known, welch, info,
                                      warnings)
     if buried:
         info["buried"] = [max(buried[i::len(unknown)]) for i in range(len(unknown))]
-        noise_mod.buried_random(info["buried"], unknown, warnings)
+        buried_random(info["buried"], unknown, warnings)
     result.warnings = _merge_alias_warnings(warnings)
     result.noise = info
     return result
+
+
+def _low_band_pass(result: ReversePathResult, first: list[str], recs, floors,
+                   band: tuple[float, float], edge: float, opts: ReversePathOptions,
+                   force_hold: str | None, info: dict[str, Any], model: Model,
+                   welch: dict[str, Any]) -> tuple[ReversePathResult, list[str]]:
+    """The estimate again with every integrated record's lowest band formed from the force
+    through the first one (`._low_band`), and its warnings; the first when the outputs are
+    explained less well (a candidate far from the structure would form a wrong band)."""
+    unknown, known = _elements(model)
+    fc = LOW_SHARE * quasi_static_top(result.freqs, abs(result.H_linear).max(axis=(1, 2)))
+    low = LowBand(result.estimated_model(model), fc)
+    built, _, _ = _built(recs, floors, band, edge, opts, force_hold, info, unknown, known, [],
+                         low)
+    spec = Spectra.pool([spectral_matrix(c, result.spectra.fs, **welch) for *_, c in built])
+    again: list[str] = []
+    low_result = _estimate(spec, model.n_dof, result.force_dofs, unknown, result.inputs, band,
+                           opts.method, again)
+    if low_result.coherence_nonlinear.mean() >= result.coherence_nonlinear.mean():
+        return low_result, again
+    return result, first
+
+
+def _built(recs, floors, band: tuple[float, float], highpass: float, opts: ReversePathOptions,
+           force_hold: str | None, info: dict[str, Any], unknown, known, warnings: list[str],
+           low: LowBand | None = None) -> tuple[list, list[float], list[str]]:
+    """Every record's channels (`._core._channels`) as ``(rec, proc, channels)``, the
+    bases' buried-noise shares and the input labels."""
+    built, buried, labels = [], [], []
+    for (rec, kind), floor in zip(recs, floors):
+        proc = _Processing(float(rec.fs), kind, band, opts.antialias,
+                           force_hold or rec.force_hold, info["lowpass_hz"],
+                           highpass)
+        nvar = noise_variances(proc, floor) if info["method"] == "iv" else None
+        channels, labels = _channels(rec.response, rec.force, rec.force_dofs, proc, unknown,
+                                     known, warnings, nvar, buried, low)
+        built.append((rec, proc, channels))
+    return built, buried, labels
 
 
 def _resolving(recs, band: tuple[float, float], n_min: int, warnings: list[str]) -> int:

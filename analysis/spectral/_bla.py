@@ -120,7 +120,7 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     all_freqs = np.arange(U.shape[1]) * fs / period
     picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
                            (np.abs(dev[..., 0]) ** 2).sum(axis=1).mean(axis=0) * scale,
-                           band=band)
+                           band=band, amplitudes=np.abs(U))
     lines = picked.lines
     if lines.size == 0:
         raise InputError("the force excites no DFT line of the period"

@@ -15,6 +15,11 @@ Tolerances (what the clean twin's own spread allows):
   FRFs: the one-sample delay gave 49 % before fit-linear took it out);
 - analyze reverse-path: the cubic within 3 combined standard errors of the clean estimate
   (the intervals' half-widths / 1.96);
+- analyze hbm: the same on a stepped-sine twin (`daq_twin.stepped_drive`: 9 steps through
+  the first mode at 5 N, `simulate --response-kind acceleration --daq-artifacts ARTIFACT`,
+  `import`, `analyze hbm` with the cubic left out); lead-in zeros and a partial period are
+  continuous-record artifacts and leave the steps as they are, force dips do not apply to a
+  stepped sine (its controller holds each step's amplitude: simulate says so in one line);
 - report: exit 0 and an index.html;
 - diagnose (of the cell's fit-linear model, `slow`): the same verdict and, when the clean
   twin names a missing physics, the same kind.
@@ -41,11 +46,11 @@ from analysis.models import Element  # noqa: E402
 from analysis.recordings import ARTIFACTS  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
 
-PATHS = ("import", "detect", "fit-linear", "reverse-path", "report", "diagnose")
+PATHS = ("import", "detect", "fit-linear", "reverse-path", "hbm", "report", "diagnose")
 #: paths run only with ``-m slow`` (seconds to a minute a cell)
 SLOW = {"report", "diagnose"}
 #: cells where stopping (exit 2, one line) is the right answer: no default could serve
-STOPS = {("dead-channel", "reverse-path")}
+STOPS = {("dead-channel", "reverse-path"), ("force-dips", "hbm")}
 #: cells that do not give the clean result yet, with the measured reason
 KNOWN: dict[tuple[str, str], str] = {
     ("force-dips", "diagnose"): "the dips cut the force near the modes (the cell reads ~0.16x "
@@ -78,8 +83,33 @@ def _imported(folder: str, artifact: str | None) -> tuple[int, str, Path]:
 
 
 @lru_cache(maxsize=None)
+def _stepped(folder: str, artifact: str | None) -> dict:
+    """The stepped-sine twin with ``artifact`` through simulate, import and analyze hbm."""
+    d = Path(folder) / (artifact or "clean") / "stepped"
+    d.mkdir(parents=True, exist_ok=True)
+    model, drive, rec, run, js = (d / n for n in ("truth.toml", "drive.npz", "rec.npz",
+                                                  "run.h5", "hbm.json"))
+    model.write_text(T.truth().dumps())
+    T.stepped_drive(drive)
+    cand = d / "cand.toml"
+    cand.write_text(T.truth().with_elements([Element("cubic_spring", [-1.0, 1.0], {})]).dumps())
+    for argv in (["simulate", str(model), "--drive", str(drive), "--out", str(rec),
+                  "--response-kind", "acceleration", "--seed", "3", "--force",
+                  *(["--daq-artifacts", artifact] if artifact else [])],
+                 ["import", str(rec), "--out", str(run), "--force"],
+                 ["analyze", "hbm", str(run), "--model", str(cand), "--json", str(js),
+                  "--force", "--quiet"]):
+        code, err = _cli(argv)
+        if code != 0:
+            return {"code": code, "err": err, "result": {}}
+    return {"code": 0, "err": err, "result": json.loads(js.read_text())}
+
+
+@lru_cache(maxsize=None)
 def outcome(folder: Path, artifact: str | None, path: str) -> dict:
     """Run ``path`` on the twin carrying ``artifact``; its exit code, stderr and result."""
+    if path == "hbm":
+        return _stepped(str(folder), artifact)
     code, err, run = _imported(str(folder), artifact)
     d = run.parent
     if path == "import" or code != 0:
@@ -150,7 +180,7 @@ def compare(path: str, got: dict, clean: dict) -> str:
         want = "+".join(e["kind"] for e in c.get("missing_physics") or [])
         same = r["verdict"] == c["verdict"] and (c["verdict"] != "discrepancy" or kind == want)
         return "same" if same else f"{r['verdict']} {kind}".strip()
-    if path == "reverse-path":
+    if path in ("reverse-path", "hbm"):
         (e,), (ec,) = r["elements"], c["elements"]
         p, pc = e["params"]["p"], ec["params"]["p"]
         s = (e["ci95"]["p"][1] - e["ci95"]["p"][0]) / 3.92

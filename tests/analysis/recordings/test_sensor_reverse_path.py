@@ -8,7 +8,7 @@ of the same beam with all 21 DOFs measured, and its interval covers the truth. W
 it is sensor noise in the element's deformation: accelerometer noise integrated twice grows as
 1/f^2, and at 1 % of the acceleration's rms it is ~100 % of the joint deformation; the
 periodic instruments are then weak and the estimate falls towards zero beyond its interval.
-The estimator says so (`_noise._weak_instruments`), whatever the channel map.
+The estimator says so (`_periodic._weak_instruments`), whatever the channel map.
 """
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def test_weak_instrument_warning_on_a_lumped_chain():
     with displacement probes (covered, no warning). With accelerometers, integrated from the
     band's edge (1.5 Hz) it was 56 % (1.06e9 [0.42e9, 1.71e9]: the warning); integrated only
     from where every channel stands 10x above its period-spread noise
-    (`analysis.reverse_path._noise._periodic_edge`) it is covered without a warning
+    (`analysis.reverse_path._periodic_lines._periodic_edge`) it is covered without a warning
     (1.98e9 [1.79e9, 2.16e9])."""
     from scipy.linalg import eigh
 
