@@ -28,7 +28,8 @@ from analysis.models import read_text
 from ._monitors import (MONITOR_KEYS, csv_monitor_columns, monitor_fields, monitor_keys,
                         trimmed)
 from ._sweep_keys import sweep_fields
-from ._tables import csv_text, is_table, step_table_keys, table_from_csv, table_from_keys
+from ._tables import (CONTROL_KEYS, control_fields, control_keys, csv_text, is_table,
+                      step_table_keys, table_from_csv, table_from_keys)
 from ._units import lookup, split_label
 
 MAX_CSV_BYTES = 2**31  # a CSV recording is read into memory whole
@@ -147,7 +148,8 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike
             level=level, force_hold=_force_hold(data, path),
             layout=_layout(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=_extra(data, excitation, level_from), meta={"source": str(path)},
-            monitors=monitors, monitor_units=units)
+            monitors=monitors, monitor_units=units,
+            **(control_fields(data, path) if excitation == "stepped-sine" else {}))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
@@ -201,6 +203,8 @@ def _extra(data: dict, excitation: str, level_from: str | None) -> dict[str, np.
              | {"force_hold"})
     if excitation == "swept-sine":
         known |= set(SWEEP_KEYS)
+    if excitation == "stepped-sine":
+        known |= set(CONTROL_KEYS)
     if level_from == level_key(excitation):
         known.add(level_from)
     return {k: np.asarray(v) for k, v in data.items() if k not in known}
@@ -227,6 +231,7 @@ def recording_keys(rec: Recording | StepTable) -> dict[str, np.ndarray]:
     if rec.sensors is not None:
         out.update(rec.sensors.to_keys())
     out.update(monitor_keys(rec))
+    out.update(control_keys(rec))
     return out
 
 
