@@ -153,8 +153,16 @@ class SteppedSearch(Search):
         harmonics), not along the measured motion: that prediction, ``H_L (B F_1 - w G_1)
         / F_1`` with ``G_1`` from the measured response, carries the measured resonance of
         each level into the candidate's FRF, which a simulated model cannot."""
-        pred = super().predictor(fit, joint, earlier)
         c = fit.cand
+        shift = _signed_shift(c.kind) if c.memory else np.zeros(1)
+        if fit.extra is None and np.any(shift):
+            # a signed parameter (iwan's chi) is judged from its lower bound, as a positive
+            # one from zero: the score takes a memory law's parameters as positive
+            names = list(KINDS[c.kind].params)
+            theta = np.array([fit.params[n] for n in names]) - shift
+            return Predictor(lambda t: self.memory_frfs(c, dict(zip(names, t + shift))),
+                             theta, len(names), np.abs(theta), positive=True)
+        pred = super().predictor(fit, joint, earlier)
         if not self.on_backbone or c.linear or c.memory or pred.nuisance:
             return pred
         return replace(pred, predict=lambda t: self._simulated(
@@ -224,6 +232,17 @@ class SteppedSearch(Search):
         best = max(scored, key=scored.__getitem__)
         return [f for f in fits if not backbone_applies(self.recs, f.cand)
                 or (f.cand.kind == best and "backbone_oos_gain" in f.evidence)]
+
+
+def _signed_shift(kind: str) -> np.ndarray:
+    """Per parameter of ``kind``: the lower bound of a signed one (not positive, bounded
+    below zero), else 0."""
+    out = []
+    for n in KINDS[kind].params:
+        p = KINDS[kind].param(n)
+        out.append(p.bounds[0] if not p.positive and p.bounds is not None and p.bounds[0] < 0
+                   else 0.0)
+    return np.array(out)
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
