@@ -204,7 +204,7 @@ class SteppedSearch(Search):
         memory = [f for f in fits if f.cand.memory]   # best first
         out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
         out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
-        if self.on_backbone:
+        if self.on_backbone and not self.model.elements:
             out = self.backbone_kind(out)
         return sorted(out, key=lambda f: -f.delta_bic)
 
@@ -215,7 +215,8 @@ class SteppedSearch(Search):
         the other nonlinear kinds there are left out of the pool (each fit keeps its
         score in its evidence); whether the chosen one is accepted is then decided on the
         FRFs (`.policy.decide`). A memoryless law is scored by its own backbone fit, its
-        pool entry keeps the FRF screening's estimate."""
+        pool entry keeps the FRF screening's estimate. Only while the model holds no
+        element (the first pass): the backbone fit acts on the linear mode alone."""
         scored: dict[str, float] = {}
         for f in fits:
             if not backbone_applies(self.recs, f.cand):
