@@ -19,27 +19,32 @@ its amplitude).
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
 from ..errors import EstimationError, InputError
 from ..recordings import KIND_ORDER, Control, StepTable
-from ._single_mode import ModeFit, fit_single_mode
+from ._single_mode import ModalEstimate, ModeFit, fit_single_mode
 
 #: version of `Backbone.to_json`'s layout
 SCHEMA_VERSION = 1
 #: relative rounding of the step-wise inversion: the narrowest interval it reports
 ROUNDING = 1e-9
 #: method names written to the JSON
+#: key order of a level in the JSON (contracts section 6)
+JSON_ORDER = ("level", "amplitude", "amplitude_kind", "displacement_amplitude", "frequency_hz",
+              "frequency_ci95", "damping_ratio", "damping_ci95", "modal_constant", "fit_error",
+              "method", "n_steps")
 RESPONSE_METHOD = "single-mode fit at held response amplitude"
 FORCE_METHOD = "phase resonance of the step-wise inverse FRF (single nonlinear mode)"
 
 
-@dataclass(frozen=True)
-class BackbonePoint:
-    """One level of a backbone.
+@dataclass(frozen=True, kw_only=True)
+class BackbonePoint(ModalEstimate):
+    """One level of a backbone: a `ModalEstimate` (force control: the lowest level's modal
+    constant) at an amplitude.
 
     Attributes
     ----------
@@ -50,10 +55,6 @@ class BackbonePoint:
     amplitude_kind : str
     displacement_amplitude : float
         ``amplitude`` as displacement at the natural frequency, m.
-    frequency_hz, damping_ratio : float
-    frequency_ci95, damping_ci95 : (float, float)
-    modal_constant : complex
-        Receptance modal constant of the level's fit (force control: the lowest level's).
     fit_error : float
         Relative error of the level's single-mode fit (for a force-controlled level it
         measures how far the curve is from a linear mode).
@@ -65,18 +66,13 @@ class BackbonePoint:
     amplitude: float
     amplitude_kind: str
     displacement_amplitude: float
-    frequency_hz: float
-    frequency_ci95: tuple[float, float]
-    damping_ratio: float
-    damping_ci95: tuple[float, float]
-    modal_constant: complex
     fit_error: float
     method: str
     n_steps: int
 
     def to_dict(self) -> dict[str, Any]:
         """The point as JSON-ready values (contracts section 6 names)."""
-        out = asdict(self)
+        out: dict[str, Any] = {k: getattr(self, k) for k in JSON_ORDER}
         out["modal_constant"] = float(self.modal_constant.real)
         out["modal_constant_imag"] = float(self.modal_constant.imag)
         out["frequency_ci95"] = list(self.frequency_ci95)
@@ -175,9 +171,11 @@ def _held_point(t: StepTable, fit: ModeFit, j: int) -> BackbonePoint:
     kind = _kind(t, j)
     amp = float(np.median(np.abs(t.response_phasor[:, j])))
     disp = amp / (2 * np.pi * fit.frequency_hz) ** KIND_ORDER[kind]
-    return BackbonePoint(t.level, amp, kind, disp, fit.frequency_hz, fit.frequency_ci95,
-                         fit.damping_ratio, fit.damping_ci95, fit.modal_constant,
-                         fit.fit_error, RESPONSE_METHOD, t.n_steps)
+    return BackbonePoint(level=t.level, amplitude=amp, amplitude_kind=kind,
+                         displacement_amplitude=disp, frequency_hz=fit.frequency_hz,
+                         frequency_ci95=fit.frequency_ci95, damping_ratio=fit.damping_ratio,
+                         damping_ci95=fit.damping_ci95, modal_constant=fit.modal_constant,
+                         fit_error=fit.fit_error, method=RESPONSE_METHOD, n_steps=t.n_steps)
 
 
 def stepwise_modal(t: StepTable, linear: ModeFit, j: int) -> tuple[np.ndarray, np.ndarray]:
@@ -229,6 +227,9 @@ def _phase_resonance(t: StepTable, linear: ModeFit, fit: ModeFit, j: int) -> Bac
     df = max(float(abs(fn_steps[i + 1] - fn_steps[i])) / 2,
              float(abs(fn - fn_steps[i:i + 2]).max()), ROUNDING * fn)
     disp = amp / (2 * np.pi * fn) ** KIND_ORDER[kind]
-    return BackbonePoint(t.level, amp, kind, disp, fn, (fn - df, fn + df), zeta,
-                         (zeta - dz, zeta + dz), linear.modal_constant, fit.fit_error,
-                         FORCE_METHOD, t.n_steps)
+    return BackbonePoint(level=t.level, amplitude=amp, amplitude_kind=kind,
+                         displacement_amplitude=disp, frequency_hz=fn,
+                         frequency_ci95=(fn - df, fn + df), damping_ratio=zeta,
+                         damping_ci95=(zeta - dz, zeta + dz),
+                         modal_constant=linear.modal_constant, fit_error=fit.fit_error,
+                         method=FORCE_METHOD, n_steps=t.n_steps)

@@ -25,10 +25,11 @@ from dataclasses import dataclass
 from itertools import product
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 
 from ..models import KINDS, restoring_force
 from ._backbone import BackbonePoint
+from ._free import free_bounds, free_interval, from_free, to_free
 
 N_TIME = 512
 PERIODS = 3
@@ -58,7 +59,7 @@ class JointFit:
     frequency_rms, damping_rms : float
         Relative rms residual of the natural frequencies and damping ratios over the levels.
     ci95 : dict
-        95 % intervals of the parameters (linearised in their logarithms, each residual group
+        95 % intervals of the parameters (linearised in their free coordinates, `to_free`, each residual group
         scaled by its own rms: the scatter the law does not explain sets the width).
     """
 
@@ -68,12 +69,14 @@ class JointFit:
     ci95: dict[str, tuple[float, float]]
 
 
-def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray) -> np.ndarray:
-    """First-harmonic stiffness ``N(a)`` (complex, N/m) of an element along ``a cos(t)``."""
+def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray,
+               omega: float = 1.0) -> np.ndarray:
+    """First-harmonic stiffness ``N(a)`` (complex, N/m) of an element along ``a cos(omega t)``
+    (a rate-independent law, a slider's, does not depend on ``omega``)."""
     a = np.asarray(amplitudes, dtype=float)
     theta = 2 * np.pi * np.arange(N_TIME) / N_TIME
     u = (a[:, None] * np.cos(theta)[None, :])
-    v = -(a[:, None] * np.sin(theta)[None, :])          # rate per unit angular frequency
+    v = -(omega * a[:, None] * np.sin(theta)[None, :])
     reps = PERIODS if KINDS[kind].memory else 1
     g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
     g1 = np.fft.rfft(g.reshape(a.size, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1]
@@ -83,23 +86,28 @@ def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray) -> n
 def joint_backbone(mode: LinearMode, kind: str, params: dict[str, float],
                    amplitudes: np.ndarray, compensated: bool) -> tuple[np.ndarray, np.ndarray]:
     """Natural frequency (Hz) and damping ratio of ``mode`` with the element at each
-    displacement amplitude (module docstring)."""
-    N = describing(kind, params, amplitudes)
-    kd = params[KINDS[kind].initial_stiffness] if compensated else 0.0
+    displacement amplitude (module docstring; a rate-dependent law at the mode's own
+    frequency). A law that stiffens (a gap, a hardening spring) raises the frequency."""
     w0, A = 2 * np.pi * mode.frequency_hz, mode.modal_constant
+    N = describing(kind, params, amplitudes, w0)
+    kd = params[KINDS[kind].initial_stiffness] if compensated else 0.0
     wn = np.sqrt(np.maximum(w0**2 + A * (N.real - kd), 1e-12 * w0**2))
     zeta = (2 * mode.damping_ratio * w0 + A * N.imag / wn) / (2 * wn)
     return wn / (2 * np.pi), zeta
 
 
-def _grid(kind: str, amplitudes: np.ndarray, kd_max: float) -> list[dict[str, float]]:
+def _slider_grid(kind: str, amplitudes: np.ndarray, kd_max: float) -> list[dict[str, float]]:
     """Starts of a slider kind: stiffness from 1e-3 to 1 of ``kd_max``, slip displacement
-    from 0.1 of the smallest amplitude to twice the largest, the other parameters at 0.5,
-    1 and 2 times their screening value."""
+    from 0.1 of the smallest amplitude to twice the largest, each other parameter at its
+    screening value and one step of ``log 2`` either side of it in its free coordinate
+    (`to_free`: 0.5 and 2 times a positive one)."""
     grid = KINDS[kind].search.grid
     stiff = KINDS[kind].initial_stiffness
+    names = KINDS[kind].params
     fixed = dict(grid.fixed)
-    others = [[(n, f * v) for f in (0.5, 1.0, 2.0)] for n, v in fixed.items()]
+    z_fixed = to_free(kind, {n: fixed.get(n, 1.0) for n in names})
+    others = [[(n, from_free(kind, z_fixed + dz * (np.array(names) == n))[n])
+               for dz in (-np.log(2), 0.0, np.log(2))] for n in fixed]
     slips = np.geomspace(0.1 * amplitudes.min(), 2 * amplitudes.max(), 10)
     out = []
     for kd, d, more in product(np.geomspace(1e-3, 0.95, 8) * kd_max, slips, product(*others)):
@@ -107,10 +115,119 @@ def _grid(kind: str, amplitudes: np.ndarray, kd_max: float) -> list[dict[str, fl
     return out
 
 
+def _coefficient_grid(kind: str, amplitudes: np.ndarray, kd_max: float, omega: float
+                      ) -> list[dict[str, float]]:
+    """Starts of a law linear in one coefficient (`Kind.coef`): the coefficient from 1e-4
+    to 1 of the one whose describing stiffness reaches ``kd_max`` at the largest amplitude
+    (both signs unless it must be positive or dissipate), its grid parameter (a gap's width)
+    from 0.1 of the smallest amplitude (rate: times ``omega``) to twice the largest."""
+    spec = KINDS[kind]
+    grid = spec.search.grid
+    names = spec.params
+    more: list[dict[str, float]] = [{}]
+    if grid is not None and grid.param in names and grid.param != spec.coef:
+        span = np.geomspace(0.1 * amplitudes.min(), 2 * amplitudes.max(), 10)
+        more = [{grid.param: float(x * (omega if grid.variable == "v" else 1.0))}
+                for x in span]
+    signed = not (spec.dissipative or spec.param(spec.coef).positive)
+    out = []
+    for m in more:
+        unit = abs(describing(kind, {spec.coef: 1.0, **m}, np.array([amplitudes.max()]),
+                              omega)[0])
+        if not unit > 0:
+            continue
+        for c in np.geomspace(1e-4, 1.0, 9) * kd_max / unit:
+            out += [{spec.coef: float(sg * c), **m} for sg in ((1, -1) if signed else (1,))]
+    return out
+
+
+@dataclass(frozen=True)
+class _Backbone:
+    """A backbone to fit: displacement amplitudes, frequencies and damping ratios of the
+    levels, the reference (lowest) level and its relative standard deviations."""
+
+    a: np.ndarray
+    f: np.ndarray
+    z: np.ndarray
+    ref: int
+    sd_ref: tuple[float, float]
+
+    @classmethod
+    def of(cls, points: list[BackbonePoint]) -> "_Backbone":
+        a = np.array([p.displacement_amplitude for p in points])
+        ref = int(np.argmin(a))
+        p = points[ref]
+        sd = (max((p.frequency_ci95[1] - p.frequency_ci95[0]) / (2 * 1.96 * p.frequency_hz),
+                  1e-9),
+              max((p.damping_ci95[1] - p.damping_ci95[0]) / (2 * 1.96 * p.damping_ratio), 1e-9))
+        return cls(a, np.array([p.frequency_hz for p in points]),
+                   np.array([p.damping_ratio for p in points]), ref, sd)
+
+
+class _Problem:
+    """Residuals of a kind's backbone against the measured one (module docstring)."""
+
+    def __init__(self, bb: _Backbone, mode: LinearMode, kind: str, compensated: bool,
+                 kd_max: float) -> None:
+        self.bb, self.mode, self.kind, self.compensated = bb, mode, kind, compensated
+        self.lo, self.hi = free_bounds(kind)
+        spec = KINDS[kind]
+        if spec.initial_stiffness is not None:
+            k = spec.params.index(spec.initial_stiffness)
+            self.hi[k] = min(self.hi[k], np.log(kd_max))
+        elif spec.dissipative and not spec.param(spec.coef).positive:
+            self.lo[spec.params.index(spec.coef)] = 0.0        # a loss, not a gain
+
+    def groups(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        fm, zm = joint_backbone(self.mode, self.kind, from_free(self.kind, x), self.bb.a,
+                                self.compensated)
+        return fm / self.bb.f - 1, zm / self.bb.z - 1
+
+    def weighted(self, x: np.ndarray, sf: float, sz: float, rest: np.ndarray) -> np.ndarray:
+        rf, rz = self.groups(x)
+        r = self.bb.ref
+        return np.concatenate([rf[rest] / sf, rz[rest] / sz,
+                               [rf[r] / self.bb.sd_ref[0], rz[r] / self.bb.sd_ref[1]]])
+
+    def likelihood(self, x: np.ndarray) -> float:
+        """Profile log likelihood (two groups of unknown variance, the reference level by
+        its own intervals; lower is better)."""
+        rf, rz = self.groups(x)
+        rest = np.arange(self.bb.a.size) != self.bb.ref
+        r, n = self.bb.ref, rest.sum()
+        return float(np.log(np.mean(rf[rest]**2) + 1e-18) + np.log(np.mean(rz[rest]**2) + 1e-18)
+                     + (rf[r] / self.bb.sd_ref[0]) ** 2 / n + (rz[r] / self.bb.sd_ref[1]) ** 2 / n)
+
+    def settle(self, x: np.ndarray, rest: np.ndarray) -> OptimizeResult:
+        """Reweighted least squares from ``x`` on the levels ``rest`` (and the reference)."""
+        x = np.clip(x, self.lo + 1e-9, self.hi - 1e-9)
+        for _ in range(REWEIGHT):
+            rf, rz = self.groups(x)
+            sf, sz = (max(float(np.sqrt(np.mean(r[rest]**2))), 1e-9) for r in (rf, rz))
+            sol = least_squares(self.weighted, x, args=(sf, sz, rest),
+                                bounds=(self.lo, self.hi), method="trf", max_nfev=200)
+            x = sol.x
+        return sol
+
+
+def _problem(points: list[BackbonePoint], mode: LinearMode, kind: str, compensated: bool,
+             kd_max: float) -> tuple[_Problem, list[np.ndarray]]:
+    """The fit problem and its starts in free coordinates."""
+    bb = _Backbone.of(points)
+    prob = _Problem(bb, mode, kind, compensated, kd_max)
+    if KINDS[kind].initial_stiffness is not None:
+        starts = _slider_grid(kind, bb.a, kd_max)
+    else:
+        starts = _coefficient_grid(kind, bb.a, kd_max, 2 * np.pi * mode.frequency_hz)
+    return prob, [to_free(kind, p) for p in starts]
+
+
 def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
               compensated: bool, kd_max: float) -> JointFit:
-    """Parameters of a slider ``kind`` (`analysis.models.KINDS` with a stuck stiffness and a
-    slip-displacement grid) reproducing the backbone ``points``.
+    """Parameters of an element ``kind`` reproducing the backbone ``points``: a slider
+    (`analysis.models.KINDS` with a stuck stiffness and a slip-displacement grid) or a law
+    linear in one coefficient (softening or stiffening: a gap, a cubic spring, a damping
+    law).
 
     Parameters
     ----------
@@ -120,62 +237,46 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
         The linear mode the element acts on.
     kind : str
     compensated : bool
-        The mode holds the element's stuck stiffness.
+        The mode holds the element's stuck stiffness (sliders only).
     kd_max : float
         Largest stuck stiffness (the structure's static stiffness at the point, or the
-        mode's own ``w0^2 / A``).
+        mode's own ``w0^2 / A``); for a coefficient law, the largest describing stiffness
+        its starts reach.
 
     Returns
     -------
     JointFit
     """
-    a = np.array([p.displacement_amplitude for p in points])
-    f = np.array([p.frequency_hz for p in points])
-    z = np.array([p.damping_ratio for p in points])
+    prob, starts = _problem(points, mode, kind, compensated, kd_max)
+    if not starts:
+        raise ValueError(f"{kind}: no start of a backbone fit (its law gives no force)")
+    rest = np.arange(prob.bb.a.size) != prob.bb.ref
+    sol = prob.settle(min(starts, key=prob.likelihood), rest)
+    x = sol.x
     names = KINDS[kind].params
-    ref = int(np.argmin(a))
-    sd_ref = [max((p.frequency_ci95[1] - p.frequency_ci95[0]) / (2 * 1.96 * p.frequency_hz),
-                  1e-9) for p in points[ref:ref + 1]]
-    sd_ref += [max((points[ref].damping_ci95[1] - points[ref].damping_ci95[0])
-                   / (2 * 1.96 * points[ref].damping_ratio), 1e-9)]
-    rest = np.arange(a.size) != ref
-
-    def groups(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        fm, zm = joint_backbone(mode, kind, dict(zip(names, np.exp(x))), a, compensated)
-        return fm / f - 1, zm / z - 1
-
-    def weighted(x: np.ndarray, sf: float, sz: float) -> np.ndarray:
-        rf, rz = groups(x)
-        return np.concatenate([rf[rest] / sf, rz[rest] / sz,
-                               [rf[ref] / sd_ref[0], rz[ref] / sd_ref[1]]])
-
-    def likelihood(x: np.ndarray) -> float:
-        rf, rz = groups(x)
-        return float(np.log(np.mean(rf[rest]**2) + 1e-18) + np.log(np.mean(rz[rest]**2) + 1e-18)
-                     + (rf[ref] / sd_ref[0]) ** 2 / rest.sum()
-                     + (rz[ref] / sd_ref[1]) ** 2 / rest.sum())
-
-    starts = [np.log([p[n] for n in names]) for p in _grid(kind, a, kd_max)]
-    x = min(starts, key=likelihood)
-    hi = np.full(x.size, np.inf)
-    hi[names.index(KINDS[kind].initial_stiffness)] = np.log(kd_max)
-    lo = np.full(x.size, -np.inf)
-    for i, n in enumerate(names):
-        b = KINDS[kind].param(n).bounds
-        if b is not None:
-            lo[i], hi[i] = np.log(b[0]), min(hi[i], np.log(b[1]))
-    x = np.clip(x, lo + 1e-9, hi - 1e-9)
-    for _ in range(REWEIGHT):
-        rf, rz = groups(x)
-        sf, sz = (max(float(np.sqrt(np.mean(r[rest]**2))), 1e-9) for r in (rf, rz))
-        sol = least_squares(weighted, x, args=(sf, sz), bounds=(lo, hi), method="trf",
-                            max_nfev=200)
-        x = sol.x
     sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))
     # an interval reaching a bound ends there (its side is then not determined)
-    ci = {n: (float(np.exp(max(v - 1.96 * s, a, -700.0))),
-              float(np.exp(min(v + 1.96 * s, b, 700.0))))
-          for n, v, s, a, b in zip(names, x, sd, lo, hi)}
-    rf, rz = groups(x)
-    return JointFit({n: float(v) for n, v in zip(names, np.exp(x))},
-                    float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))), ci)
+    ci = {n: free_interval(kind, n, v, 1.96 * s, a, b)
+          for n, v, s, a, b in zip(names, x, sd, prob.lo, prob.hi)}
+    rf, rz = prob.groups(x)
+    return JointFit(from_free(kind, x), float(np.sqrt(np.mean(rf**2))),
+                    float(np.sqrt(np.mean(rz**2))), ci)
+
+
+def held_out(points: list[BackbonePoint], mode: LinearMode, kind: str, fit: JointFit, *,
+             compensated: bool, kd_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Out-of-sample residuals of a backbone fit: every level but the reference predicted
+    by ``kind`` refitted (from ``fit``) on the other levels; relative frequency and damping
+    residuals, one per such level (in ``points`` order, the reference left out)."""
+    prob, _ = _problem(points, mode, kind, compensated, kd_max)
+    x0 = to_free(kind, fit.params)
+    rf_out, rz_out = [], []
+    for k in range(prob.bb.a.size):
+        if k == prob.bb.ref:
+            continue
+        rest = (np.arange(prob.bb.a.size) != prob.bb.ref) & (np.arange(prob.bb.a.size) != k)
+        x = prob.settle(x0, rest).x if rest.any() else x0
+        rf, rz = prob.groups(x)
+        rf_out.append(rf[k])
+        rz_out.append(rz[k])
+    return np.array(rf_out), np.array(rz_out)

@@ -68,11 +68,18 @@ def model_tables(model: Model, tables: Sequence[StepTable],
                 if np.max(np.abs(miss)) < HOLD_TOL:
                     break
                 F_new = F * np.exp(miss / slope)
-                resp_new, U = _response(system, t, F_new, order, U if U.size else None)
+                # each step starts at the held amplitude: a stiffening model has up to
+                # three responses at one force, and the held one is on its own branch
+                guess = U * (target / amp)[:, None, None] if U.size else None
+                resp_new, U = _response(system, t, F_new, order, guess)
                 d_log_a = np.log(np.maximum(np.abs(resp_new[:, j]), 1e-300) / amp)
                 d_log_f = np.log(F_new / F)
                 moved = np.abs(d_log_f) > 1e-12
-                slope[moved] = np.clip(d_log_a[moved] / d_log_f[moved], 0.1, 10.0)
+                # negative on a stiffening curve's middle branch, where the controller
+                # holds an amplitude that a force alone would not
+                ratio = d_log_a[moved] / d_log_f[moved]
+                slope[moved] = np.where(ratio < 0, -1.0, 1.0) * np.clip(np.abs(ratio), 0.1,
+                                                                        10.0)
                 F, resp = F_new, resp_new
         out.append(replace(t, force_phasor=F[:, None].astype(complex), response_phasor=resp,
                            harmonics=(), force_harmonics=None, response_harmonics=None))

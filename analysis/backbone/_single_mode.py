@@ -28,8 +28,8 @@ N_LINEAR = 2
 
 
 @dataclass(frozen=True)
-class ModeFit:
-    """Single-mode fit of one FRF.
+class ModalEstimate:
+    """Natural frequency, damping ratio and modal constant of one mode, with intervals.
 
     Attributes
     ----------
@@ -40,6 +40,21 @@ class ModeFit:
     damping_ci95 : (float, float)
     modal_constant : complex
         ``A`` of the receptance form (module docstring).
+    """
+
+    frequency_hz: float
+    frequency_ci95: tuple[float, float]
+    damping_ratio: float
+    damping_ci95: tuple[float, float]
+    modal_constant: complex
+
+
+@dataclass(frozen=True)
+class ModeFit(ModalEstimate):
+    """Single-mode fit of one FRF: a `ModalEstimate` and
+
+    Attributes
+    ----------
     residual : complex
         ``R``, in the measured kind.
     fit_error : float
@@ -48,11 +63,6 @@ class ModeFit:
         Frequencies fitted.
     """
 
-    frequency_hz: float
-    frequency_ci95: tuple[float, float]
-    damping_ratio: float
-    damping_ci95: tuple[float, float]
-    modal_constant: complex
     residual: complex
     fit_error: float
     n_points: int

@@ -19,7 +19,7 @@ simulation of the corrected model.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -36,10 +36,11 @@ from .replay import periodic_replay
 from .leakage import level_floor
 from .report import LevelCurves
 from .result import Evidence
-from .select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model, screened,
-                     unit_params)
+from .outofsample import Predictor
+from .select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model,
+                     scaled_params, screened, unit_params)
 from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
-                             backbone_estimate, hbm_refit, log_fitted, hbm_sweep, motion_chi2, refine,
+                             backbone_estimate, hbm_refit, hbm_sweep, motion_chi2, refine,
                              simulated_chi2, slip_grid, stuck_limit, transfer)
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
@@ -115,7 +116,7 @@ class SteppedSearch(Search):
         self.on_backbone = [c for c in library(model.n_dof, model.points, model.support)
                             if c.memory and screened(c) and backbone_applies(recs, c)]
         for c in library(model.n_dof, model.points, model.support):
-            if c.memory and screened(c) and log_fitted(c) and c not in self.on_backbone:
+            if c.memory and screened(c) and c not in self.on_backbone:
                 extra[c] = slip_grid(frfs, c.w)
         levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
@@ -127,15 +128,45 @@ class SteppedSearch(Search):
         fits' misfit is (`.stepped_memory.simulated_chi2`; a slider fitted to the backbone
         is judged on the FRFs it predicts, not along the measured motion); along the
         measured motion (`.stepped_memory.transfer`) where the balance fails."""
+        return self._simulated(c, params, lambda: [
+            h0 - (hl @ c.w)[:, :, None] * transfer(frf, c.kind, params, c.w,
+                                                  c.compensated)[:, None, :]
+            for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)])
+
+    def _simulated(self, c: Candidate, params: dict[str, float],
+                   fallback: Callable[[], list[np.ndarray]]) -> list[np.ndarray]:
+        """The fitting levels' fundamental FRFs of the model with ``c`` added, by harmonic
+        balance at each step's own force; ``fallback()`` where the balance fails."""
         try:
             m = corrected_model(self.model, Fit(c, params, {}, 0.0, 0.0))
             i1 = HARMONICS.index(1)
             return [(hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None]
                     for frf in self.frfs]
         except (ModelError, HBMError):
-            return [h0 - (hl @ c.w)[:, :, None]
-                    * transfer(frf, c.kind, params, c.w, c.compensated)[:, None, :]
-                    for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)]
+            return fallback()
+
+    def predictor(self, fit: Fit, joint: bool = False, earlier: Sequence[Fit] = ()
+                  ) -> Predictor:
+        """`Search.predictor`; on response-controlled tables (where the sliders are fitted
+        to the backbone and judged on the FRFs harmonic balance predicts) a memoryless
+        nonlinear candidate judged alone is predicted the same way (`_simulated`, the same
+        harmonics), not along the measured motion: that prediction, ``H_L (B F_1 - w G_1)
+        / F_1`` with ``G_1`` from the measured response, carries the measured resonance of
+        each level into the candidate's FRF, which a simulated model cannot."""
+        c = fit.cand
+        shift = _signed_shift(c.kind) if c.memory else np.zeros(1)
+        if fit.extra is None and np.any(shift):
+            # a signed parameter (iwan's chi) is judged from its lower bound, as a positive
+            # one from zero: the score takes a memory law's parameters as positive
+            names = list(KINDS[c.kind].params)
+            theta = np.array([fit.params[n] for n in names]) - shift
+            return Predictor(lambda t: self.memory_frfs(c, dict(zip(names, t + shift))),
+                             theta, len(names), np.abs(theta), positive=True)
+        pred = super().predictor(fit, joint, earlier)
+        if not self.on_backbone or c.linear or c.memory or pred.nuisance:
+            return pred
+        return replace(pred, predict=lambda t: self._simulated(
+            c, scaled_params(c.kind, float(t[0]), fit.extra), lambda: pred.predict(t)))
 
     def fit_memory(self, fit: Fit) -> Fit | None:
         """A screened slider (best slip-displacement grid point, closed-form ``kd``) with
@@ -170,10 +201,49 @@ class SteppedSearch(Search):
         one fitted to the backbone of response-controlled tables."""
         fits = super().screen()
         out = [f for f in fits if not f.cand.memory]
-        memory = [f for f in fits if f.cand.memory and log_fitted(f.cand)]   # best first
+        memory = [f for f in fits if f.cand.memory]   # best first
         out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
         out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
+        if self.on_backbone and not self.model.elements:
+            out = self.backbone_kind(out)
         return sorted(out, key=lambda f: -f.delta_bic)
+
+    def backbone_kind(self, fits: list[Fit]) -> list[Fit]:
+        """On response-controlled tables the kind of element at the held point is the one
+        that predicts the backbone best out of sample (`.stepped_memory.backbone_gain`:
+        each level's frequency and damping from the kind fitted to the other levels'):
+        the other nonlinear kinds there are left out of the pool (each fit keeps its
+        score in its evidence); whether the chosen one is accepted is then decided on the
+        FRFs (`.policy.decide`). A memoryless law is scored by its own backbone fit, its
+        pool entry keeps the FRF screening's estimate. Only while the model holds no
+        element (the first pass): the backbone fit acts on the linear mode alone."""
+        scored: dict[str, float] = {}
+        for f in fits:
+            if not backbone_applies(self.recs, f.cand):
+                continue
+            if f.evidence.get("estimator") != BACKBONE_ESTIMATOR:
+                est = backbone_estimate(self.model, f.cand, self.recs)
+                if est is None:
+                    continue
+                f.evidence.update(est[2])
+            gain = f.evidence["backbone_oos_gain"]
+            scored[f.cand.kind] = max(scored.get(f.cand.kind, -np.inf), gain)
+        if not scored:
+            return fits
+        best = max(scored, key=scored.__getitem__)
+        return [f for f in fits if not backbone_applies(self.recs, f.cand)
+                or (f.cand.kind == best and "backbone_oos_gain" in f.evidence)]
+
+
+def _signed_shift(kind: str) -> np.ndarray:
+    """Per parameter of ``kind``: the lower bound of a signed one (not positive, bounded
+    below zero), else 0."""
+    out = []
+    for n in KINDS[kind].params:
+        p = KINDS[kind].param(n)
+        out.append(p.bounds[0] if not p.positive and p.bounds is not None and p.bounds[0] < 0
+                   else 0.0)
+    return np.array(out)
 
 
 def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:

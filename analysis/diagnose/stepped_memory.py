@@ -19,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..backbone import LinearMode, backbone, fit_joint, fit_single_mode
+from ..backbone import (BackbonePoint, LinearMode, backbone, fit_joint, fit_single_mode,
+                        free_bounds, free_interval, from_free, held_out, to_free)
 from ..errors import EstimationError, ModelError
 from ..hbm import HBMError, HBMSystem
 from ..models import KINDS, Candidate, Model, restoring_force
@@ -71,21 +72,14 @@ def slip_grid(frfs: list[SteppedSineFRF], w: np.ndarray) -> list[float]:
     return np.geomspace(SLIP_SPAN[0] * lo, SLIP_SPAN[1] * hi, SLIP_GRID).tolist()
 
 
-def log_fitted(c: Candidate) -> bool:
-    """Whether every parameter of ``c``'s kind is positive, as the slip grid and the backbone
-    fit need (they fit logarithms); a kind with a signed exponent (``iwan``'s ``chi``) is
-    left to the random-data and `analyze hbm` fits."""
-    kind = KINDS[c.kind]
-    return all(kind.param(n).positive for n in kind.params)
-
-
 def _params(c: Candidate, z: np.ndarray) -> dict[str, float]:
-    """Physical parameters of ``c`` from log values (kind's parameter order)."""
-    return {n: float(v) for n, v in zip(KINDS[c.kind].params, np.exp(z))}
+    """Physical parameters of ``c`` from free coordinates (`analysis.backbone.from_free`:
+    logarithms of the positive ones, logits of the bounded signed ones)."""
+    return from_free(c.kind, z)
 
 
 def _start(fit: Fit) -> np.ndarray:
-    return np.log([fit.params[n] for n in KINDS[fit.cand.kind].params])
+    return to_free(fit.cand.kind, fit.params)
 
 
 def stuck_limit(model: Model, c: Candidate) -> float:
@@ -103,15 +97,13 @@ def stuck_limit(model: Model, c: Candidate) -> float:
 
 def _bounds(c: Candidate, z0: np.ndarray, kd_max: float = np.inf
             ) -> tuple[np.ndarray, np.ndarray]:
-    """Log bounds: `LOG_REACH` around the start, within the kind's own parameter bounds and
-    a compensated stuck stiffness below ``kd_max``."""
-    lo, hi = z0 - LOG_REACH, z0 + LOG_REACH
-    for i, n in enumerate(KINDS[c.kind].params):
-        b = KINDS[c.kind].param(n).bounds
-        if b is not None:
-            lo[i], hi[i] = max(lo[i], np.log(b[0])), min(hi[i], np.log(b[1]))
-        if n == KINDS[c.kind].initial_stiffness:
-            hi[i] = min(hi[i], np.log(kd_max))
+    """Free-coordinate bounds: `LOG_REACH` around the start, within the kind's own parameter
+    bounds and a compensated stuck stiffness below ``kd_max``."""
+    flo, fhi = free_bounds(c.kind)
+    lo, hi = np.maximum(z0 - LOG_REACH, flo), np.minimum(z0 + LOG_REACH, fhi)
+    names = KINDS[c.kind].params
+    k = names.index(KINDS[c.kind].initial_stiffness)
+    hi[k] = min(hi[k], np.log(kd_max))
     return lo, np.maximum(hi, lo + 1e-6)
 
 
@@ -157,23 +149,28 @@ BACKBONE_ESTIMATOR = "backbone fit (single nonlinear mode)"
 
 
 def backbone_applies(tables: list, c: Candidate) -> bool:
-    """A slider can be fitted to the backbone of response-controlled table levels when it
-    acts from the held point (driven there) to ground."""
-    if not all(isinstance(t, StepTable) and t.control == Control.RESPONSE for t in tables):
+    """A nonlinear element (a slider, or a law linear in one coefficient) can be fitted to
+    the backbone of response-controlled table levels when it acts from the held point
+    (driven there) to ground."""
+    if c.linear or not all(isinstance(t, StepTable) and t.control == Control.RESPONSE
+                           for t in tables):
         return False
+    spec = KINDS[c.kind]
+    fits = (spec.search.grid is not None and spec.initial_stiffness is not None
+            ) or spec.coef is not None
     dof = tables[0].control_dof
-    return (len(c.dofs) == 1 and c.dofs[0] == dof and KINDS[c.kind].search.grid is not None
-            and log_fitted(c)
+    return (len(c.dofs) == 1 and c.dofs[0] == dof and fits
             and all(t.control_dof == dof and list(t.force_dofs) == [dof] for t in tables))
 
 
 def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
                       ) -> tuple[dict[str, float], dict[str, list[float]],
                                  dict[str, float]] | None:
-    """A slider fitted to the backbone of response-controlled levels
+    """An element fitted to the backbone of response-controlled levels
     (`analysis.backbone.fit_joint`) on the model's own mode at the held point; None when
-    that mode cannot be found. Returns the parameters, their 95 % intervals and the fit's
-    relative rms residuals.
+    that mode cannot be found. Returns the parameters, their 95 % intervals and the
+    evidence: the fit's relative rms residuals and its out-of-sample backbone score
+    (`backbone_gain`).
 
     A response-controlled level is one quasi-linear mode at its amplitude, so its natural
     frequency and damping are what a joint law must reproduce; levels measured at different
@@ -190,9 +187,33 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
     mode = LinearMode(mf.frequency_hz, mf.damping_ratio, float(mf.modal_constant.real))
     kd_max = min(stuck_limit(model, c),
                  MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
-    jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
-    return (jf.params, {n: list(v) for n, v in jf.ci95.items()},
-            {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms})
+    try:
+        jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
+        rf, rz = held_out(points, mode, c.kind, jf, compensated=c.compensated, kd_max=kd_max)
+    except ValueError:
+        return None
+    ev = {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms,
+          **backbone_gain(points, mode, rf, rz)}
+    return jf.params, {n: list(v) for n, v in jf.ci95.items()}, ev
+
+
+def backbone_gain(points: list[BackbonePoint], mode: LinearMode, rf: np.ndarray,
+                  rz: np.ndarray) -> dict[str, float]:
+    """Out-of-sample backbone score of an element from its held-out relative residuals
+    ``rf``, ``rz`` (`analysis.backbone.held_out`: each level but the lowest predicted by the
+    element fitted to the others) against the linear mode's (``f0 / f - 1``, ``zeta0 / zeta
+    - 1``): the log-likelihood gain with an unknown variance per group, ``n/2 (log(ms_f0 /
+    ms_f) + log(ms_z0 / ms_z))`` (``ms`` the mean square over the ``n`` levels). Frequency
+    and damping count alike: a law that only fits the damping gains in one group."""
+    ref = int(np.argmin([p.displacement_amplitude for p in points]))
+    others = [p for i, p in enumerate(points) if i != ref]
+    f0 = np.array([mode.frequency_hz / p.frequency_hz - 1 for p in others])
+    z0 = np.array([mode.damping_ratio / p.damping_ratio - 1 for p in others])
+
+    def ms(r: np.ndarray) -> float:
+        return float(np.mean(r**2)) + 1e-18
+    return {"backbone_oos_gain": rf.size / 2 * (np.log(ms(f0) / ms(rf)) + np.log(ms(z0) / ms(rz))),
+            "frequency_rms_oos": float(np.sqrt(ms(rf))), "damping_rms_oos": float(np.sqrt(ms(rz)))}
 
 
 def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
@@ -249,7 +270,7 @@ def hbm_refit(model: Model, fit: Fit, levels: list[LevelFRF], frfs: list[Stepped
     cov = float(sol.fun @ sol.fun) / dof * np.linalg.pinv(sol.jac.T @ sol.jac)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     # an interval reaching a fit bound ends there (its side is then not determined)
-    ci = {n: [float(np.exp(max(z - 1.96 * s, a))), float(np.exp(min(z + 1.96 * s, b)))]
+    ci = {n: list(free_interval(c.kind, n, z, 1.96 * s, a, b))
           for n, z, s, a, b in zip(KINDS[c.kind].params, sol.x, sd, lo, hi)}
     warnings = [f"{c.kind} {n} reached its fit bound {params[n]:.4g}"
                 for n, z, a, b in zip(KINDS[c.kind].params, sol.x, lo, hi)

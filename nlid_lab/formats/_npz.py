@@ -18,7 +18,7 @@ from ._recording_keys import (LAYOUT_KEYS, RecordingFileError, array_key, extra_
                               force_hold_of, layout_of, level_key, level_of, load_npz_file,
                               scalar_key, sensors_of)
 from ._sweep_keys import sweep_fields
-from ._tables import is_table, step_table_keys, table_from_keys
+from ._tables import control_fields, control_keys, is_table, step_table_keys, table_from_keys
 
 
 def read_npz(path: str | os.PathLike) -> Recording | StepTable:
@@ -70,7 +70,8 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike
             level=level, force_hold=force_hold_of(data, path),
             layout=layout_of(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=extra_keys(data, excitation, level_from), meta={"source": str(path)},
-            monitors=monitors, monitor_units=units)
+            monitors=monitors, monitor_units=units,
+            **(control_fields(data, path) if excitation == "stepped-sine" else {}))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
@@ -97,6 +98,7 @@ def recording_keys(rec: Recording | StepTable) -> dict[str, np.ndarray]:
     if rec.sensors is not None:
         out.update(rec.sensors.to_keys())
     out.update(monitor_keys(rec))
+    out.update(control_keys(rec))
     return out
 
 

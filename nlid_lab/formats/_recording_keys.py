@@ -18,6 +18,7 @@ from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, P
                                  SensorMap)
 
 from ._monitors import MONITOR_KEYS
+from ._tables import CONTROL_KEYS
 
 
 class RecordingFileError(InputError):
@@ -138,6 +139,8 @@ def extra_keys(data: dict, excitation: str, level_from: str | None) -> dict[str,
              | {"force_hold"})
     if excitation == "swept-sine":
         known |= set(SWEEP_KEYS)
+    if excitation == "stepped-sine":
+        known |= set(CONTROL_KEYS)
     if level_from == level_key(excitation):
         known.add(level_from)
     return {k: np.asarray(v) for k, v in data.items() if k not in known}

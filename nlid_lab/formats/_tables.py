@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, SensorMap,
-                                 StepTable)
+from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, Control,
+                                 Recording, SensorMap, StepTable)
 
 from ._mat_io import map_items, map_value
 from ._units import lookup
@@ -90,6 +90,32 @@ def table_from_keys(data: dict[str, Any], path: str | os.PathLike) -> StepTable:
             meta={"source": str(path)})
     except (TypeError, ValueError) as exc:    # RecordingError included: name the file
         raise TableFileError(f"{path}: {exc}") from None
+
+
+#: keys of what a stepped-sine controller held, in tables and in time-block recordings alike
+CONTROL_KEYS = ("control", "control_dof")
+
+
+def control_fields(data: dict[str, Any], path: Path) -> dict[str, Any]:
+    """``control`` and ``control_dof`` of a stepped-sine time-block recording's keys (as
+    `Recording` fields; none when the file does not say: force control)."""
+    out: dict[str, Any] = {}
+    if "control" in data:
+        out["control"] = Control(str(_scalar(data, "control", path)))
+    if "control_dof" in data:
+        out["control_dof"] = int(_scalar(data, "control_dof", path))
+    return out
+
+
+def control_keys(rec: Recording) -> dict[str, np.ndarray]:
+    """The keys of what a stepped-sine time-block recording's controller held (written for
+    every stepped-sine recording, as a table's are)."""
+    if rec.excitation != "stepped-sine":
+        return {}
+    out = {"control": np.str_(rec.control)}
+    if rec.control_dof is not None:
+        out["control_dof"] = np.int64(rec.control_dof)
+    return out
 
 
 def step_table_keys(table: StepTable) -> dict[str, np.ndarray]:

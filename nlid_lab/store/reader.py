@@ -470,6 +470,9 @@ def save_recording(path: str | os.PathLike,
     for i, other in enumerate(recs[1:], 1):
         _check_same_run(first, other, i)
     excitation = meta.pop("excitation_settings", None) or {"kind": first.excitation}
+    if first.excitation == "stepped-sine":      # what the controller held (read back above)
+        excitation.setdefault("control", str(first.control))
+        excitation.setdefault("control_dof", first.control_dof)
     with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
                    n_dof=first.n_dof, response_kind=first.response_kind, mode="overwrite",
                    force_hold=first.force_hold, layout=first.layout, extra=first.extra,
@@ -501,6 +504,8 @@ def _check_same_run(a: Recording, b: Recording, index: int) -> None:
         "response channels": a.n_dof == b.n_dof, "response_kind": a.response_kind
         == b.response_kind, "force_hold": a.force_hold == b.force_hold,
         "periodic layout": a.layout == b.layout, "sensor map": a.sensors == b.sensors,
+        "control (what the controller held)": (a.control, a.control_dof)
+        == (b.control, b.control_dof),
         "monitor channels (names and units)": list(a.monitors) == list(b.monitors)
         and a.monitor_units == b.monitor_units,
         "extra keys": a.extra.keys() == b.extra.keys() and all(

@@ -136,3 +136,40 @@ def test_force_limit_ends_the_level_with_a_message(tmp_path):
 def test_bad_control_keys_are_named(change, match):
     with pytest.raises(CampaignError, match=match):
         parse_campaign(campaign(levels=[1e-5], freqs=[78.0, 80.0], **change), EXAMPLES)
+
+
+JENKINS = Model(MODEL.mass, MODEL.damping, MODEL.stiffness,
+                [Element("stick_slip", [1.0], {"kd": 2.5e4, "fd": 0.75})], name="jenkins beam")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("truth", [MODEL, JENKINS], ids=["iwan", "jenkins"])
+def test_response_campaign_backbone_diagnose_recovers_the_joint(tmp_path, truth):
+    """Issue 25: a simulated beam mode with a known joint (Iwan: kd, fd and the signed
+    exponent chi; Jenkins: kd, fd), a response-controlled campaign (held displacement, five
+    levels from microslip to near macroslip), `backbone`, then `diagnose` from the linear
+    model of the stuck joint (what `fit-linear` of the lowest level gives): the joint's kind
+    with its stuck stiffness taken from the linear part, every parameter within 5 %."""
+    from analysis.diagnose import diagnose
+    from nlid_lab.store import open_run
+    model = tmp_path / "truth.toml"
+    truth.save(model)
+    levels = [4e-6, 1e-5, 2e-5, 4e-5, 8e-5]
+    data = campaign(control="response", levels=levels,
+                    freqs=[float(f) for f in np.arange(77.25, 80.01, 0.25)])
+    data["plant"]["model"] = str(model)
+    data["safety"]["limits"] = {"F0": 5.0}
+    out = tmp_path / "run.h5"
+    assert run_campaign(parse_campaign(data, EXAMPLES), out).status == "complete"
+    assert main(["backbone", str(out), "--json", str(tmp_path / "bb.json"), "--quiet"]) == 0
+    points = json.loads((tmp_path / "bb.json").read_text())["levels"]
+    assert points[-1]["damping_ratio"] > 2 * points[0]["damping_ratio"]      # it slips
+    joint = truth.elements[0]
+    stuck = Model(truth.mass, truth.damping, truth.stiffness + joint.params["kd"],
+                  name="stuck joint")
+    d = diagnose(stuck, open_run(out).recordings())
+    assert d.verdict == "discrepancy"
+    found = d.chosen[0]
+    assert found.kind == joint.kind and found.stuck_stiffness_from_linear_part
+    for name, true in joint.params.items():
+        assert found.params[name] == pytest.approx(true, rel=0.05), name

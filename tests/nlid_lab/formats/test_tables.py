@@ -236,3 +236,44 @@ def test_backbone_with_a_model_holds_its_levels_and_reads_them_alike(tmp_path, c
     assert main(["backbone", run, "--model", str(two)]) == 2
     err = capsys.readouterr().err.strip()
     assert "2 DOFs" in err and "\n" not in err
+
+
+@pytest.mark.parametrize("control,control_dof", [("response", 1), ("force", None)])
+def test_time_block_stepped_run_keeps_what_the_controller_held(tmp_path, control, control_dof):
+    """A stepped-sine run of time blocks (as a response-controlled campaign records it)
+    keeps ``control`` and ``control_dof`` through export and import (NPZ and MAT), as a
+    table does, with every other key."""
+    from analysis.recordings import Recording
+    from nlid_lab.formats._recordings_io import recording_keys
+    from nlid_lab.store import save_recording
+    rng = np.random.default_rng(3)
+    rec = Recording(fs=512.0, excitation="stepped-sine", force_dofs=[0],
+                    force=rng.normal(size=(3, 64, 1)), response=rng.normal(size=(3, 64, 2)),
+                    freqs=[10.0, 20.0, 30.0], level=2.0, control=control,
+                    control_dof=control_dof, extra={"operator": np.str_("rig 2")})
+    save_recording(tmp_path / "run.h5", [rec], source="test")
+    held = open_run(tmp_path / "run.h5").recording(0)
+    assert (held.control, held.control_dof) == (control, control_dof)
+    keys = recording_keys(held)
+    assert keys["control"] == control and ("control_dof" in keys) == (control_dof is not None)
+    for suffix in ("npz", "mat"):
+        out = tmp_path / f"back.{suffix}"
+        assert main(["export", str(tmp_path / "run.h5"), "--out", str(out), "--force"]) == 0
+        assert main(["import", str(out), "--out", str(tmp_path / f"{suffix}.h5")]) == 0
+        back = open_run(tmp_path / f"{suffix}.h5").recording(0)
+        assert (back.control, back.control_dof) == (control, control_dof), suffix
+        again = recording_keys(back)
+        assert sorted(again) == sorted(keys), suffix
+        for k, v in keys.items():
+            assert np.array_equal(np.asarray(again[k]), np.asarray(v)), (suffix, k)
+
+
+def test_levels_held_differently_are_not_one_run(tmp_path):
+    from analysis.recordings import Recording
+    from nlid_lab.store import save_recording
+    recs = [Recording(fs=512.0, excitation="stepped-sine", force_dofs=[0],
+                      force=np.ones((2, 32, 1)), response=np.ones((2, 32, 1)),
+                      freqs=[10.0, 20.0], level=1.0, control=c, control_dof=d)
+            for c, d in (("force", None), ("response", 0))]
+    with pytest.raises(StoreError, match="control"):
+        save_recording(tmp_path / "run.h5", recs, source="test")
