@@ -246,16 +246,7 @@ def test_every_name_of_the_analysis_api_resolves():
 MAX_FUNCTION_LINES = 80
 #: Functions still longer, each with its reason; an entry goes when its function is split
 #: (`test_long_function_allow_list_is_current` says which).
-LONG_FUNCTIONS = {
-    "analysis/plant/_plant_kernels.py::_integrate":
-        "numba kernel of one piece: split into inlined helpers it computed the same bits 8x "
-        "slower (its docstring); the plant's owner is reworking it (issue 22 item 4)",
-    "analysis/plant/_plant.py::Plant._discretise":
-        "numeric set-up of that kernel (exact discretisation of a substep, phi-functions, "
-        "hold weights), 81 lines; the plant's owner is reworking the room (issue 22 items 4-5)",
-    "analysis/reverse_path/_noise.py::periodic_reverse_path": "being split (issue 22)",
-    "analysis/reverse_path/_estimator.py::reverse_path": "being split (issue 22)",
-}
+LONG_FUNCTIONS: dict[str, str] = {}
 
 
 def _function_lengths(source: str) -> dict[str, int]:
