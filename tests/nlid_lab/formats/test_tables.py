@@ -244,7 +244,7 @@ def test_time_block_stepped_run_keeps_what_the_controller_held(tmp_path, control
     keeps ``control`` and ``control_dof`` through export and import (NPZ and MAT), as a
     table does, with every other key."""
     from analysis.recordings import Recording
-    from nlid_lab.formats._recordings_io import recording_keys
+    from nlid_lab.formats import recording_keys
     from nlid_lab.store import save_recording
     rng = np.random.default_rng(3)
     rec = Recording(fs=512.0, excitation="stepped-sine", force_dofs=[0],
