@@ -20,6 +20,7 @@ from .report import LevelCurves
 from .outofsample import Z as OOS_Z, Score, score, tied
 from .result import KindAlternative, Misfit, PassSummary, Rejection, Tried, TrendPoint
 from .select import Fit, Search, coef_name, corrected_model, scaled_params
+from .where import MAX_ALTERNATIVES
 
 BIC_MIN = 10.0
 """BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is
@@ -221,7 +222,8 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     largest gain), and the others as `KindAlternative`s. A kind is tied with ``f`` when it
     wins too and their gains differ by less than the difference's uncertainty
     (`.outofsample.tied`); among the tied (each kind at its best gain) the one with the
-    lowest `bic` is named: at equal fit, the one with fewer parameters."""
+    lowest `bic` is named: at equal fit, the one with fewer parameters. At most
+    `.where.MAX_ALTERNATIVES` are listed, the best scored first."""
     best: dict[str, tuple[Fit, Score]] = {}
     for g, sg in scored:
         if sg.wins and g.cand.kind not in best and (g is f or tied(s, sg)):
@@ -232,7 +234,7 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     return f, s, tuple(
         KindAlternative(g.cand.kind, g.cand.dofs, tuple(g.cand.points), sg.gain, sg.sd,
                         bic(search, g, sg))
-        for g, sg in best.values() if g is not f)
+        for g, sg in best.values() if g is not f)[:MAX_ALTERNATIVES]
 
 
 def other_kinds(fits: list[Fit], n: int) -> list[Fit]:

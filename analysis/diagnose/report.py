@@ -202,9 +202,10 @@ def _unexplained(d: Diagnosis) -> str:
     best = (f" The best candidate ({tried.best}) removes "
             f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit in "
             f"sample; judged out of sample it gains {oos['oos_gain']:.3g} (uncertainty "
-            f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, a "
-            "parameter distinguishable from zero and no level predicted worse by the fit "
-            "on the others." if tried.best and "oos_gain" in oos else "")
+            f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, more "
+            "than the misfit it leaves beyond the noise, a parameter distinguishable from "
+            "zero and no level predicted worse by the fit on the others."
+            if tried.best and "oos_gain" in oos else "")
     return (f"The model misfits beyond the noise and model-precision floor and nothing "
             f"in the library ({tried.candidates} candidates: {LIBRARY}) explains enough: "
             f"the misfit is largest at {m.level} between {m.band_hz[0]:.3g} and "
