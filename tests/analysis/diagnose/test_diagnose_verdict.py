@@ -82,6 +82,7 @@ def test_physics_outside_the_library_is_flagged_as_unexplained_misfit():
     d = diagnose(sc.start, sc.recordings)
     assert d.verdict == "unexplained", d.explanation
     assert not d.chosen
+    assert any("model-form error" in r.reason for r in d.evidence.rejected), d.evidence.rejected
     assert not d.fit.within_floor
     assert all(lv.after > lv.floor.limit for lv in d.fit.levels)
     m = d.evidence.misfit
