@@ -14,8 +14,9 @@ docs/diagnose.md.
 
 from .prepare import DiagnoseInputError, level_name
 from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
-                     FitSummary, LevelError, LevelResiduals, Location, LocationRow, Misfit,
-                     PairThrough, PassSummary, Rejection, TimeResidual, Verdict)
+                     FitSummary, KindAlternative, LevelError, LevelResiduals, Location,
+                     LocationRow, Misfit, PairThrough, PassSummary, Rejection, TimeResidual,
+                     Verdict)
 from .search import diagnose
 
 __all__ = [
@@ -25,6 +26,7 @@ __all__ = [
     "level_name",
     # the result (frozen dataclasses; Diagnosis.to_json / from_json)
     "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
+    "KindAlternative",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
     "LocationRow", "PairThrough", "Misfit", "LevelResiduals",
 ]

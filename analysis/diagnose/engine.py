@@ -239,8 +239,11 @@ def conclude(flow: Flow, passes: Passes, corr: Correction, tick: Tick) -> Diagno
         passes=tuple(s.summary() for s in passes.passes),
         pruned_after_joint_refit=tuple(pruned_labels(list(passes.passes), list(chosen))),
         rejected=corr.rejected, misfit=misfit, level_dependence=dep))
+    kinds = {(s.best.cand.kind, s.best.cand.dofs): s.kinds for s in passes.passes if s.found}
     d = Diagnosis(verdict, dep.dependent if dep else None, location,
-                  tuple(f.result() for f in chosen), fit_summary(flow.metric, curves),
+                  tuple(replace(f.result(), alternatives=kinds.get((f.cand.kind, f.cand.dofs),
+                                                                   ()))
+                        for f in chosen), fit_summary(flow.metric, curves),
                   ranking=tuple(f.result() for f in first.pool[:8]), evidence=evidence,
                   residuals=tuple(c.residuals() for c in curves),
                   warnings=tuple(flow.warnings), model=corr.model, curves=curves)

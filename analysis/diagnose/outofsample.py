@@ -20,8 +20,10 @@ judgement:
   (its 95 % interval on all fitting levels excludes zero).
 
 A candidate *wins* when its parameter is distinguishable from zero, its gain exceeds `Z` of
-its standard deviations and no left-out level is predicted worse by more than `Z` of that
-level's. Where the current model misfits its lowest fitting level beyond the floor (its
+its standard deviations and the misfit it leaves out of sample beyond the noise
+(`Score.left`: model-form error, systematic across lines, which the noise deviation does not
+cover), and no left-out level is predicted worse by more than `Z` of that level's. Two
+candidates are tied (`tied`) when their gains differ by no more than that uncertainty. Where the current model misfits its lowest fitting level beyond the floor (its
 linear part is off), a nonlinear candidate is scored jointly with a stiffness correction at
 its own location (`Predictor.joint_at`), so that the linear error does not count against it;
 a further candidate is scored with the effects already accepted free (a scale of each
@@ -120,6 +122,9 @@ class Score:
     estimate: tuple[float, ...] = ()
     interval: tuple[tuple[float, float], ...] = ()
     chi2: float = 0.0
+    left: float = 0.0
+    """The misfit left out of sample beyond what noise explains: the current model's
+    misfit less the gain less the number of effective values (zero when within it)."""
 
     @property
     def harmed(self) -> int | None:
@@ -131,8 +136,10 @@ class Score:
 
     @property
     def wins(self) -> bool:
-        """Distinguishable, a significant gain and no significant harm."""
-        return self.distinct and self.gain > Z * self.sd and self.harmed is None
+        """Distinguishable, a gain beyond its noise and model-form uncertainty and no
+        significant harm."""
+        return (self.distinct and self.gain > Z * self.sd and self.gain > self.left
+                and self.harmed is None)
 
     def reason(self, labels: Sequence[str]) -> str:
         """Why the candidate does not win, from the numbers (``labels``: fitting levels)."""
@@ -142,8 +149,11 @@ class Score:
         if k is not None:
             return (f"fitted on the other levels it predicts {labels[k]} worse (misfit "
                     f"{-self.level_gain[k]:.3g} higher, uncertainty {self.level_sd[k]:.3g})")
-        return (f"its out-of-sample gain {self.gain:.3g} is within {Z:g} x its uncertainty "
-                f"{self.sd:.3g}")
+        if self.gain <= Z * self.sd:
+            return (f"its out-of-sample gain {self.gain:.3g} is within {Z:g} x its "
+                    f"uncertainty {self.sd:.3g}")
+        return (f"its out-of-sample gain {self.gain:.3g} is less than the misfit it leaves "
+                f"beyond the noise {self.left:.3g} (model-form error)")
 
     def evidence(self) -> dict[str, float]:
         """The numbers for a candidate's evidence mapping."""
@@ -205,9 +215,10 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     interval = tuple((float(t - Z95 * e), float(t + Z95 * e)) if f else (0.0, 0.0)
                      for t, e, f in zip(theta, se, free))
     x2 = sum(_chi2(lf, h) for lf, h in zip(levels, pred.predict(theta)))
+    left = sum(_chi2(lf, h) - lf.n_values for lf, h in zip(levels, H0s)) - gain
     return Score(float(gain), float(np.sqrt(var)), tuple(lg), tuple(ls), distinct,
                  None if pred.joint_at is None else float(theta[pred.joint_at]),
-                 tuple(float(t) for t in theta), interval, float(x2))
+                 tuple(float(t) for t in theta), interval, float(x2), max(float(left), 0.0))
 
 
 def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray,
@@ -283,3 +294,10 @@ def _jacobian(predict: Predict, theta: np.ndarray, scale: np.ndarray) -> list[np
         for lv, c in enumerate(cols):
             out[lv][j] = c
     return out
+
+
+def tied(a: Score, b: Score) -> bool:
+    """Whether two candidates' gains differ by no more than their uncertainty: `Z` of the
+    two gains' deviations combined, or the misfit the better of the two leaves beyond the
+    noise (model-form error), whichever is larger."""
+    return abs(a.gain - b.gain) <= max(Z * float(np.hypot(a.sd, b.sd)), min(a.left, b.left))

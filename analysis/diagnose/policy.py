@@ -17,9 +17,10 @@ from .leakage import Floor
 from .locate import level_dependence
 from .prepare import DiagnoseInputError
 from .report import LevelCurves
-from .outofsample import Z as OOS_Z, Score, score
-from .result import Misfit, PassSummary, Rejection, Tried, TrendPoint
+from .outofsample import Z as OOS_Z, Score, score, tied
+from .result import KindAlternative, Misfit, PassSummary, Rejection, Tried, TrendPoint
 from .select import Fit, Search, coef_name, corrected_model, scaled_params
+from .where import MAX_ALTERNATIVES
 
 BIC_MIN = 10.0
 """BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is
@@ -111,6 +112,8 @@ class SearchPass:
     rejected: list[Rejection] = field(default_factory=list)
     linear: list[Fit] = field(default_factory=list)
     """The linear correction accepted jointly with ``best`` (`with_linear_part`)."""
+    kinds: tuple[KindAlternative, ...] = ()
+    """The other kinds the data cannot tell from ``best``'s (`kind_ties`)."""
 
     @property
     def best(self) -> Fit:
@@ -180,22 +183,58 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
             rejected.append(Rejection(f.cand.label, reason))
             f.evidence["rejected"] = reason
 
+    refused: set[int] = set()
     for f, s in scored:
         if not s.wins:
             if s.gain > OOS_Z * s.sd and id(f) not in winning:
                 reject(f, s.reason(labels))
             continue
+        if id(f) in refused:
+            continue
+        f, s, kinds = kind_ties(search, [fs for fs in scored if id(fs[0]) not in refused],
+                                f, s)
+        if kinds:   # the numbers the explanation compares are the named one's
+            f.evidence.update(s.evidence(), oos_bic=bic(search, f, s))
         fits = with_linear_part(search, f, s)
         try:
             fixed = apply_fits(model, fits)
         except ModelError as exc:   # this candidate only: the next one is tried
             reject(f, str(exc))
+            refused.add(id(f))
             continue
         return SearchPass(search, [fits[0]] + [g for g in ranked if g is not f],
                           _reduction(search, fits[0]), True, fixed, change(fixed), rejected,
-                          fits[1:])
+                          fits[1:], kinds)
     first = _reduction(search, ranked[0]) if ranked else 0.0
     return SearchPass(search, ranked, first, False, model, 0.0, rejected)
+
+
+def bic(search: Search, fit: Fit, s: Score) -> float:
+    """The candidate's BIC on the fitting levels as scored: its misfit plus ``ln N`` per
+    parameter (coefficients, nuisance and a refined grid value)."""
+    k = len(s.estimate) + (fit.extra is not None)
+    return float(s.chi2 + k * np.log(search.n_values))
+
+
+def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Score
+              ) -> tuple[Fit, Score, tuple[KindAlternative, ...]]:
+    """The winner named among the kinds the data cannot tell from ``f`` (the winner with the
+    largest gain), and the others as `KindAlternative`s. A kind is tied with ``f`` when it
+    wins too and their gains differ by less than the difference's uncertainty
+    (`.outofsample.tied`); among the tied (each kind at its best gain) the one with the
+    lowest `bic` is named: at equal fit, the one with fewer parameters. At most
+    `.where.MAX_ALTERNATIVES` are listed, the best scored first."""
+    best: dict[str, tuple[Fit, Score]] = {}
+    for g, sg in scored:
+        if sg.wins and g.cand.kind not in best and (g is f or tied(s, sg)):
+            best[g.cand.kind] = (g, sg)
+    if len(best) < 2:
+        return f, s, ()
+    f, s = min(best.values(), key=lambda gs: bic(search, *gs))
+    return f, s, tuple(
+        KindAlternative(g.cand.kind, g.cand.dofs, tuple(g.cand.points), sg.gain, sg.sd,
+                        bic(search, g, sg))
+        for g, sg in best.values() if g is not f)[:MAX_ALTERNATIVES]
 
 
 def other_kinds(fits: list[Fit], n: int) -> list[Fit]:

@@ -12,8 +12,8 @@ from ..models import Candidate
 from .leakage import Floor
 from .outofsample import Z as OOS_Z
 from .replay import Replay
-from .result import (Alternative, Diagnosis, FitSummary, LevelError, LevelResiduals,
-                     TimeResidual, Verdict)
+from .result import (Alternative, CandidateFit, Diagnosis, FitSummary, LevelError,
+                     LevelResiduals, TimeResidual, Verdict)
 
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
                 "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
@@ -123,6 +123,11 @@ def explain(d: Diagnosis, cands: Sequence[Candidate]) -> Diagnosis:
                 + [", ".join(a.points) for a in d.location.alternatives])
             + ": the data cannot separate them (location.alternatives says why and what "
             "measurement would)",))
+    for c in d.chosen:
+        if c.alternatives:
+            d = replace(d, warnings=d.warnings + (
+                f"the kind is ambiguous: {_kinds(c)} explain the data equally (the "
+                "missing_physics entry's alternatives hold the numbers)",))
     if d.verdict == Verdict.DISCREPANCY and fit.after > UNCONFIRMED * fit.before:
         warning = (f"the held-back recording does not confirm the finding (error "
                    f"{change(fit.before, fit.after)}): the fitting levels cannot tell the "
@@ -197,9 +202,10 @@ def _unexplained(d: Diagnosis) -> str:
     best = (f" The best candidate ({tried.best}) removes "
             f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit in "
             f"sample; judged out of sample it gains {oos['oos_gain']:.3g} (uncertainty "
-            f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, a "
-            "parameter distinguishable from zero and no level predicted worse by the fit "
-            "on the others." if tried.best and "oos_gain" in oos else "")
+            f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, more "
+            "than the misfit it leaves beyond the noise, a parameter distinguishable from "
+            "zero and no level predicted worse by the fit on the others."
+            if tried.best and "oos_gain" in oos else "")
     return (f"The model misfits beyond the noise and model-precision floor and nothing "
             f"in the library ({tried.candidates} candidates: {LIBRARY}) explains enough: "
             f"the misfit is largest at {m.level} between {m.band_hz[0]:.3g} and "
@@ -239,7 +245,8 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
         rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
                 f"explains {100 * fit.explained:.3g} % of the squared FRF error, the rest is "
                 "unexplained (see evidence.misfit).")
-    return (f"The mismatch is {what}{band_txt}: {found}.{_ambiguity(cands[0], d)}{runner}"
+    ties = "".join(_kind_tie(ch) for ch in d.chosen)
+    return (f"The mismatch is {what}{band_txt}: {found}.{_ambiguity(cands[0], d)}{ties}{runner}"
             f"{second} With it the held-back FRF error {change(fit.before, fit.after)}"
             f"{time_txt}; by level: {_levels_text(d, True)}.{rest}" + _rejected_text(d)
             + f" Check {_advice(cands, d.location.alternatives)} and keep the corrected model "
@@ -309,3 +316,27 @@ def _advice(cands: Sequence[Candidate], alts: Sequence[Alternative] = ()) -> str
     if not alts:
         return found
     return f"{found}, or (ambiguous) " + " or ".join(_where_alt(a) for a in alts)
+
+
+def _kinds(c: CandidateFit) -> str:
+    """``cubic spring, quadratic spring and gap``: a found effect's kind and its tied ones."""
+    names = [k.replace("_", " ") for k in [c.kind] + [a.kind for a in c.alternatives]]
+    return ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def _kind_tie(c: CandidateFit) -> str:
+    """The kinds the data cannot tell apart at one found effect, from the numbers, and which
+    is named (`.policy.kind_ties`); empty without alternatives."""
+    if not c.alternatives:
+        return ""
+    gains = [a.oos_gain for a in c.alternatives]
+    own = c.evidence.get("oos_gain")
+    if own is not None:
+        gains = [float(own)] + gains
+    spread = 100 * (max(gains) - min(gains)) / max(abs(max(gains)), 1e-300)
+    return (f" {_kinds(c).capitalize()} explain the data equally (out-of-sample gains "
+            + ", ".join(f"{g:.4g}" for g in gains)
+            + f": within {spread:.2g} %, inside their uncertainty); a level beyond the "
+            f"fitted ones would separate them. The {c.kind.replace('_', ' ')} is named: of "
+            "the tied kinds, the lowest BIC on the fitting levels (misfit plus ln N per "
+            "parameter: at equal fit, the fewest parameters).")

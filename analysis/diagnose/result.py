@@ -54,6 +54,30 @@ def _list(v: Any) -> list | None:
 
 
 @dataclass(frozen=True)
+class KindAlternative:
+    """Another kind the data cannot tell from a found effect's (`.policy.kind_ties`): its
+    location, its out-of-sample gain and deviation, and its BIC on the fitting levels
+    (misfit plus ``ln N`` per parameter; the lowest of the tied is the one named)."""
+
+    kind: str
+    dofs: tuple[int, ...]
+    points: tuple[str, ...] | None
+    oos_gain: float
+    oos_sd: float
+    bic: float
+
+    def to_json(self) -> Json:
+        return {"kind": self.kind, "dofs": list(self.dofs), "points": _list(self.points),
+                "oos_gain": self.oos_gain, "oos_sd": self.oos_sd, "bic": self.bic}
+
+    @classmethod
+    def from_json(cls, data: Json) -> KindAlternative:
+        points = data.get("points")
+        return cls(data["kind"], tuple(data["dofs"]), None if points is None else tuple(points),
+                   data["oos_gain"], data["oos_sd"], data["bic"])
+
+
+@dataclass(frozen=True)
 class CandidateFit:
     """One fitted candidate: a chosen element (or linear error) or a ranking row.
 
@@ -72,6 +96,9 @@ class CandidateFit:
     delta_bic: float | None = None
     evidence: Mapping[str, Any] = field(default_factory=dict)
     stuck_stiffness_from_linear_part: bool = False
+    alternatives: tuple[KindAlternative, ...] = ()
+    """Kinds whose out-of-sample gains are within their uncertainty of this one's (a chosen
+    effect only; written only when there are some)."""
 
     def to_json(self) -> Json:
         """A ranking row."""
@@ -92,6 +119,8 @@ class CandidateFit:
         if self.stuck_stiffness_from_linear_part:
             # the corrected model's linear part lost the slider's stuck stiffness
             out["stuck_stiffness_from_linear_part"] = True
+        if self.alternatives:
+            out["alternatives"] = [a.to_json() for a in self.alternatives]
         return out
 
     @classmethod
@@ -103,7 +132,8 @@ class CandidateFit:
                    None if points is None else tuple(points), dict(data["params"]),
                    {k: _pair(v) for k, v in (data.get("ci95") or {}).items()},
                    data.get("chi2"), data.get("delta_bic"), dict(data.get("evidence") or {}),
-                   bool(data.get("stuck_stiffness_from_linear_part", False)))
+                   bool(data.get("stuck_stiffness_from_linear_part", False)),
+                   tuple(KindAlternative.from_json(a) for a in data.get("alternatives") or ()))
 
 
 @dataclass(frozen=True)

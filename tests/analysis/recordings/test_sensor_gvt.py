@@ -54,9 +54,6 @@ def test_fit_linear_names_the_map_points_and_matches_the_frfs(named, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 24, open: the cubic between joint and payload is named first (right), with a "
-    "further small effect beside it accepted out of sample (docs/diagnose.md, Zoo)"))
 def test_diagnose_on_the_fe_modal_model_names_the_joint_pair(named, tmp_path, capsys):
     """The full 5-point FE-derived modal model, two levels recorded with the map, a cubic joint
     (p = 2e9) between the measured joint and payload points: the diagnosis names that pair
