@@ -76,6 +76,7 @@ class _Search:
                        for i, k in ((1, 1.0), (2, -1.0))]
         self.H0s = [np.ones_like(lf.H) for lf in self.levels]
         self.chi2_0 = 100.0
+        self.n_values = float(sum(lf.n_values for lf in self.levels))
 
     def predictor(self, fit, joint=False, earlier=()):
         return Predictor(lambda t: [1.0 + t[0] * self.b for _ in self.levels],

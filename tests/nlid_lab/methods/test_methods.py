@@ -115,9 +115,9 @@ def test_toy_method_reaches_analyze_reanalyze_report_and_view(toy, run, candidat
                                    "--note", "x"])
     # ... and per level through the registry
     rows = rea.analyse_run(str(run), Model.load(candidate), "toy", {"scale": 3.0})
-    assert [r["status"] for r in rows] == ["ok", "ok"] and rows[0]["method"] == "toy"
+    assert [r.status for r in rows] == ["ok", "ok"] and rows[0].method == "toy"
     for row, rec in zip(rows, recs):
-        assert row["e0.cubic_spring.p"] == pytest.approx(toy_gain([rec], 3.0))
+        assert row.estimates["e0.cubic_spring.p"] == pytest.approx(toy_gain([rec], 3.0))
     # report and view find the stored result by its estimator
     data = load_run(run)
     written = write_report(data, tmp_path / "report", estimators=methods)
