@@ -142,6 +142,9 @@ class Search:
     that unit basis.
     """
 
+    continuous_grid = False
+    """Whether `ensure_basis` adds the basis of any grid value (else only the grid's)."""
+
     def __init__(self, model: Model, levels: list[LevelFRF],
                  extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
@@ -310,6 +313,8 @@ class Search:
 
 class RandomSearch(Search):
     """`Search` on random recordings, with reverse-path refinement."""
+
+    continuous_grid = True
 
     def __init__(self, model: Model, preps: list[Prepared], band: tuple[float, float],
                  nperseg: int, floor: float) -> None:
