@@ -61,8 +61,9 @@ class Effect:
     """One point: to ground (a support); two: between them (a joint)."""
     params: dict[str, float]
     identifiable: tuple[str, ...] = ()
-    """Parameters judged to `PARAM_TOL` (the others are set but not identifiable from the
-    data, e.g. Coulomb's regularisation velocity)."""
+    """Parameters judged to `PARAM_TOL` (the others are set but not identifiable by nature,
+    e.g. Coulomb's regularisation velocity); of these, the data decide which they identify
+    (`score`: the reported 95 % interval within `PARAM_TOL`)."""
     also: tuple[str, ...] = ()
     """Kinds accepted as the same family, with the reason in the case's note."""
     stuck: float = 0.0

@@ -148,6 +148,7 @@ class Search:
     def __init__(self, model: Model, levels: list[LevelFRF],
                  extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
+        self.grid_refits: dict[tuple, Fit] = {}   # `joint.grid_refit` results, by the fits
         self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
         self.cands = [c for c in library(model.n_dof, model.points, model.support)
                       if c.linear or c in extra]
