@@ -166,6 +166,9 @@ def _row(r) -> str:
     par = ("-" if r.params_ok is None else ("ok " if r.params_ok else "OFF ")
            + " ".join(f"{k.split('.')[-1]} " + (f"{100 * v:+.1f}%" if v == v else "n/a")
                       for k, v in r.param_errors.items()))
+    if r.unidentifiable:
+        par += " " + " ".join(f"{k.split('.')[-1]} n.i. +-{100 * v:.0f}%"
+                              for k, v in r.unidentifiable.items())
     fam = "ok" if r.family_right else "WRONG"
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict
@@ -213,6 +216,10 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
           f"{tot['none_rows']} none rows)")
     print(f"  params within 5 %     {100 * tot['params_within']:5.1f} %  (of "
           f"{tot['params_judged']} rows with identifiable parameters; target 100 %)")
+    print(f"  not identifiable      {tot['params_unidentifiable']:5d}    (parameters whose 95 % "
+          f"interval is wider than 5 %: not judged)")
+    cov, named = tot["intervals_covering"]
+    print(f"  intervals covering    {cov} of {named} (parameters named with an interval)")
     print(f"  held-back error halved {tot['held_back_halved']} of {tot['held_back_rows']}")
     print(f"  diagnose time         median {tot['seconds_median']:.1f} s, max "
           f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s")

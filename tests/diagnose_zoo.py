@@ -61,8 +61,9 @@ class Effect:
     """One point: to ground (a support); two: between them (a joint)."""
     params: dict[str, float]
     identifiable: tuple[str, ...] = ()
-    """Parameters judged to `PARAM_TOL` (the others are set but not identifiable from the
-    data, e.g. Coulomb's regularisation velocity)."""
+    """Parameters judged to `PARAM_TOL` (the others are set but not identifiable by nature,
+    e.g. Coulomb's regularisation velocity); of these, the data decide which they identify
+    (`score`: the reported 95 % interval within `PARAM_TOL`)."""
     also: tuple[str, ...] = ()
     """Kinds accepted as the same family, with the reason in the case's note."""
     stuck: float = 0.0
@@ -708,6 +709,12 @@ class Outcome:
     params_ok: bool | None = None
     """Identifiable parameters within `PARAM_TOL` (None: none identifiable)."""
     param_errors: dict[str, float] = dataclasses.field(default_factory=dict)
+    """Relative error of each parameter judged (``kind.param``; NaN: not named)."""
+    unidentifiable: dict[str, float] = dataclasses.field(default_factory=dict)
+    """Parameters the data do not identify to `PARAM_TOL`: their reported 95 % interval's
+    half width over the estimate exceeds it (not judged)."""
+    covered: dict[str, bool] = dataclasses.field(default_factory=dict)
+    """Whether the reported 95 % interval holds the true value, per parameter named."""
     held_back: tuple[float, float] | None = None
     held_back_levels: list[float] = dataclasses.field(default_factory=list)
     false_alarm: bool | None = None
@@ -741,7 +748,15 @@ def _found_points(m: dict[str, Any], channels: tuple[str, ...]) -> frozenset[str
 
 
 def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
-    """Judge the JSON result ``res`` of ``case`` against its truth."""
+    """Judge the JSON result ``res`` of ``case`` against its truth.
+
+    A parameter is judged on the effect named at the true location, of the true kind or,
+    failing that, of an accepted kind of the family holding a parameter of that name (the
+    slider family's ``kd``, stuck stiffness, and ``fd``, force at full slip, mean the same in
+    stick-slip, hysteresis and Segalman's Iwan: a Jenkins slider is the Iwan whose sliders all
+    slip at once). Where is the data's: a parameter whose reported 95 % interval is wider
+    than `PARAM_TOL` either side of its estimate is not identifiable from these recordings
+    and is not judged (`Outcome.unidentifiable`)."""
     truth = case.truth
     found = res.get("missing_physics") or []
     out = Outcome(case.name, truth.family, res["verdict"],
@@ -764,12 +779,20 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
         kinds_ok.append(bool(hits))
         at = [m for m in found if _found_points(m, case.channels) == want]
         where.append("right" if at else "ambiguous" if want in alts else "wrong")
-        match = [m for m in hits if m in at]
-        if match and e.identifiable and match[0]["kind"] == e.kind:
-            for p in e.identifiable:
-                errs[f"{e.kind}.{p}"] = float(match[0]["params"][p] / e.params[p] - 1.0)
-        else:
-            errs.update({f"{e.kind}.{p}": float("nan") for p in e.identifiable})
+        match = sorted((m for m in hits if m in at), key=lambda m: m["kind"] != e.kind)
+        for p in e.identifiable:
+            key = f"{e.kind}.{p}"
+            if not match or p not in match[0]["params"]:
+                errs[key] = float("nan")
+                continue
+            value, ci = match[0]["params"][p], (match[0].get("ci95") or {}).get(p)
+            if ci is not None:
+                out.covered[key] = bool(ci[0] <= e.params[p] <= ci[1])
+                half = abs(ci[1] - ci[0]) / 2 / max(abs(value), 1e-300)
+                if not half <= PARAM_TOL:
+                    out.unidentifiable[key] = float(half)
+                    continue
+            errs[key] = float(value / e.params[p] - 1.0)
     out.family_right = res["verdict"] == "discrepancy" and all(kinds_ok)
     out.location = ("right" if all(w == "right" for w in where) else
                     "wrong" if "wrong" in where else "ambiguous")
@@ -801,6 +824,9 @@ def totals(rows: list[Outcome]) -> dict[str, Any]:
         "false_alarms": sum(bool(r.false_alarm) for r in none),
         "params_judged": len(judged),
         "params_within": sum(bool(r.params_ok) for r in judged) / max(len(judged), 1),
+        "params_unidentifiable": sum(len(r.unidentifiable) for r in effect),
+        "intervals_covering": (sum(sum(r.covered.values()) for r in effect),
+                               sum(len(r.covered) for r in effect)),
         "held_back_halved": sum(r.held_back[1] <= 0.5 * r.held_back[0] for r in gains),
         "held_back_rows": len(gains),
         "seconds_max": max((r.seconds for r in rows), default=0.0),

@@ -142,9 +142,13 @@ class Search:
     that unit basis.
     """
 
+    continuous_grid = False
+    """Whether `ensure_basis` adds the basis of any grid value (else only the grid's)."""
+
     def __init__(self, model: Model, levels: list[LevelFRF],
                  extra: dict[Candidate, list[float | None]]) -> None:
         self.model, self.levels, self.extra = model, levels, extra
+        self.grid_refits: dict[tuple, Fit] = {}   # `joint.grid_refit` results, by the fits
         self.reach: dict[tuple, float] = {}   # location -> largest deformation to bound
         self.cands = [c for c in library(model.n_dof, model.points, model.support)
                       if c.linear or c in extra]
@@ -310,6 +314,8 @@ class Search:
 
 class RandomSearch(Search):
     """`Search` on random recordings, with reverse-path refinement."""
+
+    continuous_grid = True
 
     def __init__(self, model: Model, preps: list[Prepared], band: tuple[float, float],
                  nperseg: int, floor: float) -> None:

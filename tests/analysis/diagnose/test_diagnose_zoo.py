@@ -20,7 +20,6 @@ WRONG_TODAY: dict[str, str] = {
     "sdof-hysteresis-disp-random": "hysteresis fd -10.2 % (kd +1.4 %), beside a quadratic "
                                    "damping; held-back 2.13 -> 0.0717",
     "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
-    "chain-gap01-disp-random": "gap k -7.1 % (g -1.3 %); held-back 0.0315 -> 0.0315",
     "chain-hysteresis01-acc-multisine": "named stick-slip plus a stiffness and a damping error "
                                         "between 0 and 1: hysteresis parameters not "
                                         "identified; held-back 1.25 -> 0.221",
@@ -34,7 +33,8 @@ WRONG_TODAY: dict[str, str] = {
     "beam-jenkins_joint-acc-multisine-few-daq": "fd -5.7 %, kd -3.1 % with the mains line and "
                                                 "quantization; held-back 0.376 -> 0.0453",
     "twin-jenkins_joint-acc-multisine": AS_IWAN,
-    "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %)",
+    "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %; -20.6 % without "
+                                           "sensor noise: not the noise)",
     "twin-jenkins_joint-acc-multisine-daq": AS_IWAN,
     "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd -16.2 % (kd +0.4 %)",
     "stiffpair-cubic1-disp-random": "named cubic springs at DOF 2 and at DOF 1 (the two move "
@@ -127,6 +127,18 @@ def test_gap_rows_close_or_not_as_stated():
         assert (np.abs(top.response[:, 0]).max() > g) == closes, name
 
 
+@pytest.mark.slow
+def test_gap_intervals_from_the_profile_hold_the_truth():
+    """A gap's contact stiffness and width come with their 95 % intervals from the misfit
+    profile over both (`analysis.diagnose.joint.grid_refit`): they hold the truth; the
+    stiffness's, wider than 5 %, says it is not identified to 5 % by these levels (the
+    screening's interval at the fixed width held +-1.3 %)."""
+    out = Z.run_case(Z.zoo("sdof-gap-disp-random")[0])
+    assert out.covered == {"gap.k": True, "gap.g": True}
+    assert out.unidentifiable["gap.k"] > Z.PARAM_TOL
+    assert abs(out.param_errors["gap.g"]) <= Z.PARAM_TOL
+
+
 def test_daq_artifacts_add_a_mains_line_an_offset_and_quantization():
     rec = Z.lumped_runs(Z.sdof(), 0, Z.RANDOM, "displacement", 5)[0]
     out = Z.daq_artifacts(rec, mains_hz=50.0, mains=0.05, offset=0.2, bits=12)
@@ -154,9 +166,9 @@ NONE = Z.ZooCase("toy-none", "SDOF", "disp, all", "random", Z.Truth((), (4.0,), 
                  lambda: None, ("0",))
 
 
-def _res(verdict, found=(), alternatives=()):
+def _res(verdict, found=(), alternatives=(), ci95=None):
     return {"verdict": verdict, "missing_physics": [
-        {"kind": k, "dofs": list(d), "params": p} for k, d, p in found],
+        {"kind": k, "dofs": list(d), "params": p, "ci95": ci95 or {}} for k, d, p in found],
         "location": {"alternatives": [{"dofs": list(a)} for a in alternatives]},
         "fit": {"before": 1.0, "after": 0.1},
         "levels": [{"level": 4.0, "held_back": True}]}
@@ -178,6 +190,39 @@ def test_score_judges_family_location_and_parameters():
     assert not Z.score(CASE, _res("unexplained")).family_right
     assert Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1e9})])
                    ).held_back == (1.0, 0.1)
+
+
+SLIDER = Z.ZooCase("toy-slider", "3-DOF chain", "disp, all", "random",
+                   Z.Truth((Z.Effect("stick_slip", ("0", "1"), {"kd": 1e4, "fd": 2.0},
+                                     ("kd", "fd"), ("hysteresis", "iwan")),), (4.0,), "exact"),
+                   lambda: None, ("0", "1", "2"))
+
+
+def test_score_leaves_out_what_the_data_do_not_identify():
+    """A parameter whose 95 % interval is wider than 5 % either side is not judged (and
+    counted as unidentifiable); one within is judged, whether or not its interval holds the
+    truth (recorded in ``covered``)."""
+    wide = Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1.07e9})],
+                              ci95={"p": [0.99e9, 1.15e9]}))
+    assert wide.params_ok is None and wide.param_errors == {}
+    assert wide.unidentifiable["cubic_spring.p"] == pytest.approx(0.08 / 1.07)
+    assert wide.covered == {"cubic_spring.p": True}
+    tight = Z.score(CASE, _res("discrepancy", [("cubic_spring", [0, 1], {"p": 1.07e9})],
+                               ci95={"p": [1.06e9, 1.08e9]}))
+    assert tight.params_ok is False and tight.covered == {"cubic_spring.p": False}
+    tot = Z.totals([wide, tight])
+    assert tot["params_unidentifiable"] == 1 and tot["intervals_covering"] == (1, 2)
+
+
+def test_score_judges_a_slider_named_as_another_of_its_family_on_kd_and_fd():
+    iwan = {"kd": 1.02e4, "fd": 1.9, "chi": -0.5, "beta": 0.5}
+    out = Z.score(SLIDER, _res("discrepancy", [("iwan", [0, 1], iwan)]))
+    assert out.param_errors == pytest.approx({"stick_slip.kd": 0.02, "stick_slip.fd": -0.05})
+    both = Z.score(SLIDER, _res("discrepancy", [("hysteresis", [0, 1], {"kd": 2e4, "fd": 9.0}),
+                                                ("stick_slip", [0, 1], {"kd": 1e4, "fd": 2.0})]))
+    assert both.params_ok                           # the true kind is judged when named
+    other = Z.score(SLIDER, _res("discrepancy", [("coulomb_friction", [0, 1], {"fc": 2.0})]))
+    assert not other.family_right and other.params_ok is False
 
 
 def test_score_counts_any_claim_on_a_none_row_as_a_false_alarm():
