@@ -43,7 +43,7 @@ def _rig(fs: float) -> SimRig:
 
 
 def _serial_emulator(fs: float, conn, stop) -> None:
-    from drivers.emulators.serial_emu import SerialDaqEmulator
+    from drivers.emulators import SerialDaqEmulator
     emu = SerialDaqEmulator(_rig(fs), CHANNELS, pace=1.0)
     emu.start()
     conn.send(emu.port)
@@ -89,7 +89,7 @@ def bench_serial(seconds: float, fs: float = 25600.0) -> dict:
 
 def bench_can(seconds: float, fs: float = 3200.0) -> dict:
     from drivers.can_daq import CanDaq
-    from drivers.emulators.can_emu import CanDaqEmulator
+    from drivers.emulators import CanDaqEmulator
     emu = CanDaqEmulator(_rig(fs), CHANNELS, "virtual", "bench-can", pace=1.0)
     emu.start()
     try:

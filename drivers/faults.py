@@ -1,7 +1,7 @@
 """Typed fault specification: which faults an emulated device injects (plain data).
 
 Campaign files name faults in ``[emulator.faults]``; the application validates them into a
-`FaultSpec` and hands it to the emulators (`drivers.emulators.faults.FaultPlan` runs it), so
+`FaultSpec` and hands it to the emulators (`drivers.emulators._faults.FaultPlan` runs it), so
 configuration code does not depend on emulator internals.
 """
 

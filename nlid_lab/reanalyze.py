@@ -423,7 +423,7 @@ def table_json(rows: Sequence[LevelRow]) -> list[dict[str, Any]]:
 
 
 def write_results(result: Reanalysis, out: str | Path) -> None:
-    """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store.tables`)."""
+    """Write the table of ``result`` to HDF5 ``out`` (see `nlid_lab.store._tables`)."""
     attrs = {"kind": "nlid-lab reanalysis", "method": result.method,
              "n_runs": result.n_runs, "n_ok": result.n_ok, "n_failed": result.n_failed,
              "n_workers": result.n_workers, "elapsed_s": result.elapsed_s, **result.attrs}

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from drivers.emulators.serial_emu import ESTOP_RAMP
+from drivers.emulators._serial_emu import ESTOP_RAMP
 from drivers.errors import CommsError
 from nlid_lab.campaign import parse_campaign, run_campaign
 

@@ -172,7 +172,7 @@ def test_room_rule_sees_a_reach_inside():
 
 #: Packages whose imports inside functions have their reason in the package's documentation:
 #: every command line imports them (`nlid_lab/commands/__init__.py`,
-#: `nlid_lab/methods/registry.py`); and code being rewritten elsewhere (issue 24).
+#: `nlid_lab/methods/_registry.py`); and code being rewritten elsewhere (issue 24).
 LOCAL_IMPORTS_EXPLAINED = ("nlid_lab/commands/", "nlid_lab/methods/", "analysis/diagnose/")
 
 

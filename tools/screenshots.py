@@ -147,8 +147,8 @@ def grab(app, widget, dest: Path, size: tuple[int, int]) -> None:
 
 
 def view_shots(app, runs: dict[str, Path], out: Path) -> None:
-    from nlid_lab.gui.offline import OfflineView
-    from nlid_lab.gui.snapshot import dispose
+    from nlid_lab.gui import OfflineView
+    from nlid_lab.gui import dispose
     from nlid_lab.reports import all_level_frfs, load_run
 
     for dest, paths in (("view-demo.png", [runs["demo"]]),
@@ -162,8 +162,8 @@ def view_shots(app, runs: dict[str, Path], out: Path) -> None:
 def live_shots(app, work: Path, out: Path) -> None:
     from nlid_lab.campaign import run_campaign
     from nlid_lab.campaign import load_campaign
-    from nlid_lab.gui.live import LiveView
-    from nlid_lab.gui.snapshot import dispose
+    from nlid_lab.gui import LiveView
+    from nlid_lab.gui import dispose
 
     for name in ("stepped", "random", "periodic"):
         camp = load_campaign(EXAMPLES / f"campaign-sim-{name}.toml")
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     report_shots(runs, args.work, args.out)
     server = start_display(args.display)
     try:
-        from nlid_lab.gui.snapshot import application
+        from nlid_lab.gui import application
         app = application()
         view_shots(app, runs, args.out)
         live_shots(app, args.work, args.out)

@@ -7,17 +7,17 @@ and DOF pair) by information criterion, estimates the chosen candidate's paramet
 path for random data, harmonic-balance fit for stepped sine), searches again on the corrected
 model for a further effect (accepted ones are refitted jointly) and shows the improvement on
 a recording held back from fitting: FRFs per level and time residuals of replays of the
-measured force (`replay`). The stages are one engine for random and stepped-sine data
-(`engine`); the result is typed (`result.Diagnosis`, ``to_json`` / ``from_json``). See
+measured force (`_replay`). The stages are one engine for random and stepped-sine data
+(`_engine`); the result is typed (`Diagnosis`, ``to_json`` / ``from_json``). See
 docs/diagnose.md.
 """
 
-from .prepare import DiagnoseInputError, level_name
-from .result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
+from ._prepare import DiagnoseInputError, level_name
+from ._result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
                      FitSummary, KindAlternative, LevelError, LevelResiduals, Location,
                      LocationRow, Misfit, PairThrough, PassSummary, Rejection, TimeResidual,
                      Verdict)
-from .search import diagnose
+from ._search import diagnose
 
 __all__ = [
     # entry point and input errors

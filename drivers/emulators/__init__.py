@@ -11,11 +11,11 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .faults import FaultPlan
+from ._faults import FaultPlan
 
 #: Emulators loaded on first use (PEP 562): the CAN one imports python-can.
-_LAZY = {"SerialShakerEmulator": "serial_emu", "SerialDaqEmulator": "serial_emu",
-         "CanDaqEmulator": "can_emu", "ROWS_PER_TICK": "can_emu"}
+_LAZY = {"SerialShakerEmulator": "_serial_emu", "SerialDaqEmulator": "_serial_emu",
+         "CanDaqEmulator": "_can_emu", "ROWS_PER_TICK": "_can_emu"}
 
 __all__ = ["FaultPlan", *_LAZY]
 

@@ -1,8 +1,8 @@
 """Qt views (PySide6 + pyqtgraph, the ``gui`` extra): live campaign view, offline run browser
 and offscreen snapshots.
 
-Modules behind this API: ``display`` (is there a display, and the Qt libraries it needs),
-``live`` (`LiveView`), ``offline`` (`OfflineView`), ``plots``, ``snapshot`` (the application,
+Modules behind this API: ``_display`` (is there a display, and the Qt libraries it needs),
+``_live`` (`LiveView`), ``_offline`` (`OfflineView`), ``_plots``, ``_snapshot`` (the application,
 offscreen rendering, disposal). The names are loaded on first use (PEP 562): importing this
 package must not load PySide6, which takes seconds and is missing without the ``gui`` extra.
 """
@@ -13,9 +13,9 @@ import importlib
 from typing import Any
 
 _EXPORTS = {
-    "check_display": "display", "missing_libraries": "display", "platform": "display",
-    "LiveView": "live", "OfflineView": "offline",
-    "application": "snapshot", "dispose": "snapshot", "render": "snapshot",
+    "check_display": "_display", "missing_libraries": "_display", "platform": "_display",
+    "LiveView": "_live", "OfflineView": "_offline",
+    "application": "_snapshot", "dispose": "_snapshot", "render": "_snapshot",
 }
 
 __all__ = list(_EXPORTS)

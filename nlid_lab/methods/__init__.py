@@ -1,16 +1,16 @@
 """Estimators known to `analyze`, `reanalyze`, `report` and `view`: the method registry.
 
-`registry` defines `Method` and the look-ups; each further module defines one method and
+`_registry` defines `Method` and the look-ups; each further module defines one method and
 registers it on import. A new estimator is one new module here, imported below.
 """
 
 from __future__ import annotations
 
-from .registry import (ESTIMATOR_KEY, Estimate, Method, add_batch_options, add_options,
+from ._registry import (ESTIMATOR_KEY, Estimate, Method, add_batch_options, add_options,
                        batch_values, find_stored, for_excitation, get, methods, option,
                        register, stored_estimates, unregister)
-from . import reverse_path, hbm  # noqa: E402,F401 - register the built-in methods, in order
-from .reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
+from . import _reverse_path, _hbm  # noqa: E402,F401 - register the built-in methods, in order
+from ._reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
                            format_table as reverse_path_table)
 
 __all__ = ["ESTIMATOR_KEY", "Estimate", "Method", "add_batch_options", "add_options",

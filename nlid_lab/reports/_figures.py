@@ -392,7 +392,7 @@ def diagnosis_fit(metric: str, before: float, after: float, title: str,
 
 
 def diagnosis_overlay(curve, title: str) -> Figure:
-    """One level of a diagnosis (`analysis.diagnose.report.LevelCurves`): measured FRF
+    """One level of a diagnosis (`analysis.diagnose._report.LevelCurves`): measured FRF
     against the model before and after the correction, and the time residuals of the
     replays, one row per response DOF."""
     n_dof = curve.measured.shape[1]

@@ -18,14 +18,14 @@ the read that follows), `_common` (schema constants and HDF5 helpers).
 """
 
 from ._common import SCHEMA_VERSION, STATUSES, StoreError, utc_now
-from .reader import (DamagedRunError, Level, Run, check_result_target, open_run,
+from ._reader import (DamagedRunError, Level, Run, check_result_target, open_run,
                      repair_run, save_recording, save_result)
 from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_text
 from ._space import DiskFullError, require_room
 from ._verified import release_checked
-from .tables import TableError, read_table, write_table
-from .mat73 import read_mat73
-from .writer import LevelWriter, RunWriter
+from ._tables import TableError, read_table, write_table
+from ._mat73 import read_mat73
+from ._writer import LevelWriter, RunWriter
 
 __all__ = [
     "SCHEMA_VERSION", "STATUSES", "StoreError", "utc_now", "DiskFullError", "require_room",

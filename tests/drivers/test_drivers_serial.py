@@ -9,8 +9,8 @@ import pytest
 from analysis.models import Model
 from drivers import open_daq, open_shaker
 from drivers.base import Channel, MultisineOutput, RandomOutput, SineOutput
-from drivers.emulators.faults import FaultPlan
-from drivers.emulators.serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
+from drivers.emulators._faults import FaultPlan
+from drivers.emulators._serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
 from drivers.errors import (CommsError, DeviceError, Disconnected, DriverConfigError,
                             DriverTimeout, StateError, UnknownBackendError)
 from drivers.rig import SimRig

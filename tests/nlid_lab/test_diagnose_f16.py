@@ -77,7 +77,7 @@ def test_f16_like_joint_through_the_cli(tmp_path):
 
 
 def test_levels_without_a_nominal_value_are_named_by_their_measured_force():
-    from analysis.diagnose.prepare import level_name
+    from analysis.diagnose._prepare import level_name
     rec = T.recordings(T.twin(True, 4096, 4))[0]
     assert level_name(rec) == "12.4 N rms"
     rec.level = 30.0

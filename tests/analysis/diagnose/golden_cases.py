@@ -5,7 +5,7 @@ segment; an adequate model; an unexplained misfit after a rejected correction), 
 modal model seen through a sensor map.
 
 The goldens were written by the command before the diagnosis result became typed
-(`analysis.diagnose.result`); `test_diagnose_golden` proves the JSON unchanged but for the
+(`analysis.diagnose._result`); `test_diagnose_golden` proves the JSON unchanged but for the
 added ``schema_version``. They lock the numbers too: a change meant to move them (the plant,
 the spectral estimate) regenerates them, on purpose and said so in its commit::
 

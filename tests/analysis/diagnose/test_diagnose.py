@@ -12,8 +12,8 @@ import pytest
 from analysis.diagnose import diagnose
 from analysis.models import library
 
-from analysis.diagnose.prepare import prepare_random
-from analysis.diagnose.replay import horizon_samples, replay
+from analysis.diagnose._prepare import prepare_random
+from analysis.diagnose._replay import horizon_samples, replay
 from analysis.models import Element
 
 from diagnose_scenarios import (TWO_EFFECTS_STIFFNESS, chain, hidden_cubic, linear_mass_error,

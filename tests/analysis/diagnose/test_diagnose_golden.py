@@ -1,4 +1,4 @@
-"""The diagnosis result is typed (`analysis.diagnose.result`) and its JSON is what the command
+"""The diagnosis result is typed (`analysis.diagnose._result`) and its JSON is what the command
 wrote before: byte for byte but for the added ``schema_version`` and numbers within
 `golden_cases.RTOL` (BLAS thread counts move them; goldens written by the
 command before the refactor, `golden_cases`); results stored in the earlier layouts still read.

@@ -4,8 +4,8 @@ per unit of the force that acted (simulated data: the first-order hold of the dr
 import numpy as np
 import pytest
 
-from analysis.diagnose.compare import level_frf
-from analysis.diagnose.prepare import prepare_random
+from analysis.diagnose._compare import level_frf
+from analysis.diagnose._prepare import prepare_random
 from analysis.plant import random_gaussian, simulate
 from analysis.recordings import Recording
 from diagnose_scenarios import chain

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from analysis.diagnose import Alternative, Location, LocationRow, diagnose
-from analysis.diagnose.select import Fit
-from analysis.diagnose.where import (RIGID, SEPARATE, alternatives, location_table,
+from analysis.diagnose._select import Fit
+from analysis.diagnose._where import (RIGID, SEPARATE, alternatives, location_table,
                                      relative_motion)
 from analysis.models import Candidate, Element, Support
 
@@ -147,7 +147,7 @@ def test_support_at_the_point_finds_it(grounded_cubic):
 
 
 def test_explanation_says_ambiguous_and_names_the_joint_as_a_joint():
-    from analysis.diagnose.report import _advice, _ambiguity
+    from analysis.diagnose._report import _advice, _ambiguity
     screen = [_fit("stick_slip", (1,), 500.0), _fit("stick_slip", (1, 2), 60.0)]
     alts = alternatives(FakeSearch(screen), screen, screen[0])
     d = SimpleNamespace(location=Location((1,), ("wing",), None, alts))

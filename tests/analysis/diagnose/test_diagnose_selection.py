@@ -1,4 +1,4 @@
-"""One selection principle (`analysis.diagnose.outofsample`): candidates judged out of sample
+"""One selection principle (`analysis.diagnose._outofsample`): candidates judged out of sample
 with their uncertainty, a linear correction allowed jointly where the start model misfits.
 
 The regression of issue 24's real Duffing circuit: a start model whose linear part is off at
@@ -14,9 +14,9 @@ import pytest
 
 import diagnose_zoo as Z
 from analysis.diagnose import CandidateFit, KindAlternative
-from analysis.diagnose.compare import LevelFRF
-from analysis.diagnose.outofsample import Z as OOS_Z, Predictor, Score, halves, score, tied
-from analysis.diagnose.report import _kind_tie
+from analysis.diagnose._compare import LevelFRF
+from analysis.diagnose._outofsample import Z as OOS_Z, Predictor, Score, halves, score, tied
+from analysis.diagnose._report import _kind_tie
 
 STIFF = 0.05 * 2.0e4
 """The start model's stiffness error: 5 % of the SDOF's 2e4 N/m."""

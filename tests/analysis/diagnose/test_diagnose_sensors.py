@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from analysis.models import Candidate
-from analysis.diagnose.compare import LevelFRF
-from analysis.diagnose.leakage import Floor
-from analysis.diagnose.outofsample import Predictor
-from analysis.diagnose.policy import decide
-from analysis.diagnose.prepare import Prepared
-from analysis.diagnose.replay import horizon_samples, replay, state_map
-from analysis.diagnose.select import Fit
+from analysis.diagnose._compare import LevelFRF
+from analysis.diagnose._leakage import Floor
+from analysis.diagnose._outofsample import Predictor
+from analysis.diagnose._policy import decide
+from analysis.diagnose._prepare import Prepared
+from analysis.diagnose._replay import horizon_samples, replay, state_map
+from analysis.diagnose._select import Fit
 from analysis.models import Element
 from analysis.plant import Plant
 from structures import beam_with_payload
@@ -102,7 +102,7 @@ def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
 def test_unexplained_names_the_points():
     """The misfit location is given by point name (JSON ``location.points`` beside the
     ``dofs`` indices) and the sentence uses the names."""
-    from analysis.diagnose.report import place
+    from analysis.diagnose._report import place
     assert place([1, 2], ["joint", "payload"]) == "at joint, payload"
     assert place([1, 2], ["1", "2"]) == "on DOF(s) 1, 2"
     assert place([1, 2], None) == "on DOF(s) 1, 2"

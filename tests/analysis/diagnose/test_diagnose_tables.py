@@ -76,7 +76,7 @@ def test_the_backbone_chooses_the_kind_that_fits_frequency_and_damping():
     0.97 % rms held out, score 40.1); cubic damping cannot move the frequency (its held-out
     frequency error is the linear mode's, 0.68 %) and, the exact lowest level allowing no
     change of its own, gains nothing (score 0)."""
-    from analysis.diagnose.stepped_memory import backbone_estimate
+    from analysis.diagnose._stepped_memory import backbone_estimate
     from analysis.models import library
     start = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k + TWIN.kd]]))
     tables = [level(a) for a in LEVELS]

@@ -9,18 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import analysis.diagnose.search as search_mod
+import analysis.diagnose._search as search_mod
 from analysis.diagnose import (CandidateFit, Diagnosis, FitSummary, LevelError, Location,
                                Verdict, diagnose)
 from analysis.models import Candidate
-from analysis.diagnose.compare import weighted_error
-from analysis.diagnose.policy import pick_holdout
-from analysis.diagnose.prepare import prepare_random
-from analysis.diagnose.replay import horizon_samples, replay
-from analysis.diagnose.leakage import Floor
-from analysis.diagnose.report import explain
-from analysis.diagnose.search import _predicted
-from analysis.diagnose.select import MARGIN, RandomSearch
+from analysis.diagnose._compare import weighted_error
+from analysis.diagnose._policy import pick_holdout
+from analysis.diagnose._prepare import prepare_random
+from analysis.diagnose._replay import horizon_samples, replay
+from analysis.diagnose._leakage import Floor
+from analysis.diagnose._report import explain
+from analysis.diagnose._search import _predicted
+from analysis.diagnose._select import MARGIN, RandomSearch
 from analysis.models import Element, Model
 from analysis.plant import PlantError
 
@@ -67,7 +67,7 @@ def test_leakage_of_the_welch_estimate_is_what_the_true_model_misses(example_run
     low = min(example_runs, key=lambda r: r.level)
     p = prepare_random(low, (4.5, 201.5), "level 5")
     lf, h = _predicted(truth, p, (4.5, 201.5), 2048, 0.01)
-    from analysis.diagnose.leakage import level_floor
+    from analysis.diagnose._leakage import level_floor
     limit = level_floor(lf).limit
     assert weighted_error(lf, h) < limit < weighted_error(lf, h - lf.leakage)
 

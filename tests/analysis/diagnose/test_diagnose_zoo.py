@@ -131,7 +131,7 @@ def test_gap_rows_close_or_not_as_stated():
 @pytest.mark.slow
 def test_gap_intervals_from_the_profile_hold_the_truth():
     """A gap's contact stiffness and width come with their 95 % intervals from the misfit
-    profile over both (`analysis.diagnose.joint.grid_refit`): they hold the truth; the
+    profile over both (`analysis.diagnose._joint.grid_refit`): they hold the truth; the
     stiffness's, wider than 5 %, says it is not identified to 5 % by these levels (the
     screening's interval at the fixed width held +-1.3 %)."""
     out = Z.run_case(Z.zoo("sdof-gap-disp-random")[0])

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from analysis.diagnose.prepare import analysis_band
+from analysis.diagnose._prepare import analysis_band
 from analysis.recordings import Recording
 
 

@@ -22,7 +22,7 @@ from nlid_lab import formats as rio
 from nlid_lab.formats._recording_keys import CORE_KEYS, LEVEL_KEYS, level_key
 from nlid_lab.formats._monitors import MONITOR_KEYS
 from nlid_lab import store
-from nlid_lab.methods.hbm import _stepped
+from nlid_lab.methods._hbm import _stepped
 from nlid_lab.cli import main
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -344,7 +344,7 @@ class _Stop(Exception):
 def test_diagnose_reads_the_period_the_store_writes(tmp_path, monkeypatch):
     """The diagnosis read ``meta["period_samples"]`` while the store wrote ``period``: a
     periodic run was diagnosed as plain random data. It now takes ``layout.period``."""
-    import analysis.diagnose.search as dg
+    import analysis.diagnose._search as dg
     from analysis.models import Model
 
     seen = []
@@ -366,7 +366,7 @@ def test_diagnose_reads_the_period_the_store_writes(tmp_path, monkeypatch):
 
 
 def test_prepare_drops_the_transient_of_every_realization():
-    from analysis.diagnose.prepare import prepare_random
+    from analysis.diagnose._prepare import prepare_random
 
     lay = PeriodicLayout(8, 1, 2, 3)                  # 3 x (1 + 2) periods of 8 samples
     n = lay.realizations * lay.realization_samples

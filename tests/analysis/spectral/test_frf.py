@@ -19,7 +19,7 @@ def test_default_nperseg_rule():
 def test_live_accumulator_is_the_welch_average_over_blocks():
     pytest.importorskip("PySide6")
     pytest.importorskip("pyqtgraph")
-    from nlid_lab.gui.live import FrfAccumulator
+    from nlid_lab.gui._live import FrfAccumulator
 
     rng = np.random.default_rng(4)
     fs, nps = 512.0, 256

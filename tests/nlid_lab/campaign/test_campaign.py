@@ -14,7 +14,7 @@ from analysis.hbm import fit_hbm
 from analysis.models import Model
 from analysis.reverse_path import reverse_path
 from analysis.spectral import stepped_sine_frf
-from drivers.emulators.serial_emu import ESTOP_RAMP
+from drivers.emulators._serial_emu import ESTOP_RAMP
 from drivers.errors import CommsError
 from nlid_lab.campaign import (CampaignAborted, CampaignError, harmonics, load_campaign,
                                parse_campaign, run_campaign)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from analysis.models import Model
-from drivers.emulators.serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
+from drivers.emulators._serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
 from drivers.rig import SimRig
 from drivers.serial_shaker import FEEDS_PER_PERIOD
 from nlid_lab.campaign import NullObserver, load_campaign, run_campaign

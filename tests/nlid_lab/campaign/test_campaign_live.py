@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("pyqtgraph")
 pytest.importorskip("pytestqt")
 
-import nlid_lab.gui.live as live  # noqa: E402
+import nlid_lab.gui._live as live  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
 from nlid_lab.store import open_run  # noqa: E402
 

@@ -20,7 +20,7 @@ LIMIT = 0.1
 def test_default_timeouts_leave_room_for_the_emergency_ramp():
     """What the defaults are: a stall seen `STALL_MARGIN` after the missing frame, a hung
     link one watchdog period after the last line; the 10 ms ramp fits in 100 ms after both."""
-    from drivers.emulators.serial_emu import ESTOP_RAMP
+    from drivers.emulators._serial_emu import ESTOP_RAMP
     assert STALL_MARGIN + ESTOP_RAMP < LIMIT and DEFAULT_WATCHDOG + ESTOP_RAMP < LIMIT
     c = parse_campaign(campaign_doc("serial", "defaults"), EXAMPLES)
     assert c.comms_timeout is None and c.watchdog is None   # the drivers' defaults apply
@@ -68,7 +68,7 @@ def test_drivers_derive_their_stall_timeout_from_the_frame_interval():
     from analysis.models import Model
     from drivers import open_daq
     from drivers.base import Channel
-    from drivers.emulators.serial_emu import SerialDaqEmulator
+    from drivers.emulators._serial_emu import SerialDaqEmulator
     from drivers.errors import DriverConfigError
     from drivers.rig import SimRig
 

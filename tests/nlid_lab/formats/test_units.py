@@ -15,9 +15,9 @@ from analysis.models import Element, Model  # noqa: E402
 from analysis.plant import simulate  # noqa: E402
 from analysis.recordings import Recording  # noqa: E402
 from nlid_lab import store  # noqa: E402
-from nlid_lab.gui.offline import OfflineView  # noqa: E402
+from nlid_lab.gui._offline import OfflineView  # noqa: E402
 from analysis.spectral import convert_frf  # noqa: E402
-from nlid_lab.methods.reverse_path import report_sections  # noqa: E402
+from nlid_lab.methods._reverse_path import report_sections  # noqa: E402
 from nlid_lab.reports import all_level_frfs, load_run  # noqa: E402
 
 SDOF = Path(__file__).resolve().parents[3] / "examples" / "models" / "sdof-cubic-quaddamp.toml"

@@ -15,9 +15,9 @@ from analysis.models import Model  # noqa: E402
 from analysis.plant import Plant  # noqa: E402
 from nlid_lab.campaign import CampaignStart  # noqa: E402
 from nlid_lab.cli import main  # noqa: E402
-from nlid_lab.gui import plots, snapshot  # noqa: E402
-from nlid_lab.gui.live import LiveView  # noqa: E402
-from nlid_lab.gui.offline import OfflineView  # noqa: E402
+from nlid_lab.gui import _plots as plots, _snapshot as snapshot  # noqa: E402
+from nlid_lab.gui._live import LiveView  # noqa: E402
+from nlid_lab.gui._offline import OfflineView  # noqa: E402
 from nlid_lab.reports import all_level_frfs, load_run  # noqa: E402
 from test_report import random_run  # noqa: E402
 

@@ -14,7 +14,7 @@ import pytest
 from analysis.recordings import Recording
 from nlid_lab import store
 from nlid_lab.cli import main
-from nlid_lab.gui import display
+from nlid_lab.gui import _display as display
 
 ROOT = Path(__file__).resolve().parents[3]
 

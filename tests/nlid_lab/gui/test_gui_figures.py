@@ -19,9 +19,9 @@ from analysis.models import Model  # noqa: E402
 from analysis.recordings import Recording  # noqa: E402
 from nlid_lab import store  # noqa: E402
 from nlid_lab.campaign import CampaignStart  # noqa: E402
-from nlid_lab.gui import snapshot  # noqa: E402
-from nlid_lab.gui.live import HARMONIC_FLOOR_DB, LiveView  # noqa: E402
-from nlid_lab.gui.offline import OfflineView, harmonic_distortion  # noqa: E402
+from nlid_lab.gui import _snapshot as snapshot  # noqa: E402
+from nlid_lab.gui._live import HARMONIC_FLOOR_DB, LiveView  # noqa: E402
+from nlid_lab.gui._offline import OfflineView, harmonic_distortion  # noqa: E402
 from nlid_lab.reports import all_level_frfs, load_run  # noqa: E402
 from test_report import STICK, random_run, stepped_run  # noqa: E402
 

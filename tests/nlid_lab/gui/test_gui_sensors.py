@@ -8,8 +8,8 @@ pytest.importorskip("pyqtgraph")
 pytest.importorskip("pytestqt")
 
 from nlid_lab.campaign import parse_campaign, run_campaign  # noqa: E402
-from nlid_lab.gui.live import LiveView  # noqa: E402
-from nlid_lab.gui.offline import OfflineView  # noqa: E402
+from nlid_lab.gui._live import LiveView  # noqa: E402
+from nlid_lab.gui._offline import OfflineView  # noqa: E402
 from nlid_lab.reports import all_level_frfs, load_run  # noqa: E402
 from test_campaign_sensors import BASE, EXAMPLES, short  # noqa: E402
 

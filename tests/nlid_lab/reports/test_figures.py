@@ -10,12 +10,12 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
 
-from analysis.diagnose.replay import Replay
+from analysis.diagnose._replay import Replay
 from analysis.spectral import LevelFRF
 from analysis.hbm import HBMSystem
 from analysis.models import Model
 from nlid_lab.reports import _figures as figures
-from nlid_lab.methods.hbm import model_curve
+from nlid_lab.methods._hbm import model_curve
 
 QUAD = Model.load("examples/models/sdof-cubic-quaddamp.toml")
 

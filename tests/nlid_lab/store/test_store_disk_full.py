@@ -66,7 +66,7 @@ def check_valid_interrupted(path: Path) -> int:
 
 WRITE_UNTIL_FULL = """
 import sys, numpy as np
-import nlid_lab.store.writer as writer
+import nlid_lab.store._writer as writer
 from nlid_lab.store import DiskFullError, RunWriter
 if sys.argv[2] == "no-guard":            # let the write itself fail with ENOSPC
     writer.require = lambda *args: None
@@ -160,7 +160,7 @@ def test_campaign_cli_says_what_was_kept_and_how_to_resume(small_disk, tmp_path,
     toml = tmp_path / "c.toml"
     toml.write_text((EXAMPLES / "campaign-sim-random.toml").read_text().replace(
         'model = "models/', f'model = "{EXAMPLES}/models/'))
-    import nlid_lab.store.writer as writer
+    import nlid_lab.store._writer as writer
     calls = []
     real = writer.require
 

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-import nlid_lab.store.reader as reader
+import nlid_lab.store._reader as reader
 from nlid_lab.store import LeftOutReason, RunWriter, open_run, release_checked
 
 

@@ -22,7 +22,7 @@ BLOCKS = 5
 WRITER = """
 import os, signal, sys, time
 import numpy as np
-from nlid_lab.store import RunWriter, writer
+from nlid_lab.store import RunWriter, _writer as writer
 path, mode = sys.argv[1], sys.argv[2]
 if mode == "kill-at-open":   # die the instant the new file is opened for writing
     real = writer._open_swmr_write

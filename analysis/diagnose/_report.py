@@ -9,10 +9,10 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..models import Candidate
-from .leakage import Floor
-from .outofsample import Z as OOS_Z
-from .replay import Replay
-from .result import (Alternative, CandidateFit, Diagnosis, FitSummary, LevelError,
+from ._leakage import Floor
+from ._outofsample import Z as OOS_Z
+from ._replay import Replay
+from ._result import (Alternative, CandidateFit, Diagnosis, FitSummary, LevelError,
                      LevelResiduals, TimeResidual, Verdict)
 
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
@@ -21,7 +21,7 @@ FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqr
                 "periodic record from the spread of its periods (Pintelon & Schoukens), sd = the standard "
                 "deviation of its square (bin correlation included; 3.72 = one-sided p 1e-4), "
                 "precision = the 1 % model-precision floor; the model FRF is compared through "
-                "the Welch window's leakage kernel (analysis.diagnose.leakage)")
+                "the Welch window's leakage kernel (analysis.diagnose._leakage)")
 TIME_METRIC = ("relative rms of the response residual of replays of the measured force "
                "through the model (the steady state of a periodic drive, in the recorded "
                "response kind; short horizons restarted from the measured state otherwise, "

@@ -30,7 +30,7 @@ from scipy.signal import resample, resample_poly
 from ..models import KINDS, Model, restoring_force
 from ..plant import HOLD_DEGREE, Plant
 from ..recordings import KIND_ORDER, periodic_kinematics
-from .prepare import Prepared
+from ._prepare import Prepared
 
 UPSAMPLE = 4
 MAX_SAMPLES = 8192

@@ -16,7 +16,7 @@ from analysis.errors import InputError
 from analysis.recordings import StepTable
 
 from ..outputs import atomic_path
-from .registry import ESTIMATOR_KEY, Method, option, register
+from ._registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
     from analysis.spectral import LevelFRF

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 from analysis.errors import EstimationError, InputError
 
 from ..outputs import atomic_path
-from .registry import ESTIMATOR_KEY, Method, option, register
+from ._registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
     from analysis.models import Model

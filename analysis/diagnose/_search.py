@@ -10,19 +10,19 @@ from typing import Sequence
 from ..models import Model
 from ..plant import PlantError
 from ..recordings import Recording
-from .compare import (FLOOR, choose_nperseg, element_force, error_by_dof, level_frf, model_frf,
+from ._compare import (FLOOR, choose_nperseg, element_force, error_by_dof, level_frf, model_frf,
                       stuck_linear, weighted_error)
-from .compare import LevelFRF
-from .engine import Flow, Progress, Tick, run
-from .leakage import leakage_bias, level_floor
-from .prepare import (DiagnoseInputError, Prepared, analysis_band, level_name, prepare_random,
+from ._compare import LevelFRF
+from ._engine import Flow, Progress, Tick, run
+from ._leakage import leakage_bias, level_floor
+from ._prepare import (DiagnoseInputError, Prepared, analysis_band, level_name, prepare_random,
                       prepared_band, record_level, split_segment)
-from .replay import Replay, horizon_samples, replay, steady_replay
-from .report import LevelCurves
-from .result import Diagnosis, Evidence
-from .select import SHORTLIST, Fit, RandomSearch
-from .policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, other_kinds, pick_holdout
-from .where import location_table
+from ._replay import Replay, horizon_samples, replay, steady_replay
+from ._report import LevelCurves
+from ._result import Diagnosis, Evidence
+from ._select import SHORTLIST, Fit, RandomSearch
+from ._policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, other_kinds, pick_holdout
+from ._where import location_table
 
 METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
           "analysis band) on the held-back recording")
@@ -74,7 +74,7 @@ def diagnose(model: Model, recordings: Sequence[Recording], *,
     """
     recs = _check(model, recordings)
     if all(r.excitation == "stepped-sine" for r in recs):
-        from .stepped import SteppedFlow
+        from ._stepped import SteppedFlow
         return run(SteppedFlow(model, recs, holdout=holdout, floor=floor), progress)
     return run(RandomFlow(model, recs, holdout=holdout, band=band, nperseg=nperseg,
                           period=period, floor=floor), progress)

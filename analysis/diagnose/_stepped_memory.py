@@ -26,8 +26,8 @@ from ..hbm import HBMError, HBMSystem
 from ..models import KINDS, Candidate, Model, restoring_force
 from ..recordings import Control, StepTable
 from ..spectral import SteppedSineFRF
-from .compare import LevelFRF, chi2
-from .select import MARGIN, Fit, corrected_model
+from ._compare import LevelFRF, chi2
+from ._select import MARGIN, Fit, corrected_model
 
 HARMONICS = (1, 3, 5, 7)
 N_TIME = 256

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
-from .compare import LevelFRF
+from ._compare import LevelFRF
 
 ALPHA = 1e-4
 

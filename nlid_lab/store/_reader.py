@@ -22,7 +22,7 @@ from ._rebuild import REBUILT_ATTRS, _repair
 from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
 from ._verified import VerifiedLevel, identity, keep, take
 from ._steptables import TABLES_SCHEMA_VERSION, is_table_run, read_table, save_tables, table_steps
-from .writer import RunWriter
+from ._writer import RunWriter
 
 # --- read side -------------------------------------------------------------------------------
 

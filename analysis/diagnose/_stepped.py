@@ -28,18 +28,18 @@ from ..errors import InputError, ModelError
 from ..hbm import HBMError
 from ..recordings import Recording, StepTable
 from ..spectral import SteppedSineFRF, stepped_sine_frf
-from .compare import LevelFRF, chi2, stuck_stiffness
-from .prepare import level_name
-from .engine import Flow
-from .policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdout
-from .replay import periodic_replay
-from .leakage import level_floor
-from .report import LevelCurves
-from .result import Evidence
-from .outofsample import Predictor
-from .select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model,
+from ._compare import LevelFRF, chi2, stuck_stiffness
+from ._prepare import level_name
+from ._engine import Flow
+from ._policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdout
+from ._replay import periodic_replay
+from ._leakage import level_floor
+from ._report import LevelCurves
+from ._result import Evidence
+from ._outofsample import Predictor
+from ._select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model,
                      scaled_params, screened, unit_params)
-from .stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
+from ._stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
                              backbone_estimate, hbm_refit, hbm_sweep, motion_chi2, refine,
                              simulated_chi2, slip_grid, stuck_limit, transfer)
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "

@@ -33,9 +33,9 @@ from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from ..errors import ModelError
 from ..models import KINDS, LINEAR_PARAM, Model
-from .compare import chi2, model_frf
-from .linear_update import Z95
-from .select import Fit, Search, coef_name, corrected_model, scaled_params
+from ._compare import chi2, model_frf
+from ._linear_update import Z95
+from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 
 PROFILE_SPAN = np.log(2.0)
 """How far (log) the second parameter is refitted and profiled either side of its estimate:

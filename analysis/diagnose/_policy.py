@@ -11,16 +11,16 @@ import numpy as np
 
 from ..errors import ModelError
 from ..models import Candidate, Model
-from .compare import weighted_error
-from .joint import joint_refit
-from .leakage import Floor
-from .locate import level_dependence
-from .prepare import DiagnoseInputError
-from .report import LevelCurves
-from .outofsample import Z as OOS_Z, Score, score, tied
-from .result import KindAlternative, Misfit, PassSummary, Rejection, Tried, TrendPoint
-from .select import Fit, Search, coef_name, corrected_model, scaled_params
-from .where import MAX_ALTERNATIVES
+from ._compare import weighted_error
+from ._joint import joint_refit
+from ._leakage import Floor
+from ._locate import level_dependence
+from ._prepare import DiagnoseInputError
+from ._report import LevelCurves
+from ._outofsample import Z as OOS_Z, Score, score, tied
+from ._result import KindAlternative, Misfit, PassSummary, Rejection, Tried, TrendPoint
+from ._select import Fit, Search, coef_name, corrected_model, scaled_params
+from ._where import MAX_ALTERNATIVES
 
 BIC_MIN = 10.0
 """BIC gain ("very strong" evidence, Kass & Raftery) above which a leading candidate is

@@ -26,9 +26,9 @@ from typing import Sequence
 import numpy as np
 
 from ..models import Candidate
-from .compare import LevelFRF
-from .result import Alternative, GroundedEnd, LocationRow, PairThrough
-from .select import Fit, Search
+from ._compare import LevelFRF
+from ._result import Alternative, GroundedEnd, LocationRow, PairThrough
+from ._select import Fit, Search
 
 SEPARATE = 10.0
 """BIC points by which one location must beat another to be told apart from it (the same

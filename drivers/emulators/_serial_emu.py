@@ -17,8 +17,8 @@ from ..errors import DriverConfigError
 from ..frame import MAX_SAMPLES, encode_frame
 from ..rig import SimRig
 from ..faults import FaultSpec
-from .faults import FaultPlan
-from .pty_server import OUT_CAP, PtyServer, short_form
+from ._faults import FaultPlan
+from ._pty_server import OUT_CAP, PtyServer, short_form
 
 BAD_HEADER = 'ERR -113,"Undefined header"'
 BAD_DATA = 'ERR -222,"Data out of range"'

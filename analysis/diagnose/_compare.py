@@ -30,7 +30,7 @@ from ..models import KINDS, Element, Model, restoring_force
 from ..modal import welch_smoothing
 from ..recordings import KIND_ORDER
 from ..spectral import excited_lines, h1, hold_gain, multiple_coherence, spectral_matrix
-from .prepare import Prepared
+from ._prepare import Prepared
 
 GROUP = 8
 FLOOR = 0.01

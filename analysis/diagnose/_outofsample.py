@@ -42,8 +42,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .compare import LevelFRF, chi2 as _chi2
-from .linear_update import Z95
+from ._compare import LevelFRF, chi2 as _chi2
+from ._linear_update import Z95
 
 Z = 3.72
 """One-sided normal quantile of p = 1e-4: the level of the floor and of the level-dependence

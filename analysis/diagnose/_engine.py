@@ -22,17 +22,17 @@ from typing import Callable, Sequence
 
 from ..models import Model
 from ..plant import PlantError
-from .compare import LevelFRF
-from .leakage import Floor
-from .locate import level_dependence, mismatch_band
-from .policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, model_change,
+from ._compare import LevelFRF
+from ._leakage import Floor
+from ._locate import level_dependence, mismatch_band
+from ._policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, model_change,
                      pruned, pruned_labels)
-from .joint import joint_refit
-from .replay import Replay
-from .report import LevelCurves, explain, fit_summary
-from .result import Diagnosis, Evidence, Location, Rejection, Verdict
-from .select import Fit, Search
-from .where import alternatives
+from ._joint import joint_refit
+from ._replay import Replay
+from ._report import LevelCurves, explain, fit_summary
+from ._result import Diagnosis, Evidence, Location, Rejection, Verdict
+from ._select import Fit, Search
+from ._where import alternatives
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, stage)``: called as the diagnosis advances (search passes, joint

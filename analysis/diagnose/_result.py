@@ -15,11 +15,11 @@ from enum import StrEnum
 from typing import TYPE_CHECKING, Any, Mapping
 
 from ..models import Model
-from .leakage import Floor
-from .locate import LevelDependence
+from ._leakage import Floor
+from ._locate import LevelDependence
 
 if TYPE_CHECKING:
-    from .report import LevelCurves
+    from ._report import LevelCurves
 
 SCHEMA_VERSION = 1
 """Version of the diagnosis JSON; results stored without one are read as the earlier

@@ -30,13 +30,13 @@ from ..models import KINDS, LINEAR_PARAM, Candidate, Element, Model, library, re
 from ..errors import EstimationError, InputError, ModelError
 from ..recordings import Recording
 from ..reverse_path import ReversePathOptions, reverse_path
-from .compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
+from ._compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
-from .leakage import leakage_bias
-from .linear_update import Z95, fit_linear_error, updated_frf, updated_receptance
-from .outofsample import Predictor
-from .prepare import Prepared
-from .result import CandidateFit
+from ._leakage import leakage_bias
+from ._linear_update import Z95, fit_linear_error, updated_frf, updated_receptance
+from ._outofsample import Predictor
+from ._prepare import Prepared
+from ._result import CandidateFit
 
 SHORTLIST = 4
 REACH = 1.5
@@ -452,7 +452,7 @@ def corrected_model(model: Model, fit: Fit) -> Model:
     ModelError
         The candidate leaves the model's valid range (a compensated stuck stiffness or a
         negative linear error that makes the stiffness indefinite): the diagnosis rejects
-        that candidate (`analysis.diagnose.policy.decide`).
+        that candidate (`analysis.diagnose._policy.decide`).
     """
     try:
         return _corrected_model(model, fit)

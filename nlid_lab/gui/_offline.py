@@ -16,7 +16,7 @@ from analysis.recordings import Recording, StepTable, channel_labels
 
 from .. import methods
 from ..reports import RunData, estimate_rows
-from . import plots
+from . import _plots as plots
 
 
 class OfflineView(QtWidgets.QWidget):

@@ -23,7 +23,7 @@ from analysis.recordings import MIXED, SensorMap
 from analysis.spectral import (FRF_UNITS, LevelFRF, Spectra, best_linear_approximation,
                                frf_from_bla, frf_from_spectra, sine_fit, spectral_matrix)
 
-from . import plots
+from . import _plots as plots
 
 if TYPE_CHECKING:
     from ..campaign import CampaignStart

@@ -30,7 +30,7 @@ from typing import Hashable
 import numpy as np
 
 from ..models import Model
-from .compare import FLOOR, LevelFRF
+from ._compare import FLOOR, LevelFRF
 
 Z_FLOOR = 3.72
 """One-sided normal quantile of p = 1e-4 (the test level of the level-dependence test): a

@@ -15,7 +15,7 @@ from ..base import Channel
 from ..errors import DriverConfigError
 from ..rig import SimRig
 from ..faults import FaultSpec
-from .faults import FaultPlan
+from ._faults import FaultPlan
 
 ROWS_PER_TICK = 16
 #: s; a status frame (state streaming) goes out this often while streaming: the DAQ is alive
