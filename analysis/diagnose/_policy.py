@@ -212,12 +212,8 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
 def bic(search: Search, fit: Fit, s: Score) -> float:
     """The candidate's BIC on the fitting levels as scored: its misfit plus ``ln N`` per
     parameter (coefficients, nuisance and a refined grid value)."""
-    return float(s.chi2 + n_params(fit, s) * np.log(search.n_values))
-
-
-def n_params(fit: Fit, s: Score) -> int:
-    """The candidate's parameters as scored: coefficients, nuisance and a refined grid value."""
-    return len(s.estimate) + (fit.extra is not None)
+    k = len(s.estimate) + (fit.extra is not None)
+    return float(s.chi2 + k * np.log(search.n_values))
 
 
 def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Score
@@ -226,9 +222,7 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     largest gain), and the others as `KindAlternative`s. A kind is tied with ``f`` when it
     wins too and their gains differ by less than the difference's uncertainty
     (`.outofsample.tied`); among the tied (each kind at its best gain) the one with the
-    fewest parameters is named, and of those the largest out-of-sample gain (the in-sample
-    `bic` is reported, not used: a kind refined on the fitting levels, say a gap's width,
-    fits them better without predicting the others better). At most
+    lowest `bic` is named: at equal fit, the one with fewer parameters. At most
     `.where.MAX_ALTERNATIVES` are listed, the best scored first."""
     best: dict[str, tuple[Fit, Score]] = {}
     for g, sg in scored:
@@ -236,7 +230,7 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
             best[g.cand.kind] = (g, sg)
     if len(best) < 2:
         return f, s, ()
-    f, s = min(best.values(), key=lambda gs: (n_params(*gs), -gs[1].gain))
+    f, s = min(best.values(), key=lambda gs: bic(search, *gs))
     return f, s, tuple(
         KindAlternative(g.cand.kind, g.cand.dofs, tuple(g.cand.points), sg.gain, sg.sd,
                         bic(search, g, sg))

@@ -340,4 +340,5 @@ def _kind_tie(c: CandidateFit) -> str:
             + ", ".join(f"{g:.4g}" for g in gains)
             + f": within {spread:.2g} %, inside their uncertainty); a level beyond the "
             f"fitted ones would separate them. The {c.kind.replace('_', ' ')} is named: of "
-            "the tied kinds, the fewest parameters, then the largest out-of-sample gain.")
+            "the tied kinds, the lowest BIC on the fitting levels (misfit plus ln N per "
+            "parameter: at equal fit, the fewest parameters).")
