@@ -20,7 +20,7 @@ from pathlib import Path
 from numba.core.caching import NullCache
 from numba.core.registry import CPUDispatcher
 
-LAW_KERNELS = ("models._elements", "hbm._aft", "hbm._hbm", "plant._plant_kernels",
+LAW_KERNELS = ("models._elements", "hbm._aft", "hbm._hbm", "hbm._held", "plant._plant_kernels",
                "plant._substep")
 """Modules of this package whose numba functions contain the element law."""
 
