@@ -120,7 +120,7 @@ def element_json(model: Model, result: FitResult) -> list[dict]:
     return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class HbmEstimate:
     """A harmonic-balance fit with what it was fitted to (the `Estimate` of this method)."""
 
