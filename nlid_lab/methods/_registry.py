@@ -27,11 +27,15 @@ if TYPE_CHECKING:
 ESTIMATOR_KEY = "estimator"
 
 
-class Estimate(Protocol):
-    """What a method's estimate function returns."""
+class LevelEstimate(Protocol):
+    """What a method's one-level estimate (reanalysis) returns."""
 
     def to_json(self) -> dict[str, Any]:
         """The JSON / stored result (contracts section 4), with ``"estimator"``."""
+
+
+class Estimate(LevelEstimate, Protocol):
+    """What a method's estimate function returns."""
 
     def table(self) -> str:
         """A readable summary for the terminal."""
@@ -79,7 +83,7 @@ class Method:
     estimate : callable
         ``estimate(recordings, model, options) -> Estimate``: all given levels together.
     estimate_level : callable, optional
-        ``estimate_level(recording, model, options) -> Estimate``: one level for
+        ``estimate_level(recording, model, options) -> LevelEstimate``: one level for
         `reanalyze`; default ``estimate([recording], model, options)``.
     sections : callable, optional
         ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
@@ -97,7 +101,7 @@ class Method:
     options: type
     excitation: str
     estimate: Callable[[Sequence[Recording], Model, Any], Estimate]
-    estimate_level: Callable[[Recording, Model, Any], Estimate] | None = None
+    estimate_level: Callable[[Recording, Model, Any], LevelEstimate] | None = None
     sections: Callable[..., list[Any]] | None = None
     legacy_keys: tuple[str, ...] = ()
     output_files: Callable[[Any], list[str]] | None = None

@@ -221,21 +221,13 @@ def estimate(recs: Sequence[Recording], model: Model,
 
 @dataclass(frozen=True)
 class ReversePathLevel:
-    """One level's reverse path for reanalysis (the coefficients only; an `Estimate`)."""
+    """One level's reverse path for reanalysis (the coefficients only; a `LevelEstimate`)."""
 
     result: ReversePathResult
 
     def to_json(self) -> dict[str, Any]:
         """Contracts section 4 JSON plus ``estimator``."""
         return {ESTIMATOR_KEY: NAME, **self.result.to_json()}
-
-    def table(self) -> str:
-        """The coefficients as a table for people."""
-        return format_table(self.result)
-
-    def write_files(self) -> list[str]:
-        """Nothing: a reanalysis writes no files."""
-        return []
 
 
 def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
