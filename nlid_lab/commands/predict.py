@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
 
@@ -98,6 +98,29 @@ class Curve:
         }
 
 
+SCHEMA_VERSION = 1
+"""Version of `Prediction`'s JSON (``schema_version``)."""
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """What ``nlid-lab predict`` computed: the model's curves, one per force amplitude."""
+
+    model: str
+    force_dof: int
+    harmonics: tuple[int, ...]
+    band_hz: tuple[float, float]
+    method: str                       # "continuation" or "stepped"
+    curves: tuple[Curve, ...]
+
+    def to_json(self) -> dict[str, object]:
+        """The command's JSON (docs/hbm.md), ``schema_version`` first."""
+        return {"schema_version": SCHEMA_VERSION, "model": self.model,
+                "force_dof": self.force_dof, "harmonics": list(self.harmonics),
+                "band_hz": list(self.band_hz), "method": self.method,
+                "curves": [c.to_json() for c in self.curves]}
+
+
 def _stepped(system: HBMSystem, lo: float, hi: float, step: float,
              amplitudes: list[float]) -> list[Branch]:
     """Curves as a stepped-sine test gives them: frequencies from ``lo`` to ``hi`` every
@@ -114,7 +137,7 @@ def _stepped(system: HBMSystem, lo: float, hi: float, step: float,
     return out
 
 
-def _summary(curves: list[Curve], dof: int) -> str:
+def _summary(curves: Sequence[Curve], dof: int) -> str:
     lines = []
     for c in curves:
         text = _peak_line(c, dof)
@@ -160,11 +183,10 @@ def run(args: argparse.Namespace) -> int:
         branches = response_curves(system, lo, hi, args.amplitude)
     else:
         branches = _stepped(system, lo, hi, args.step, args.amplitude)
-    curves = [Curve.of(b, a, hi, dofs) for b, a in zip(branches, args.amplitude)]
-    result = {"model": model.name, "force_dof": args.force_dof,
-              "harmonics": system.harmonics, "band_hz": [lo, hi],
-              "method": "continuation" if args.step is None else "stepped",
-              "curves": [c.to_json() for c in curves]}
+    curves = tuple(Curve.of(b, a, hi, dofs) for b, a in zip(branches, args.amplitude))
+    result = Prediction(model.name, args.force_dof, tuple(int(h) for h in system.harmonics),
+                        (lo, hi),
+                        "continuation" if args.step is None else "stepped", curves)
     shown = dofs[0] if args.dof is not None else args.force_dof
     out = summary_stream(args.json, args.quiet)
     print(_summary(curves, shown), file=out)
@@ -173,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.plot) as tmp:
             figure(branches, args.amplitude, shown, model.name, (lo, hi)).savefig(tmp)
         print(f"figure: {args.plot}", file=out)
-    write_json(result, args.json)
+    write_json(result.to_json(), args.json)
     return 0
 
 
