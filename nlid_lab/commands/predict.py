@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -54,7 +54,7 @@ class Fold:
     freq: float
     amplitude: Mapping[int, float]
 
-    def to_json(self) -> dict[str, object]:
+    def to_json(self) -> dict[str, Any]:
         """``{"freq", "amplitude": {dof: value}}`` (DOFs as strings)."""
         return {"freq": self.freq, "amplitude": {str(d): a for d, a in self.amplitude.items()}}
 
@@ -84,7 +84,7 @@ class Curve:
         return [Fold(float(b.freqs[i]), {d: float(b.amplitude(d)[i]) for d in self.dofs})
                 for i in b.folds]
 
-    def to_json(self) -> dict[str, object]:
+    def to_json(self) -> dict[str, Any]:
         """One entry of the command's ``curves`` (docs/hbm.md)."""
         b = self.branch
         return {
@@ -113,7 +113,7 @@ class Prediction:
     method: str                       # "continuation" or "stepped"
     curves: tuple[Curve, ...]
 
-    def to_json(self) -> dict[str, object]:
+    def to_json(self) -> dict[str, Any]:
         """The command's JSON (docs/hbm.md), ``schema_version`` first."""
         return {"schema_version": SCHEMA_VERSION, "model": self.model,
                 "force_dof": self.force_dof, "harmonics": list(self.harmonics),
