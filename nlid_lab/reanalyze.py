@@ -28,7 +28,7 @@ from analysis.models import Model
 from analysis.recordings import Recording
 
 from . import methods
-from .store import write_table
+from .store import elements_from_json, write_table
 
 AUTO = "auto"  # each level's method from its excitation (`nlid_lab.methods.for_excitation`)
 RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
@@ -249,14 +249,12 @@ def _row_from_json(path: str, index: int, rec: Recording, method: str,
                    result: dict[str, Any]) -> LevelRow:
     """The row of a level the estimator's JSON (`estimate_json`) describes."""
     estimates: dict[str, float | None] = {}
-    for i, el in enumerate(result.get("elements", [])):
-        ci95 = el.get("ci95") or {}
-        estimated = el.get("estimated", el.get("params", {}))  # hbm lists known ones too
-        for name, value in el.get("params", {}).items():
-            if name not in estimated:
+    for i, el in enumerate(elements_from_json(result)):
+        for name, value in el.params.items():
+            if name not in el.estimated:                      # hbm lists known ones too
                 continue
-            col = f"e{i}.{el['kind']}.{name}"
-            lo, hi = ci95.get(name) or (None, None)
+            col = f"e{i}.{el.kind}.{name}"
+            lo, hi = el.ci95.get(name) or (None, None)
             estimates.update({col: _num(value), f"{col}.ci95_lo": _num(lo),
                               f"{col}.ci95_hi": _num(hi)})
     coherence = result.get("multiple_coherence") or {}

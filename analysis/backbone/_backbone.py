@@ -70,8 +70,8 @@ class BackbonePoint(ModalEstimate):
     method: str
     n_steps: int
 
-    def to_dict(self) -> dict[str, Any]:
-        """The point as JSON-ready values (contracts section 6 names)."""
+    def to_json(self) -> dict[str, Any]:
+        """The point's entry of ``levels`` (contracts section 6 names)."""
         out: dict[str, Any] = {k: getattr(self, k) for k in JSON_ORDER}
         out["modal_constant"] = float(self.modal_constant.real)
         out["modal_constant_imag"] = float(self.modal_constant.imag)
@@ -112,7 +112,7 @@ class Backbone:
                 "modal_constant": float(lin.modal_constant.real),
                 "method": self.points[0].method if self.points else ""}
         return json.loads(json.dumps({"schema_version": self.schema_version,
-                                      "levels": [p.to_dict() for p in self.points],
+                                      "levels": [p.to_json() for p in self.points],
                                       "mode": mode}))
 
 

@@ -186,17 +186,12 @@ class Detection:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> Detection:
         """Inverse of `to_json`; refuses another schema version."""
-        check_schema(data, SCHEMA_VERSION, "detect")
+        got = data.get("schema_version")
+        if got != SCHEMA_VERSION:
+            raise ValueError(f"detect JSON of schema_version {got}, this version reads "
+                             f"{SCHEMA_VERSION}; re-run the command to write it again")
         return cls(tuple(DetectionTest.from_json(t) for t in data["tests"]),
                    tuple(data["notes"]))
-
-
-def check_schema(data: dict[str, Any], version: int, what: str) -> None:
-    """Raise ValueError unless ``data["schema_version"]`` is ``version``."""
-    got = data.get("schema_version")
-    if got != version:
-        raise ValueError(f"{what} JSON of schema_version {got}, this version reads "
-                         f"{version}; re-run the command to write it again")
 
 
 def _frozen(value: Any) -> Any:

@@ -9,7 +9,7 @@ this package imports its siblings by their private module path.
 from ._modal import modal_fit, modal_summary, welch_smoothing
 from ._ema import fit_modes, mac
 from ._linear_fit import LinearFit, fit_linear, measured_receptance, model_error
-from ._fit_result import LinearFitSummary, ModeSummary
+from ._fit_result import LinearFitSummary, ModalMode, ModalSummary, ModeSummary
 
-__all__ = ["LinearFit", "LinearFitSummary", "ModeSummary", "fit_linear", "fit_modes", "mac",
+__all__ = ["LinearFit", "LinearFitSummary", "ModalMode", "ModalSummary", "ModeSummary", "fit_linear", "fit_modes", "mac",
            "measured_receptance", "modal_fit", "modal_summary", "model_error", "welch_smoothing"]

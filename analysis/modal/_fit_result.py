@@ -5,6 +5,9 @@ in-band FRF error, as a typed record with the command's JSON.
 fit-linear --json``) with ``schema_version`` first, then ``interference`` (only when lines
 were left out), ``delay_samples`` (only when a delay was taken out) and ``warnings`` (only
 when there are some) last.
+
+`ModalSummary` is the reverse path's modal summary (`analysis.modal.modal_summary`): its JSON
+is the ``modal`` entry of ``nlid-lab analyze reverse-path --json``.
 """
 
 from __future__ import annotations
@@ -49,6 +52,60 @@ class ModeSummary:
         return {"freq_hz": self.freq_hz, "damping_ratio": self.damping_ratio,
                 "support": self.support, "max_mac_other": self.max_mac_other,
                 "shape": list(self.shape)}
+
+
+@dataclass(frozen=True)
+class ModalMode:
+    """One mode of a `ModalSummary`.
+
+    Attributes
+    ----------
+    freq_hz, damping_ratio : float
+    shape : tuple of float
+        Residue vector of the first forced column, scaled to a unit largest component.
+    in_band : bool
+        Inside the analysed band (False: extrapolated).
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    shape: tuple[float, ...]
+    in_band: bool
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"freq_hz", "damping_ratio", "shape", "in_band"}``."""
+        return {"freq_hz": self.freq_hz, "damping_ratio": self.damping_ratio,
+                "shape": list(self.shape), "in_band": self.in_band}
+
+
+@dataclass(frozen=True)
+class ModalSummary:
+    """Modes of a reverse path's underlying linear FRF (`analysis.modal.modal_summary`).
+
+    Attributes
+    ----------
+    method : str
+        The route taken (which FRF was fitted, how).
+    force_dof : int
+        DOF of the force column the shapes belong to.
+    modes : tuple of ModalMode
+    """
+
+    method: str
+    force_dof: int
+    modes: tuple[ModalMode, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"method", "force_dof", "modes"}`` (the ``modal`` of the reverse path's JSON)."""
+        return {"method": self.method, "force_dof": self.force_dof,
+                "modes": [m.to_json() for m in self.modes]}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> ModalSummary:
+        """Inverse of `to_json`."""
+        return cls(data["method"], data["force_dof"],
+                   tuple(ModalMode(m["freq_hz"], m["damping_ratio"], tuple(m["shape"]),
+                                   m["in_band"]) for m in data["modes"]))
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ measured, non-flat one).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.signal
@@ -31,6 +31,7 @@ import scipy.signal
 from ..errors import EstimationError, InputError
 from ..spectral import Spectra, multiple_coherence
 from ._ema import refine
+from ._fit_result import ModalMode, ModalSummary
 
 if TYPE_CHECKING:
     from ..reverse_path import ReversePathResult
@@ -244,7 +245,7 @@ def _refine_smoothed(f: np.ndarray, h: np.ndarray, wts: np.ndarray, poles: np.nd
 
 def modal_summary(result: "ReversePathResult", n_modes: int,
                   linear: tuple[np.ndarray, np.ndarray, Spectra] | None = None
-                  ) -> dict[str, Any]:
+                  ) -> ModalSummary:
     """Modes of a reverse path's underlying linear FRF columns (rational-fraction fit).
 
     All columns share the poles; each mode shape is the residue vector of the first forced
@@ -263,9 +264,8 @@ def modal_summary(result: "ReversePathResult", n_modes: int,
 
     Returns
     -------
-    dict
-        ``method`` (the route taken), ``force_dof`` and ``modes``: a list of ``freq_hz``,
-        ``damping_ratio``, ``shape`` and ``in_band``.
+    ModalSummary
+        The route taken, the force DOF and the modes.
 
     Raises
     ------
@@ -294,7 +294,6 @@ def modal_summary(result: "ReversePathResult", n_modes: int,
         k = int(np.argmax(np.abs(col)))
         shape = col / col[k]
         shape[k] = 1.0                                    # exactly, not to round-off
-        modes.append({"freq_hz": float(f), "damping_ratio": float(zeta),
-                      "shape": [float(v) for v in shape.real],
-                      "in_band": bool(lo <= f <= hi)})
-    return {"method": method, "force_dof": int(result.force_dofs[0]), "modes": modes}
+        modes.append(ModalMode(float(f), float(zeta), tuple(float(v) for v in shape.real),
+                               bool(lo <= f <= hi)))
+    return ModalSummary(method, int(result.force_dofs[0]), tuple(modes))

@@ -17,7 +17,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -51,25 +51,25 @@ SCHEMA_VERSION = 1
 """Version of the ``campaign run --json`` layout (`CampaignResult.to_json`)."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class CampaignResult:
     """What a finished campaign did."""
 
     out: Path
     status: str
-    segments: dict[int, int]
+    segments: Mapping[int, int]
     lost_frames: int = 0
     lost_samples: int = 0
-    daq_stats: dict[str, int] = field(default_factory=dict)
-    warnings: list[str] = field(default_factory=list)
-    levels: list[LevelSummary] = field(default_factory=list)
+    daq_stats: Mapping[str, int] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+    levels: tuple[LevelSummary, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """The JSON ``campaign run`` writes (``--json``), ``schema_version`` first."""
         return {"schema_version": SCHEMA_VERSION, "out": str(self.out), "status": self.status,
                 "segments": {str(k): v for k, v in self.segments.items()},
                 "lost_frames": self.lost_frames, "lost_samples": self.lost_samples,
-                "daq_stats": self.daq_stats, "warnings": self.warnings,
+                "daq_stats": dict(self.daq_stats), "warnings": list(self.warnings),
                 "levels": [lv.to_json() for lv in self.levels]}
 
 
@@ -597,4 +597,4 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
             segments = {lv.index: lv.n_segments for lv in
                         [writer.level(i, n) for i, n in enumerate(c.levels)]}
     return CampaignResult(out, status, segments, stats["lost_frames"], stats["lost_samples"],
-                          stats, runner.warnings, runner.summaries)
+                          stats, tuple(runner.warnings), tuple(runner.summaries))

@@ -7,8 +7,9 @@ solved from the previous one).
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -21,29 +22,103 @@ if TYPE_CHECKING:
     from analysis.hbm import Branch, HBMSystem
 
 
-def _peak(branch: Branch, dof: int) -> dict[str, float]:
-    """The largest fundamental amplitude of ``dof`` on the curve, as displacement, velocity
+@dataclass(frozen=True)
+class Peak:
+    """The largest fundamental amplitude of one DOF on a curve, as displacement, velocity
     and acceleration at its frequency."""
-    amp = branch.amplitude(dof)
-    i = int(np.argmax(amp))
-    w = 2 * np.pi * float(branch.freqs[i])
-    return {"freq": float(branch.freqs[i]), "displacement": float(amp[i]),
-            "velocity": float(amp[i] * w), "acceleration": float(amp[i] * w**2)}
+
+    freq: float
+    displacement: float
+    velocity: float
+    acceleration: float
+
+    @classmethod
+    def of(cls, branch: Branch, dof: int) -> Peak:
+        """The peak of ``dof`` on ``branch``."""
+        amp = branch.amplitude(dof)
+        i = int(np.argmax(amp))
+        w = 2 * np.pi * float(branch.freqs[i])
+        return cls(float(branch.freqs[i]), float(amp[i]), float(amp[i] * w),
+                   float(amp[i] * w**2))
+
+    def to_json(self) -> dict[str, float]:
+        """``{"freq", "displacement", "velocity", "acceleration"}``."""
+        return {"freq": self.freq, "displacement": self.displacement,
+                "velocity": self.velocity, "acceleration": self.acceleration}
 
 
-def _curve(branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> dict[str, Any]:
-    reached = bool((branch.freqs[-1] - f_end) * np.sign(f_end - branch.freqs[0]) >= 0)
-    return {
-        "force_amplitude": amplitude,
-        "freqs": branch.freqs,
-        "amplitude": {str(d): branch.amplitude(d) for d in dofs},
-        "peak": {str(d): _peak(branch, d) for d in dofs},
-        "stable": branch.stable,
-        "folds": [{"freq": float(branch.freqs[i]),
-                   "amplitude": {str(d): float(branch.amplitude(d)[i]) for d in dofs}}
-                  for i in branch.folds],
-        "complete": reached,
-    }
+@dataclass(frozen=True)
+class Fold:
+    """A fold of a curve: its frequency and the amplitude of every reported DOF there."""
+
+    freq: float
+    amplitude: Mapping[int, float]
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"freq", "amplitude": {dof: value}}`` (DOFs as strings)."""
+        return {"freq": self.freq, "amplitude": {str(d): a for d, a in self.amplitude.items()}}
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One predicted response curve of the reported DOFs (one force amplitude)."""
+
+    force_amplitude: float
+    branch: Branch
+    dofs: tuple[int, ...]
+    complete: bool                    # reached the end of the band
+
+    @classmethod
+    def of(cls, branch: Branch, amplitude: float, f_end: float, dofs: list[int]) -> Curve:
+        """The curve ``branch`` traced at force ``amplitude`` towards ``f_end``."""
+        reached = bool((branch.freqs[-1] - f_end) * np.sign(f_end - branch.freqs[0]) >= 0)
+        return cls(amplitude, branch, tuple(dofs), reached)
+
+    def peak(self, dof: int) -> Peak:
+        """The peak of ``dof``."""
+        return Peak.of(self.branch, dof)
+
+    def folds(self) -> list[Fold]:
+        """The folds, in the order traced."""
+        b = self.branch
+        return [Fold(float(b.freqs[i]), {d: float(b.amplitude(d)[i]) for d in self.dofs})
+                for i in b.folds]
+
+    def to_json(self) -> dict[str, Any]:
+        """One entry of the command's ``curves`` (docs/hbm.md)."""
+        b = self.branch
+        return {
+            "force_amplitude": self.force_amplitude,
+            "freqs": b.freqs,
+            "amplitude": {str(d): b.amplitude(d) for d in self.dofs},
+            "peak": {str(d): self.peak(d).to_json() for d in self.dofs},
+            "stable": b.stable,
+            "folds": [f.to_json() for f in self.folds()],
+            "complete": self.complete,
+        }
+
+
+SCHEMA_VERSION = 1
+"""Version of `Prediction`'s JSON (``schema_version``)."""
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """What ``nlid-lab predict`` computed: the model's curves, one per force amplitude."""
+
+    model: str
+    force_dof: int
+    harmonics: tuple[int, ...]
+    band_hz: tuple[float, float]
+    method: str                       # "continuation" or "stepped"
+    curves: tuple[Curve, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The command's JSON (docs/hbm.md), ``schema_version`` first."""
+        return {"schema_version": SCHEMA_VERSION, "model": self.model,
+                "force_dof": self.force_dof, "harmonics": list(self.harmonics),
+                "band_hz": list(self.band_hz), "method": self.method,
+                "curves": [c.to_json() for c in self.curves]}
 
 
 def _stepped(system: HBMSystem, lo: float, hi: float, step: float,
@@ -62,23 +137,24 @@ def _stepped(system: HBMSystem, lo: float, hi: float, step: float,
     return out
 
 
-def _summary(curves: list[dict[str, Any]], dof: int) -> str:
+def _summary(curves: Sequence[Curve], dof: int) -> str:
     lines = []
     for c in curves:
         text = _peak_line(c, dof)
-        if c["folds"]:
-            text += "; folds at " + ", ".join(f"{f['freq']:.3f}" for f in c["folds"]) + " Hz" \
+        folds = c.folds()
+        if folds:
+            text += "; folds at " + ", ".join(f"{f.freq:.3f}" for f in folds) + " Hz" \
                     " (jump between them in a sweep; the branch between is unstable)"
-        if not c["complete"]:
-            text += f"; stopped at {c['freqs'][-1]:.3f} Hz (continuation step underflow)"
+        if not c.complete:
+            text += f"; stopped at {c.branch.freqs[-1]:.3f} Hz (continuation step underflow)"
         lines.append(text)
     return "\n".join(lines)
 
 
-def _peak_line(curve: dict[str, Any], dof: int) -> str:
-    p = curve["peak"][str(dof)]
-    return (f"{curve['force_amplitude']:g} N: peak {p['displacement']:.4g} m, "
-            f"{p['acceleration']:.4g} m/s² at {p['freq']:.3f} Hz (DOF {dof}, fundamental)")
+def _peak_line(curve: Curve, dof: int) -> str:
+    p = curve.peak(dof)
+    return (f"{curve.force_amplitude:g} N: peak {p.displacement:.4g} m, "
+            f"{p.acceleration:.4g} m/s² at {p.freq:.3f} Hz (DOF {dof}, fundamental)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,11 +183,10 @@ def run(args: argparse.Namespace) -> int:
         branches = response_curves(system, lo, hi, args.amplitude)
     else:
         branches = _stepped(system, lo, hi, args.step, args.amplitude)
-    curves = [_curve(b, a, hi, dofs) for b, a in zip(branches, args.amplitude)]
-    result = {"model": model.name, "force_dof": args.force_dof,
-              "harmonics": system.harmonics, "band_hz": [lo, hi],
-              "method": "continuation" if args.step is None else "stepped",
-              "curves": curves}
+    curves = tuple(Curve.of(b, a, hi, dofs) for b, a in zip(branches, args.amplitude))
+    result = Prediction(model.name, args.force_dof, tuple(int(h) for h in system.harmonics),
+                        (lo, hi),
+                        "continuation" if args.step is None else "stepped", curves)
     shown = dofs[0] if args.dof is not None else args.force_dof
     out = summary_stream(args.json, args.quiet)
     print(_summary(curves, shown), file=out)
@@ -120,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(args.plot) as tmp:
             figure(branches, args.amplitude, shown, model.name, (lo, hi)).savefig(tmp)
         print(f"figure: {args.plot}", file=out)
-    write_json(result, args.json)
+    write_json(result.to_json(), args.json)
     return 0
 
 

@@ -120,7 +120,7 @@ def element_json(model: Model, result: FitResult) -> list[dict]:
     return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class HbmEstimate:
     """A harmonic-balance fit with what it was fitted to (the `Estimate` of this method)."""
 
@@ -258,8 +258,9 @@ def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
 # --- report --------------------------------------------------------------------------------
 def _estimated_elements(res: dict) -> list:
     from analysis.models import Element
-    return [Element(e["kind"], np.asarray(e["w"], float), dict(e["params"]))
-            for e in res.get("elements", []) if e.get("params")]
+    from ..store import elements_from_json
+    return [Element(e.kind, np.asarray(e.w, float), dict(e.params))
+            for e in elements_from_json(res) if e.params]
 
 
 def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] | None,

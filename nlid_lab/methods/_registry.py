@@ -27,11 +27,15 @@ if TYPE_CHECKING:
 ESTIMATOR_KEY = "estimator"
 
 
-class Estimate(Protocol):
-    """What a method's estimate function returns."""
+class LevelEstimate(Protocol):
+    """What a method's one-level estimate (reanalysis) returns."""
 
     def to_json(self) -> dict[str, Any]:
         """The JSON / stored result (contracts section 4), with ``"estimator"``."""
+
+
+class Estimate(LevelEstimate, Protocol):
+    """What a method's estimate function returns."""
 
     def table(self) -> str:
         """A readable summary for the terminal."""
@@ -79,8 +83,8 @@ class Method:
     estimate : callable
         ``estimate(recordings, model, options) -> Estimate``: all given levels together.
     estimate_level : callable, optional
-        ``estimate_level(recording, model, options) -> dict``: the JSON of one level for
-        `reanalyze`; default ``estimate([recording], model, options).to_json()``.
+        ``estimate_level(recording, model, options) -> LevelEstimate``: one level for
+        `reanalyze`; default ``estimate([recording], model, options)``.
     sections : callable, optional
         ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
         run (`nlid_lab.reports.RunData`), its level FRFs, the method's latest stored result
@@ -97,7 +101,7 @@ class Method:
     options: type
     excitation: str
     estimate: Callable[[Sequence[Recording], Model, Any], Estimate]
-    estimate_level: Callable[[Recording, Model, Any], dict[str, Any]] | None = None
+    estimate_level: Callable[[Recording, Model, Any], LevelEstimate] | None = None
     sections: Callable[..., list[Any]] | None = None
     legacy_keys: tuple[str, ...] = ()
     output_files: Callable[[Any], list[str]] | None = None
@@ -123,9 +127,8 @@ class Method:
 
     def level_json(self, rec: Recording, model: Model, options: Any) -> dict[str, Any]:
         """One level's result JSON (reanalysis)."""
-        if self.estimate_level is not None:
-            return self.estimate_level(rec, model, options)
-        return self.estimate([rec], model, options).to_json()
+        one = self.estimate_level or (lambda r, m, o: self.estimate([r], m, o))
+        return one(rec, model, options).to_json()
 
     def owns(self, result: Any) -> bool:
         """Whether a stored result is this method's (by ``"estimator"``, else its keys)."""

@@ -22,6 +22,7 @@ from ..outputs import atomic_path
 from ._registry import ESTIMATOR_KEY, Method, option, register
 
 if TYPE_CHECKING:
+    from analysis.modal import ModalSummary
     from analysis.models import Model
     from analysis.recordings import Recording
     from analysis.reverse_path import ReversePathResult
@@ -73,7 +74,7 @@ class ReversePathOptions:
                        nperseg=self.nperseg, refine=self.refine)
 
 
-def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
+def format_table(result: ReversePathResult, modal: ModalSummary | None = None,
                  reference: Model | None = None) -> str:
     """Readable summary: coefficients (with the true value when ``reference`` has it), 95 %
     intervals, multiple coherence and modes."""
@@ -98,22 +99,22 @@ def format_table(result: ReversePathResult, modal: dict[str, Any] | None = None,
             row += f"  {100 * (c.value / truth - 1):+.3f} %"
         lines.append(row)
     if modal:
-        lines.append(f"underlying linear system (force at DOF {modal['force_dof']}):")
+        lines.append(f"underlying linear system (force at DOF {modal.force_dof}):")
         lines.append(f"{'mode':>7}  {'freq [Hz]':>10} {'damping':>9}  shape")
-        for k, m in enumerate(modal["modes"]):
-            shape = " ".join(f"{v:+.3f}" for v in m["shape"])
-            lines.append(f"{k:>7}  {m['freq_hz']:10.3f} {100 * m['damping_ratio']:8.3f}%  "
-                         f"[{shape}]" + ("" if m["in_band"] else "  (outside the band)"))
+        for k, m in enumerate(modal.modes):
+            shape = " ".join(f"{v:+.3f}" for v in m.shape)
+            lines.append(f"{k:>7}  {m.freq_hz:10.3f} {100 * m.damping_ratio:8.3f}%  "
+                         f"[{shape}]" + ("" if m.in_band else "  (outside the band)"))
     lines += [f"warning: {w}" for w in result.warnings]
     return "\n".join(lines)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ReversePathEstimate:
     """A reverse-path estimate with its modal summary (the `Estimate` of this method)."""
 
     result: ReversePathResult | None          # None: screening only (nothing to estimate)
-    modal: dict[str, Any] | None
+    modal: ModalSummary | None
     force_hold: str
     n_records: int
     screening: ScreeningResult | None = None
@@ -128,7 +129,8 @@ class ReversePathEstimate:
                    "force_hold": self.force_hold}
         else:
             out = {ESTIMATOR_KEY: NAME, **self.result.to_json(),
-                   "force_hold": self.force_hold, "modal": self.modal}
+                   "force_hold": self.force_hold,
+                   "modal": None if self.modal is None else self.modal.to_json()}
             out["warnings"] = out["warnings"] + self.warnings()
         if self.screening is not None:
             out["screening"] = self.screening.to_json()
@@ -217,13 +219,23 @@ def estimate(recs: Sequence[Recording], model: Model,
                                options.candidate_out)
 
 
+@dataclass(frozen=True)
+class ReversePathLevel:
+    """One level's reverse path for reanalysis (the coefficients only; a `LevelEstimate`)."""
+
+    result: ReversePathResult
+
+    def to_json(self) -> dict[str, Any]:
+        """Contracts section 4 JSON plus ``estimator``."""
+        return {ESTIMATOR_KEY: NAME, **self.result.to_json()}
+
+
 def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
-                   ) -> dict[str, Any]:
+                   ) -> ReversePathLevel:
     """One level for reanalysis: the coefficients only (no modal summary, no screening)."""
     from analysis.reverse_path import reverse_path
-    result = reverse_path(rec, model, options.estimator_options(),
-                          force_hold=options.force_hold)
-    return {ESTIMATOR_KEY: NAME, **result.to_json()}
+    return ReversePathLevel(reverse_path(rec, model, options.estimator_options(),
+                                         force_hold=options.force_hold))
 
 
 # --- report --------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ from analysis.recordings import channel_labels, one_kind, record_level
 from analysis.spectral import LevelFRF, level_label
 
 from ..formats import describe
+from ..store import elements_from_json
 from . import _figures as figures
 from ._figures import LevelBars
 from ._backbone_figure import backbone_section
@@ -336,11 +337,10 @@ def estimate_rows(results: dict[str, Any], estimators: Estimators
     method in the registry ``estimators`` (`nlid_lab.methods`)."""
     rows = []
     for name, res in estimators.stored_estimates(results):
-        for i, el in enumerate(res.get("elements", [])):
-            ci = el.get("ci95") or {}
-            for par, value in (el.get("params") or {}).items():
-                lo_hi = ci.get(par)
-                rows.append((name, f"{i}: {el.get('kind', '?')}", par, f"{value:.5g}",
+        for i, el in enumerate(elements_from_json(res)):
+            for par, value in el.params.items():
+                lo_hi = el.ci95.get(par)
+                rows.append((name, f"{i}: {el.kind}", par, f"{value:.5g}",
                              f"[{lo_hi[0]:.5g}, {lo_hi[1]:.5g}]" if lo_hi else "-"))
     return rows
 

@@ -13,7 +13,8 @@ file a live process writes. A writer killed while the header is being built (bef
 block) leaves no run file, only ``RUN.h5.tmp``: nothing was recorded yet.
 
 Modules: `writer` (RunWriter, LevelWriter), `reader` (open_run, Run, whole-recording helpers),
-`tables` (result tables of reanalysis), `_verified` (the samples a check read, kept for
+`tables` (result tables of reanalysis), `_estimates` (the elements of a stored estimate,
+typed), `_verified` (the samples a check read, kept for
 the read that follows), `_common` (schema constants and HDF5 helpers).
 """
 
@@ -24,6 +25,7 @@ from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_tex
 from ._space import DiskFullError, require_room
 from ._verified import release_checked
 from ._tables import TableError, read_table, write_table
+from ._estimates import EstimatedElement, elements_from_json
 from ._mat73 import read_mat73
 from ._writer import LevelWriter, RunWriter
 
@@ -34,6 +36,7 @@ __all__ = [
     "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
     "save_result",
     "TableError", "read_table", "write_table",
+    "EstimatedElement", "elements_from_json",
     "read_mat73",
     "LevelWriter", "RunWriter",
 ]

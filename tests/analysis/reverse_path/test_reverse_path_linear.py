@@ -1,5 +1,7 @@
 """Modal parameters from the residual-force H1 through the Welch kernel (no leakage bias)."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -7,7 +9,7 @@ from analysis.plant import Plant, random_gaussian
 from analysis.models import Element, Model
 from analysis.recordings import Recording
 from analysis.reverse_path import ReversePathOptions, residual_force_frf, reverse_path
-from analysis.modal import modal_summary
+from analysis.modal import ModalSummary, modal_summary
 
 SDOF = "examples/models/sdof-cubic-quaddamp.toml"
 
@@ -39,13 +41,15 @@ def test_residual_force_modes_at_coarse_resolution():
     linear = residual_force_frf(recs, res.estimated_model(cand), res)
     lam = np.roots([model.mass[0, 0], model.damping[0, 0], model.stiffness[0, 0]])[0]
     zeta, fn = -lam.real / abs(lam), abs(lam) / 2 / np.pi
-    (plain,) = modal_summary(res, 1)["modes"]
+    (plain,) = modal_summary(res, 1).modes
     summary = modal_summary(res, 1, linear)
-    (mode,) = summary["modes"]
-    assert "residual-force" in summary["method"]
-    assert plain["damping_ratio"] > 1.4 * zeta
-    assert mode["damping_ratio"] == pytest.approx(zeta, rel=0.04)
-    assert mode["freq_hz"] == pytest.approx(fn, rel=5e-4)
+    (mode,) = summary.modes
+    assert "residual-force" in summary.method
+    assert plain.damping_ratio > 1.4 * zeta
+    assert mode.damping_ratio == pytest.approx(zeta, rel=0.04)
+    assert mode.freq_hz == pytest.approx(fn, rel=5e-4)
+    # the typed summary reads back from its JSON text (the reverse path's ``modal``)
+    assert ModalSummary.from_json(json.loads(json.dumps(summary.to_json()))) == summary
 
 
 def test_residual_force_route_declines_where_it_does_not_apply():
@@ -53,7 +57,7 @@ def test_residual_force_route_declines_where_it_does_not_apply():
     recs = _records(model, 2048.0, 2**14, (8.0,), seed=3)
     res = reverse_path(recs, _candidate(model), ReversePathOptions(nperseg=2048))
     assert residual_force_frf(recs, res.estimated_model(_candidate(model)), res) is None
-    assert "H_linear" in modal_summary(res, 3)["method"]
+    assert "H_linear" in modal_summary(res, 3).method
     sdof = Model.load(SDOF)
     recs = _records(sdof, 1024.0, 2**14, (20.0,), seed=3)
     # noisy-data route
