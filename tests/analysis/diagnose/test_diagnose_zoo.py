@@ -14,8 +14,6 @@ import pytest
 
 import diagnose_zoo as Z
 
-AS_IWAN = ("named iwan (the accepted slider family) between wing and payload, judged on its "
-           "kd +0.2 %, fd -37.2 %; held-back 0.0378 -> 0.0016")
 WRONG_TODAY: dict[str, str] = {
     "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
     "gvt-gap-joint": "gap k +7.5 % against the fit-linear start model (g +1.0 %); held-back "
@@ -25,7 +23,6 @@ WRONG_TODAY: dict[str, str] = {
                      "model's model-form error); held-back 0.0224",
     "beam-cubic_tip-disp-random-few": "'adequate': every fitting level lies within its floor "
                                       "(no candidate is sought there); held-back 0.0904",
-    "twin-jenkins_joint-acc-multisine-daq": AS_IWAN,
     "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd +5.2 % (kd +0.0 %; -16.2 % "
                                                      "before the slider's harmonics were kept, "
                                                      "the rest's cause not measured)",
@@ -36,7 +33,9 @@ WRONG_TODAY: dict[str, str] = {
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
 effects, the kind ties and the gap's and slider's refit (docs/diagnose.md, Zoo, "Merged, session
-29")."""
+29"); the slider rows since measured per row with memory laws run between the samples and the
+periodic records' harmonics kept (docs/diagnose.md, "Sliders between the samples and above the
+band")."""
 
 
 def _param(case: Z.ZooCase):
