@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Hashable
 
 import numpy as np
+from scipy.signal import resample, resample_poly
 
 from ..models import KINDS, Element, Model, restoring_force
 from ..modal import welch_smoothing
@@ -150,12 +151,59 @@ def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
               period: int | None) -> np.ndarray:
     """Force of an element along ``u``, ``v``; a periodic memory element is first run
-    through one period so that the record sees its settled loop, not the virgin start."""
-    if period and KINDS[kind].memory and u.size >= period:
-        g = restoring_force(kind, params, np.concatenate([u[-period:], u]),
-                            np.concatenate([v[-period:], v]))[0]
+    through one period so that the record sees its settled loop, not the virgin start.
+
+    A memory law is run on the motion interpolated band-limited to `MEMORY_OVERSAMPLE`
+    times the sample rate (`oversampled_force`): its reversals are the motion's turning
+    points, which the samples miss between them.
+    """
+    if not KINDS[kind].memory:
+        return restoring_force(kind, params, u, v)[0]
+    if period and u.size >= period:
+        g = oversampled_force(kind, params, np.concatenate([u[-period:], u]),
+                              np.concatenate([v[-period:], v]), u.size % period == 0)
         return g[period:]
-    return restoring_force(kind, params, u, v)[0]
+    return oversampled_force(kind, params, u, v, False)
+
+
+MEMORY_OVERSAMPLE = 8
+"""Rate factor at which memory laws run along the measured motion (`oversampled_force`)."""
+
+
+def oversampled_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
+                      periodic: bool) -> np.ndarray:
+    """Force of a memory law along ``u``, ``v`` run at `MEMORY_OVERSAMPLE` times the rate.
+
+    A slider reverses where the velocity changes sign; at the sample rate that turning point
+    is missed by up to half a sample, so each Masing branch starts from a wrong ``(u_r, F_r)``
+    (measured, SDOF hysteresis, multisine 2-60 Hz at 256 Hz, noise-free: the law on the
+    samples fits the true force to 6-17 % and puts ``fd`` 7 % off; 8x: 1 % and 0.3-4 %).
+    The motion is interpolated band-limited (FFT for whole periods, `scipy.signal.resample_poly`
+    otherwise), the law run on it, and the force brought back to the sample rate by the same
+    anti-aliased resampling (a DAQ samples a continuous force).
+
+    Parameters
+    ----------
+    kind : str
+        Element kind (a memory kind).
+    params : dict
+        Its parameters by name.
+    u, v : ndarray, shape (n,)
+        Deformation and its rate at the sample rate.
+    periodic : bool
+        ``u`` and ``v`` hold whole periods of a periodic motion.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The force at the sample rate.
+    """
+    n, up = u.size, MEMORY_OVERSAMPLE
+    if periodic:
+        g = restoring_force(kind, params, resample(u, n * up), resample(v, n * up))[0]
+        return resample(g, n)
+    g = restoring_force(kind, params, resample_poly(u, up, 1), resample_poly(v, up, 1))[0]
+    return resample_poly(g, 1, up)[:n]
 
 
 def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) -> np.ndarray:

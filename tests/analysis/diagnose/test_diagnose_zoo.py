@@ -14,15 +14,8 @@ import pytest
 
 import diagnose_zoo as Z
 
-AS_IWAN = ("named iwan (the accepted slider family) between wing and payload, judged on its "
-           "kd +0.2 %, fd -37.2 %; held-back 0.0378 -> 0.0016")
 WRONG_TODAY: dict[str, str] = {
-    "sdof-hysteresis-disp-random": "hysteresis fd -10.5 % (kd +1.2 %), beside a quadratic "
-                                   "damping; held-back 2.13 -> 0.0764",
     "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
-    "chain-hysteresis01-acc-multisine": "named stick-slip plus a stiffness and a damping error "
-                                        "between 0 and 1, judged on its kd -12.0 %, fd "
-                                        "-24.1 %; held-back 1.25 -> 0.197",
     "gvt-gap-joint": "gap k +7.5 % against the fit-linear start model (g +1.0 %); held-back "
                      "0.0544 -> 0.0241",
     "gvt-cubic-tip": "'unexplained': the weak cubic at the tip gains less out of sample than "
@@ -30,13 +23,9 @@ WRONG_TODAY: dict[str, str] = {
                      "model's model-form error); held-back 0.0224",
     "beam-cubic_tip-disp-random-few": "'adequate': every fitting level lies within its floor "
                                       "(no candidate is sought there); held-back 0.0904",
-    "beam-jenkins_joint-acc-multisine-few-daq": "fd -5.7 %, kd -3.1 % with the mains line and "
-                                                "quantization; held-back 0.376 -> 0.0453",
-    "twin-jenkins_joint-acc-multisine": AS_IWAN,
-    "twin-hysteresis_joint-acc-multisine": "hysteresis fd -16.5 % (kd +0.2 %; -20.6 % without "
-                                           "sensor noise: not the noise)",
-    "twin-jenkins_joint-acc-multisine-daq": AS_IWAN,
-    "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd -16.2 % (kd +0.4 %)",
+    "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd +5.2 % (kd +0.0 %; -16.2 % "
+                                                     "before the slider's harmonics were kept, "
+                                                     "the rest's cause not measured)",
     "stiffpair-cubic1-disp-random": "named cubic springs at DOF 2 and at DOF 1 (the two move "
                                     "within 1.5 % of each other): p -91.9 % at DOF 1; "
                                     "held-back 2.52 -> 0.0593",
@@ -44,7 +33,9 @@ WRONG_TODAY: dict[str, str] = {
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
 effects, the kind ties and the gap's and slider's refit (docs/diagnose.md, Zoo, "Merged, session
-29")."""
+29"); the slider rows since measured per row with memory laws run between the samples and the
+periodic records' harmonics kept (docs/diagnose.md, "Sliders between the samples and above the
+band")."""
 
 
 def _param(case: Z.ZooCase):

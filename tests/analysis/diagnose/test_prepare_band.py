@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from analysis.diagnose._prepare import analysis_band
+from analysis.diagnose._prepare import analysis_band, kinematic_band
 from analysis.recordings import Recording
 
 
@@ -32,3 +32,15 @@ def test_lower_edge_of_an_integrated_record_is_the_drive_band(kind, lowest):
         assert lo < 1.0
     else:                           # the high-pass of the integration: the drive band's edge
         assert lowest <= lo <= 4.0
+
+
+@pytest.mark.parametrize("kind, periodic, lowpass", [
+    ("acceleration", True, 0.9 * 200.0), ("velocity", True, 0.9 * 200.0),
+    ("displacement", True, 30.0), ("acceleration", False, 30.0)])
+def test_periodic_integrated_records_keep_the_harmonics_above_the_band(kind, periodic, lowpass):
+    """A slider's reversals put harmonics far above the drive band into its deformation: a
+    periodic integrated record keeps them up to 0.9 x Nyquist (each line Wiener-filtered by
+    the period average), the others are low-passed at twice the band's upper edge."""
+    hp, lp = kinematic_band(400.0, kind, (2.0, 15.0), periodic)
+    assert lp == pytest.approx(lowpass)
+    assert hp == (0.0 if kind == "displacement" else 2.0)
