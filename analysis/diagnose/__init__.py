@@ -13,10 +13,10 @@ docs/diagnose.md.
 """
 
 from ._prepare import DiagnoseInputError, level_name
-from ._result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis, Evidence,
-                     FitSummary, KindAlternative, LevelError, LevelResiduals, Location,
-                     LocationRow, Misfit, PairThrough, PassSummary, Rejection, TimeResidual,
-                     Verdict)
+from ._evidence import Evidence, LocationRow, Misfit, PairThrough, PassSummary, Rejection
+from ._result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis,
+                      FitSummary, KindAlternative, LevelError, LevelResiduals, Location,
+                      TimeResidual, Verdict)
 from ._search import diagnose
 
 __all__ = [

@@ -30,7 +30,8 @@ from ._policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summar
 from ._joint import joint_refit
 from ._replay import Replay
 from ._report import LevelCurves, explain, fit_summary
-from ._result import Diagnosis, Evidence, Location, Rejection, Verdict
+from ._evidence import Evidence, Rejection
+from ._result import Diagnosis, Location, Verdict
 from ._select import Fit, Search
 from ._where import alternatives
 

@@ -18,7 +18,8 @@ from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
 from ._report import LevelCurves
 from ._outofsample import Z as OOS_Z, Score, score, tied
-from ._result import KindAlternative, Misfit, PassSummary, Rejection, Tried, TrendPoint
+from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
+from ._result import KindAlternative
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 from ._where import MAX_ALTERNATIVES
 

@@ -19,7 +19,8 @@ from ._prepare import (DiagnoseInputError, Prepared, analysis_band, level_name, 
                       prepared_band, record_level, split_segment)
 from ._replay import Replay, horizon_samples, replay, steady_replay
 from ._report import LevelCurves
-from ._result import Diagnosis, Evidence
+from ._evidence import Evidence
+from ._result import Diagnosis
 from ._select import SHORTLIST, Fit, RandomSearch
 from ._policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, other_kinds, pick_holdout
 from ._where import location_table

@@ -35,7 +35,7 @@ from ._policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdo
 from ._replay import periodic_replay
 from ._leakage import level_floor
 from ._report import LevelCurves
-from ._result import Evidence
+from ._evidence import Evidence
 from ._outofsample import Predictor
 from ._select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model,
                      scaled_params, screened, unit_params)

@@ -27,7 +27,8 @@ import numpy as np
 
 from ..models import Candidate
 from ._compare import LevelFRF
-from ._result import Alternative, GroundedEnd, LocationRow, PairThrough
+from ._evidence import GroundedEnd, LocationRow, PairThrough
+from ._result import Alternative
 from ._select import Fit, Search
 
 SEPARATE = 10.0
