@@ -17,9 +17,10 @@ fastest of 15 passes, `blockwise_time`, which holds on a shared machine), the ra
 solve_ivp (DOP853, rtol 1e-9, on the modal coordinates) timed in the same run, and the
 default-settings error against a converged run (oversample 48; target <= 1e-5).
 
-Then this tree against a base commit (default HEAD~1) in the same run (`benchmarks/_compare.py`):
-both cases' default-settings runs (10 s), alternately in subprocesses, best wall clock and
-thread CPU time of each.
+Then this tree against a base commit (default HEAD~1, the previous commit) in the same run
+(`benchmarks/_compare.py`): both cases' default-settings runs (10 s), alternately in
+subprocesses, best wall clock and thread CPU time of each, their ratio and the output
+samples/s of each tree (target >= 1,000,000 with default settings).
 
 Case ``records`` (not in ``all``): the numba structure the kernel's records could be, one
 output stage reading four matrices per call, 80 000 calls from a jitted loop: a NamedTuple, a
@@ -53,6 +54,8 @@ from test_plant import reference_response  # noqa: E402
 from test_plant_modal import aircraft_model  # noqa: E402
 
 MODAL_FS = 4096.0
+#: output samples of the `compare` cases (their default arguments)
+RUN_SAMPLES = {"chain_run": int(10.0 * 8192.0), "modal_run": int(10.0 * MODAL_FS)}
 
 
 def main() -> None:
@@ -72,7 +75,14 @@ def main() -> None:
         return
     if not args.no_compare:
         cases = {"chain": ["bench_plant:chain_run"], "modal": ["bench_plant:modal_run"]}
-        compare(cases.get(args.case, cases["chain"] + cases["modal"]), args.base, repeats=2)
+        results = compare(cases.get(args.case, cases["chain"] + cases["modal"]), args.base,
+                          repeats=2)
+        for name, (old, new) in results.items():
+            n = RUN_SAMPLES[name.split(":")[1]]
+            print(f"{name}: output samples/s by thread CPU time, {args.base} "
+                  f"{n / old.cpu:,.0f}, this tree {n / new.cpu:,.0f} "
+                  f"{'>=' if n / new.cpu >= 1e6 else '<'} 1,000,000 (by wall clock "
+                  f"{n / old.wall:,.0f} and {n / new.wall:,.0f})")
 
 
 def chain_run(seconds: float = 10.0, fs: float = 8192.0):

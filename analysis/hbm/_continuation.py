@@ -15,9 +15,11 @@ start of the curve, which must lie on a stable branch (e.g. far below resonance)
 from __future__ import annotations
 
 from dataclasses import dataclass
+import math
 from typing import Sequence
 
 import numpy as np
+from scipy.linalg.lapack import dgetrf, dgetrs
 
 from ..errors import EstimationError
 from ._hbm import HBMError, HBMSystem
@@ -104,7 +106,7 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
     r, J, dr_df = aug(z)
     A = np.column_stack([J, dr_df])
     tangent = _tangent(A, None, direction)
-    points, signs = [z.copy()], [np.sign(np.linalg.det(J))]
+    points, signs = [z.copy()], [_det_sign(J)]
     h = step
     while len(points) < max_points:
         zp = z + h * tangent
@@ -116,12 +118,11 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
             continue
         # the tangent and the stability sign from the corrector's last iterate, whose
         # distance to zc is below the tolerance (no separate evaluation at zc)
-        zl, r, J, dr_df = last
-        A = np.column_stack([J, dr_df])
-        tangent = _tangent(A, tangent, None)
+        zl, r, J, dr_df, lu = last
+        tangent = _tangent(np.column_stack([J, dr_df]), tangent, None, lu)
         z = zc
         points.append(z.copy())
-        signs.append(np.sign(np.linalg.det(J)))
+        signs.append(_det_sign(J))
         h = min(max_step, h * (1.5 if iters <= 3 else 0.7 if iters >= 6 else 1.0))
         if (z[-1] * ws - f_end) * direction >= 0:
             break
@@ -134,32 +135,48 @@ def continue_frf(system: HBMSystem, f_start: float, f_end: float, force: float |
     return Branch(freqs, X, stable, folds)
 
 
-def _tangent(A: np.ndarray, previous: np.ndarray | None, direction: float | None) -> np.ndarray:
+def _tangent(A: np.ndarray, previous: np.ndarray | None, direction: float | None,
+             lu: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Unit null vector of the augmented Jacobian, oriented along ``previous`` (or so that
     the frequency moves in ``direction``).
 
-    Along the curve, the solution of ``[A; previous] t = e_last`` (the bordered system, one
-    LU) is that null vector scaled, oriented along ``previous``; the first point, or a
-    bordered system that is singular, takes it from the SVD."""
-    if previous is not None:
-        K = np.empty((A.shape[1], A.shape[1]))
-        K[:-1] = A
-        K[-1] = previous
+    Along the curve, the solution of ``[A; previous] t = e_last`` (the bordered system) is
+    that null vector scaled, oriented along ``previous``: that matrix is the corrector's
+    last one, so its LU ``lu`` (`_factor`) is reused; the first point, or a bordered system
+    that is singular, takes it from the SVD."""
+    if previous is not None and lu is not None:
         rhs = np.zeros(A.shape[1])
         rhs[-1] = 1.0
-        try:
-            t = np.linalg.solve(K, rhs)
-        except np.linalg.LinAlgError:
-            t = np.linalg.svd(A)[2][-1]
-        t = t / np.linalg.norm(t)
+        t = dgetrs(*lu, rhs)[0]
+        t = t / math.sqrt(t @ t)
         return t if t @ previous >= 0 else -t
     t = np.linalg.svd(A)[2][-1]
+    if previous is not None:
+        return t if t @ previous >= 0 else -t
     return t if np.sign(t[-1]) == direction or t[-1] == 0 else -t
+
+
+# LAPACK's getrf/getrs called directly: `np.linalg.solve` and `det` spend most of their
+# time on type checks for these 7 x 7 systems (one per corrector iteration and point).
+def _factor(K: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """LU factors of ``K`` (LAPACK getrf), None when it is singular."""
+    lu, piv, info = dgetrf(K)
+    return (lu, piv) if info == 0 else None
+
+
+def _det_sign(J: np.ndarray) -> float:
+    """Sign of ``det(J)`` from its LU factors (0 when singular)."""
+    lu, piv, info = dgetrf(J)
+    if info != 0:
+        return 0.0
+    swaps = np.count_nonzero(piv != np.arange(piv.size))
+    return float((-1) ** swaps * np.prod(np.sign(np.diagonal(lu))))
 
 
 def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
     """Newton on ``R(z) = 0`` and ``t.(z - zp) = 0``. Returns the point, whether it
-    converged, the iterations and the last evaluated iterate ``(z, r, dr/dy, dr/df)``."""
+    converged, the iterations and the last evaluated iterate ``(z, r, dr/dy, dr/df)`` with
+    the LU factors of its bordered Jacobian (`_factor`)."""
     z = zp.copy()
     K = np.empty((z.size, z.size))      # the bordered Jacobian, filled in place
     K[-1] = t
@@ -170,13 +187,13 @@ def _correct(aug, zp: np.ndarray, t: np.ndarray, tol: float, max_iter: int):
         F[-1] = t @ (z - zp)
         K[:-1, :-1] = J
         K[:-1, -1] = dr_df
-        try:
-            dz = np.linalg.solve(K, -F)
-        except np.linalg.LinAlgError:
+        lu = _factor(K)
+        if lu is None:
             return z, False, it, None
-        last = (z, r, J, dr_df)
+        dz = dgetrs(*lu, -F)[0]
+        last = (z, r, J, dr_df, lu)
         z = z + dz
-        if np.linalg.norm(dz) <= tol * max(1.0, np.linalg.norm(z)):
+        if math.sqrt(dz @ dz) <= tol * max(1.0, math.sqrt(z @ z)):
             return z, True, it, last
     return z, False, max_iter, None
 

@@ -143,12 +143,13 @@ def _element_stiffness(el: Any, umax: float = 0.0, vmax: float = 0.0) -> tuple[f
     return k, c
 
 
-def _element_slopes(model: Model, uv: np.ndarray | None = None) -> np.ndarray:
+def _element_slopes(model: Model, peak: np.ndarray | None = None) -> np.ndarray:
     """(2, n_elements): each element's largest stiffness and viscous slope
-    (`_element_stiffness`); with ``uv`` (n, 2 n_elements), the deformations then the rates
-    of the elements over a stretch of run, from their running tangents."""
+    (`_element_stiffness`); with ``peak`` (2 n_elements), the largest deformations then
+    rates of the elements over a stretch of run, from their running tangents (a slope grows
+    with its peak: `Plant._advance` relies on it)."""
     ne = len(model.elements)
-    peak = np.zeros(2 * ne) if uv is None or not uv.size else _k.abs_peak(uv)
+    peak = np.zeros(2 * ne) if peak is None else peak
     out = np.zeros((2, ne))
     for i, el in enumerate(model.elements):
         out[:, i] = _element_stiffness(el, peak[i], peak[ne + i])
@@ -383,6 +384,10 @@ class Plant:
         self.oversample = self._initial_oversample
         self._checked_omega = 0.0
         self._bound_slopes = np.full((2, ne), -1.0)   # slopes known to keep omega checked
+        self._peak_ok = np.full(2 * ne, -1.0)          # element peaks within those slopes
+        self._no_peaks, self._any_peaks = np.full(2 * ne, -1.0), np.full(2 * ne, np.inf)
+        self._start = PlantState(*(np.zeros_like(a) for a in (self._s, self._gh, self._uh,
+                                                              self._es, self._fprev)))
         self.raised = 0         # times step doubling raised the substeps since the reset
 
     @property
@@ -446,13 +451,9 @@ class Plant:
         force = np.ascontiguousarray(force)
         n, ndof = force.shape[0], self.model.n_dof
         out = self._outputs(n)
-        step = CHUNK if self.adaptive else max(n, 1)
-        for i in range(0, n, step):
-            part = _Outputs(*(a[i:i + step] for a in out))
-            if self.adaptive:
-                self._checked(force[i:i + step], part)
-            else:
-                self._integrate(force[i:i + step], self.oversample, part)
+        i = 0
+        while i < n:
+            i = self._advance(force, out, i)
         clean = {"displacement": out.x, "velocity": out.v,
                  "acceleration": out.a}[self.response_kind]
         response = clean.copy()
@@ -466,25 +467,53 @@ class Plant:
         return _Outputs(np.empty((n, npt)), np.empty((n, npt)), np.empty((n, npt)),
                       np.empty((n, ne)), np.empty((n, 2 * ne)))
 
-    def _integrate(self, force: np.ndarray, m: int, out: "_Outputs") -> None:
+    def _advance(self, force: np.ndarray, out: "_Outputs", i: int) -> int:
+        """Integrate from sample ``i`` into ``out``; returns the sample to continue from.
+
+        Fixed substeps: the rest of the record in one kernel call. Automatic ones: chunks of
+        ``CHUNK`` samples in one kernel call while every element's deformation and rate
+        peaks stay within those the check has cleared (`_checked`: the element slopes grow
+        with them), then the first chunk beyond them is checked here."""
+        n = force.shape[0]
+        if not self.adaptive:
+            self._integrate(force[i:], self.oversample, _Outputs(*(a[i:] for a in out)))
+            return n
+        j = i + self._integrate(force[i:], self.oversample, _Outputs(*(a[i:] for a in out)),
+                                CHUNK, self._peak_ok)
+        if j >= n:
+            return n
+        end = min(j + CHUNK, n)
+        self._checked(force[j:end], _Outputs(*(a[j:end] for a in out)),
+                      (*(a.copy() for a in self._start), self.oversample))
+        return end
+
+    def _integrate(self, force: np.ndarray, m: int, out: "_Outputs", chunk: int = 0,
+                   peak_ok: np.ndarray | None = None) -> int:
         """Outputs at the points, element forces and deformations over ``force`` with ``m``
-        substeps, into ``out``."""
+        substeps, into ``out``; with ``chunk`` and ``peak_ok``, stops after the first chunk
+        whose element peaks exceed ``peak_ok`` and returns its first sample (`_advance`;
+        its start state is in ``self._start``), else returns ``force.shape[0]``."""
         kern = self._kernel(m)
-        kernel = _k.integrate_strict if any(spec.code >= N_BUILTIN for spec in KINDS.values()) \
-            else _k.integrate
-        kernel(force, m, kern["disc"], PlantState(self._s, self._gh, self._uh, self._es,
-                                                      self._fprev), out, self.stats)
+        strict = any(spec.code >= N_BUILTIN for spec in KINDS.values())
+        kernel = _k.integrate_strict if strict else _k.integrate
+        if peak_ok is None or strict:       # slopes of registered kinds: checked in Python
+            peak_ok = self._no_peaks if peak_ok is not None else self._any_peaks
+        done = kernel(force, m, kern["disc"], PlantState(self._s, self._gh, self._uh,
+                                                             self._es, self._fprev),
+                      out, self.stats, chunk or max(force.shape[0], 1), peak_ok, self._start)
         if not np.all(np.isfinite(self._s)):
             raise PlantError("the simulation diverged; raise oversample or lower the drive")
+        return done
 
-    def _checked(self, force: np.ndarray, res: "_Outputs") -> None:
-        """`_integrate` one chunk into ``res`` with the step-doubling check of the module
-        docstring."""
-        start = self._snapshot()
-        self._integrate(force, self.oversample, res)
-        slopes = _element_slopes(self.model, res.uv)
+    def _checked(self, force: np.ndarray, res: "_Outputs", start: tuple[Any, ...]) -> None:
+        """The step-doubling check of the module docstring on one chunk ``force``, already
+        integrated into ``res`` from the state ``start`` (`_snapshot`)."""
+        peaks = _k.abs_peak(res.uv) if res.uv.size else np.zeros(res.uv.shape[1])
+        slopes = _element_slopes(self.model, peaks)
         if np.all(slopes <= self._bound_slopes):
+            self._peak_ok = np.maximum(self._peak_ok, peaks)
             return
+        self._peak_ok = peaks
         omega = _tangent_omega(self.model, slopes)
         if omega <= self._checked_omega:
             self._bound_slopes = _bound(slopes, self._checked_omega / omega)

@@ -87,20 +87,14 @@ def _sample(k: int, d: Discretisation, ps: PlantState, w: Work, out: Outputs) ->
         out.a[k, p] = ax
 
 
-def _run(force: np.ndarray, m: int, d: Discretisation, ps: PlantState, out: Outputs,
-         stats: np.ndarray, w: Work) -> None:
-    """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each.
-
-    ``ps`` is updated in place (``s`` is the accumulated state of `analysis.plant._plant`,
-    Method); ``out`` receives each output sample; ``stats`` counts substeps, corrector
-    iterations, located events and unconverged substeps. The stages
-    (`analysis.plant._substep`) are inlined into this loop.
-    """
-    s, gh, fprev = ps.s, ps.gh, ps.fprev
+@numba.njit(cache=True, inline="always")
+def _begin(d: Discretisation, ps: PlantState, w: Work) -> None:
+    """Start of a chunk: the pending history ``w.z``, the end-node forces ``w.g`` and the
+    deformation rates ``w.vh`` of the last node, from the state (as a call of its own)."""
+    s, gh = ps.s, ps.gh
     n = s.shape[0] // 2
     ne, q = gh.shape
-    n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
-    _history(fprev, gh, w.z)
+    _history(ps.fprev, gh, w.z)
     for e in range(ne):
         w.g[e] = gh[e, q - 1]
         tv, tz = 0.0, 0.0
@@ -109,25 +103,82 @@ def _run(force: np.ndarray, m: int, d: Discretisation, ps: PlantState, out: Outp
         for c in range(d.r_v.shape[1]):
             tz += d.r_v[e, c] * w.z[c]
         w.vh[e] = tv - tz
-    for k in range(force.shape[0]):
-        for j in range(m):
-            known_part(force, k, j, m, d, ps, w)
-            if ne == 0:
-                for r in range(s.shape[0]):
-                    s[r] = w.kn[r]
-                continue
-            predict(d, ps, w)
-            its, converged = correct(d, ps, w)
-            n_iter += its
-            n_noconv += 0 if converged else 1
-            n_events += commit(d, ps, w)
-        stats[S_SUBSTEPS] += m
-        for i in range(fprev.shape[0]):
-            fprev[i] = force[k, i]
-        _sample(k, d, ps, w, out)
+
+
+@numba.njit(cache=True, inline="always")
+def _save(ps: PlantState, start: PlantState) -> None:
+    """Copy the state ``ps`` into ``start`` (the start of a chunk, for the check)."""
+    for a, b in ((ps.s, start.s), (ps.fprev, start.fprev)):
+        for i in range(a.shape[0]):
+            b[i] = a[i]
+    for a, b in ((ps.gh, start.gh), (ps.uh, start.uh), (ps.es, start.es)):
+        for i in range(a.shape[0]):
+            for j in range(a.shape[1]):
+                b[i, j] = a[i, j]
+
+
+@numba.njit(cache=True, inline="always")
+def _needs_check(i: int, j: int, ps: PlantState, out: Outputs, peak_ok: np.ndarray) -> bool:
+    """Whether the chunk ``i:j`` goes back to the caller: the state is not finite, or an
+    element's deformation or rate peak over the chunk exceeds ``peak_ok`` (what the
+    step-doubling check has cleared)."""
+    for r in range(ps.s.shape[0]):
+        if not np.isfinite(ps.s[r]):
+            return True
+    uv = out.uv
+    for c in range(uv.shape[1]):
+        bound = peak_ok[c]
+        for k in range(i, j):
+            if abs(uv[k, c]) > bound:
+                return True
+    return False
+
+
+def _run(force: np.ndarray, m: int, d: Discretisation, ps: PlantState, out: Outputs,
+         stats: np.ndarray, w: Work, chunk: int, peak_ok: np.ndarray,
+         start: PlantState) -> int:
+    """Advance the plant over ``force.shape[0]`` output samples, ``m`` substeps each, in
+    chunks of ``chunk`` samples; stop after the first chunk that `_needs_check` and return
+    its first sample (else the number of samples). ``start`` receives the state at the start
+    of each chunk.
+
+    ``ps`` is updated in place (``s`` is the accumulated state of `analysis.plant._plant`,
+    Method); ``out`` receives each output sample; ``stats`` counts substeps, corrector
+    iterations, located events and unconverged substeps. The stages
+    (`analysis.plant._substep`) are inlined into this loop.
+    """
+    s, fprev = ps.s, ps.fprev
+    ne = ps.gh.shape[0]
+    n_iter = n_noconv = n_events = 0    # counted locally: stores to stats cost in the loop
+    n = force.shape[0]
+    stop = n
+    for i in range(0, n, chunk):
+        j = min(i + chunk, n)
+        _save(ps, start)
+        _begin(d, ps, w)
+        for k in range(i, j):
+            for jj in range(m):
+                known_part(force, k, jj, m, d, ps, w)
+                if ne == 0:
+                    for r in range(s.shape[0]):
+                        s[r] = w.kn[r]
+                    continue
+                predict(d, ps, w)
+                its, converged = correct(d, ps, w)
+                n_iter += its
+                n_noconv += 0 if converged else 1
+                n_events += commit(d, ps, w)
+            for r in range(fprev.shape[0]):
+                fprev[r] = force[k, r]
+            _sample(k, d, ps, w, out)
+        stats[S_SUBSTEPS] += m * (j - i)
+        if _needs_check(i, j, ps, out, peak_ok):
+            stop = i
+            break
     stats[S_ITER] += n_iter
     stats[S_NOCONV] += n_noconv
     stats[S_EVENTS] += n_events
+    return stop
 
 
 # The loop compiles without numba's reference counting (``_nrt=False``, a numba compiler
@@ -141,13 +192,16 @@ _run_strict = numba.njit(error_model="numpy", _nrt=False)(_run)
 
 @numba.njit(cache=True)
 def integrate(force: np.ndarray, m: int, d: Discretisation, ps: PlantState, out: Outputs,
-              stats: np.ndarray) -> None:
+              stats: np.ndarray, chunk: int, peak_ok: np.ndarray, start: PlantState) -> int:
     """`_run` with fast-math."""
-    _run_fast(force, m, d, ps, out, stats, work(d, ps, force.shape[1]))
+    return _run_fast(force, m, d, ps, out, stats, work(d, ps, force.shape[1]), chunk,
+                     peak_ok, start)
 
 
 @numba.njit
 def integrate_strict(force: np.ndarray, m: int, d: Discretisation, ps: PlantState,
-                     out: Outputs, stats: np.ndarray) -> None:
+                     out: Outputs, stats: np.ndarray, chunk: int, peak_ok: np.ndarray,
+                     start: PlantState) -> int:
     """`_run` without fast-math."""
-    _run_strict(force, m, d, ps, out, stats, work(d, ps, force.shape[1]))
+    return _run_strict(force, m, d, ps, out, stats, work(d, ps, force.shape[1]), chunk,
+                       peak_ok, start)
