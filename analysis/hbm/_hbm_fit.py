@@ -343,6 +343,7 @@ def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
     z, r, c = best
     p = problem.to_params(z)
     ci, warnings = _uncertainty(problem, z, r, lo, hi)
+    warnings = _unsettled(levels) + warnings
     elements = [type(el)(el.kind, el.w.copy(), dict(el.params)) for el in model.elements]
     for (e, name), value in zip(problem.unknowns, p):
         elements[e].params[name] = float(value)
@@ -364,6 +365,15 @@ def _optimise(problem: HBMFit, z0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                    method="Nelder-Mead", bounds=list(zip(lo, hi)),
                    options={"xatol": 1e-6, "fatol": 0.0, "maxfev": 2000, "adaptive": True})
     return sol.x, problem.residuals(sol.x)
+
+
+def _unsettled(levels: Sequence[SteppedSineFRF]) -> list[str]:
+    """One warning per level with steps still transient in their last quarter."""
+    return [f"level {lv.level:.3g} N: the step(s) at "
+            f"{', '.join(f'{f:g}' for f in lv.unsettled)} Hz have not settled by their last "
+            "quarter (the free decay of the previous step still shows; that quarter is "
+            "fitted, its FRF reads some of the decay): record longer steps"
+            for lv in levels if lv.unsettled]
 
 
 def _uncertainty(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray,
