@@ -84,12 +84,14 @@ def steady_start(force: np.ndarray, response: np.ndarray, fs: float, freq: float
                  harmonics: Sequence[int] = (1,)) -> int:
     """First sample of the steady part of one stepped-sine step.
 
-    The step is cut into `SETTLE_WINDOWS` windows and each window's fundamental FRF (every
+    The step is cut into `SETTLE_WINDOWS` windows and each window's fundamental FRF (each
     response channel over the force; ``harmonics`` fitted with it, so that they do not leak
-    into it) compared with the FRF of the step's last quarter. Its windows' rms distance to
-    that FRF is the noise; the step is steady from the first window after which every window
-    is within ``max(SETTLE_TOL, SETTLE_NOISE * noise)`` of it (a window further off, the
-    transient's free decay, is dropped with all before it). The last quarter is always kept.
+    into it) compared with the FRF of the step's last quarter; a channel's noise is its
+    window's standard error from the residual of that quarter's fit. The step is steady from
+    the first window after which every window of every channel is within
+    ``max(SETTLE_TOL, SETTLE_NOISE * noise)`` of it, relative (a noisy channel does not loosen
+    a clean one's test; a window further off, the transient's free decay, is dropped with all
+    before it). The last quarter is always kept.
 
     Parameters
     ----------
@@ -121,22 +123,24 @@ def steady_start(force: np.ndarray, response: np.ndarray, fs: float, freq: float
         return sine_fit(resp[lo:hi], fs, freq, h)[0] / sine_fit(force[lo:hi], fs, freq)[0]
 
     ref = frf(last * w, n)
-    d = np.array([np.linalg.norm(frf(i * w, i * w + w) - ref) for i in range(last)])
-    d /= max(float(np.linalg.norm(ref)), 1e-300)
-    off = np.flatnonzero(d > max(SETTLE_TOL, SETTLE_NOISE * _window_noise(
-        force[last * w:], resp[last * w:], fs, freq, h, w)))
+    d = np.abs(np.stack([frf(i * w, i * w + w) for i in range(last)]) - ref)
+    d /= np.maximum(np.abs(ref), 1e-300)
+    tol = np.maximum(SETTLE_TOL, SETTLE_NOISE * _window_noise(force[last * w:], resp[last * w:],
+                                                              fs, freq, h, w))
+    off = np.flatnonzero((d > tol).any(axis=1))
     return int(off[-1] + 1) * w if off.size else 0
 
 
 def _window_noise(force: np.ndarray, resp: np.ndarray, fs: float, freq: float,
-                  h: np.ndarray, w: int) -> float:
-    """Relative standard error of a ``w``-sample window's FRF from the fit residuals of a
-    steady block (least squares: each of Re, Im of an amplitude has ``sigma sqrt(2 / w)``)."""
-    rel = 0.0
-    for x, orders in ((force[:, None], h[:1]), (resp, h)):
-        amp, sigma2 = _fit(x, fs, freq, orders)
-        rel += float(np.sum(sigma2) / max(np.sum(np.abs(amp[0]) ** 2), 1e-300))
-    return float(np.sqrt(4 * rel / w))
+                  h: np.ndarray, w: int) -> np.ndarray:
+    """Relative standard error of a ``w``-sample window's FRF per response channel from the
+    fit residuals of a steady block (least squares: each of Re, Im of an amplitude has
+    ``sigma sqrt(2 / w)``)."""
+    amp_f, var_f = _fit(force[:, None], fs, freq, h[:1])
+    amp_x, var_x = _fit(resp, fs, freq, h)
+    rel = var_f[0] / max(abs(amp_f[0, 0]) ** 2, 1e-300) + var_x / np.maximum(
+        np.abs(amp_x[0]) ** 2, 1e-300)
+    return np.sqrt(4 * rel / w)
 
 
 def hold_gain(freq: np.ndarray | float, fs: float, hold: str | None) -> np.ndarray:
