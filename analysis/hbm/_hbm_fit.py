@@ -20,6 +20,7 @@ from typing import Sequence
 import numpy as np
 from scipy.interpolate import make_interp_spline
 from scipy.optimize import least_squares, minimize
+from scipy.stats import f as f_dist
 from scipy.stats import qmc
 
 from ..errors import EstimationError, InputError
@@ -405,7 +406,6 @@ def _take_out_delay(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarra
     `DELAY_ALPHA` and it turns the phase at the highest step by more than `DELAY_PHASE`; it
     is then taken out of the measured FRFs and the fit polished again, until the step
     adds less than 1 % of it."""
-    from scipy.stats import f as f_dist
 
     top = max(float(lv.freqs.max()) for lv in problem.levels)
     for _ in range(DELAY_PASSES):
