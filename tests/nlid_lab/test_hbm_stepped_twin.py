@@ -86,3 +86,18 @@ def test_noisy_stepped_twin_covered(twin):
         covered += lo <= T.P_TRUE <= hi
         assert (hi - lo) / 2 / T.P_TRUE > 1e-3
     assert covered >= 3
+
+
+def test_channel_delay_is_read_taken_out_and_named(twin):
+    """The `delay` artifact (responses one sample behind the force, 1.953 ms at 512 Hz)
+    turned the FRF phase by ``w tau`` and took the cubic to 2.59e9 [1.75e9, 3.43e9]; the fit
+    now reads the delay, takes it out and names it: the cubic as without the delay (the
+    noise-free tolerance) and no delay named on the clean twin."""
+    r = twin.response
+    late = dataclasses.replace(twin, response=np.concatenate([r[:, :1], r[:, :-1]], axis=1))
+    p, (lo, hi), warnings = _fit(late)
+    assert abs(p / T.P_TRUE - 1) < NOISE_FREE_TOL and lo <= T.P_TRUE <= hi
+    (said,) = [w for w in warnings if "lag the force" in w]
+    ms = float(said.split("by ")[1].split(" ms")[0])
+    assert ms == pytest.approx(1e3 / T.FS, rel=0.02)
+    assert not any("lag the force" in w for w in _fit(twin)[2])
