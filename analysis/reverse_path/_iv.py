@@ -74,23 +74,37 @@ def _iv_solution(spec: Spectra, n_dof: int, n_in: int, n_r: int
     return H, cov, sigma2, {"instrument_coherence": coh}
 
 
+def iv_transfer(S_xz: np.ndarray, S_rz: np.ndarray, S_zz: np.ndarray, singular: str
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Instrumental-variable transfer ``H = S_XZ S_RZ^-1`` per frequency and the row
+    covariance factor ``A^H S_ZZ A`` (``A = S_RZ^-1``; times the residual variance, the
+    covariance of a row of ``H`` in `_form_covariance` order), from cross spectra or sums
+    over observations alike.
+
+    Raises
+    ------
+    InputError
+        ``singular`` when ``S_RZ`` is singular at some frequency.
+    """
+    try:
+        a = np.linalg.inv(S_rz)
+    except np.linalg.LinAlgError:
+        raise InputError(singular) from None
+    return S_xz @ a, a.conj().transpose(0, 2, 1) @ S_zz @ a
+
+
 def _iv(S: np.ndarray, xs: slice, rs: slice, zs: slice
         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Instrumental-variable ``H = S_XZ S_RZ^-1``, its row covariance matrix, residual PSD.
 
     With ``A = S_RZ^-1`` the row error ``dh = s_EZ A`` has covariance
-    ``sigma^2 A^H S_ZZ A / n`` (in the index order `_form_covariance` expects); ``sigma^2``
-    is the auto-spectrum of the residual ``X - H R``.
+    ``sigma^2 A^H S_ZZ A / n`` (`iv_transfer`); ``sigma^2`` is the auto-spectrum of the
+    residual ``X - H R``.
     """
-    S_xz, S_rz, S_zz = S[:, xs, zs], S[:, rs, zs], S[:, zs, zs]
     S_xx, S_xr, S_rr = S[:, xs, xs], S[:, xs, rs], S[:, rs, rs]
-    try:
-        a = np.linalg.inv(S_rz)
-    except np.linalg.LinAlgError:
-        raise InputError("the instruments do not span the inputs (singular G_RZ): an input "
-                         "is repeated or not excited; remove it or use noise='none'") from None
-    H = S_xz @ a
-    cov = a.conj().transpose(0, 2, 1) @ S_zz @ a
+    H, cov = iv_transfer(S[:, xs, zs], S[:, rs, zs], S[:, zs, zs],
+                         "the instruments do not span the inputs (singular G_RZ): an input "
+                         "is repeated or not excited; remove it or use noise='none'")
     hs = H @ S_xr.conj().transpose(0, 2, 1)
     resid = (np.einsum("fii->fi", S_xx).real - 2 * np.einsum("fii->fi", hs).real
              + np.einsum("fya,fab,fyb->fy", H, S_rr, H.conj()).real)

@@ -141,7 +141,7 @@ def _blocks(recs: list[tuple[Recording, str]], layouts: list[Layout | None]) -> 
 def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs: float,
            warnings: list[str]) -> tuple[tuple[float, float], np.ndarray]:
     """The analysis band (the force's excited band unless given) and the excited lines in
-    it (`analysis.spectral.excited_lines`, its note added to ``warnings``)."""
+    it (`analysis.spectral.excited_lines`, its note and caveat added to ``warnings``)."""
     fpow, fvar, amp, amp_var = _force_lines(blocks)
     if band is None:
         band = excitation_band(freqs, fpow)
@@ -157,8 +157,7 @@ def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs
     if picked.lines.size == 0:
         raise InputError(f"the force excites no line of the {n}-sample period in "
                          f"{lo:g}-{hi:g} Hz; check the band")
-    if picked.note():
-        warnings.append(picked.note())
+    warnings += [w for w in (picked.note(), picked.caveat()) if w]
     return (lo, hi), picked.lines
 
 

@@ -13,9 +13,9 @@ import scipy.ndimage
 import scipy.stats
 
 from .. import models as bas    # the reverse-path basis functions of a kind
-from ..errors import InputError
 from ..models import restoring_force
 from ..recordings import period_spectra, periodic_kinematics
+from ._iv import iv_transfer
 from ._core import (EDGE_CAP, EDGE_RUN, EDGE_SNR, Z95, ReversePathResult, _alias_upsampling,
                     _coefficients, _force_span, _Processing)
 
@@ -66,23 +66,19 @@ def _lines_iv(X: np.ndarray, R: np.ndarray, Z: np.ndarray
     """Per-line IV over observations (axis 0): transfer, row covariance, residual variance.
 
     ``H = S_XZ S_RZ^-1`` with sums over observations; the row covariance is
-    ``sigma^2 A^H S_ZZ A`` (``A = S_RZ^-1``, `_form_covariance` order) with ``sigma^2`` the
-    residual variance per observation. Also the median coherence of each input with its
+    ``sigma^2 A^H S_ZZ A`` (`iv_transfer`) with ``sigma^2`` the residual variance per
+    observation. Also the median coherence of each input with its
     instrument.
     """
     S_xz = np.einsum("ofy,ofa->fya", X, Z.conj())
     S_rz = np.einsum("ofa,ofb->fab", R, Z.conj())
     S_zz = np.einsum("ofa,ofb->fab", Z, Z.conj())
-    try:
-        a = np.linalg.inv(S_rz)
-    except np.linalg.LinAlgError:
-        raise InputError("the inputs are linearly dependent over the realizations at some "
-                         "line (a repeated basis or an unexcited force); remove it") from None
-    H = S_xz @ a
+    H, cov = iv_transfer(S_xz, S_rz, S_zz,
+                         "the inputs are linearly dependent over the realizations at some "
+                         "line (a repeated basis or an unexcited force); remove it")
     resid = X - np.einsum("fya,ofa->ofy", H, R)
     dof = X.shape[0] - R.shape[2]
     sigma2 = (np.abs(resid) ** 2).sum(axis=0) / dof
-    cov = a.conj().transpose(0, 2, 1) @ S_zz @ a
     s_rr = np.einsum("ofa,ofa->fa", R, R.conj()).real
     s_zz = np.einsum("faa->fa", S_zz).real
     coh = np.abs(np.einsum("faa->fa", S_rz)) ** 2 / (s_rr * s_zz)

@@ -14,8 +14,8 @@ from ._resolution import (LINES_PER_BANDWIDTH, Resolution, longest_nperseg, narr
                           resolving_nperseg)
 from ._bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from ._lines import ExcitedLines, Interference, excited_lines
-from ._sine_fit import (SteppedSineFRF, hold_gain, recording_table, sine_fit, stepped_sine_frf,
-                        table_harmonics)
+from ._sine_fit import (SteppedSineFRF, hold_gain, recording_table, sine_fit, steady_start,
+                        stepped_sine_frf, table_harmonics)
 from ._sweep import (NOISE_ORDERS, SweepFRF, SweepLaw, harmonic_distortion, independent_windows,
                      linear_modes,
                      max_sweep_rate, quasi_steady, recording_sweep_frf, sweep_frf, sweep_rate_check,
@@ -28,6 +28,7 @@ __all__ = ["best_linear_approximation", "BLA", "conditioned_inputs", "convert_fr
            "LevelFRF", "linear_modes", "LINES_PER_BANDWIDTH", "longest_nperseg", "max_sweep_rate",
            "multiple_coherence", "narrowest_peak", "NOISE_ORDERS", "ordinary_coherence",
            "quasi_steady", "recording_sweep_frf", "recording_table", "Resolution",
-           "resolving_nperseg", "sine_fit", "Spectra", "spectral_matrix", "stepped_sine_frf",
+           "resolving_nperseg", "sine_fit", "Spectra", "spectral_matrix", "steady_start",
+           "stepped_sine_frf",
            "SteppedSineFRF", "sweep_frf", "sweep_rate_check", "sweep_signal", "SweepFRF",
            "SweepLaw", "table_harmonics"]

@@ -64,6 +64,9 @@ class BLA:
     realizations: int
     periods: int
     interference: tuple[Interference, ...] = ()
+    caveat: str | None = None
+    """`analysis.spectral.ExcitedLines.caveat` (one realization, mains multiples on the
+    drive lines)."""
 
     @property
     def var_distortion(self) -> np.ndarray:
@@ -148,4 +151,4 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     freqs = lines * fs / period
     gain = hold_gain(freqs, fs, force_hold)[:, None]
     return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p,
-               picked.interference)
+               picked.interference, picked.caveat())
