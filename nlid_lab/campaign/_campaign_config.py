@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from analysis.documents import TomlTable
 from analysis.errors import RecordingError
 from analysis.models import Model, parse_toml, read_text
 from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
@@ -360,7 +361,7 @@ def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
                             f"channel; use one of the response channels' dof {dofs}")
 
 
-def _plant(data: dict[str, Any], base: Path | None, shaker_url: str, daq_url: str
+def _plant(data: TomlTable, base: Path | None, shaker_url: str, daq_url: str
            ) -> PlantSpec | None:
     """The ``[plant]`` of a simulated bench (None for real hardware); both devices simulated
     or both real, and ``sim://`` for both or neither."""
@@ -388,7 +389,7 @@ def _plant(data: dict[str, Any], base: Path | None, shaker_url: str, daq_url: st
                      _opt(p, "noise_std", "plant", PlantSpec, lo=0), over)
 
 
-def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
+def parse_campaign(data: TomlTable, base: Path | None = None) -> Campaign:
     """Validate a campaign dict (as read from TOML); paths relative to ``base``."""
     if not isinstance(data, dict):
         raise CampaignError("a campaign file is a TOML table")
