@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from analysis.documents import TomlTable
 from analysis.errors import RecordingError
@@ -102,9 +101,9 @@ class Campaign:
     watchdog: float | None = None
     limits: dict[str, float] = field(default_factory=dict)
     pace: float | None = None
-    faults: dict[str, Any] = field(default_factory=dict)
+    faults: TomlTable = field(default_factory=dict)
     source: Path | None = None
-    raw: dict[str, Any] = field(default_factory=dict)
+    raw: TomlTable = field(default_factory=dict)
     sensors: SensorMap | None = None   # [sensors]: channels at model points (sim:// only)
 
     @property

@@ -27,7 +27,7 @@ def read_npz(path: str | os.PathLike) -> Recording | StepTable:
     return recording_from_keys(load_npz_keys(path), path)
 
 
-def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
+def load_npz_keys(path: str | os.PathLike) -> RecordingKeys:
     """Every key of an NPZ recording, unchecked (`recording_from_keys` checks them)."""
     return load_npz_file(Path(path), "recording")
 
@@ -76,7 +76,7 @@ def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
 
 
 
-def recording_keys(rec: Recording | StepTable) -> dict[str, np.ndarray]:
+def recording_keys(rec: Recording | StepTable) -> RecordingKeys:
     """Every key of ``rec`` as written to NPZ (contracts sections 3, 5 and 6, then
     ``extra``)."""
     if isinstance(rec, StepTable):

@@ -124,7 +124,7 @@ def control_keys(rec: Recording) -> dict[str, np.ndarray]:
     return out
 
 
-def step_table_keys(table: StepTable) -> dict[str, np.ndarray]:
+def step_table_keys(table: StepTable) -> RecordingKeys:
     """Every key of ``table`` as written to NPZ (contracts section 6, then ``extra``)."""
     out = {k: np.asarray(v) for k, v in table.extra.items()}
     out.update({"excitation": np.str_("stepped-sine"), "freqs": table.freqs,
