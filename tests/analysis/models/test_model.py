@@ -9,6 +9,8 @@ import pytest
 
 from analysis.models import (KINDS, MAX_DOF, MAX_ELEMENTS, MAX_TOML_BYTES, Element, Model,
                             ModelTables)
+from analysis.models._model_toml import SupportTable
+from analysis.models._support import SUPPORT_KEYS
 from analysis.errors import InputError, ModelError
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "models"
@@ -319,6 +321,7 @@ def test_a_model_files_schema_is_what_the_reader_checks():
     model = Model.load(EXAMPLES / "sdof-cubic-quaddamp.toml")
     tables = model.to_dict()
     assert set(tables) <= set(ModelTables.__annotations__)
+    assert tuple(SupportTable.__annotations__) == SUPPORT_KEYS    # the [support] reader's keys
     assert Model.from_dict(tables).dumps() == model.dumps()
     with pytest.raises(ModelError, match="stiffnes"):
         Model.from_dict({**tables, "stiffnes": 1.0})
