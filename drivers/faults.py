@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Any
 
+from analysis.documents import TomlTable
+
 from .errors import DriverConfigError
 
 
@@ -48,7 +50,7 @@ class FaultSpec:
     seed: int = 0
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], where: str = "faults") -> "FaultSpec":
+    def from_dict(cls, data: TomlTable, where: str = "faults") -> "FaultSpec":
         """Validated spec from a table such as a campaign's ``[emulator.faults]``."""
         names = {f.name for f in fields(FaultSpec)}
         unknown = set(data) - names

@@ -26,6 +26,7 @@ from typing import Any, Iterator, Sequence, TextIO
 
 import numpy as np
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 
 STDOUT = "-"
@@ -178,7 +179,7 @@ def _jsonable(obj: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
-def write_json(result: dict[str, Any], dest: str | None) -> None:
+def write_json(result: JsonObject, dest: str | None) -> None:
     """Write a command's machine-readable result to ``dest`` (``-`` for stdout).
 
     The caller checked ``dest`` with `refuse_overwrite` before doing its work.
@@ -193,7 +194,7 @@ def write_json(result: dict[str, Any], dest: str | None) -> None:
             tmp.write_text(text + "\n")
 
 
-def with_checks(result: dict[str, Any], checks: Sequence[Any]) -> dict[str, Any]:
+def with_checks(result: JsonObject, checks: Sequence[Any]) -> JsonObject:
     """``result`` with the data checks of its input runs (`nlid_lab.store.RunCheck`, from
     `nlid_lab.commands.repair.check_runs`) under ``"data_checks"``: each run's status,
     blocks stored and planned, whether it is incomplete, and the blocks left out and why."""

@@ -23,12 +23,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 from analysis.models import Model
 from analysis.recordings import Recording
 
 from . import methods
-from .store import elements_from_json, write_table
+from .store import TableRow, elements_from_json, write_table
 
 AUTO = "auto"  # each level's method from its excitation (`nlid_lab.methods.for_excitation`)
 RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
@@ -231,7 +232,7 @@ def _analyse_levels(path: str, model: Model, method: str,
 
 
 def estimate_json(rec: Recording, model: Model, method: str,
-                  options: Mapping[str, Any]) -> dict[str, Any]:
+                  options: Mapping[str, Any]) -> JsonObject:
     """The estimator's JSON (contracts section 4) for one level.
 
     ``options`` maps option names to values (None: the method's default); names of other
@@ -246,7 +247,7 @@ def _method_for(rec: Recording, method: str) -> str:
 
 
 def _row_from_json(path: str, index: int, rec: Recording, method: str,
-                   result: dict[str, Any]) -> LevelRow:
+                   result: JsonObject) -> LevelRow:
     """The row of a level the estimator's JSON (`estimate_json`) describes."""
     estimates: dict[str, float | None] = {}
     for i, el in enumerate(elements_from_json(result)):
@@ -317,7 +318,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         yield client
 
 
-def worker_environ() -> dict[str, Any]:
+def worker_environ() -> dict[str, str | int]:
     """Dask's pre-spawn worker environment without ``MALLOC_TRIM_THRESHOLD_``.
 
     Dask sets it to return freed memory to the OS early; setting it also switches off glibc's
@@ -406,7 +407,7 @@ def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | st
             f"{exc.allowed_failures + 1} attempt(s))")
 
 
-def table_json(rows: Sequence[LevelRow]) -> list[dict[str, Any]]:
+def table_json(rows: Sequence[LevelRow]) -> list[TableRow]:
     """The rows as the table stores and the JSON lists them: every row with every column,
     head, parameters (first-seen order), tail (coherence and cost only when some row has
     them)."""

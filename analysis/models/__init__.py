@@ -12,6 +12,7 @@ their private module path.
 
 from ._element import Element
 from ._model import Model
+from ._model_toml import ModelTables
 from ._support import Support
 from ._model_tables import MAX_DOF, MAX_ELEMENTS, MAX_ENTRY, MAX_PARAM
 from ._kinds import KINDS, Kind, Param, Refs, coefficient_units, lookup, search_order
@@ -27,7 +28,7 @@ from ._textfile import MAX_TOML_BYTES, MAX_TOML_DEPTH, parse_toml, read_text, un
 __all__ = ["alias_error", "aliasing_factor", "Basis", "Candidate", "coefficient_units", "deformation",
            "Element", "element_basis", "element_force", "element_tangent", "evaluate", "FAMILIES",
            "grounded_allowed", "Kind", "KINDS", "LIBRARY", "library", "LINEAR_KINDS", "LINEAR_PARAM",
-           "locations", "lookup", "MAX_DOF", "MAX_ELEMENTS", "MAX_ENTRY",
+           "locations", "lookup", "MAX_DOF", "MAX_ELEMENTS", "MAX_ENTRY", "ModelTables",
            "MAX_PARAM", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "memoryless_force", "Model",
            "N_BUILTIN", "N_PARAM", "N_STATE", "pack_params", "Param", "parse_toml", "read_text",
            "Refs", "register_kind", "restoring_force", "search_order", "Support", "unknown_keys",

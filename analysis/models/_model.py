@@ -25,7 +25,7 @@ from ._model_checks import check_element, check_physics, check_rates
 from ._model_file import point_index
 from ._model_tables import (MAX_DOF, MAX_ELEMENTS, MAX_MODES, coupling_table, matrix,
                             modal_table, points_table, shapes_table)
-from ._model_toml import from_tables, model_text
+from ._model_toml import ModelTables, from_tables, model_text
 from ._receptance import LinearReceptance
 from ._support import Support
 from ._textfile import parse_toml, read_text
@@ -225,7 +225,7 @@ class Model:
                      list(self.points), self.shapes.copy(), self.n_residual, self.support)
 
     # --- TOML -----------------------------------------------------------------------------
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> ModelTables:
         """The tables of this model's file (what `from_dict` reads back)."""
         return tomllib.loads(self.dumps())
 
@@ -243,7 +243,7 @@ class Model:
         Path(path).write_text(self.dumps())
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], source: str = "model") -> "Model":
+    def from_dict(cls, data: ModelTables, source: str = "model") -> "Model":
         """Model from the tables of a model file (strict schema: see docs/model-format.md)."""
         try:
             return from_tables(cls, data)

@@ -3,11 +3,12 @@ the text (`Model.from_dict`, `Model.dumps`; docs/model-format.md)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 from scipy.linalg import eigh
 
+from ..documents import TomlTable
 from ..errors import ModelError
 from ._model_file import (check_keys, check_toml_matrix, default_points, short, toml_element,
                           toml_list, toml_num, toml_str, toml_where)
@@ -17,13 +18,58 @@ from ._support import support_table
 if TYPE_CHECKING:
     from ._model import Model
 
-TOP_KEYS = ("name", "points", "linear", "modal", "element", "support")
-LINEAR_KEYS = ("mass", "damping", "stiffness")
-MODAL_KEYS = ("frequencies_hz", "damping_ratios", "shapes", "residual_frequencies_hz",
-              "residual_damping_ratios", "residual_shapes", "damping_coupling")
+Matrix = list[list[float]]
 
 
-def from_tables(cls: type[Model], data: dict[str, Any]) -> Model:
+class LinearTable(TypedDict, total=False):
+    """A model file's ``[linear]`` table: the matrices over the model's points."""
+
+    mass: Matrix
+    damping: Matrix
+    stiffness: Matrix
+
+
+class ModalTable(TypedDict, total=False):
+    """A model file's ``[modal]`` table: modes (and pseudo-modes) over the points."""
+
+    frequencies_hz: list[float]
+    damping_ratios: list[float]
+    shapes: Matrix
+    residual_frequencies_hz: list[float]
+    residual_damping_ratios: list[float]
+    residual_shapes: Matrix
+    damping_coupling: Matrix
+
+
+class SupportTable(TypedDict, total=False):
+    """A model file's ``[support]`` table: the points held, or ``free = true``."""
+
+    points: list[str | int]
+    free: bool
+
+
+class ModelTables(TypedDict, total=False):
+    """The tables of a model file (docs/model-format.md), as `tomllib` reads them.
+
+    One of ``linear`` and ``modal``; each ``[[element]]`` table's keys follow its kind (the
+    kind descriptors check them), so an element stays a `TomlTable`.
+    """
+
+    name: str
+    points: list[str]
+    linear: LinearTable
+    modal: ModalTable
+    element: list[TomlTable]
+    support: SupportTable
+
+
+#: the keys each table may hold, in the order messages list them (from the schema above)
+TOP_KEYS = tuple(ModelTables.__annotations__)
+LINEAR_KEYS = tuple(LinearTable.__annotations__)
+MODAL_KEYS = tuple(ModalTable.__annotations__)
+
+
+def from_tables(cls: type[Model], data: ModelTables) -> Model:
     """A ``cls`` model from the tables of a model file (strict schema, docs/model-format.md;
     `Model.from_dict` adds the source to the message)."""
     check_keys(data, TOP_KEYS, "top level")

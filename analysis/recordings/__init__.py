@@ -3,15 +3,16 @@ or estimated from the force), its period when a file names none, response kinds 
 conversion (integration, differentiation, bands, hold images), stepped-sine tables (phasors
 per step).
 
-Modules behind this API: ``_recording``, ``_sensors``, ``_signals``, ``_sweep_law``,
-``_sweep_estimate``, ``_periodicity``, ``_level`` (a recording's level), ``_table``,
-``_daq_artifacts`` (what a real DAQ export adds, for simulated twins). Code inside this
-package imports its siblings by their private module path.
+Modules behind this API: ``_recording``, ``_keys`` (a recording file's keys), ``_sensors``,
+``_signals``, ``_sweep_law``, ``_sweep_estimate``, ``_periodicity``, ``_level`` (a recording's
+level), ``_table``, ``_daq_artifacts`` (what a real DAQ export adds, for simulated twins).
+Code inside this package imports its siblings by their private module path.
 """
 
 from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
                          MIN_FS, Excitation, PeriodicLayout, RESPONSE_KINDS, Recording,
                          ResponseKind)
+from ._keys import RecordingKeys
 from ._sensors import (KEYS, MIXED, SensorMap, at_points, channel_labels, model_at_sensors, names,
                        one_kind, sensor_map, table_keys)
 from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation_band,
@@ -33,7 +34,8 @@ __all__ = ["active_span", "apply_daq_artifacts", "Artifact", "ARTIFACTS", "at_po
            "hold_image_taps", "hold_images", "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS",
            "MAX_SAMPLE", "measured_level", "MIN_FS", "MIXED", "model_at_sensors", "names",
            "one_kind", "period_spectra", "periodic_kinematics", "PeriodicLayout", "record_level",
-           "Recording", "remove_dc", "remove_hold_images", "RESPONSE_KINDS", "ResponseKind",
+           "Recording", "RecordingKeys", "remove_dc", "remove_hold_images", "RESPONSE_KINDS",
+           "ResponseKind",
            "sensor_map", "SensorMap", "Shaker", "shaker_force", "SHARE_MIN", "signal_bandwidth",
            "steady_periods", "STEP_TABLE_KEYS", "StepTable", "Sweep", "SWEEP_KEYS", "SWEEP_LAWS",
            "SweepLaw", "table_keys", "to_kinematics", "whole_periods"]

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 
 from ..errors import InputError, RecordingError
+from ._keys import RecordingKeys
 from ._signals import KIND_ORDER, change_kind
 
 if TYPE_CHECKING:
@@ -97,7 +98,7 @@ class SensorMap:
         return {k: np.array(getattr(self, k), dtype=str) for k in KEYS}
 
     @classmethod
-    def from_keys(cls, data: dict[str, Any], n_response: int, force_dofs: Sequence[int],
+    def from_keys(cls, data: RecordingKeys, n_response: int, force_dofs: Sequence[int],
                   response_kind: str | None) -> "SensorMap | None":
         """The map a file's keys give (missing ones completed from the identity map), or None
         when the file has none of `KEYS`.

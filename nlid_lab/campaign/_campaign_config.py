@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
+from analysis.documents import TomlTable
 from analysis.errors import RecordingError
 from analysis.models import Model, parse_toml, read_text
 from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
@@ -101,9 +101,9 @@ class Campaign:
     watchdog: float | None = None
     limits: dict[str, float] = field(default_factory=dict)
     pace: float | None = None
-    faults: dict[str, Any] = field(default_factory=dict)
+    faults: TomlTable = field(default_factory=dict)
     source: Path | None = None
-    raw: dict[str, Any] = field(default_factory=dict)
+    raw: TomlTable = field(default_factory=dict)
     sensors: SensorMap | None = None   # [sensors]: channels at model points (sim:// only)
 
     @property
@@ -360,7 +360,7 @@ def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
                             f"channel; use one of the response channels' dof {dofs}")
 
 
-def _plant(data: dict[str, Any], base: Path | None, shaker_url: str, daq_url: str
+def _plant(data: TomlTable, base: Path | None, shaker_url: str, daq_url: str
            ) -> PlantSpec | None:
     """The ``[plant]`` of a simulated bench (None for real hardware); both devices simulated
     or both real, and ``sim://`` for both or neither."""
@@ -388,7 +388,7 @@ def _plant(data: dict[str, Any], base: Path | None, shaker_url: str, daq_url: st
                      _opt(p, "noise_std", "plant", PlantSpec, lo=0), over)
 
 
-def parse_campaign(data: dict[str, Any], base: Path | None = None) -> Campaign:
+def parse_campaign(data: TomlTable, base: Path | None = None) -> Campaign:
     """Validate a campaign dict (as read from TOML); paths relative to ``base``."""
     if not isinstance(data, dict):
         raise CampaignError("a campaign file is a TOML table")

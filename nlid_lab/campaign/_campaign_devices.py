@@ -8,6 +8,7 @@ from enum import StrEnum
 from typing import Any
 from urllib.parse import urlsplit
 
+from analysis.documents import TomlTable
 from analysis.errors import RecordingError
 from analysis.recordings import SensorMap, table_keys
 from drivers import DAQS, SHAKERS, Channel, DriverConfigError
@@ -126,7 +127,7 @@ def _check_channel_set(channels: list[Channel], kind: str) -> None:
         raise CampaignError(f"force channel DOF {forces[0].dof} has no response channel")
 
 
-def _limits(data: dict[str, Any], channels: list[Channel]) -> dict[str, float]:
+def _limits(data: TomlTable, channels: list[Channel]) -> dict[str, float]:
     """``[safety] limits``: channel name -> max |value|."""
     safety = _table(data, "safety", required=False)
     _unknown(safety, {"limits"}, "safety")
@@ -141,7 +142,7 @@ def _limits(data: dict[str, Any], channels: list[Channel]) -> dict[str, float]:
     return {k: float(v) for k, v in limits.items()}
 
 
-def _emulator(data: dict[str, Any]) -> tuple[float | None, dict[str, Any]]:
+def _emulator(data: TomlTable) -> tuple[float | None, TomlTable]:
     """``[emulator]`` pace and faults (checked by `FaultSpec`, kept as written)."""
     emu = _table(data, "emulator", required=False)
     _unknown(emu, {"pace", "faults"}, "emulator")
@@ -156,7 +157,7 @@ def _emulator(data: dict[str, Any]) -> tuple[float | None, dict[str, Any]]:
     return pace, faults
 
 
-def _watchdog(shaker: dict[str, Any]) -> float | None:
+def _watchdog(shaker: TomlTable) -> float | None:
     """``[shaker] watchdog``, s: 0 (off) or 0.02..60; None when not given."""
     if "watchdog" not in shaker:
         return None

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from analysis.documents import MatTree
 from analysis.models import read_text
-from analysis.recordings import KEYS as SENSOR_KEYS, Recording, StepTable, sensor_map
+from analysis.recordings import (KEYS as SENSOR_KEYS, Recording, RecordingKeys, StepTable,
+                                 sensor_map)
 
 from ._csv_header import Column, is_force, parse_header
 from ._csv_text import MAX_CSV_BYTES, csv_keys, csv_table
@@ -33,7 +34,7 @@ from ._units import split_label
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
              response_kind: str | None = None, level: float | None = None,
              force_dofs: list[int] | None = None, excitation: str | None = None,
-             keys: dict[str, Any] | None = None) -> Recording:
+             keys: RecordingKeys | None = None) -> Recording:
     """Read a random recording from CSV (see the module docstring for the header).
 
     ``# key = value`` comment lines before the header carry recording keys (``fs``,
@@ -94,7 +95,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
         raise RecordingFileError(f"{path}: {exc}") from None
 
 
-def _without_monitors(names: list[str], data: np.ndarray, keys: dict[str, Any], path: Path
+def _without_monitors(names: list[str], data: np.ndarray, keys: RecordingKeys, path: Path
                       ) -> tuple[list[str], np.ndarray]:
     """The header and data less the monitor columns, which go to ``keys`` (``monitor``,
     ``monitor_units`` from the header's units unless the file's keys give them)."""
@@ -124,7 +125,7 @@ def _channels(chans: list[Column], force_cols: list[str] | None, path: Path
     return forces, responses
 
 
-def _response_kind(keys: dict[str, Any], responses: list[Column], file_kind: str | None,
+def _response_kind(keys: RecordingKeys, responses: list[Column], file_kind: str | None,
                    asked: str | None, path: Path) -> str:
     """The response kind: ``asked`` (``--response-kind``), else the file's key, else the
     columns' unit, else displacement; all that are given must agree. Columns whose units name
@@ -171,7 +172,7 @@ def _csv_force_dofs(keys: dict, forces: list[Column], responses: list[Column],
     return dofs.astype(int).tolist()
 
 
-def read_csv_columns(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, str]]:
+def read_csv_columns(path: str | os.PathLike) -> tuple[MatTree, dict[str, str]]:
     """Every column of a CSV export by its header name, for a channel map (`nlid_lab.formats._mat_io`).
 
     For exports that do not follow this module's header (``Force,Voltage,Acceleration1,...``,
@@ -187,7 +188,7 @@ def read_csv_columns(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str,
     """
     path = Path(path)
     text = read_text(path, "recording", RecordingFileError, max_bytes=MAX_CSV_BYTES)
-    tree: dict[str, Any] = dict(csv_keys(text, path))
+    tree: MatTree = dict(csv_keys(text, path))
     names, data = csv_table(text, path)
     units = {}
     for j, raw in enumerate(names):

@@ -18,10 +18,10 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from analysis.documents import UffDataset
 from analysis.errors import InputError
 from analysis.models import MAX_DOF, Model
 
@@ -155,7 +155,7 @@ def to_model(modes: FEModes, points: list[PointSpec] | None, band: tuple[float, 
     return model, np.flatnonzero(sel)
 
 
-def _mode_sets(path: str | Path, load_case: int | None) -> list[dict[str, Any]]:
+def _mode_sets(path: str | Path, load_case: int | None) -> list[UffDataset]:
     import pyuff   # loads on use (import-modes only)
     path = Path(path)
     if not path.is_file():
@@ -205,11 +205,11 @@ def _check_complete(path: Path) -> None:
                             "truncated?); export the file again")
 
 
-def _freq(s: dict[str, Any]) -> float:
+def _freq(s: UffDataset) -> float:
     return float(s["freq"]) if s["analysis_type"] == NORMAL_MODES else abs(s["eig"]) / (2 * np.pi)
 
 
-def _normal(sets: list[dict[str, Any]]) -> tuple:
+def _normal(sets: list[UffDataset]) -> tuple:
     freqs = np.array([float(s["freq"]) for s in sets])
     mass = np.array([float(s["modal_m"]) for s in sets])
     vis = np.array([float(s["modal_damp_vis"]) for s in sets])
@@ -225,7 +225,7 @@ def _normal(sets: list[dict[str, Any]]) -> tuple:
     return freqs, zeta, source, np.ones(len(sets)), "assumed"
 
 
-def _complex(sets: list[dict[str, Any]]) -> tuple:
+def _complex(sets: list[UffDataset]) -> tuple:
     lam = np.array([complex(s["eig"]) for s in sets])
     if np.any(lam.imag <= 0):
         raise UffModesError("a complex mode has an eigenvalue with imaginary part <= 0; "

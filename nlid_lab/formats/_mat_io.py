@@ -27,8 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from analysis.documents import MatTree, TomlTable
 from analysis.errors import InputError
 from analysis.models import parse_toml, read_text
+from analysis.recordings import RecordingKeys
 
 from ._units import lookup
 
@@ -104,7 +106,7 @@ class ChannelMap:
     @classmethod
     def from_items(cls, items: list[str]) -> "ChannelMap":
         """From ``KEY=VALUE`` words (``--map force=Force response=Acc[0:3]:g fs=Fs``)."""
-        data: dict[str, Any] = {}
+        data: TomlTable = {}
         for key, value in map_items(items, "channel map", "force=Force", MatFileError):
             data.setdefault(key, []).append(map_value(value))
         return cls.from_dict({k: v if k in ROLES else v[-1] for k, v in data.items()}, "--map")
@@ -129,7 +131,7 @@ class ChannelMap:
         return cls.from_dict(data, str(path))
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], source: str) -> "ChannelMap":
+    def from_dict(cls, data: TomlTable, source: str) -> "ChannelMap":
         known = {"fs", "response_kind", *ROLES}
         for role in ("force", "response"):
             if role not in data:
@@ -203,7 +205,7 @@ def is_mat73(path: Path) -> bool:
         return fh.read(128).startswith(MAT73_SIGNATURE)
 
 
-def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
+def read_mat_tree(path: str | os.PathLike) -> MatTree:
     """Every leaf of a MAT file by dotted name (struct fields joined with ``.``)."""
     path = Path(path)
     if not path.is_file():
@@ -221,12 +223,12 @@ def read_mat_tree(path: str | os.PathLike) -> dict[str, Any]:
     except (MatReadError, Exception) as exc:  # noqa: BLE001
         raise MatFileError(f"{path} is not a readable MAT file ({exc}); save it with MATLAB's "
                            "save or scipy.io.savemat") from None
-    out: dict[str, Any] = {}
+    out: MatTree = {}
     _flatten("", {k: v for k, v in raw.items() if not k.startswith("__")}, out)
     return out
 
 
-def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+def _flatten(prefix: str, value: Any, out: MatTree) -> None:
     if isinstance(value, dict):
         for k, v in value.items():
             _flatten(f"{prefix}.{k}" if prefix else k, v, out)
@@ -234,12 +236,12 @@ def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
         out[prefix] = value
 
 
-def _leaf(tree: dict[str, Any], key: str, source: str) -> Any:
+def _leaf(tree: MatTree, key: str, source: str) -> Any:
     """A leaf by full dotted name, or by its last part(s) when that is unique."""
     return tree[_full_name(tree, key, source)]
 
 
-def _full_name(tree: dict[str, Any], key: str, source: str) -> str:
+def _full_name(tree: MatTree, key: str, source: str) -> str:
     """The full dotted name of the leaf ``key`` names (`_leaf`)."""
     if key in tree:
         return key
@@ -253,7 +255,7 @@ def _full_name(tree: dict[str, Any], key: str, source: str) -> str:
     raise MatFileError(f"{source}: no variable '{key}' (the file holds {names})")
 
 
-def _columns(tree: dict[str, Any], sel: Selection, n: int | None, source: str) -> np.ndarray:
+def _columns(tree: MatTree, sel: Selection, n: int | None, source: str) -> np.ndarray:
     value = _leaf(tree, sel.key, source)
     try:
         arr = np.asarray(value, dtype=float)
@@ -279,12 +281,12 @@ def _columns(tree: dict[str, Any], sel: Selection, n: int | None, source: str) -
     return arr
 
 
-def apply_map(tree: dict[str, Any], cmap: ChannelMap, source: str) -> dict[str, Any]:
+def apply_map(tree: MatTree, cmap: ChannelMap, source: str) -> RecordingKeys:
     """Force, response, fs and response kind (SI) from a MAT tree.
 
     Returns
     -------
-    dict
+    RecordingKeys
         ``fs``, ``force`` (n, n_in) in N, ``response`` (n, n_out) in SI, ``response_kind``,
         and the map's other keys (values read from the file where they name a variable).
     """
@@ -374,11 +376,11 @@ def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,
     return {f"{role}_points": np.array(out)}
 
 
-def _known(tree: dict[str, Any], key: str) -> bool:
+def _known(tree: MatTree, key: str) -> bool:
     return key in tree or sum(k.endswith("." + key) for k in tree) == 1
 
 
-def monitor_keys_of(tree: dict[str, Any], cmap: ChannelMap, n: int, used: set[str],
+def monitor_keys_of(tree: MatTree, cmap: ChannelMap, n: int, used: set[str],
                     source: str) -> dict[str, np.ndarray]:
     """The ``monitor``, ``monitor_names``, ``monitor_units`` keys (`nlid_lab.formats._monitors`)
     of a mapped file: the map's ``monitor=`` selections, else every numeric 1-D or 2-D

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from analysis.documents import MatTree
 from analysis.recordings import Recording
 
 from ._npz import recording_from_keys, recording_keys
@@ -55,7 +56,7 @@ def write_mat(path: str | os.PathLike, rec: Recording) -> None:
         scipy.io.savemat(fh, variables, do_compression=True)
 
 
-def is_recording(tree: dict[str, Any]) -> bool:
+def is_recording(tree: MatTree) -> bool:
     """True if a MAT tree (`mat_io.read_mat_tree`) was written by `write_mat`."""
     return INDEX in tree
 

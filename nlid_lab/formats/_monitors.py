@@ -12,19 +12,18 @@ keys as ``# key = value`` lines.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import Recording, names
+from analysis.recordings import Recording, RecordingKeys, names
 
 from ._units import split_label
 
 MONITOR_KEYS = ("monitor", "monitor_names", "monitor_units")
 
 
-def monitor_fields(data: dict[str, Any], force_shape: tuple[int, ...], path: Path
+def monitor_fields(data: RecordingKeys, force_shape: tuple[int, ...], path: Path
                    ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     """``Recording.monitors`` and ``monitor_units`` from a file's keys (none: empty dicts).
 
@@ -78,7 +77,7 @@ def trimmed(monitors: dict[str, np.ndarray], lead: int, n: int) -> dict[str, np.
     return {k: v[lead:lead + n] for k, v in monitors.items()}
 
 
-def csv_monitor_columns(header: list[str], keys: dict[str, Any], path: Path) -> list[int]:
+def csv_monitor_columns(header: list[str], keys: RecordingKeys, path: Path) -> list[int]:
     """Columns of a CSV header that hold the monitors its ``monitor_names`` key lists (a
     column named exactly so, or so with a unit: ``Voltage (V)``), in the key's order."""
     if "monitor_names" not in keys:

@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from analysis.recordings import Recording, StepTable
+from analysis.recordings import Recording, RecordingKeys, StepTable
 
 from ._monitors import monitor_fields, monitor_keys, trimmed
 from ._recording_keys import (LAYOUT_KEYS, RecordingFileError, array_key, extra_keys,
@@ -28,12 +27,12 @@ def read_npz(path: str | os.PathLike) -> Recording | StepTable:
     return recording_from_keys(load_npz_keys(path), path)
 
 
-def load_npz_keys(path: str | os.PathLike) -> dict[str, np.ndarray]:
+def load_npz_keys(path: str | os.PathLike) -> RecordingKeys:
     """Every key of an NPZ recording, unchecked (`recording_from_keys` checks them)."""
     return load_npz_file(Path(path), "recording")
 
 
-def recording_from_keys(data: dict[str, Any], path: str | os.PathLike
+def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
                         ) -> Recording | StepTable:
     """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's), or a
     `StepTable` when they hold phasors; ``path`` names the source in messages and
@@ -71,13 +70,13 @@ def recording_from_keys(data: dict[str, Any], path: str | os.PathLike
             layout=layout_of(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=extra_keys(data, excitation, level_from), meta={"source": str(path)},
             monitors=monitors, monitor_units=units,
-            **(control_fields(data, path) if excitation == "stepped-sine" else {}))
+            **(control_fields(data, path)._asdict() if excitation == "stepped-sine" else {}))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 
 
 
-def recording_keys(rec: Recording | StepTable) -> dict[str, np.ndarray]:
+def recording_keys(rec: Recording | StepTable) -> RecordingKeys:
     """Every key of ``rec`` as written to NPZ (contracts sections 3, 5 and 6, then
     ``extra``)."""
     if isinstance(rec, StepTable):

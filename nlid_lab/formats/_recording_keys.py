@@ -7,7 +7,7 @@ docs/recording-formats.md.
 from __future__ import annotations
 
 import zipfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +15,7 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, PeriodicLayout,
-                                 SensorMap)
+                                 RecordingKeys, SensorMap)
 
 from ._monitors import MONITOR_KEYS
 from ._tables import CONTROL_KEYS
@@ -25,7 +25,7 @@ class RecordingFileError(InputError):
     """A recording file is missing, unreadable or does not follow its format."""
 
 
-def scalar_key(data: Mapping[str, Any], key: str, cast: Callable[[Any], Any], path: Path
+def scalar_key(data: RecordingKeys, key: str, cast: Callable[[Any], Any], path: Path
                ) -> Any:
     """The one value of ``data[key]`` as ``cast`` (float: a real number; str: text)."""
     arr = np.asarray(data[key])
@@ -55,14 +55,14 @@ def real_array(arr: np.ndarray, key: str, path: Path, integer: bool = False) -> 
     return arr
 
 
-def array_key(data: Mapping[str, Any], key: str, path: Path, integer: bool = False
+def array_key(data: RecordingKeys, key: str, path: Path, integer: bool = False
               ) -> np.ndarray:
     """``data[key]`` as a float array (an integer one, at least 1-D, if ``integer``)."""
     arr = real_array(np.asarray(data[key]), key, path, integer)
     return np.atleast_1d(arr).astype(int) if integer else arr.astype(float)
 
 
-def load_npz_file(path: Path, what: str) -> dict[str, np.ndarray]:
+def load_npz_file(path: Path, what: str) -> RecordingKeys:
     """All arrays of an NPZ file, with file problems turned into `RecordingFileError`."""
     if not path.exists():
         raise RecordingFileError(f"{what} {path} not found; check the path")
@@ -132,7 +132,7 @@ def level_of(data: dict, path: Path, excitation: str) -> tuple[float | None, str
     return None, None
 
 
-def extra_keys(data: dict, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
+def extra_keys(data: RecordingKeys, excitation: str, level_from: str | None) -> dict[str, np.ndarray]:
     """Keys no field holds. A level read from another key than the excitation's own (say
     ``level``) stays here too, so that the file's own key is written back."""
     known = (set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | set(MONITOR_KEYS)

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import LAW_KEYS, SWEEP_LAWS, Sweep, SweepLaw, estimate_sweep
+from analysis.recordings import (LAW_KEYS, SWEEP_LAWS, RecordingKeys, Sweep, SweepLaw,
+                                 estimate_sweep)
 
 _SPEC = re.compile(r"^\s*([^:]+):([^:]+)(?::(linear|log))?(?::([^:]+))?\s*$")
 
@@ -32,9 +32,9 @@ class SweepOption:
     law: str | None = None
     rate: float | None = None
 
-    def keys(self) -> dict[str, Any]:
+    def keys(self) -> RecordingKeys:
         """The sweep keys of a recording file this option gives (the others estimated)."""
-        out: dict[str, Any] = {"sweep_start_hz": self.start_hz, "sweep_stop_hz": self.stop_hz}
+        out: RecordingKeys = {"sweep_start_hz": self.start_hz, "sweep_stop_hz": self.stop_hz}
         if self.law is not None:
             out["sweep_law"] = self.law
         if self.rate is not None:
@@ -55,7 +55,7 @@ def parse_sweep_option(text: str) -> SweepOption:
                          f"(Hz, Hz, {' or '.join(SWEEP_LAWS)}, Hz/s or octaves/min)") from None
 
 
-def sweep_fields(keys: dict[str, Any], force: np.ndarray, response: np.ndarray, fs: float
+def sweep_fields(keys: RecordingKeys, force: np.ndarray, response: np.ndarray, fs: float
                  ) -> tuple[Sweep, np.ndarray, np.ndarray, float | None]:
     """The sweep of a swept-sine file and its record, trimmed when the law is estimated.
 

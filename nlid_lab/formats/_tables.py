@@ -18,12 +18,14 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from analysis.documents import MatTree
 from analysis.errors import InputError
 from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, Control,
+                                 RecordingKeys,
                                  Recording, SensorMap, StepTable)
 
 from ._mat_io import map_items, map_value
@@ -38,19 +40,19 @@ class TableFileError(InputError):
     """A table recording or its map does not give what an import needs."""
 
 
-def is_table(data: dict[str, Any]) -> bool:
+def is_table(data: RecordingKeys) -> bool:
     """True if recording keys describe a table (they hold a phasor)."""
     return "force_phasor" in data or "response_phasor" in data
 
 
-def _scalar(data: dict[str, Any], key: str, path: Path) -> Any:
+def _scalar(data: RecordingKeys, key: str, path: Path) -> Any:
     arr = np.asarray(data[key])
     if arr.size != 1:
         raise TableFileError(f"{path}: '{key}' must be one value, got shape {arr.shape}")
     return arr.reshape(()).item()
 
 
-def table_from_keys(data: dict[str, Any], path: str | os.PathLike) -> StepTable:
+def table_from_keys(data: RecordingKeys, path: str | os.PathLike) -> StepTable:
     """A `StepTable` from NPZ-style keys; ``path`` names the source in messages."""
     path = Path(path)
     missing = {"freqs", "force_phasor", "response_phasor", "control", "level"} - set(data)
@@ -96,15 +98,19 @@ def table_from_keys(data: dict[str, Any], path: str | os.PathLike) -> StepTable:
 CONTROL_KEYS = ("control", "control_dof")
 
 
-def control_fields(data: dict[str, Any], path: Path) -> dict[str, Any]:
-    """``control`` and ``control_dof`` of a stepped-sine time-block recording's keys (as
-    `Recording` fields; none when the file does not say: force control)."""
-    out: dict[str, Any] = {}
-    if "control" in data:
-        out["control"] = Control(str(_scalar(data, "control", path)))
-    if "control_dof" in data:
-        out["control_dof"] = int(_scalar(data, "control_dof", path))
-    return out
+class ControlFields(NamedTuple):
+    """What a stepped-sine controller held, as `Recording` fields (``_asdict()``)."""
+
+    control: Control = Control.FORCE
+    control_dof: int | None = None
+
+
+def control_fields(data: RecordingKeys, path: Path) -> ControlFields:
+    """``control`` and ``control_dof`` of a stepped-sine time-block recording's keys (the
+    defaults when the file does not say: force control)."""
+    return ControlFields(
+        Control(str(_scalar(data, "control", path))) if "control" in data else Control.FORCE,
+        int(_scalar(data, "control_dof", path)) if "control_dof" in data else None)
 
 
 def control_keys(rec: Recording) -> dict[str, np.ndarray]:
@@ -118,7 +124,7 @@ def control_keys(rec: Recording) -> dict[str, np.ndarray]:
     return out
 
 
-def step_table_keys(table: StepTable) -> dict[str, np.ndarray]:
+def step_table_keys(table: StepTable) -> RecordingKeys:
     """Every key of ``table`` as written to NPZ (contracts section 6, then ``extra``)."""
     out = {k: np.asarray(v) for k, v in table.extra.items()}
     out.update({"excitation": np.str_("stepped-sine"), "freqs": table.freqs,
@@ -172,7 +178,7 @@ def _csv_value(arr: np.ndarray) -> str:
     return str(int(arr)) if arr.dtype.kind in "iu" else repr(float(arr))
 
 
-def table_from_csv(keys: dict[str, Any], names: list[str], data: np.ndarray,
+def table_from_csv(keys: RecordingKeys, names: list[str], data: np.ndarray,
                    path: Path) -> StepTable:
     """A table from a CSV's ``# key`` lines, header names and rows (`csv_text`'s layout)."""
     found: dict[str, dict[tuple[int, ...], np.ndarray]] = {}
@@ -256,7 +262,7 @@ class TableMap:
                                  "or control=force")
         return cls(data.pop("table"), fields, {k: map_value(v) for k, v in data.items()})
 
-    def tables(self, tree: dict[str, Any], source: str) -> list[StepTable]:
+    def tables(self, tree: MatTree, source: str) -> list[StepTable]:
         """One `StepTable` per element of the struct array ``table`` names in ``tree``
         (`nlid_lab.formats.read_mat_tree`)."""
         elements = _elements(tree, self.table, source)
@@ -266,10 +272,10 @@ class TableMap:
             out.append(table_from_keys(self._keys(element, where), where))
         return out
 
-    def _keys(self, element: dict[str, Any], where: str) -> dict[str, Any]:
+    def _keys(self, element: MatTree, where: str) -> RecordingKeys:
         freqs = np.asarray(_field(element, self.fields["freqs"].field, where),
                            dtype=float).ravel()
-        keys: dict[str, Any] = {"excitation": "stepped-sine", "freqs": freqs,
+        keys: RecordingKeys = {"excitation": "stepped-sine", "freqs": freqs,
                                 "force_dofs": 0}
         kind = self.keys.get("response_kind")
         for key, value in self.keys.items():
@@ -287,7 +293,7 @@ class TableMap:
             keys["level"] = float(np.median(probe.held()))
         return keys
 
-    def _phasor(self, element: dict[str, Any], role: str, n: int, kind: str | None,
+    def _phasor(self, element: MatTree, role: str, n: int, kind: str | None,
                 where: str) -> tuple[np.ndarray, str | None]:
         """A role's phasors from a complex field, or amplitude and phase fields."""
         if f"{role}_phasor" in self.fields:
@@ -338,7 +344,7 @@ def convert_phase(phase: np.ndarray, mods: tuple[str, ...], kind_order: int,
     return p
 
 
-def _elements(tree: dict[str, Any], name: str, source: str) -> list[dict[str, Any]]:
+def _elements(tree: MatTree, name: str, source: str) -> list[MatTree]:
     """The elements of the struct array ``name`` (a 1x1 struct: one element)."""
     if name in tree and isinstance(tree[name], (list, tuple, np.ndarray)):
         items = list(np.ravel(np.asarray(tree[name], dtype=object)))
@@ -356,7 +362,7 @@ def _elements(tree: dict[str, Any], name: str, source: str) -> list[dict[str, An
                             else f"; the file holds {', '.join(sorted(tree)) or 'nothing'}"))
 
 
-def _field(element: dict[str, Any], name: str, where: str) -> Any:
+def _field(element: MatTree, name: str, where: str) -> Any:
     if name not in element:
         raise TableFileError(f"{where}: no field '{name}' (the element has "
                              f"{', '.join(sorted(element))})")

@@ -216,9 +216,10 @@ def add_batch_options(parser: argparse.ArgumentParser) -> None:
             parser.add_argument(*f.metadata["flags"], dest=f.name, **kwargs)
 
 
-def batch_values(args: argparse.Namespace) -> dict[str, Any]:
-    """The batch options given to ``reanalyze`` (field name -> value or None)."""
-    out: dict[str, Any] = {}
+def batch_values(args: argparse.Namespace) -> dict[str, object]:
+    """The batch options given to ``reanalyze`` (field name -> value or None; each value is
+    opaque here: the method's `Method.make_options` builds its typed options from them)."""
+    out: dict[str, object] = {}
     for method in _METHODS.values():
         for f in method.option_fields(batch_only=True):
             value = getattr(args, f.name, None)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 import numpy as np
 
 from analysis.detection import bla_summary, level_change
+from analysis.documents import JsonObject
 from analysis.errors import EstimationError, InputError
 from analysis.modal import fit_linear
 from analysis.recordings import channel_labels, one_kind, record_level
@@ -331,7 +332,7 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],
             f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n")
 
 
-def estimate_rows(results: dict[str, Any], estimators: Estimators
+def estimate_rows(results: Mapping[str, JsonObject], estimators: Estimators
                   ) -> list[tuple[str, str, str, str, str]]:
     """(result, element, parameter, value, 95 % interval) of every stored estimate of a
     method in the registry ``estimators`` (`nlid_lab.methods`)."""
@@ -345,7 +346,7 @@ def estimate_rows(results: dict[str, Any], estimators: Estimators
     return rows
 
 
-def _estimates_table(results: dict[str, Any], estimators: Estimators) -> str:
+def _estimates_table(results: Mapping[str, JsonObject], estimators: Estimators) -> str:
     rows = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
                    for row in estimate_rows(results, estimators))
     if not rows:

@@ -10,11 +10,12 @@ direction +X; ``load_case_id`` is the level number (1-based).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Iterable
 
 import numpy as np
 import pyuff
 
+from analysis.documents import UffDataset
 from analysis.spectral import LevelFRF
 
 FUNC_FRF = 4
@@ -26,7 +27,7 @@ _RESPONSE = {"displacement": (8, 1, "m"), "velocity": (11, 1, "m/s"),
 _FREQUENCY, _FORCE, _UNKNOWN = 18, 13, 0
 
 
-def _abscissa(freqs: np.ndarray) -> dict[str, Any]:
+def _abscissa(freqs: np.ndarray) -> UffDataset:
     """Even spacing only when min and step survive pyuff's 6-digit header format exactly."""
     x = np.asarray(freqs, float)
     dx = np.diff(x)
@@ -36,7 +37,7 @@ def _abscissa(freqs: np.ndarray) -> dict[str, Any]:
             "abscissa_inc": float(dx[0]) if even else 0.0}
 
 
-def _base(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> dict[str, Any]:
+def _base(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> UffDataset:
     return {
         "type": 58, "binary": 0, "id2": f"level {level_no}: {frf.label} ({frf.excitation})"[:80],
         "id3": f"run {run_name}"[:80], "id4": "NONE", "id5": "NONE",
@@ -54,7 +55,7 @@ def _base(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> di
     }
 
 
-def frf_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> dict:
+def frf_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> UffDataset:
     """Dataset 58 dict of one FRF (function type 4)."""
     spec, len_exp, unit = _RESPONSE[frf.response_kind]
     d = _base(frf, level_no, out, inp, run_name)
@@ -68,7 +69,8 @@ def frf_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str)
     return d
 
 
-def coherence_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str) -> dict:
+def coherence_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name: str
+                      ) -> UffDataset:
     """Dataset 58 dict of one ordinary coherence (function type 6, dimensionless)."""
     d = _base(frf, level_no, out, inp, run_name)
     d.update(func_type=FUNC_COHERENCE, id1="nlid-lab coherence",

@@ -24,7 +24,7 @@ from ._reader import (DamagedRunError, Level, Run, check_result_target, open_run
 from ._integrity import LeftOut, LeftOutReason, Repaired, RunCheck, left_out_text
 from ._space import DiskFullError, require_room
 from ._verified import release_checked
-from ._tables import TableError, read_table, write_table
+from ._tables import TableError, TableRow, read_table, write_table
 from ._estimates import EstimatedElement, elements_from_json
 from ._mat73 import read_mat73
 from ._writer import LevelWriter, RunWriter
@@ -35,7 +35,7 @@ __all__ = [
     "left_out_text", "release_checked",
     "Level", "Run", "check_result_target", "open_run", "repair_run", "save_recording",
     "save_result",
-    "TableError", "read_table", "write_table",
+    "TableError", "TableRow", "read_table", "write_table",
     "EstimatedElement", "elements_from_json",
     "read_mat73",
     "LevelWriter", "RunWriter",

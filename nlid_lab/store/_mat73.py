@@ -12,12 +12,13 @@ from typing import Any
 import h5py
 import numpy as np
 
+from analysis.documents import MatTree
 from analysis.errors import InputError
 
 
-def read_mat73(path: Path) -> dict[str, Any]:
+def read_mat73(path: Path) -> MatTree:
     """Every numeric or text leaf by dotted name (references and sparse arrays skipped)."""
-    out: dict[str, Any] = {}
+    out: MatTree = {}
     try:
         with h5py.File(path, "r") as f:
             def visit(name: str, obj: Any) -> None:

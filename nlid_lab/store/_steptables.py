@@ -16,11 +16,12 @@ import json
 import os
 import zlib
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import h5py
 import numpy as np
 
+from analysis.documents import JsonObject
 from analysis.recordings import KEYS as SENSOR_KEYS, SensorMap, StepTable
 
 from ._common import (FORMAT, SOFTWARE, StoreError, _default_channels, _channel_table,
@@ -35,7 +36,7 @@ _ARRAYS = ("freqs", "force_phasor", "response_phasor", "harmonics", "force_harmo
            "response_harmonics")
 
 
-def is_table_run(meta: dict[str, Any]) -> bool:
+def is_table_run(meta: JsonObject) -> bool:
     """True for the attributes of a run whose levels are tables."""
     return meta.get("layout") == LAYOUT
 
@@ -122,7 +123,7 @@ def table_steps(f: h5py.File) -> dict[int, int]:
     return {} if group is None else {int(k): int(g["freqs"].shape[0]) for k, g in group.items()}
 
 
-def read_table(f: h5py.File, index: int, meta: dict[str, Any],
+def read_table(f: h5py.File, index: int, meta: JsonObject,
                sensors: SensorMap | None) -> StepTable:
     """Level ``index`` of an open table run as a `StepTable` (its checksum verified)."""
     g = f.get(f"steptables/{index}")

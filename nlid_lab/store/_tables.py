@@ -21,6 +21,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 
 from ._space import HEADER_BYTES, require
@@ -32,7 +33,11 @@ class TableError(InputError):
     """A results table file is missing, unreadable or not in this layout."""
 
 
-def write_table(path: str | Path, rows: list[dict[str, Any]], attrs: dict[str, Any]) -> None:
+#: one row of a results table: column name -> scalar (None: missing)
+TableRow = dict[str, float | int | bool | str | None]
+
+
+def write_table(path: str | Path, rows: list[TableRow], attrs: JsonObject) -> None:
     """Write ``rows`` (dicts of scalars) and ``attrs`` to HDF5 file ``path`` (overwritten)."""
     columns: list[str] = []
     for row in rows:
@@ -52,7 +57,7 @@ def write_table(path: str | Path, rows: list[dict[str, Any]], attrs: dict[str, A
             group.attrs[key] = _attr(value)
 
 
-def read_table(path: str | Path) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+def read_table(path: str | Path) -> tuple[list[TableRow], JsonObject]:
     """Rows (list of dicts, column order kept) and attrs of a table written by `write_table`."""
     try:
         f = h5py.File(path, "r")

@@ -7,7 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.models import KINDS, MAX_DOF, MAX_ELEMENTS, MAX_TOML_BYTES, Element, Model
+from analysis.models import (KINDS, MAX_DOF, MAX_ELEMENTS, MAX_TOML_BYTES, Element, Model,
+                            ModelTables)
+from analysis.models._model_toml import SupportTable
+from analysis.models._support import SUPPORT_KEYS
 from analysis.errors import InputError, ModelError
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "models"
@@ -310,3 +313,15 @@ def test_modal_file_keeps_the_damping_coupling_a_correction_leaves(tmp_path):
     (tmp_path / "bad.toml").write_text(bad)
     with pytest.raises(Exception, match="zero diagonal"):
         Model.load(tmp_path / "bad.toml")
+
+
+def test_a_model_files_schema_is_what_the_reader_checks():
+    """`ModelTables` gives the keys the strict reader allows: a key it does not name is
+    refused, and a model's tables round-trip through `Model.to_dict` / `from_dict`."""
+    model = Model.load(EXAMPLES / "sdof-cubic-quaddamp.toml")
+    tables = model.to_dict()
+    assert set(tables) <= set(ModelTables.__annotations__)
+    assert tuple(SupportTable.__annotations__) == SUPPORT_KEYS    # the [support] reader's keys
+    assert Model.from_dict(tables).dumps() == model.dumps()
+    with pytest.raises(ModelError, match="stiffnes"):
+        Model.from_dict({**tables, "stiffnes": 1.0})

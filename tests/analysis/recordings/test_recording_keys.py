@@ -16,11 +16,13 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from analysis.recordings import PeriodicLayout, Recording
+from analysis.recordings import (KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, SWEEP_KEYS, PeriodicLayout,
+                                 Recording, RecordingKeys)
 from analysis.spectral import stepped_sine_frf
 from nlid_lab import formats as rio
 from nlid_lab.formats._recording_keys import CORE_KEYS, LEVEL_KEYS, level_key
 from nlid_lab.formats._monitors import MONITOR_KEYS
+from nlid_lab.formats._tables import CONTROL_KEYS
 from nlid_lab import store
 from nlid_lab.methods._hbm import _stepped
 from nlid_lab.cli import main
@@ -375,3 +377,12 @@ def test_prepare_drops_the_transient_of_every_realization():
     p = prepare_random(rec, (1.0, 20.0), "x", period=8)
     steady = np.concatenate([np.arange(k * 24 + 8, k * 24 + 24) for k in range(3)])
     np.testing.assert_allclose(p.force[:, 0], steady - steady.mean())
+
+
+def test_the_schema_names_every_key_the_readers_know():
+    """`RecordingKeys` is the schema of a recording file: every key a reader or writer names
+    (samples, level, layout, hold, sweep, sensors, monitors, tables) and no other."""
+    named = KNOWN | set(SENSOR_KEYS) | set(SWEEP_KEYS) | set(STEP_TABLE_KEYS) | set(CONTROL_KEYS)
+    assert set(RecordingKeys.__annotations__) == named
+    assert RecordingKeys.__required_keys__ == frozenset()   # the readers say what they need
+

@@ -17,7 +17,7 @@ from analysis.models import Model
 from drivers.emulators._serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
 from drivers.rig import SimRig
 from drivers.serial_shaker import FEEDS_PER_PERIOD
-from nlid_lab.campaign import NullObserver, load_campaign, run_campaign
+from nlid_lab.campaign import load_campaign, run_campaign
 from nlid_lab.cli import main
 from nlid_lab.store import open_run
 
@@ -48,16 +48,6 @@ def stepped_campaign(tmp_path: Path) -> Path:
     return _campaign(tmp_path, "campaign-sim-stepped.toml", {"step = 2.0": "step = 4.0"})
 
 
-class Clock(NullObserver):
-    """Times a campaign from its first to its last event."""
-
-    def campaign_started(self, info):
-        self.started = time.monotonic()
-
-    def campaign_finished(self, status):
-        self.finished = time.monotonic()
-
-
 def _spawn(campaign: Path, out: Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "nlid_lab.cli", "campaign", "run",
                              str(campaign), "--out", str(out)], cwd=ROOT,
@@ -72,25 +62,29 @@ def _stored(out: Path) -> int:
         return 0
 
 
-def _kill_and_resume(campaign: Path, out: Path, delay: float, per_level: int,
-                     n_levels: int, after_first: bool = False) -> tuple[int, list]:
-    """Kill a campaign ``delay`` s after its run file appears (``after_first``: after its
-    first block or step is stored); check it; resume it.
+def _kill_and_resume(campaign: Path, out: Path, per_level: int, n_levels: int,
+                     delay: float = 0.0, at: int = 0) -> tuple[int, list]:
+    """Kill a campaign once its run file holds ``at`` blocks or steps (seen by reading the
+    file as the writer commits them: an event, not a time, so a loaded machine moves the
+    kill but never past it), ``delay`` s after that; check it; resume it.
     Returns the segment count found after the kill and the recordings before resuming."""
     proc = _spawn(campaign, out)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         while not out.exists() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
-        while after_first and not _stored(out) and proc.poll() is None \
+        while at and _stored(out) < at and proc.poll() is None \
                 and time.monotonic() < deadline:
             time.sleep(0.02)
         time.sleep(delay)
+        assert not at or proc.poll() is None, "the campaign ended before the kill"
         proc.send_signal(signal.SIGKILL)
     finally:
+        proc.kill()
         proc.wait(30)
     run = open_run(out)                          # readable after SIGKILL
     before = sum(lv.n_segments for lv in run.levels)
+    assert before >= at                          # what was seen committed survives the kill
     assert all(lv.n_segments <= per_level for lv in run.levels)
     kept = []
     for lv in run.levels:
@@ -113,17 +107,15 @@ def test_sigkill_then_resume(tmp_path):
     for trial in range(3):
         d = tmp_path / f"t{trial}"
         d.mkdir()
-        _kill_and_resume(random_campaign(d), d / "run.h5", rng.uniform(0.0, 2.0), AVERAGES,
-                         LEVELS)
+        _kill_and_resume(random_campaign(d), d / "run.h5", AVERAGES, LEVELS,
+                         delay=rng.uniform(0.0, 2.0))
 
 
 def test_stepped_sigkill_then_resume(tmp_path):
     """Steps recorded before the kill are bit-identical to an uninterrupted run's (the sim is
     deterministic); ``--resume`` adds exactly the missing steps, every one level-controlled."""
     campaign = stepped_campaign(tmp_path)
-    clock = Clock()
-    run_campaign(load_campaign(campaign), tmp_path / "ref.h5", observer=clock)
-    duration = clock.finished - clock.started
+    run_campaign(load_campaign(campaign), tmp_path / "ref.h5")
     ref = open_run(tmp_path / "ref.h5")
     assert [lv.n_segments for lv in ref.levels] == [STEPS] * STEPPED_LEVELS
     rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "7")))
@@ -132,10 +124,11 @@ def test_stepped_sigkill_then_resume(tmp_path):
         d = tmp_path / f"t{trial}"
         d.mkdir()
         out = d / "run.h5"
-        # the first kill may land anywhere, even before the first step (a loaded machine
-        # starts the process slowly); the others land after it, so some hit mid-run
-        before, kept = _kill_and_resume(campaign, out, rng.uniform(0.0, duration / (1 + trial)),
-                                        STEPS, STEPPED_LEVELS, after_first=trial > 0)
+        # the first kill lands as soon as the file exists, before the first step; the
+        # others once 1 .. n - 4 steps are committed (a few to spare: steps stored between
+        # the poll that sees the count and the kill), so they hit mid-run on any machine
+        at = 0 if trial == 0 else rng.randint(1, STEPS * STEPPED_LEVELS - 4)
+        before, kept = _kill_and_resume(campaign, out, STEPS, STEPPED_LEVELS, at=at)
         cut.append(before)
         run = open_run(out)
         for index, rec in kept:
@@ -157,15 +150,13 @@ def test_periodic_sigkill_then_resume(tmp_path):
     the seeds an uninterrupted run uses, and the level keeps its periodic layout."""
     campaign = _campaign(tmp_path, "campaign-sim-periodic.toml", {
         "averages = 8": "averages = 6", "periods = 8 ": "periods = 3 "})
-    clock = Clock()
-    run_campaign(load_campaign(campaign), tmp_path / "ref.h5", observer=clock)
-    duration = clock.finished - clock.started
     rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "3")))
     cut = []
     for trial in range(3):
         d = tmp_path / f"t{trial}"
         d.mkdir()
-        before, _ = _kill_and_resume(campaign, d / "run.h5", rng.uniform(0.0, duration), 6, 1)
+        # killed once 1 .. 3 of the 6 realizations are committed (three to spare)
+        before, _ = _kill_and_resume(campaign, d / "run.h5", 6, 1, at=rng.randint(1, 3))
         cut.append(before)
         rec = open_run(d / "run.h5").recording(0)
         assert (rec.layout.realizations, rec.layout.period) == (6, 4096)
@@ -179,8 +170,8 @@ def test_sigkill_many_trials(tmp_path):
     for trial in range(10):
         d = tmp_path / f"t{trial}"
         d.mkdir()
-        _kill_and_resume(random_campaign(d), d / "run.h5", rng.uniform(0.0, 2.0), AVERAGES,
-                         LEVELS)
+        _kill_and_resume(random_campaign(d), d / "run.h5", AVERAGES, LEVELS,
+                         delay=rng.uniform(0.0, 2.0))
 
 
 WATCHDOG = 0.2
