@@ -172,7 +172,9 @@ def test_model_through_the_same_held_steps_gives_the_measured_backbone():
     model = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k]]),
                   [Element("stick_slip", np.array([1.0]), {"kd": TWIN.kd, "fd": TWIN.fd})])
     tables = [held_displacement(a) for a in (1e-5, 6e-5, 2.5e-4)]
-    sim = model_tables(model, tables)
+    run = model_tables(model, tables)
+    sim = run.tables
+    assert not run.unconverged and run.summary() == ""
     for t, s in zip(tables, sim):
         np.testing.assert_allclose(np.abs(s.response_phasor), np.abs(t.response_phasor),
                                    rtol=1e-5)
@@ -228,7 +230,9 @@ def test_a_stiffening_model_holds_its_amplitudes_through_the_held_steps():
     model = Model(np.eye(1), np.array([[C]]), np.array([[K]]),
                   [Element("gap", np.array([1.0]), GAP)])
     tables = gap_tables()
-    sim = model_tables(model, tables, harmonics=(1,))
+    run = model_tables(model, tables, harmonics=(1,))
+    assert not run.unconverged
+    sim = run.tables
     theta = 2 * np.pi * np.arange(32) / 32
     w = 2 * np.pi * GAP_STEPS
     for a, t, s, q in zip(GAP_LEVELS, tables, sim, backbone(sim).points):
@@ -240,3 +244,30 @@ def test_a_stiffening_model_holds_its_amplitudes_through_the_held_steps():
         np.testing.assert_allclose(np.abs(s.force_phasor[:, 0]), force, rtol=1e-7)
         assert q.frequency_hz == pytest.approx(np.sqrt((K + n32) / M) / (2 * np.pi), rel=1e-8)
         assert q.damping_ratio == pytest.approx(C / (2 * np.sqrt(M * (K + n32))), rel=1e-6)
+
+
+def test_a_held_step_that_does_not_converge_is_left_out_and_reported(monkeypatch):
+    """A step whose held balance does not converge is not kept as its last iterate: the
+    model's table leaves it out and `ModelTables` names it (level and frequency), for the
+    summary line and the JSON of `backbone --model`."""
+    import analysis.backbone._simulated as simulated
+    from analysis.backbone import model_tables
+    from analysis.models import Element, Model
+    model = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k]]),
+                  [Element("stick_slip", np.array([1.0]), {"kd": TWIN.kd, "fd": TWIN.fd})])
+    tables = [held_displacement(a) for a in (1e-5, 6e-5)]
+    real = simulated.sweep_held
+
+    def failing(system, freqs, force, dof, amplitude):
+        res, F = real(system, freqs, force, dof, amplitude)
+        if amplitude[0] > 3e-5:                      # the second level's third step fails
+            res.converged[2] = False
+        return res, F
+    monkeypatch.setattr(simulated, "sweep_held", failing)
+    run = model_tables(model, tables)
+    assert [t.freqs.size for t in run.tables] == [tables[0].freqs.size,
+                                                  tables[1].freqs.size - 1]
+    assert run.unconverged == ((tables[1].level, tables[1].freqs[2]),)
+    assert tables[1].freqs[2] not in run.tables[1].freqs
+    assert run.summary().startswith("warning: 1 held step(s)")
+    assert f"{tables[1].freqs[2]:.2f} Hz" in run.summary()
