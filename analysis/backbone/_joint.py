@@ -39,6 +39,8 @@ FREE_SPAN = 100.0
 """Logarithms of positive parameters stay within +-`FREE_SPAN` (e^+-100): a
 degenerate direction (a slider that never slips) would otherwise run its slip force to an
 underflow that the law divides by."""
+PAIR_STARTS = 6
+"""Starts of a pair's fit settled (the best of its product grid); a single kind settles one."""
 REWEIGHT = 5
 """Rounds of residual reweighting (the group weights settle within a few)."""
 
@@ -264,16 +266,17 @@ class _Problem:
                 + (rf[..., r] / self.bb.sd_ref[0]) ** 2 / n
                 + (rz[..., r] / self.bb.sd_ref[1]) ** 2 / n)
 
-    def best_start(self, starts: list[list[dict[str, float]]]) -> np.ndarray:
-        """The best combination of the kinds' starts (each kind's describing stiffness
-        computed once per start, the combinations summed: a pair's grid is the product of
-        its kinds' grids)."""
+    def best_starts(self, starts: list[list[dict[str, float]]], n: int) -> list[np.ndarray]:
+        """The ``n`` best combinations of the kinds' starts, best first (each kind's
+        describing stiffness computed once per start, the combinations summed: a pair's
+        grid is the product of its kinds' grids)."""
         tables = [np.array([self.stiffness(i, p) for p in st]) for i, st in enumerate(starts)]
         N = tables[0]
         for t in tables[1:]:
             N = N[..., None, :] + t.reshape((1,) * (N.ndim - 1) + t.shape)
-        idx = np.unravel_index(int(np.argmin(self.likelihood(N))), N.shape[:-1])
-        return np.concatenate([to_free(k, st[j]) for k, st, j in zip(self.kinds, starts, idx)])
+        order = np.argsort(self.likelihood(N), axis=None, kind="stable")[:n]
+        return [np.concatenate([to_free(k, st[j]) for k, st, j in zip(self.kinds, starts, idx)])
+                for idx in zip(*np.unravel_index(order, N.shape[:-1]))]
 
     def settle(self, x: np.ndarray, rest: np.ndarray) -> OptimizeResult:
         """Reweighted least squares from ``x`` on the levels ``rest`` (and the reference)."""
@@ -329,7 +332,11 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
     if not all(starts):
         raise ValueError(f"{kind}: no start of a backbone fit (its law gives no force)")
     rest = np.arange(prob.bb.a.size) != prob.bb.ref
-    sol = prob.settle(prob.best_start(starts), rest)
+    # a pair's product grid is coarse in each kind: the best few combinations are settled
+    sols = [prob.settle(x0, rest) for x0 in prob.best_starts(starts, PAIR_STARTS if beside
+                                                                    else 1)]
+    sol = min(sols, key=lambda o: float(prob.likelihood(
+        sum(prob.stiffness(i, p) for i, p in enumerate(prob.split(o.x))))))
     x = sol.x
     names = [(k, n) for k in prob.kinds for n in KINDS[k].params]
     sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))

@@ -271,3 +271,55 @@ def test_a_held_step_that_does_not_converge_is_left_out_and_reported(monkeypatch
     assert tables[1].freqs[2] not in run.tables[1].freqs
     assert run.summary().startswith("warning: 1 held step(s)")
     assert f"{tables[1].freqs[2]:.2f} Hz" in run.summary()
+
+
+SOFT = {"p": -3e11}                  # a softening cubic spring: -0.4 Hz at 0.1 mm
+WIDE_GAP = {"k": 0.2 * K, "g": 1e-4}
+PAIR_LEVELS = (1e-5, 6e-5, 1e-4, 1.6e-4, 2.4e-4)
+
+
+def pair_tables() -> list:
+    """Held displacements of a mode with a softening cubic spring and a gap beside it: the
+    frequency falls, then rises (exact in one harmonic, as `gap_tables`)."""
+    from analysis.backbone import describing
+    w = 2 * np.pi * GAP_STEPS
+    out = []
+    for a in PAIR_LEVELS:
+        N = describing("gap", WIDE_GAP, np.array([a]))[0] + describing("cubic_spring", SOFT,
+                                                                       np.array([a]))[0]
+        force = (K + N - M * w**2 + 1j * C * w) * a
+        out.append(StepTable(GAP_STEPS, force[:, None], np.full((w.size, 1), a + 0j), [0],
+                             "response", a, control_dof=0))
+    return out
+
+
+def test_two_elements_at_one_point_are_fitted_from_their_backbone():
+    """Issue 25: a backbone that softens and then stiffens needs two elements at the point;
+    `fit_joint` with ``beside`` fits the pair jointly (each exact in one harmonic: the only
+    error is the single-mode fit's, as for the gap alone), the second of them is found
+    beside the first kept fixed (``fixed``, a later search pass), and their out-of-sample
+    residuals (`held_out`) are those of an exact law."""
+    from analysis.backbone import (LinearMode, fit_joint, held_out, joint_backbone,
+                                   reference_residuals)
+    from analysis.models import Element
+    points = list(backbone(pair_tables()).points)
+    fn = np.array([p.frequency_hz for p in points])
+    assert fn[2] < fn[0] - 0.1 and fn[-1] > fn[2] + 0.5          # down, then up
+    mode = LinearMode(80.0, 0.003, 1 / M)
+    fit = fit_joint(points, mode, "gap", compensated=False, kd_max=0.9 * K,
+                    beside="cubic_spring")
+    assert fit.params["k"] == pytest.approx(WIDE_GAP["k"], rel=1e-3)
+    assert fit.params["g"] == pytest.approx(WIDE_GAP["g"], rel=1e-3)
+    assert fit.beside["p"] == pytest.approx(SOFT["p"], rel=1e-3)
+    assert fit.frequency_rms < 1e-5
+    rf, rz = held_out(points, mode, "gap", fit, compensated=False, kd_max=0.9 * K,
+                      beside="cubic_spring")
+    assert np.abs(rf).max() < 1e-5 and np.abs(rz).max() < 1e-3
+    soft = Element("cubic_spring", np.array([1.0]), SOFT)
+    alone = fit_joint(points, mode, "gap", compensated=False, kd_max=0.9 * K, fixed=[soft])
+    assert alone.params["k"] == pytest.approx(WIDE_GAP["k"], rel=1e-3)
+    f0, _ = reference_residuals(points, mode, [soft])        # the softening alone: the top
+    assert f0[-1] < -0.02                                     # level's frequency far off
+    fm, _ = joint_backbone(mode, "gap", fit.params, np.array([points[-1].displacement_amplitude]),
+                           False, [Element("cubic_spring", np.array([1.0]), fit.beside)])
+    assert fm[0] == pytest.approx(fn[-1], rel=1e-5)
