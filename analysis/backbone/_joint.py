@@ -339,7 +339,11 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
         sum(prob.stiffness(i, p) for i, p in enumerate(prob.split(o.x))))))
     x = sol.x
     names = [(k, n) for k in prob.kinds for n in KINDS[k].params]
-    sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))
+    # columns scaled to their coordinate's size first: a coefficient (a cubic spring's
+    # 1e11 N/m^3) would otherwise fall below pinv's cutoff and get a zero-width interval
+    sc = np.maximum(np.abs(x), 1.0)
+    js = sol.jac * sc
+    sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(js.T @ js)), 0.0, None)) * sc
     # an interval reaching a bound ends there (its side is then not determined)
     ci = [free_interval(k, n, v, 1.96 * s, a, b)
           for (k, n), v, s, a, b in zip(names, x, sd, prob.lo, prob.hi)]
