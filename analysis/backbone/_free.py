@@ -78,6 +78,7 @@ def free_interval(kind: str, name: str, z: float, half: float, lo: float, hi: fl
                   ) -> tuple[float, float]:
     """95 % interval of parameter ``name`` from its free coordinate ``z`` and the
     interval's half width ``half`` there, ending at the fit's bounds ``lo``, ``hi``."""
-    ends = (_value(kind, name, max(z - half, lo, -700.0)),
-            _value(kind, name, min(z + half, hi, 700.0)))
+    cap = 700.0 if _how(kind, name)[0] == "log" else np.inf     # exp overflows beyond
+    ends = (_value(kind, name, max(z - half, lo, -cap)),
+            _value(kind, name, min(z + half, hi, cap)))
     return float(min(ends)), float(max(ends))

@@ -23,17 +23,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import product
+from typing import Sequence
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 
-from ..models import KINDS, restoring_force
+from ..models import KINDS, Element, restoring_force
 from ._backbone import BackbonePoint
 from ._free import free_bounds, free_interval, from_free, to_free
 
 N_TIME = 512
 PERIODS = 3
 """Periods of ``a cos`` run through a memory element; the last one is its steady loop."""
+FREE_SPAN = 100.0
+"""Logarithms of positive parameters stay within +-`FREE_SPAN` (e^+-100): a
+degenerate direction (a slider that never slips) would otherwise run its slip force to an
+underflow that the law divides by."""
+PAIR_STARTS = 6
+"""Starts of a pair's fit settled (the best of its product grid); a single kind settles one."""
 REWEIGHT = 5
 """Rounds of residual reweighting (the group weights settle within a few)."""
 
@@ -61,12 +68,16 @@ class JointFit:
     ci95 : dict
         95 % intervals of the parameters (linearised in their free coordinates, `to_free`, each residual group
         scaled by its own rms: the scatter the law does not explain sets the width).
+    beside, beside_ci95 : dict or None
+        The second element's parameters and intervals when a pair was fitted (``beside``).
     """
 
     params: dict[str, float]
     frequency_rms: float
     damping_rms: float
     ci95: dict[str, tuple[float, float]]
+    beside: dict[str, float] | None = None
+    beside_ci95: dict[str, tuple[float, float]] | None = None
 
 
 def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray,
@@ -83,17 +94,39 @@ def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray,
     return g1 * (2 / N_TIME) / a
 
 
-def joint_backbone(mode: LinearMode, kind: str, params: dict[str, float],
-                   amplitudes: np.ndarray, compensated: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Natural frequency (Hz) and damping ratio of ``mode`` with the element at each
-    displacement amplitude (module docstring; a rate-dependent law at the mode's own
-    frequency). A law that stiffens (a gap, a hardening spring) raises the frequency."""
+def stuck_form(elements: Sequence[Element], amplitudes: np.ndarray, omega: float
+               ) -> np.ndarray:
+    """Summed describing stiffness of ``elements`` at the point less their stuck stiffness
+    (a mode fitted at a low level holds it), complex, one per amplitude."""
+    out = np.zeros(np.size(amplitudes), dtype=complex)
+    for el in elements:
+        stiff = KINDS[el.kind].initial_stiffness
+        kd = el.params[stiff] if stiff is not None else 0.0
+        out += describing(el.kind, el.params, amplitudes, omega) - kd
+    return out
+
+
+def _mode_at(mode: LinearMode, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequency (Hz) and damping ratio of ``mode`` with the describing stiffness
+    ``N`` (stuck form: compensated stiffness already taken out) added at its point."""
     w0, A = 2 * np.pi * mode.frequency_hz, mode.modal_constant
-    N = describing(kind, params, amplitudes, w0)
-    kd = params[KINDS[kind].initial_stiffness] if compensated else 0.0
-    wn = np.sqrt(np.maximum(w0**2 + A * (N.real - kd), 1e-12 * w0**2))
+    wn = np.sqrt(np.maximum(w0**2 + A * N.real, 1e-12 * w0**2))
     zeta = (2 * mode.damping_ratio * w0 + A * N.imag / wn) / (2 * wn)
     return wn / (2 * np.pi), zeta
+
+
+def joint_backbone(mode: LinearMode, kind: str, params: dict[str, float],
+                   amplitudes: np.ndarray, compensated: bool,
+                   others: Sequence[Element] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequency (Hz) and damping ratio of ``mode`` with the element at each
+    displacement amplitude (module docstring; a rate-dependent law at the mode's own
+    frequency). A law that stiffens (a gap, a hardening spring) raises the frequency.
+    ``others``: further elements at the same point, in the stuck form (`stuck_form`)."""
+    w0 = 2 * np.pi * mode.frequency_hz
+    N = describing(kind, params, amplitudes, w0)
+    if compensated:
+        N = N - params[KINDS[kind].initial_stiffness]
+    return _mode_at(mode, N + stuck_form(others, amplitudes, w0))
 
 
 def _slider_grid(kind: str, amplitudes: np.ndarray, kd_max: float) -> list[dict[str, float]]:
@@ -165,23 +198,55 @@ class _Backbone:
 
 
 class _Problem:
-    """Residuals of a kind's backbone against the measured one (module docstring)."""
+    """Residuals of one kind's backbone, or a pair's (``kinds``: the first one compensated
+    when ``compensated``), beside ``fixed`` elements at the point, against the measured one
+    (module docstring)."""
 
-    def __init__(self, bb: _Backbone, mode: LinearMode, kind: str, compensated: bool,
-                 kd_max: float) -> None:
-        self.bb, self.mode, self.kind, self.compensated = bb, mode, kind, compensated
-        self.lo, self.hi = free_bounds(kind)
+    def __init__(self, bb: _Backbone, mode: LinearMode, kinds: tuple[str, ...],
+                 compensated: bool, kd_max: float, fixed: Sequence[Element] = ()) -> None:
+        self.bb, self.mode, self.kinds, self.compensated = bb, mode, kinds, compensated
+        self.omega = 2 * np.pi * mode.frequency_hz
+        self.base = stuck_form(fixed, bb.a, self.omega)
+        self.sizes = [len(KINDS[k].params) for k in kinds]
+        bounds = [self._bounds(k, kd_max) for k in kinds]
+        logs = np.array([KINDS[k].param(n).positive for k in kinds for n in KINDS[k].params])
+        self.lo = np.where(logs, np.maximum(np.concatenate([b[0] for b in bounds]), -FREE_SPAN),
+                           np.concatenate([b[0] for b in bounds]))
+        self.hi = np.where(logs, np.minimum(np.concatenate([b[1] for b in bounds]), FREE_SPAN),
+                           np.concatenate([b[1] for b in bounds]))
+
+    @staticmethod
+    def _bounds(kind: str, kd_max: float) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = free_bounds(kind)
         spec = KINDS[kind]
         if spec.initial_stiffness is not None:
             k = spec.params.index(spec.initial_stiffness)
-            self.hi[k] = min(self.hi[k], np.log(kd_max))
+            hi[k] = min(hi[k], np.log(kd_max))
         elif spec.dissipative and not spec.param(spec.coef).positive:
-            self.lo[spec.params.index(spec.coef)] = 0.0        # a loss, not a gain
+            lo[spec.params.index(spec.coef)] = 0.0        # a loss, not a gain
+        return lo, hi
+
+    def split(self, x: np.ndarray) -> list[dict[str, float]]:
+        """Physical parameters of each kind from the joined free coordinates ``x``."""
+        cuts = np.cumsum(self.sizes)[:-1]
+        return [from_free(k, z) for k, z in zip(self.kinds, np.split(x, cuts))]
+
+    def stiffness(self, i: int, params: dict[str, float]) -> np.ndarray:
+        """Describing stiffness of kind ``i`` at the levels' amplitudes (stuck form)."""
+        kind = self.kinds[i]
+        N = describing(kind, params, self.bb.a, self.omega)
+        if i == 0 and self.compensated:
+            N = N - params[KINDS[kind].initial_stiffness]
+        return N
+
+    def relative(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Relative frequency and damping residuals of the describing stiffness ``N`` (any
+        leading shape, the levels last; ``fixed`` added)."""
+        fm, zm = _mode_at(self.mode, N + self.base)
+        return fm / self.bb.f - 1, zm / self.bb.z - 1
 
     def groups(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        fm, zm = joint_backbone(self.mode, self.kind, from_free(self.kind, x), self.bb.a,
-                                self.compensated)
-        return fm / self.bb.f - 1, zm / self.bb.z - 1
+        return self.relative(sum(self.stiffness(i, p) for i, p in enumerate(self.split(x))))
 
     def weighted(self, x: np.ndarray, sf: float, sz: float, rest: np.ndarray) -> np.ndarray:
         rf, rz = self.groups(x)
@@ -189,14 +254,29 @@ class _Problem:
         return np.concatenate([rf[rest] / sf, rz[rest] / sz,
                                [rf[r] / self.bb.sd_ref[0], rz[r] / self.bb.sd_ref[1]]])
 
-    def likelihood(self, x: np.ndarray) -> float:
-        """Profile log likelihood (two groups of unknown variance, the reference level by
-        its own intervals; lower is better)."""
-        rf, rz = self.groups(x)
+    def likelihood(self, N: np.ndarray) -> np.ndarray:
+        """Profile log likelihood of the describing stiffnesses ``N`` (levels last; two
+        groups of unknown variance, the reference level by its own intervals; lower is
+        better)."""
+        rf, rz = self.relative(N)
         rest = np.arange(self.bb.a.size) != self.bb.ref
         r, n = self.bb.ref, rest.sum()
-        return float(np.log(np.mean(rf[rest]**2) + 1e-18) + np.log(np.mean(rz[rest]**2) + 1e-18)
-                     + (rf[r] / self.bb.sd_ref[0]) ** 2 / n + (rz[r] / self.bb.sd_ref[1]) ** 2 / n)
+        return (np.log(np.mean(rf[..., rest]**2, axis=-1) + 1e-18)
+                + np.log(np.mean(rz[..., rest]**2, axis=-1) + 1e-18)
+                + (rf[..., r] / self.bb.sd_ref[0]) ** 2 / n
+                + (rz[..., r] / self.bb.sd_ref[1]) ** 2 / n)
+
+    def best_starts(self, starts: list[list[dict[str, float]]], n: int) -> list[np.ndarray]:
+        """The ``n`` best combinations of the kinds' starts, best first (each kind's
+        describing stiffness computed once per start, the combinations summed: a pair's
+        grid is the product of its kinds' grids)."""
+        tables = [np.array([self.stiffness(i, p) for p in st]) for i, st in enumerate(starts)]
+        N = tables[0]
+        for t in tables[1:]:
+            N = N[..., None, :] + t.reshape((1,) * (N.ndim - 1) + t.shape)
+        order = np.argsort(self.likelihood(N), axis=None, kind="stable")[:n]
+        return [np.concatenate([to_free(k, st[j]) for k, st, j in zip(self.kinds, starts, idx)])
+                for idx in zip(*np.unravel_index(order, N.shape[:-1]))]
 
     def settle(self, x: np.ndarray, rest: np.ndarray) -> OptimizeResult:
         """Reweighted least squares from ``x`` on the levels ``rest`` (and the reference)."""
@@ -210,24 +290,20 @@ class _Problem:
         return sol
 
 
-def _problem(points: list[BackbonePoint], mode: LinearMode, kind: str, compensated: bool,
-             kd_max: float) -> tuple[_Problem, list[np.ndarray]]:
-    """The fit problem and its starts in free coordinates."""
-    bb = _Backbone.of(points)
-    prob = _Problem(bb, mode, kind, compensated, kd_max)
+def _starts(kind: str, bb: _Backbone, mode: LinearMode, kd_max: float
+            ) -> list[dict[str, float]]:
     if KINDS[kind].initial_stiffness is not None:
-        starts = _slider_grid(kind, bb.a, kd_max)
-    else:
-        starts = _coefficient_grid(kind, bb.a, kd_max, 2 * np.pi * mode.frequency_hz)
-    return prob, [to_free(kind, p) for p in starts]
+        return _slider_grid(kind, bb.a, kd_max)
+    return _coefficient_grid(kind, bb.a, kd_max, 2 * np.pi * mode.frequency_hz)
 
 
 def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
-              compensated: bool, kd_max: float) -> JointFit:
+              compensated: bool, kd_max: float, beside: str | None = None,
+              fixed: Sequence[Element] = ()) -> JointFit:
     """Parameters of an element ``kind`` reproducing the backbone ``points``: a slider
     (`analysis.models.KINDS` with a stuck stiffness and a slip-displacement grid) or a law
     linear in one coefficient (softening or stiffening: a gap, a cubic spring, a damping
-    law).
+    law); with ``beside``, a second such kind at the same point fitted jointly with it.
 
     Parameters
     ----------
@@ -242,34 +318,64 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
         Largest stuck stiffness (the structure's static stiffness at the point, or the
         mode's own ``w0^2 / A``); for a coefficient law, the largest describing stiffness
         its starts reach.
+    beside : str, optional
+        A second kind fitted with it (its starts the product of both kinds' grids).
+    fixed : sequence of Element
+        Elements the model already holds at the point (their parameters kept; stuck form,
+        the mode holds their stuck stiffness).
 
     Returns
     -------
     JointFit
     """
-    prob, starts = _problem(points, mode, kind, compensated, kd_max)
-    if not starts:
+    prob, starts = _problem(points, mode, kind, compensated, kd_max, beside, fixed)
+    if not all(starts):
         raise ValueError(f"{kind}: no start of a backbone fit (its law gives no force)")
     rest = np.arange(prob.bb.a.size) != prob.bb.ref
-    sol = prob.settle(min(starts, key=prob.likelihood), rest)
+    # a pair's product grid is coarse in each kind: the best few combinations are settled
+    sols = [prob.settle(x0, rest) for x0 in prob.best_starts(starts, PAIR_STARTS if beside
+                                                                    else 1)]
+    sol = min(sols, key=lambda o: float(prob.likelihood(
+        sum(prob.stiffness(i, p) for i, p in enumerate(prob.split(o.x))))))
     x = sol.x
-    names = KINDS[kind].params
-    sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(sol.jac.T @ sol.jac)), 0.0, None))
+    names = [(k, n) for k in prob.kinds for n in KINDS[k].params]
+    # columns scaled to their coordinate's size first: a coefficient (a cubic spring's
+    # 1e11 N/m^3) would otherwise fall below pinv's cutoff and get a zero-width interval
+    sc = np.maximum(np.abs(x), 1.0)
+    js = sol.jac * sc
+    sd = np.sqrt(np.clip(np.diag(np.linalg.pinv(js.T @ js)), 0.0, None)) * sc
     # an interval reaching a bound ends there (its side is then not determined)
-    ci = {n: free_interval(kind, n, v, 1.96 * s, a, b)
-          for n, v, s, a, b in zip(names, x, sd, prob.lo, prob.hi)}
+    ci = [free_interval(k, n, v, 1.96 * s, a, b)
+          for (k, n), v, s, a, b in zip(names, x, sd, prob.lo, prob.hi)]
+    params = prob.split(x)
+    cis = [dict(zip(KINDS[k].params, ci[o:o + m]))
+           for k, o, m in zip(prob.kinds, np.cumsum([0] + prob.sizes), prob.sizes)]
     rf, rz = prob.groups(x)
-    return JointFit(from_free(kind, x), float(np.sqrt(np.mean(rf**2))),
-                    float(np.sqrt(np.mean(rz**2))), ci)
+    return JointFit(params[0], float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))),
+                    cis[0], params[1] if beside else None, cis[1] if beside else None)
+
+
+def _problem(points: list[BackbonePoint], mode: LinearMode, kind: str, compensated: bool,
+             kd_max: float, beside: str | None, fixed: Sequence[Element]
+             ) -> tuple[_Problem, list[list[dict[str, float]]]]:
+    """The fit problem and each kind's starts."""
+    bb = _Backbone.of(points)
+    kinds = (kind,) if beside is None else (kind, beside)
+    prob = _Problem(bb, mode, kinds, compensated, kd_max, fixed)
+    return prob, [_starts(k, bb, mode, kd_max) for k in kinds]
 
 
 def held_out(points: list[BackbonePoint], mode: LinearMode, kind: str, fit: JointFit, *,
-             compensated: bool, kd_max: float) -> tuple[np.ndarray, np.ndarray]:
+             compensated: bool, kd_max: float, beside: str | None = None,
+             fixed: Sequence[Element] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Out-of-sample residuals of a backbone fit: every level but the reference predicted
-    by ``kind`` refitted (from ``fit``) on the other levels; relative frequency and damping
-    residuals, one per such level (in ``points`` order, the reference left out)."""
-    prob, _ = _problem(points, mode, kind, compensated, kd_max)
+    by ``kind`` (and ``beside``) refitted (from ``fit``) on the other levels, ``fixed`` kept;
+    relative frequency and damping residuals, one per such level (in ``points`` order, the
+    reference left out)."""
+    prob, _ = _problem(points, mode, kind, compensated, kd_max, beside, fixed)
     x0 = to_free(kind, fit.params)
+    if beside is not None:
+        x0 = np.concatenate([x0, to_free(beside, fit.beside)])
     rf_out, rz_out = [], []
     for k in range(prob.bb.a.size):
         if k == prob.bb.ref:
@@ -280,3 +386,13 @@ def held_out(points: list[BackbonePoint], mode: LinearMode, kind: str, fit: Join
         rf_out.append(rf[k])
         rz_out.append(rz[k])
     return np.array(rf_out), np.array(rz_out)
+
+
+def reference_residuals(points: list[BackbonePoint], mode: LinearMode,
+                        fixed: Sequence[Element] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Relative frequency and damping residuals of ``mode`` with ``fixed`` alone at every
+    level but the reference (the baseline an added element is scored against)."""
+    bb = _Backbone.of(points)
+    fm, zm = _mode_at(mode, stuck_form(fixed, bb.a, 2 * np.pi * mode.frequency_hz))
+    rest = np.arange(bb.a.size) != bb.ref
+    return fm[rest] / bb.f[rest] - 1, zm[rest] / bb.z[rest] - 1

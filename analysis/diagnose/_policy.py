@@ -112,7 +112,8 @@ class SearchPass:
     effect: float
     rejected: list[Rejection] = field(default_factory=list)
     linear: list[Fit] = field(default_factory=list)
-    """The linear correction accepted jointly with ``best`` (`with_linear_part`)."""
+    """The linear correction accepted jointly with ``best`` (`with_linear_part`), or the
+    second element of a pair (`Search.companions`)."""
     kinds: tuple[KindAlternative, ...] = ()
     """The other kinds the data cannot tell from ``best``'s (`kind_ties`)."""
 
@@ -196,7 +197,7 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
                                 f, s)
         if kinds:   # the numbers the explanation compares are the named one's
             f.evidence.update(s.evidence(), oos_bic=bic(search, f, s))
-        fits = with_linear_part(search, f, s)
+        fits = with_linear_part(search, f, s) + search.companions(f)
         try:
             fixed = apply_fits(model, fits)
         except ModelError as exc:   # this candidate only: the next one is tried

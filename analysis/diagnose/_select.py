@@ -162,6 +162,11 @@ class Search:
         """Make ``(c, extra)`` available in every level's transfers (a grid value refined
         in another search pass); stepped-sine searches hold every grid value already."""
 
+    def companions(self, fit: Fit) -> list[Fit]:
+        """Effects accepted together with ``fit`` (a stepped-sine pair's second element,
+        `.stepped.SteppedSearch.companions`); none here."""
+        return []
+
     def bic_gain(self, chi2_c: float, k: int) -> float:
         return self.chi2_0 - chi2_c - k * np.log(self.n_values)
 

@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..models import KINDS, Candidate, Model, library
+from ..models import KINDS, Candidate, Element, Model, library
 from ..errors import InputError, ModelError
 from ..hbm import HBMError
 from ..recordings import Recording, StepTable
@@ -37,11 +37,17 @@ from ._leakage import level_floor
 from ._report import LevelCurves
 from ._evidence import Evidence
 from ._outofsample import Predictor
-from ._select import (SHORTLIST, Fit, Search, candidate_extras, corrected_model,
+from ._select import (SHORTLIST, Fit, Search, candidate_extras, coef_name,
                      scaled_params, screened, unit_params)
 from ._stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
-                             backbone_estimate, hbm_refit, hbm_sweep, motion_chi2, refine,
-                             simulated_chi2, slip_grid, stuck_limit, transfer)
+                             backbone_estimate, hbm_refit, hbm_sweep, held_elements, motion_chi2,
+                             refine, simulated_chi2, slip_grid, stuck_limit, transfer,
+                             with_candidate)
+
+PAIR_MIN = 2.0
+"""Out-of-sample backbone score (a log likelihood) a pair must gain over its first kind
+alone: the likelihood-ratio threshold of one more parameter at 95 % (chi2(1) / 2 = 1.92,
+rounded up); a pure slider's own small bias is not taken for a second element."""
 METRIC = ("relative first-harmonic FRF error (rms over steps and DOFs) of a harmonic-balance "
           "simulation on the held-back level")
 
@@ -120,7 +126,18 @@ class SteppedSearch(Search):
                 extra[c] = slip_grid(frfs, c.w)
         levels = [_level(model, r, f, extra, floor, level_name(r))
                   for r, f in zip(recs, frfs)]
+        self.partner: dict[Candidate, Fit] = {}
+        """The second element of a slider's winning pair (`_paired`): simulated with it and
+        accepted with it (`companions`)."""
         super().__init__(model, levels, extra)
+
+    def ensure_basis(self, c: Candidate, extra: float | None) -> None:
+        """Make ``(c, extra)`` available in every level's transfers (a grid value the
+        backbone fit refined, `_on_backbone`), along the measured motion as `_level` does."""
+        for lf, frf in zip(self.levels, self.frfs):
+            if (c, extra) not in lf.T:
+                lf.T[(c, extra)] = transfer(frf, c.kind, unit_params(c.kind, extra), c.w,
+                                            c.compensated)
 
     def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
         """Model FRFs of the fitting levels with slider ``c`` (``params``) added, for the
@@ -131,14 +148,27 @@ class SteppedSearch(Search):
         return self._simulated(c, params, lambda: [
             h0 - (hl @ c.w)[:, :, None] * transfer(frf, c.kind, params, c.w,
                                                   c.compensated)[:, None, :]
-            for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)])
+            for hl, h0, frf in zip(self.H_lins, self.H0s, self.frfs)], self._beside(c))
+
+    def _beside(self, c: Candidate) -> Element | None:
+        """The element of ``c``'s pair partner, if it has one."""
+        p = self.partner.get(c)
+        return None if p is None else Element(p.cand.kind, p.cand.w, dict(p.params))
+
+    def companions(self, fit: Fit) -> list[Fit]:
+        """A pair's second element, accepted with its slider (`_paired`): the pair was chosen
+        on the backbone and judged on the FRFs together (`_pair_predictor`)."""
+        p = self.partner.get(fit.cand)
+        return [] if p is None else [p]
 
     def _simulated(self, c: Candidate, params: dict[str, float],
-                   fallback: Callable[[], list[np.ndarray]]) -> list[np.ndarray]:
-        """The fitting levels' fundamental FRFs of the model with ``c`` added, by harmonic
-        balance at each step's own force; ``fallback()`` where the balance fails."""
+                   fallback: Callable[[], list[np.ndarray]], beside: Element | None = None
+                   ) -> list[np.ndarray]:
+        """The fitting levels' fundamental FRFs of the model with ``c`` (and ``beside``, its
+        pair's second element) added, by harmonic balance at each step's own force;
+        ``fallback()`` where the balance fails."""
         try:
-            m = corrected_model(self.model, Fit(c, params, {}, 0.0, 0.0))
+            m = with_candidate(self.model, c, params, beside)
             i1 = HARMONICS.index(1)
             return [(hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None]
                     for frf in self.frfs]
@@ -154,6 +184,8 @@ class SteppedSearch(Search):
         / F_1`` with ``G_1`` from the measured response, carries the measured resonance of
         each level into the candidate's FRF, which a simulated model cannot."""
         c = fit.cand
+        if c in self.partner and fit.extra is None:
+            return self._pair_predictor(fit, self._beside(c))
         shift = _signed_shift(c.kind) if c.memory else np.zeros(1)
         if fit.extra is None and np.any(shift):
             # a signed parameter (iwan's chi) is judged from its lower bound, as a positive
@@ -162,11 +194,33 @@ class SteppedSearch(Search):
             theta = np.array([fit.params[n] for n in names]) - shift
             return Predictor(lambda t: self.memory_frfs(c, dict(zip(names, t + shift))),
                              theta, len(names), np.abs(theta), positive=True)
+        if (self.model.elements and not c.memory and not joint
+                and fit.evidence.get("estimator") == BACKBONE_ESTIMATOR):
+            # a later pass's law fitted to the backbone beside the elements already there:
+            # judged beside them as that fit kept them (its coefficient free)
+            name = coef_name(c.kind)
+            return Predictor(lambda t: self._simulated(
+                c, scaled_params(c.kind, float(t[0]), fit.extra), lambda: list(self.H0s)),
+                np.array([fit.params[name]]), 1, np.array([abs(fit.params[name])]))
         pred = super().predictor(fit, joint, earlier)
         if not self.on_backbone or c.linear or c.memory or pred.nuisance:
             return pred
         return replace(pred, predict=lambda t: self._simulated(
             c, scaled_params(c.kind, float(t[0]), fit.extra), lambda: pred.predict(t)))
+
+    def _pair_predictor(self, fit: Fit, beside: Element) -> Predictor:
+        """A pair (`_paired`) judged by one scale of its nonlinear strength (`_scaled_force`:
+        the slider's slip force and the partner's coefficient together), the rest kept as
+        the backbone fixed it, as a gridded kind is judged at its grid value: a one-step
+        out-of-sample refit of four or five parameters from a backbone estimate is far
+        outside its linear range on levels that drift in frequency (docs/backbone.md)."""
+        c = fit.cand
+
+        def predict(t: np.ndarray) -> list[np.ndarray]:
+            b = Element(beside.kind, beside.w, _scaled_force(beside.kind, beside.params, t[0]))
+            return self._simulated(c, _scaled_force(c.kind, fit.params, t[0]),
+                                   lambda: list(self.H0s), b)
+        return Predictor(predict, np.ones(1), 1, np.ones(1), positive=True)
 
     def fit_memory(self, fit: Fit) -> Fit | None:
         """A screened slider (best slip-displacement grid point, closed-form ``kd``) with
@@ -204,35 +258,105 @@ class SteppedSearch(Search):
         memory = [f for f in fits if f.cand.memory]   # best first
         out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
         out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]
-        if self.on_backbone and not self.model.elements:
+        if self.on_backbone and held_elements(self.model, self.recs[0].control_dof) is not None:
             out = self.backbone_kind(out)
         return sorted(out, key=lambda f: -f.delta_bic)
 
     def backbone_kind(self, fits: list[Fit]) -> list[Fit]:
         """On response-controlled tables the kind of element at the held point is the one
         that predicts the backbone best out of sample (`.stepped_memory.backbone_gain`:
-        each level's frequency and damping from the kind fitted to the other levels'):
-        the other nonlinear kinds there are left out of the pool (each fit keeps its
-        score in its evidence); whether the chosen one is accepted is then decided on the
-        FRFs (`.policy.decide`). A memoryless law is scored by its own backbone fit, its
-        pool entry keeps the FRF screening's estimate. Only while the model holds no
-        element (the first pass): the backbone fit acts on the linear mode alone."""
-        scored: dict[str, float] = {}
+        each level's frequency and damping from the kind fitted to the other levels'),
+        against the mode with the elements the model already holds there: the other
+        nonlinear kinds there are left out of the pool (each fit keeps its score in its
+        evidence); whether the chosen one is accepted is then decided on the FRFs
+        (`.policy.decide`). A memoryless law is scored by its own backbone fit, its pool
+        entry keeps the FRF screening's estimate. In the first pass a kind is also scored
+        with a second element beside it (`_paired`)."""
+        scored: dict[tuple[str, bool], float] = {}
+        partners = {f.cand.kind: f.cand for f in fits if backbone_applies(self.recs, f.cand)
+                    and not f.cand.memory and not KINDS[f.cand.kind].dissipative}
+        out = []
         for f in fits:
             if not backbone_applies(self.recs, f.cand):
+                out.append(f)
                 continue
             if f.evidence.get("estimator") != BACKBONE_ESTIMATOR:
                 est = backbone_estimate(self.model, f.cand, self.recs)
                 if est is None:
                     continue
                 f.evidence.update(est[2])
-            gain = f.evidence["backbone_oos_gain"]
-            scored[f.cand.kind] = max(scored.get(f.cand.kind, -np.inf), gain)
+                if self.model.elements:
+                    f = self._on_backbone(f, est[0], est[1])
+                    if f is None:
+                        continue
+            if not self.model.elements:
+                f = self._paired(f, [p for k, p in partners.items() if k != f.cand.kind])
+            out.append(f)
+            form = (f.cand.kind, f.cand.compensated)
+            scored[form] = max(scored.get(form, -np.inf), f.evidence["backbone_oos_gain"])
         if not scored:
-            return fits
+            return out
         best = max(scored, key=scored.__getitem__)
-        return [f for f in fits if not backbone_applies(self.recs, f.cand)
-                or (f.cand.kind == best and "backbone_oos_gain" in f.evidence)]
+        return [f for f in out if not backbone_applies(self.recs, f.cand)
+                or ((f.cand.kind, f.cand.compensated) == best
+                    and "backbone_oos_gain" in f.evidence)]
+
+    def _on_backbone(self, fit: Fit, params: dict[str, float], ci: dict[str, list[float]]
+                     ) -> Fit | None:
+        """A memoryless law's pool entry with its backbone estimate (``params``, ``ci``)
+        beside the elements the model holds (a later pass: the FRF screening along the
+        measured motion cannot tell its share from theirs); None when the model with it
+        cannot be simulated."""
+        c, grid = fit.cand, KINDS[fit.cand.kind].search.grid
+        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
+        if x2 is None:
+            return None
+        extra = fit.extra
+        if grid is not None and grid.param in params:
+            extra = params[grid.param] / (params[coef_name(c.kind)] if grid.per else 1.0)
+            self.ensure_basis(c, extra)
+        ev = dict(fit.evidence, estimator=BACKBONE_ESTIMATOR)
+        return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev, extra)
+
+    def _paired(self, fit: Fit, partners: list[Candidate]) -> Fit:
+        """``fit`` scored as a pair with the partner (a conservative law at the same point:
+        a stiffening one turns a slider's softening around) whose joint backbone fit scores
+        best out of sample, when that beats the kind alone by more than `PAIR_MIN`; the
+        partner is left to the next pass (judged there beside the element, as this one).
+        A slider's pool entry then takes its parameters from the pair's fit, and is
+        simulated (misfit, out-of-sample judgement) with the partner beside it: the pair is
+        judged on the FRFs as it was chosen on the backbone."""
+        best = None
+        for p in partners:
+            est = backbone_estimate(self.model, fit.cand, self.recs, beside=p)
+            if est is not None and (best is None or est[2]["backbone_oos_gain"]
+                                    > best[2]["backbone_oos_gain"]):
+                best = est
+        alone = fit.evidence["backbone_oos_gain"]
+        if best is None or best[2]["backbone_oos_gain"] <= alone + PAIR_MIN:
+            return fit
+        ev = dict(fit.evidence, **best[2], backbone_oos_gain_alone=alone)
+        if fit.evidence.get("estimator") != BACKBONE_ESTIMATOR:
+            return replace(fit, evidence=ev)
+        other = next(p for p in partners if p.kind == ev["beside_kind"])
+        beside = Element(other.kind, other.w, dict(ev["beside_params"]))
+        x2 = simulated_chi2(self.model, fit.cand, best[0], self.levels, self.frfs, beside)
+        if x2 is None:
+            return fit
+        bic = self.bic_gain(x2, fit.cand.n_params + other.n_params)
+        self.partner[fit.cand] = Fit(other, dict(beside.params), dict(ev["beside_ci95"]), x2,
+                                     bic, dict(ev, estimator=f"{BACKBONE_ESTIMATOR}, beside "
+                                               f"{fit.cand.kind}"))
+        return Fit(fit.cand, best[0], best[1], x2, bic, ev)
+
+
+def _scaled_force(kind: str, params: dict[str, float], scale: float) -> dict[str, float]:
+    """Parameters of ``kind`` with its nonlinear strength scaled by ``scale``: a slider's
+    slip force (its stuck stiffness, which the linear part holds, kept), a law's
+    coefficient."""
+    spec = KINDS[kind]
+    names = {spec.search.grid.param} if spec.memory else {spec.coef}
+    return {n: v * scale if n in names else v for n, v in params.items()}
 
 
 def _signed_shift(kind: str) -> np.ndarray:

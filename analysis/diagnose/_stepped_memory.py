@@ -16,17 +16,19 @@ holds it) is fitted the same way: its transfer carries the element's force less 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..backbone import (BackbonePoint, LinearMode, backbone, fit_joint, fit_single_mode,
-                        free_bounds, free_interval, from_free, held_out, to_free)
+from ..backbone import (LinearMode, backbone, fit_joint, fit_single_mode, free_bounds,
+                        free_interval, from_free, held_out, reference_residuals, to_free)
 from ..errors import EstimationError, ModelError
 from ..hbm import HBMError, HBMSystem
-from ..models import KINDS, Candidate, Model, restoring_force
+from ..models import KINDS, Candidate, Element, Model, restoring_force
 from ..recordings import Control, StepTable
 from ..spectral import SteppedSineFRF
-from ._compare import LevelFRF, chi2
+from ._compare import LevelFRF, chi2, stuck_linear
 from ._select import MARGIN, Fit, corrected_model
 
 HARMONICS = (1, 3, 5, 7)
@@ -163,14 +165,27 @@ def backbone_applies(tables: list, c: Candidate) -> bool:
             and all(t.control_dof == dof and list(t.force_dofs) == [dof] for t in tables))
 
 
-def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
+def held_elements(model: Model, dof: int) -> list[Element] | None:
+    """The model's elements when every one acts from DOF ``dof`` to ground (unit
+    deformation there: what a backbone fit can hold beside a new element); None otherwise."""
+    unit = np.eye(model.n_dof)[dof]
+    if all(np.array_equal(el.w, unit) for el in model.elements):
+        return list(model.elements)
+    return None
+
+
+def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
+                      beside: Candidate | None = None
                       ) -> tuple[dict[str, float], dict[str, list[float]],
-                                 dict[str, float]] | None:
+                                 dict[str, Any]] | None:
     """An element fitted to the backbone of response-controlled levels
-    (`analysis.backbone.fit_joint`) on the model's own mode at the held point; None when
-    that mode cannot be found. Returns the parameters, their 95 % intervals and the
-    evidence: the fit's relative rms residuals and its out-of-sample backbone score
-    (`backbone_gain`).
+    (`analysis.backbone.fit_joint`) on the model's own mode at the held point (the stuck
+    linear part, `.compare.stuck_linear`, with the elements the model holds there kept
+    beside it); with ``beside``, a second element at the point fitted jointly. None when
+    that mode cannot be found or the model holds elements elsewhere. Returns the
+    parameters, their 95 % intervals and the evidence: the fit's relative rms residuals and
+    its out-of-sample backbone score (`backbone_gain`; a pair's partner and its parameters
+    under ``beside_kind``, ``beside_params``, ``beside_ci95``).
 
     A response-controlled level is one quasi-linear mode at its amplitude, so its natural
     frequency and damping are what a joint law must reproduce; levels measured at different
@@ -178,37 +193,44 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable]
     up and down), and a fit of the whole FRFs lets that drift, many half-power bandwidths
     wide, decide the damping law (docs/backbone.md)."""
     dof = tables[0].control_dof
+    fixed = held_elements(model, dof)
+    if fixed is None:
+        return None
     freqs = np.unique(np.concatenate([t.freqs for t in tables]))
     try:
-        mf = fit_single_mode(freqs, model.linear_frf(freqs)[:, dof, dof], 0)
+        mf = fit_single_mode(freqs, stuck_linear(model).linear_frf(freqs)[:, dof, dof], 0)
         points = list(backbone(tables, dof).points)
     except (EstimationError, ValueError):
         return None
     mode = LinearMode(mf.frequency_hz, mf.damping_ratio, float(mf.modal_constant.real))
     kd_max = min(stuck_limit(model, c),
                  MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
+    other = None if beside is None else beside.kind
     try:
-        jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max)
-        rf, rz = held_out(points, mode, c.kind, jf, compensated=c.compensated, kd_max=kd_max)
+        jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max,
+                       beside=other, fixed=fixed)
+        rf, rz = held_out(points, mode, c.kind, jf, compensated=c.compensated, kd_max=kd_max,
+                          beside=other, fixed=fixed)
     except ValueError:
         return None
-    ev = {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms,
-          **backbone_gain(points, mode, rf, rz)}
+    ev: dict[str, Any] = {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms,
+                          **backbone_gain(reference_residuals(points, mode, fixed), rf, rz)}
+    if other is not None:
+        ev.update(beside_kind=other, beside_params=dict(jf.beside),
+                  beside_ci95={n: list(v) for n, v in jf.beside_ci95.items()})
     return jf.params, {n: list(v) for n, v in jf.ci95.items()}, ev
 
 
-def backbone_gain(points: list[BackbonePoint], mode: LinearMode, rf: np.ndarray,
+def backbone_gain(reference: tuple[np.ndarray, np.ndarray], rf: np.ndarray,
                   rz: np.ndarray) -> dict[str, float]:
     """Out-of-sample backbone score of an element from its held-out relative residuals
     ``rf``, ``rz`` (`analysis.backbone.held_out`: each level but the lowest predicted by the
-    element fitted to the others) against the linear mode's (``f0 / f - 1``, ``zeta0 / zeta
-    - 1``): the log-likelihood gain with an unknown variance per group, ``n/2 (log(ms_f0 /
-    ms_f) + log(ms_z0 / ms_z))`` (``ms`` the mean square over the ``n`` levels). Frequency
-    and damping count alike: a law that only fits the damping gains in one group."""
-    ref = int(np.argmin([p.displacement_amplitude for p in points]))
-    others = [p for i, p in enumerate(points) if i != ref]
-    f0 = np.array([mode.frequency_hz / p.frequency_hz - 1 for p in others])
-    z0 = np.array([mode.damping_ratio / p.damping_ratio - 1 for p in others])
+    element fitted to the others) against the ``reference`` ones (the linear mode's, with
+    the elements the model already holds: `analysis.backbone.reference_residuals`): the
+    log-likelihood gain with an unknown variance per group, ``n/2 (log(ms_f0 / ms_f) +
+    log(ms_z0 / ms_z))`` (``ms`` the mean square over the ``n`` levels). Frequency and
+    damping count alike: a law that only fits the damping gains in one group."""
+    f0, z0 = reference
 
     def ms(r: np.ndarray) -> float:
         return float(np.mean(r**2)) + 1e-18
@@ -216,12 +238,21 @@ def backbone_gain(points: list[BackbonePoint], mode: LinearMode, rf: np.ndarray,
             "frequency_rms_oos": float(np.sqrt(ms(rf))), "damping_rms_oos": float(np.sqrt(ms(rz)))}
 
 
+def with_candidate(model: Model, c: Candidate, params: dict[str, float],
+                   beside: Element | None = None) -> Model:
+    """The model with ``c`` at ``params`` added (`._select.corrected_model`) and ``beside``,
+    the second element of a pair, with it; raises `ModelError` as that does."""
+    m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
+    return m if beside is None else m.with_elements(m.elements + [beside])
+
+
 def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
-                   levels: list[LevelFRF], frfs: list[SteppedSineFRF]) -> float | None:
-    """``chi2`` of the levels simulated by harmonic balance with ``c`` added; None when the
-    candidate leaves the model's valid range or the balance fails."""
+                   levels: list[LevelFRF], frfs: list[SteppedSineFRF],
+                   beside: Element | None = None) -> float | None:
+    """``chi2`` of the levels simulated by harmonic balance with ``c`` (and ``beside``)
+    added; None when the candidate leaves the model's valid range or the balance fails."""
     try:
-        m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
+        m = with_candidate(model, c, params, beside)
         i1 = HARMONICS.index(1)
         return float(sum(chi2(lf, (hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None])
                          for lf, frf in zip(levels, frfs)))

@@ -85,10 +85,15 @@ def run(args: argparse.Namespace) -> int:
     simulated = None
     if model is not None:
         # the model through the same steps, holding what each level held, read alike
-        simulated = backbone(model_tables(model, tables), bb.channel)
+        sim = model_tables(model, tables)
+        simulated = backbone(sim.tables, bb.channel)
         print(f"the model {args.model} through the same steps (harmonic balance, holding "
               "what each level held):\n" + format_summary(simulated), file=out)
         result["model"] = {"path": str(args.model), **simulated.to_json()}
+        if sim.unconverged:      # the key only then: the JSON of a clean run is unchanged
+            print(sim.summary(), file=out)
+            result["model"]["unconverged_steps"] = [{"level": lv, "frequency_hz": f}
+                                                    for lv, f in sim.unconverged]
     if args.plot:
         from ..reports import backbone_figure
         backbone_figure(bb, tables, title=", ".join(Path(r).name for r in args.runs),

@@ -172,7 +172,9 @@ def test_model_through_the_same_held_steps_gives_the_measured_backbone():
     model = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k]]),
                   [Element("stick_slip", np.array([1.0]), {"kd": TWIN.kd, "fd": TWIN.fd})])
     tables = [held_displacement(a) for a in (1e-5, 6e-5, 2.5e-4)]
-    sim = model_tables(model, tables)
+    run = model_tables(model, tables)
+    sim = run.tables
+    assert not run.unconverged and run.summary() == ""
     for t, s in zip(tables, sim):
         np.testing.assert_allclose(np.abs(s.response_phasor), np.abs(t.response_phasor),
                                    rtol=1e-5)
@@ -228,7 +230,9 @@ def test_a_stiffening_model_holds_its_amplitudes_through_the_held_steps():
     model = Model(np.eye(1), np.array([[C]]), np.array([[K]]),
                   [Element("gap", np.array([1.0]), GAP)])
     tables = gap_tables()
-    sim = model_tables(model, tables, harmonics=(1,))
+    run = model_tables(model, tables, harmonics=(1,))
+    assert not run.unconverged
+    sim = run.tables
     theta = 2 * np.pi * np.arange(32) / 32
     w = 2 * np.pi * GAP_STEPS
     for a, t, s, q in zip(GAP_LEVELS, tables, sim, backbone(sim).points):
@@ -240,3 +244,82 @@ def test_a_stiffening_model_holds_its_amplitudes_through_the_held_steps():
         np.testing.assert_allclose(np.abs(s.force_phasor[:, 0]), force, rtol=1e-7)
         assert q.frequency_hz == pytest.approx(np.sqrt((K + n32) / M) / (2 * np.pi), rel=1e-8)
         assert q.damping_ratio == pytest.approx(C / (2 * np.sqrt(M * (K + n32))), rel=1e-6)
+
+
+def test_a_held_step_that_does_not_converge_is_left_out_and_reported(monkeypatch):
+    """A step whose held balance does not converge is not kept as its last iterate: the
+    model's table leaves it out and `ModelTables` names it (level and frequency), for the
+    summary line and the JSON of `backbone --model`."""
+    import analysis.backbone._simulated as simulated
+    from analysis.backbone import model_tables
+    from analysis.models import Element, Model
+    model = Model(np.eye(1), np.array([[TWIN.c]]), np.array([[TWIN.k]]),
+                  [Element("stick_slip", np.array([1.0]), {"kd": TWIN.kd, "fd": TWIN.fd})])
+    tables = [held_displacement(a) for a in (1e-5, 6e-5)]
+    real = simulated.sweep_held
+
+    def failing(system, freqs, force, dof, amplitude):
+        res, F = real(system, freqs, force, dof, amplitude)
+        if amplitude[0] > 3e-5:                      # the second level's third step fails
+            res.converged[2] = False
+        return res, F
+    monkeypatch.setattr(simulated, "sweep_held", failing)
+    run = model_tables(model, tables)
+    assert [t.freqs.size for t in run.tables] == [tables[0].freqs.size,
+                                                  tables[1].freqs.size - 1]
+    assert run.unconverged == ((tables[1].level, tables[1].freqs[2]),)
+    assert tables[1].freqs[2] not in run.tables[1].freqs
+    assert run.summary().startswith("warning: 1 held step(s)")
+    assert f"{tables[1].freqs[2]:.2f} Hz" in run.summary()
+
+
+SOFT = {"p": -3e11}                  # a softening cubic spring: -0.4 Hz at 0.1 mm
+WIDE_GAP = {"k": 0.2 * K, "g": 1e-4}
+PAIR_LEVELS = (1e-5, 6e-5, 1e-4, 1.6e-4, 2.4e-4)
+
+
+def pair_tables() -> list:
+    """Held displacements of a mode with a softening cubic spring and a gap beside it: the
+    frequency falls, then rises (exact in one harmonic, as `gap_tables`)."""
+    from analysis.backbone import describing
+    w = 2 * np.pi * GAP_STEPS
+    out = []
+    for a in PAIR_LEVELS:
+        N = describing("gap", WIDE_GAP, np.array([a]))[0] + describing("cubic_spring", SOFT,
+                                                                       np.array([a]))[0]
+        force = (K + N - M * w**2 + 1j * C * w) * a
+        out.append(StepTable(GAP_STEPS, force[:, None], np.full((w.size, 1), a + 0j), [0],
+                             "response", a, control_dof=0))
+    return out
+
+
+def test_two_elements_at_one_point_are_fitted_from_their_backbone():
+    """Issue 25: a backbone that softens and then stiffens needs two elements at the point;
+    `fit_joint` with ``beside`` fits the pair jointly (each exact in one harmonic: the only
+    error is the single-mode fit's, as for the gap alone), the second of them is found
+    beside the first kept fixed (``fixed``, a later search pass), and their out-of-sample
+    residuals (`held_out`) are those of an exact law."""
+    from analysis.backbone import (LinearMode, fit_joint, held_out, joint_backbone,
+                                   reference_residuals)
+    from analysis.models import Element
+    points = list(backbone(pair_tables()).points)
+    fn = np.array([p.frequency_hz for p in points])
+    assert fn[2] < fn[0] - 0.1 and fn[-1] > fn[2] + 0.5          # down, then up
+    mode = LinearMode(80.0, 0.003, 1 / M)
+    fit = fit_joint(points, mode, "gap", compensated=False, kd_max=0.9 * K,
+                    beside="cubic_spring")
+    assert fit.params["k"] == pytest.approx(WIDE_GAP["k"], rel=1e-3)
+    assert fit.params["g"] == pytest.approx(WIDE_GAP["g"], rel=1e-3)
+    assert fit.beside["p"] == pytest.approx(SOFT["p"], rel=1e-3)
+    assert fit.frequency_rms < 1e-5
+    rf, rz = held_out(points, mode, "gap", fit, compensated=False, kd_max=0.9 * K,
+                      beside="cubic_spring")
+    assert np.abs(rf).max() < 1e-5 and np.abs(rz).max() < 1e-3
+    soft = Element("cubic_spring", np.array([1.0]), SOFT)
+    alone = fit_joint(points, mode, "gap", compensated=False, kd_max=0.9 * K, fixed=[soft])
+    assert alone.params["k"] == pytest.approx(WIDE_GAP["k"], rel=1e-3)
+    f0, _ = reference_residuals(points, mode, [soft])        # the softening alone: the top
+    assert f0[-1] < -0.02                                     # level's frequency far off
+    fm, _ = joint_backbone(mode, "gap", fit.params, np.array([points[-1].displacement_amplitude]),
+                           False, [Element("cubic_spring", np.array([1.0]), fit.beside)])
+    assert fm[0] == pytest.approx(fn[-1], rel=1e-5)

@@ -43,6 +43,7 @@ def test_diagnose_finds_the_jenkins_joint_of_the_twin(diagnosed):
     assert d.verdict == "discrepancy"
     found = d.chosen[0]
     assert found.kind == "stick_slip" and found.stuck_stiffness_from_linear_part
+    assert len(d.chosen) == 1          # a pure friction joint: no stiffening law beside it
     assert found.params["kd"] == pytest.approx(TWIN.kd, rel=REL)
     assert found.params["fd"] == pytest.approx(TWIN.fd, rel=REL)
     # the corrected model's underlying stiffness is the twin's (kd moved out of it)
@@ -85,6 +86,13 @@ def test_the_backbone_chooses_the_kind_that_fits_frequency_and_damping():
         if c.kind in ("stick_slip", "cubic_damping") and c.compensated == (c.kind == "stick_slip"):
             ev[c.kind] = backbone_estimate(start, c, tables)[2]
     jenkins, cubic = ev["stick_slip"], ev["cubic_damping"]
+    # a cubic spring beside the Jenkins joint gains less than a pair must (`PAIR_MIN`)
+    from analysis.diagnose._stepped import PAIR_MIN
+    slider = next(c for c in library(1, start.points, start.support)
+                  if c.kind == "stick_slip" and c.compensated)
+    spring = next(c for c in library(1, start.points, start.support) if c.kind == "cubic_spring")
+    pair = backbone_estimate(start, slider, tables, beside=spring)[2]
+    assert pair["backbone_oos_gain"] <= jenkins["backbone_oos_gain"] + PAIR_MIN
     assert jenkins["backbone_oos_gain"] > cubic["backbone_oos_gain"]
     assert jenkins["frequency_rms_oos"] < 0.1 * cubic["frequency_rms_oos"]
     assert jenkins["damping_rms_oos"] < cubic["damping_rms_oos"]
