@@ -174,7 +174,7 @@ def _row(r) -> str:
     named = ", ".join(r.found) or r.verdict
     err = f"  error: {r.error[:100]}" if r.error else ""
     return (f"{r.name:<52} {r.family:<17} {fam:<5} {r.location:<9} {named:<40} {par:<26} "
-            f"{hb:<18} {r.seconds:6.1f} s{alarm}{err}")
+            f"{hb:<18} {r.seconds:6.1f} s {r.cpu_seconds:6.1f} s cpu{alarm}{err}")
 
 
 def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
@@ -190,7 +190,8 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
               file=sys.stderr)
         raise SystemExit(2)
     print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
-          "family, family, location, named, parameters, held-back FRF error, diagnose time",
+          "family, family, location, named, parameters, held-back FRF error, diagnose wall and CPU "
+          "time",
           flush=True)
     t0, load0 = time.perf_counter(), os.getloadavg()[0]
     by_name = {c.name: c for c in cases}
@@ -222,7 +223,11 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     print(f"  intervals covering    {cov} of {named} (parameters named with an interval)")
     print(f"  held-back error halved {tot['held_back_halved']} of {tot['held_back_rows']}")
     print(f"  diagnose time         median {tot['seconds_median']:.1f} s, max "
-          f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s")
+          f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s, "
+          f"wall {wall:.0f} s")
+    print(f"  diagnose CPU time     median {tot['cpu_seconds_median']:.1f} s, max "
+          f"{tot['cpu_seconds_max']:.1f} s, total {tot['cpu_seconds_total']:.0f} s (the "
+          "process's own, whatever the load)")
     if json_out:
         Path(json_out).write_text(json.dumps(
             {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name]))
