@@ -21,8 +21,10 @@ record, the spread of its periods -- plus a model-precision floor.
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Hashable
+from typing import Any, Callable, Hashable
 
 import numpy as np
 from scipy.signal import resample, resample_poly
@@ -125,14 +127,22 @@ def choose_nperseg(model: Model, fs: float, n: int, *, min_avg: int = 24) -> int
 
 
 def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Deformation ``u = w.x`` and its rate along the measured motion.
+    """Deformation ``u = w.x`` and its rate along the measured motion (read-only arrays).
 
     A periodic record's deformation is its period average, Wiener-filtered line by line
     with the noise variance from the spread of the periods, repeated over the record: a
     relative displacement of two accelerometer channels is a small difference of large
     doubly integrated signals, and the integrated sensor noise in it would otherwise shift
     the peaks a clearance or slider acts at (errors in the basis variables bias the fit).
+
+    The pair is kept (`_Memo`) for the record and location: the search asks for it once per
+    candidate kind, grid value and refinement step, and `law_force` keys the motion it
+    interpolates for a memory law on these very arrays.
     """
+    return _DEFORMATIONS.get((p,), (w.dtype.str, w.tobytes()), lambda: _frozen(*_deformation(p, w)))
+
+
+def _deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u, v = p.x @ w, p.v @ w
     n_per = u.size // p.period if p.period else 0
     if n_per < 2:
@@ -148,6 +158,45 @@ def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.tile(one_u, n_per), np.tile(one_v, n_per)
 
 
+def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+class _Memo:
+    """The last `size` values of a function of some objects (held weakly: an entry holds
+    only while they live, their ``id`` may be reused afterwards) and hashable details.
+
+    Hand-written because `functools.lru_cache` would keep the records (and their motion)
+    alive and needs hashable arguments, which arrays and records are not.
+    """
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.items: OrderedDict[tuple, tuple[list[weakref.ref], Any]] = OrderedDict()
+
+    def get(self, objs: tuple, detail: Hashable, make: Callable[[], Any]) -> Any:
+        """The value for ``objs`` and ``detail``, made by ``make`` when absent."""
+        key = (tuple(map(id, objs)), detail)
+        hit = self.items.get(key)
+        if hit is not None and all(r() is o for r, o in zip(hit[0], objs)):
+            self.items.move_to_end(key)
+            return hit[1]
+        value = make()
+        self.items[key] = ([weakref.ref(o) for o in objs], value)
+        self.items.move_to_end(key)
+        while len(self.items) > self.size:
+            self.items.popitem(last=False)
+        return value
+
+
+_DEFORMATIONS = _Memo(64)
+"""Deformation and rate by (record, location)."""
+_INTERPOLATED = _Memo(12)
+"""Motion interpolated for the memory laws, by (deformation array, rate array, period)."""
+
+
 def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
               period: int | None) -> np.ndarray:
     """Force of an element along ``u``, ``v``; a periodic memory element is first run
@@ -155,32 +204,47 @@ def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
 
     A memory law is run on the motion interpolated band-limited to `MEMORY_OVERSAMPLE`
     times the sample rate (`oversampled_force`): its reversals are the motion's turning
-    points, which the samples miss between them.
+    points, which the samples miss between them. The interpolated motion is computed once
+    per ``u``, ``v`` (the same arrays from `deformation`) and period, not per law.
     """
     if not KINDS[kind].memory:
         return restoring_force(kind, params, u, v)[0]
     if period and u.size >= period:
-        g = oversampled_force(kind, params, np.concatenate([u[-period:], u]),
-                              np.concatenate([v[-period:], v]), u.size % period == 0)
+        g = oversampled_force(kind, params, *_INTERPOLATED.get(
+            (u, v), period, lambda: interpolated_motion(np.concatenate([u[-period:], u]),
+                                                        np.concatenate([v[-period:], v]),
+                                                        u.size % period == 0)))
         return g[period:]
-    return oversampled_force(kind, params, u, v, False)
+    return oversampled_force(kind, params, *_INTERPOLATED.get(
+        (u, v), None, lambda: interpolated_motion(u, v, False)))
 
 
 MEMORY_OVERSAMPLE = 8
 """Rate factor at which memory laws run along the measured motion (`oversampled_force`)."""
 
 
-def oversampled_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
-                      periodic: bool) -> np.ndarray:
-    """Force of a memory law along ``u``, ``v`` run at `MEMORY_OVERSAMPLE` times the rate.
+def interpolated_motion(u: np.ndarray, v: np.ndarray, periodic: bool
+                        ) -> tuple[np.ndarray, np.ndarray, int, bool]:
+    """``u``, ``v`` interpolated band-limited to `MEMORY_OVERSAMPLE` times the rate (FFT for
+    whole periods, `scipy.signal.resample_poly` otherwise), with the sample count ``n`` and
+    ``periodic`` that `oversampled_force` brings the force back with."""
+    n, up = u.size, MEMORY_OVERSAMPLE
+    if periodic:
+        return _frozen(resample(u, n * up), resample(v, n * up)) + (n, True)
+    return _frozen(resample_poly(u, up, 1), resample_poly(v, up, 1)) + (n, False)
+
+
+def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
+                      v_up: np.ndarray, n: int, periodic: bool) -> np.ndarray:
+    """Force of a memory law run along the motion interpolated at `MEMORY_OVERSAMPLE` times
+    the rate (`interpolated_motion`), brought back to the ``n`` samples.
 
     A slider reverses where the velocity changes sign; at the sample rate that turning point
     is missed by up to half a sample, so each Masing branch starts from a wrong ``(u_r, F_r)``
     (measured, SDOF hysteresis, multisine 2-60 Hz at 256 Hz, noise-free: the law on the
     samples fits the true force to 6-17 % and puts ``fd`` 7 % off; 8x: 1 % and 0.3-4 %).
-    The motion is interpolated band-limited (FFT for whole periods, `scipy.signal.resample_poly`
-    otherwise), the law run on it, and the force brought back to the sample rate by the same
-    anti-aliased resampling (a DAQ samples a continuous force).
+    The force is brought back to the sample rate by the same band-limited resampling as the
+    motion was interpolated with, anti-aliased (a DAQ samples a continuous force).
 
     Parameters
     ----------
@@ -188,22 +252,22 @@ def oversampled_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.
         Element kind (a memory kind).
     params : dict
         Its parameters by name.
-    u, v : ndarray, shape (n,)
-        Deformation and its rate at the sample rate.
+    u_up, v_up : ndarray, shape (n * MEMORY_OVERSAMPLE,)
+        Interpolated deformation and rate.
+    n : int
+        Samples at the record's rate.
     periodic : bool
-        ``u`` and ``v`` hold whole periods of a periodic motion.
+        The motion holds whole periods of a periodic motion.
 
     Returns
     -------
     ndarray, shape (n,)
         The force at the sample rate.
     """
-    n, up = u.size, MEMORY_OVERSAMPLE
+    g = restoring_force(kind, params, u_up, v_up)[0]
     if periodic:
-        g = restoring_force(kind, params, resample(u, n * up), resample(v, n * up))[0]
         return resample(g, n)
-    g = restoring_force(kind, params, resample_poly(u, up, 1), resample_poly(v, up, 1))[0]
-    return resample_poly(g, 1, up)[:n]
+    return resample_poly(g, 1, MEMORY_OVERSAMPLE)[:n]
 
 
 def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) -> np.ndarray:
