@@ -16,6 +16,13 @@ reverse-path refinement, second search pass on the corrected model, held-back co
 short-horizon replays of every level through both models, JSON and corrected model) and its ratio to a
 baseline timed in the same run: one reverse-path estimate of the true element on the same
 three recordings. Run: ``.venv/bin/python benchmarks/bench_diagnose.py``.
+
+It then times the sliders' memory law along the measured motion as the diagnosis evaluates it
+(`analysis.diagnose._compare.law_force`: run at 8x the rate between the samples) against the
+law on the samples (`analysis.models.restoring_force`), in the same run, on the cubic case's
+highest-level deformation as a random record and as a periodic one: the first evaluation at a
+location (the motion interpolated) and each further one (a grid value, a refinement step:
+the interpolated motion reused).
 """
 
 from __future__ import annotations
@@ -72,6 +79,41 @@ def run() -> None:
           f"{res['location']['dofs']}, FRF error {res['fit']['before']:.3g} -> "
           f"{res['fit']['after']:.3g}, time residual {tr['before']:.3g} -> {tr['after']:.3g}, "
           f"{len(res['evidence']['passes'])} search passes")
+    run_memory_law(sc.recordings[-1])
+
+
+def _best_of(fn, repeat: int = 5) -> float:
+    """Shortest CPU time of ``repeat`` calls (the others' share of a loaded machine left out)."""
+    best = float("inf")
+    for _ in range(repeat):
+        c0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - c0)
+    return best
+
+
+def run_memory_law(rec, kind: str = "hysteresis") -> None:
+    """The diagnosis' memory-law evaluation (8x between the samples) against the law on the
+    samples, both on the deformation of ``rec``'s last channel (random: the whole record;
+    periodic: its first 2048 samples repeated 10 times)."""
+    import numpy as np
+
+    from analysis.diagnose._compare import law_force
+    from analysis.models import restoring_force
+    x = rec.response[:, -1] - rec.response[:, -1].mean()
+    params = {"kd": 1.0, "fd": float(np.std(x)), "n": 2.0}
+    period = 2048
+    for name, u, per in (("random", x, None), ("periodic", np.tile(x[:period], 10), period)):
+        v = np.gradient(u) * rec.fs
+        law_force(kind, params, u.copy(), v.copy(), per)                      # warm the jit
+        base = _best_of(lambda: restoring_force(kind, params, u, v))
+        first = _best_of(lambda: law_force(kind, params, u.copy(), v.copy(), per))
+        law_force(kind, params, u, v, per)
+        again = _best_of(lambda: law_force(kind, params, u, v, per))
+        print(f"memory law ({kind}, {name}, {u.size} samples): on the samples "
+              f"{1e3 * base:7.2f} ms; 8x between them, first {1e3 * first:7.2f} ms "
+              f"(ratio {first / base:5.1f}), again {1e3 * again:7.2f} ms (ratio "
+              f"{again / base:5.1f})")
 
 
 def run_jointed() -> None:

@@ -29,7 +29,7 @@ from typing import Any, Callable, Hashable
 import numpy as np
 from scipy.signal import resample, resample_poly
 
-from ..models import KINDS, Element, Model, restoring_force
+from ..models import KINDS, Element, Model, memory_force_series, restoring_force
 from ..modal import welch_smoothing
 from ..recordings import KIND_ORDER
 from ..spectral import excited_lines, h1, hold_gain, multiple_coherence, spectral_matrix
@@ -243,7 +243,8 @@ def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
     is missed by up to half a sample, so each Masing branch starts from a wrong ``(u_r, F_r)``
     (measured, SDOF hysteresis, multisine 2-60 Hz at 256 Hz, noise-free: the law on the
     samples fits the true force to 6-17 % and puts ``fd`` 7 % off; 8x: 1 % and 0.3-4 %).
-    The force is brought back to the sample rate by the same band-limited resampling as the
+    The law runs with its state in registers (`analysis.models.memory_force_series`), and
+    the force is brought back to the sample rate by the same band-limited resampling as the
     motion was interpolated with, anti-aliased (a DAQ samples a continuous force).
 
     Parameters
@@ -264,7 +265,7 @@ def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
     ndarray, shape (n,)
         The force at the sample rate.
     """
-    g = restoring_force(kind, params, u_up, v_up)[0]
+    g = memory_force_series(kind, params, u_up, v_up)
     if periodic:
         return resample(g, n)
     return resample_poly(g, 1, MEMORY_OVERSAMPLE)[:n]
