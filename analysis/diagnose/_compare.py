@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Hashable
 
 import numpy as np
-from scipy.signal import resample, resample_poly
+from scipy.signal import firwin, resample, resample_poly
 
 from ..models import KINDS, Element, Model, memory_force_series, restoring_force
 from ..modal import welch_smoothing
@@ -221,6 +221,10 @@ def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
 
 MEMORY_OVERSAMPLE = 8
 """Rate factor at which memory laws run along the measured motion (`oversampled_force`)."""
+_POLY_FILTER = firwin(20 * MEMORY_OVERSAMPLE + 1, 1.0 / MEMORY_OVERSAMPLE,
+                      window=("kaiser", 5.0))
+"""The low-pass `scipy.signal.resample_poly` designs for a factor `MEMORY_OVERSAMPLE` either
+way (its default window), designed once instead of at every call."""
 
 
 def interpolated_motion(u: np.ndarray, v: np.ndarray, periodic: bool
@@ -231,7 +235,8 @@ def interpolated_motion(u: np.ndarray, v: np.ndarray, periodic: bool
     n, up = u.size, MEMORY_OVERSAMPLE
     if periodic:
         return _frozen(resample(u, n * up), resample(v, n * up)) + (n, True)
-    return _frozen(resample_poly(u, up, 1), resample_poly(v, up, 1)) + (n, False)
+    return _frozen(resample_poly(u, up, 1, window=_POLY_FILTER),
+                   resample_poly(v, up, 1, window=_POLY_FILTER)) + (n, False)
 
 
 def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
@@ -268,7 +273,7 @@ def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
     g = memory_force_series(kind, params, u_up, v_up)
     if periodic:
         return resample(g, n)
-    return resample_poly(g, 1, MEMORY_OVERSAMPLE)[:n]
+    return resample_poly(g, 1, MEMORY_OVERSAMPLE, window=_POLY_FILTER)[:n]
 
 
 def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) -> np.ndarray:
