@@ -221,7 +221,6 @@ def _row(r) -> str:
 
 def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     """Diagnose every zoo case (in ``workers`` processes), print the matrix and totals."""
-    import dataclasses
     import os
     from concurrent.futures import ProcessPoolExecutor
 
@@ -232,9 +231,8 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
               file=sys.stderr)
         raise SystemExit(2)
     print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
-          "family, family, location, named, parameters, held-back FRF error, diagnose wall and CPU "
-          "time",
-          flush=True)
+          "family, family, location, named, parameters, held-back FRF error, diagnose wall and "
+          "CPU time", flush=True)
     t0, load0 = time.perf_counter(), os.getloadavg()[0]
     by_name = {c.name: c for c in cases}
     with ProcessPoolExecutor(max_workers=workers) as pool:
@@ -242,6 +240,9 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
         for r in pool.map(_run_named, [c.name for c in cases]):
             rows.append(r)
             print(_row(r), flush=True)
+            if json_out:   # the rows so far: a run cut short on a loaded machine still counts
+                _write_zoo(json_out, rows, by_name, workers, time.perf_counter() - t0,
+                           [load0], complete=False)
     wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
     print("\nconfusion matrix (true family: what was named, count)")
     for fam, named in sorted(Z.confusion(rows).items()):
@@ -271,12 +272,22 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
           f"{tot['cpu_seconds_max']:.1f} s, total {tot['cpu_seconds_total']:.0f} s (the "
           "process's own, whatever the load)")
     if json_out:
-        Path(json_out).write_text(json.dumps(
-            {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name]))
-                       for r in rows],
-             "confusion": Z.confusion(rows), "totals": tot, "targets": tg,
-             "workers": workers, "wall_seconds": wall, "load_average": [load0, load1]}, indent=2, default=str) + "\n")
+        _write_zoo(json_out, rows, by_name, workers, wall, [load0, load1], complete=True)
         print(f"matrix written to {json_out}")
+
+
+def _write_zoo(path: str, rows: list, by_name: dict, workers: int, wall: float,
+               loads: list[float], complete: bool) -> None:
+    """The zoo's rows (each with its truth), confusion matrix and totals as JSON; ``complete``
+    False while the run goes on."""
+    import dataclasses
+
+    import diagnose_zoo as Z
+    Path(path).write_text(json.dumps(
+        {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name])) for r in rows],
+         "confusion": Z.confusion(rows), "totals": Z.totals(rows), "targets": Z.TARGETS,
+         "workers": workers, "wall_seconds": wall, "load_average": loads,
+         "complete": complete}, indent=2, default=str) + "\n")
 
 
 def _truth(case) -> dict:
