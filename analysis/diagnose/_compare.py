@@ -165,16 +165,18 @@ def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 class _Memo:
-    """The last `size` values of a function of some objects (held weakly: an entry holds
-    only while they live, their ``id`` may be reused afterwards) and hashable details.
+    """The most recent values of a function of some objects (held weakly: an entry holds only
+    while they live, their ``id`` may be reused afterwards) and hashable details, up to
+    ``max_bytes`` of arrays in all.
 
     Hand-written because `functools.lru_cache` would keep the records (and their motion)
-    alive and needs hashable arguments, which arrays and records are not.
+    alive, needs hashable arguments, which arrays and records are not, and bounds entries,
+    not memory.
     """
 
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self.items: OrderedDict[tuple, tuple[list[weakref.ref], Any]] = OrderedDict()
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes, self.nbytes = max_bytes, 0
+        self.items: OrderedDict[tuple, tuple[list[weakref.ref], Any, int]] = OrderedDict()
 
     def get(self, objs: tuple, detail: Hashable, make: Callable[[], Any]) -> Any:
         """The value for ``objs`` and ``detail``, made by ``make`` when absent."""
@@ -184,17 +186,24 @@ class _Memo:
             self.items.move_to_end(key)
             return hit[1]
         value = make()
-        self.items[key] = ([weakref.ref(o) for o in objs], value)
-        self.items.move_to_end(key)
-        while len(self.items) > self.size:
-            self.items.popitem(last=False)
+        size = sum(a.nbytes for a in (value if isinstance(value, tuple) else (value,))
+                   if isinstance(a, np.ndarray))
+        if hit is not None:
+            self.nbytes -= self.items.pop(key)[2]
+        self.items[key] = ([weakref.ref(o) for o in objs], value, size)
+        self.nbytes += size
+        while self.nbytes > self.max_bytes and len(self.items) > 1:
+            self.nbytes -= self.items.popitem(last=False)[1][2]
         return value
 
 
-_DEFORMATIONS = _Memo(64)
+_DEFORMATIONS = _Memo(128 << 20)
 """Deformation and rate by (record, location)."""
-_INTERPOLATED = _Memo(12)
+_INTERPOLATED = _Memo(96 << 20)
 """Motion interpolated for the memory laws, by (deformation array, rate array, period)."""
+_MEMORY_FORCES = _Memo(128 << 20)
+"""Memory-law forces by (deformation array, rate array) and (kind, parameters, period): each
+search pass screens the same candidates on the same records again."""
 
 
 def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
@@ -205,10 +214,17 @@ def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
     A memory law is run on the motion interpolated band-limited to `MEMORY_OVERSAMPLE`
     times the sample rate (`oversampled_force`): its reversals are the motion's turning
     points, which the samples miss between them. The interpolated motion is computed once
-    per ``u``, ``v`` (the same arrays from `deformation`) and period, not per law.
+    per ``u``, ``v`` (the same arrays from `deformation`) and period, not per law, and a
+    memory law's force (read-only) once per parameters along them.
     """
     if not KINDS[kind].memory:
         return restoring_force(kind, params, u, v)[0]
+    return _MEMORY_FORCES.get((u, v), (kind, tuple(sorted(params.items())), period),
+                              lambda: _frozen(_memory_force(kind, params, u, v, period))[0])
+
+
+def _memory_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
+                  period: int | None) -> np.ndarray:
     if period and u.size >= period:
         g = oversampled_force(kind, params, *_INTERPOLATED.get(
             (u, v), period, lambda: interpolated_motion(np.concatenate([u[-period:], u]),
