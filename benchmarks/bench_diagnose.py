@@ -21,8 +21,8 @@ It then times the sliders' memory law along the measured motion as the diagnosis
 (`analysis.diagnose._compare.law_force`: run at 8x the rate between the samples) against the
 law on the samples (`analysis.models.restoring_force`), in the same run, on the cubic case's
 highest-level deformation as a random record and as a periodic one: the first evaluation at a
-location (the motion interpolated) and each further one (a grid value, a refinement step:
-the interpolated motion reused).
+location (the motion interpolated) and each further one at new parameters (a grid value, a
+refinement step: the interpolated motion reused).
 """
 
 from __future__ import annotations
@@ -109,7 +109,9 @@ def run_memory_law(rec, kind: str = "hysteresis") -> None:
         base = _best_of(lambda: restoring_force(kind, params, u, v))
         first = _best_of(lambda: law_force(kind, params, u.copy(), v.copy(), per))
         law_force(kind, params, u, v, per)
-        again = _best_of(lambda: law_force(kind, params, u, v, per))
+        scales = iter(np.linspace(1.01, 1.5, 10))    # each call a new slip force (a grid value)
+        again = _best_of(lambda: law_force(kind, dict(params, fd=params["fd"] * next(scales)),
+                                           u, v, per))
         print(f"memory law ({kind}, {name}, {u.size} samples): on the samples "
               f"{1e3 * base:7.2f} ms; 8x between them, first {1e3 * first:7.2f} ms "
               f"(ratio {first / base:5.1f}), again {1e3 * again:7.2f} ms (ratio "
