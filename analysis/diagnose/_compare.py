@@ -139,7 +139,8 @@ def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     candidate kind, grid value and refinement step, and `law_force` keys the motion it
     interpolates for a memory law on these very arrays.
     """
-    return _DEFORMATIONS.get((p,), (w.dtype.str, w.tobytes()), lambda: _frozen(*_deformation(p, w)))
+    return _DEFORMATIONS.get((p,), (w.dtype.str, w.tobytes()),
+                             lambda: _frozen(*_deformation(p, w)))
 
 
 def _deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
