@@ -16,6 +16,13 @@ reverse-path refinement, second search pass on the corrected model, held-back co
 short-horizon replays of every level through both models, JSON and corrected model) and its ratio to a
 baseline timed in the same run: one reverse-path estimate of the true element on the same
 three recordings. Run: ``.venv/bin/python benchmarks/bench_diagnose.py``.
+
+It then times the sliders' memory law along the measured motion as the diagnosis evaluates it
+(`analysis.diagnose._compare.law_force`: run at 8x the rate between the samples) against the
+law on the samples (`analysis.models.restoring_force`), in the same run, on the cubic case's
+highest-level deformation as a random record and as a periodic one: the first evaluation at a
+location (the motion interpolated) and each further one at new parameters (a grid value, a
+refinement step: the interpolated motion reused).
 """
 
 from __future__ import annotations
@@ -72,6 +79,43 @@ def run() -> None:
           f"{res['location']['dofs']}, FRF error {res['fit']['before']:.3g} -> "
           f"{res['fit']['after']:.3g}, time residual {tr['before']:.3g} -> {tr['after']:.3g}, "
           f"{len(res['evidence']['passes'])} search passes")
+    run_memory_law(sc.recordings[-1])
+
+
+def _best_of(fn, repeat: int = 5) -> float:
+    """Shortest CPU time of ``repeat`` calls (the others' share of a loaded machine left out)."""
+    best = float("inf")
+    for _ in range(repeat):
+        c0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - c0)
+    return best
+
+
+def run_memory_law(rec, kind: str = "hysteresis") -> None:
+    """The diagnosis' memory-law evaluation (8x between the samples) against the law on the
+    samples, both on the deformation of ``rec``'s last channel (random: the whole record;
+    periodic: its first 2048 samples repeated 10 times)."""
+    import numpy as np
+
+    from analysis.diagnose._compare import law_force
+    from analysis.models import restoring_force
+    x = rec.response[:, -1] - rec.response[:, -1].mean()
+    params = {"kd": 1.0, "fd": float(np.std(x)), "n": 2.0}
+    period = 2048
+    for name, u, per in (("random", x, None), ("periodic", np.tile(x[:period], 10), period)):
+        v = np.gradient(u) * rec.fs
+        law_force(kind, params, u.copy(), v.copy(), per)                      # warm the jit
+        base = _best_of(lambda: restoring_force(kind, params, u, v))
+        first = _best_of(lambda: law_force(kind, params, u.copy(), v.copy(), per))
+        law_force(kind, params, u, v, per)
+        scales = iter(np.linspace(1.01, 1.5, 10))    # each call a new slip force (a grid value)
+        again = _best_of(lambda: law_force(kind, dict(params, fd=params["fd"] * next(scales)),
+                                           u, v, per))
+        print(f"memory law ({kind}, {name}, {u.size} samples): on the samples "
+              f"{1e3 * base:7.2f} ms; 8x between them, first {1e3 * first:7.2f} ms "
+              f"(ratio {first / base:5.1f}), again {1e3 * again:7.2f} ms (ratio "
+              f"{again / base:5.1f})")
 
 
 def run_jointed() -> None:
@@ -174,12 +218,11 @@ def _row(r) -> str:
     named = ", ".join(r.found) or r.verdict
     err = f"  error: {r.error[:100]}" if r.error else ""
     return (f"{r.name:<52} {r.family:<17} {fam:<5} {r.location:<9} {named:<40} {par:<26} "
-            f"{hb:<18} {r.seconds:6.1f} s{alarm}{err}")
+            f"{hb:<18} {r.seconds:6.1f} s {r.cpu_seconds:6.1f} s cpu{alarm}{err}")
 
 
 def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     """Diagnose every zoo case (in ``workers`` processes), print the matrix and totals."""
-    import dataclasses
     import os
     from concurrent.futures import ProcessPoolExecutor
 
@@ -190,8 +233,8 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
               file=sys.stderr)
         raise SystemExit(2)
     print(f"diagnosis zoo: {len(cases)} cases, {workers} worker(s); columns: case, true "
-          "family, family, location, named, parameters, held-back FRF error, diagnose time",
-          flush=True)
+          "family, family, location, named, parameters, held-back FRF error, diagnose wall and "
+          "CPU time", flush=True)
     t0, load0 = time.perf_counter(), os.getloadavg()[0]
     by_name = {c.name: c for c in cases}
     with ProcessPoolExecutor(max_workers=workers) as pool:
@@ -199,6 +242,9 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
         for r in pool.map(_run_named, [c.name for c in cases]):
             rows.append(r)
             print(_row(r), flush=True)
+            if json_out:   # the rows so far: a run cut short on a loaded machine still counts
+                _write_zoo(json_out, rows, by_name, workers, time.perf_counter() - t0,
+                           [load0], complete=False)
     wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
     print("\nconfusion matrix (true family: what was named, count)")
     for fam, named in sorted(Z.confusion(rows).items()):
@@ -222,14 +268,28 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     print(f"  intervals covering    {cov} of {named} (parameters named with an interval)")
     print(f"  held-back error halved {tot['held_back_halved']} of {tot['held_back_rows']}")
     print(f"  diagnose time         median {tot['seconds_median']:.1f} s, max "
-          f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s")
+          f"{tot['seconds_max']:.1f} s, {tot['over_budget']} over {tg['seconds_max']:.0f} s, "
+          f"wall {wall:.0f} s")
+    print(f"  diagnose CPU time     median {tot['cpu_seconds_median']:.1f} s, max "
+          f"{tot['cpu_seconds_max']:.1f} s, total {tot['cpu_seconds_total']:.0f} s (the "
+          "process's own, whatever the load)")
     if json_out:
-        Path(json_out).write_text(json.dumps(
-            {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name]))
-                       for r in rows],
-             "confusion": Z.confusion(rows), "totals": tot, "targets": tg,
-             "workers": workers, "wall_seconds": wall, "load_average": [load0, load1]}, indent=2, default=str) + "\n")
+        _write_zoo(json_out, rows, by_name, workers, wall, [load0, load1], complete=True)
         print(f"matrix written to {json_out}")
+
+
+def _write_zoo(path: str, rows: list, by_name: dict, workers: int, wall: float,
+               loads: list[float], complete: bool) -> None:
+    """The zoo's rows (each with its truth), confusion matrix and totals as JSON; ``complete``
+    False while the run goes on."""
+    import dataclasses
+
+    import diagnose_zoo as Z
+    Path(path).write_text(json.dumps(
+        {"cases": [dict(dataclasses.asdict(r), truth=_truth(by_name[r.name])) for r in rows],
+         "confusion": Z.confusion(rows), "totals": Z.totals(rows), "targets": Z.TARGETS,
+         "workers": workers, "wall_seconds": wall, "load_average": loads,
+         "complete": complete}, indent=2, default=str) + "\n")
 
 
 def _truth(case) -> dict:

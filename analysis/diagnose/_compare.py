@@ -21,13 +21,15 @@ record, the spread of its periods -- plus a model-precision floor.
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Hashable
+from typing import Any, Callable, Hashable
 
 import numpy as np
-from scipy.signal import resample, resample_poly
+from scipy.signal import firwin, resample, resample_poly
 
-from ..models import KINDS, Element, Model, restoring_force
+from ..models import KINDS, Element, Model, memory_force_series, restoring_force
 from ..modal import welch_smoothing
 from ..recordings import KIND_ORDER
 from ..spectral import excited_lines, h1, hold_gain, multiple_coherence, spectral_matrix
@@ -125,14 +127,23 @@ def choose_nperseg(model: Model, fs: float, n: int, *, min_avg: int = 24) -> int
 
 
 def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Deformation ``u = w.x`` and its rate along the measured motion.
+    """Deformation ``u = w.x`` and its rate along the measured motion (read-only arrays).
 
     A periodic record's deformation is its period average, Wiener-filtered line by line
     with the noise variance from the spread of the periods, repeated over the record: a
     relative displacement of two accelerometer channels is a small difference of large
     doubly integrated signals, and the integrated sensor noise in it would otherwise shift
     the peaks a clearance or slider acts at (errors in the basis variables bias the fit).
+
+    The pair is kept (`_Memo`) for the record and location: the search asks for it once per
+    candidate kind, grid value and refinement step, and `law_force` keys the motion it
+    interpolates for a memory law on these very arrays.
     """
+    return _DEFORMATIONS.get((p,), (w.dtype.str, w.tobytes()),
+                             lambda: _frozen(*_deformation(p, w)))
+
+
+def _deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u, v = p.x @ w, p.v @ w
     n_per = u.size // p.period if p.period else 0
     if n_per < 2:
@@ -148,6 +159,54 @@ def deformation(p: Prepared, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.tile(one_u, n_per), np.tile(one_v, n_per)
 
 
+def _frozen(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+class _Memo:
+    """The most recent values of a function of some objects (held weakly: an entry holds only
+    while they live, their ``id`` may be reused afterwards) and hashable details, up to
+    ``max_bytes`` of arrays in all.
+
+    Hand-written because `functools.lru_cache` would keep the records (and their motion)
+    alive, needs hashable arguments, which arrays and records are not, and bounds entries,
+    not memory.
+    """
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes, self.nbytes = max_bytes, 0
+        self.items: OrderedDict[tuple, tuple[list[weakref.ref], Any, int]] = OrderedDict()
+
+    def get(self, objs: tuple, detail: Hashable, make: Callable[[], Any]) -> Any:
+        """The value for ``objs`` and ``detail``, made by ``make`` when absent."""
+        key = (tuple(map(id, objs)), detail)
+        hit = self.items.get(key)
+        if hit is not None and all(r() is o for r, o in zip(hit[0], objs)):
+            self.items.move_to_end(key)
+            return hit[1]
+        value = make()
+        size = sum(a.nbytes for a in (value if isinstance(value, tuple) else (value,))
+                   if isinstance(a, np.ndarray))
+        if hit is not None:
+            self.nbytes -= self.items.pop(key)[2]
+        self.items[key] = ([weakref.ref(o) for o in objs], value, size)
+        self.nbytes += size
+        while self.nbytes > self.max_bytes and len(self.items) > 1:
+            self.nbytes -= self.items.popitem(last=False)[1][2]
+        return value
+
+
+_DEFORMATIONS = _Memo(128 << 20)
+"""Deformation and rate by (record, location)."""
+_INTERPOLATED = _Memo(96 << 20)
+"""Motion interpolated for the memory laws, by (deformation array, rate array, period)."""
+_MEMORY_FORCES = _Memo(128 << 20)
+"""Memory-law forces by (deformation array, rate array) and (kind, parameters, period): each
+search pass screens the same candidates on the same records again."""
+
+
 def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
               period: int | None) -> np.ndarray:
     """Force of an element along ``u``, ``v``; a periodic memory element is first run
@@ -155,32 +214,60 @@ def law_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
 
     A memory law is run on the motion interpolated band-limited to `MEMORY_OVERSAMPLE`
     times the sample rate (`oversampled_force`): its reversals are the motion's turning
-    points, which the samples miss between them.
+    points, which the samples miss between them. The interpolated motion is computed once
+    per ``u``, ``v`` (the same arrays from `deformation`) and period, not per law, and a
+    memory law's force (read-only) once per parameters along them.
     """
     if not KINDS[kind].memory:
         return restoring_force(kind, params, u, v)[0]
+    return _MEMORY_FORCES.get((u, v), (kind, tuple(sorted(params.items())), period),
+                              lambda: _frozen(_memory_force(kind, params, u, v, period))[0])
+
+
+def _memory_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
+                  period: int | None) -> np.ndarray:
     if period and u.size >= period:
-        g = oversampled_force(kind, params, np.concatenate([u[-period:], u]),
-                              np.concatenate([v[-period:], v]), u.size % period == 0)
+        g = oversampled_force(kind, params, *_INTERPOLATED.get(
+            (u, v), period, lambda: interpolated_motion(np.concatenate([u[-period:], u]),
+                                                        np.concatenate([v[-period:], v]),
+                                                        u.size % period == 0)))
         return g[period:]
-    return oversampled_force(kind, params, u, v, False)
+    return oversampled_force(kind, params, *_INTERPOLATED.get(
+        (u, v), None, lambda: interpolated_motion(u, v, False)))
 
 
 MEMORY_OVERSAMPLE = 8
 """Rate factor at which memory laws run along the measured motion (`oversampled_force`)."""
+_POLY_FILTER = firwin(20 * MEMORY_OVERSAMPLE + 1, 1.0 / MEMORY_OVERSAMPLE,
+                      window=("kaiser", 5.0))
+"""The low-pass `scipy.signal.resample_poly` designs for a factor `MEMORY_OVERSAMPLE` either
+way (its default window), designed once instead of at every call."""
 
 
-def oversampled_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.ndarray,
-                      periodic: bool) -> np.ndarray:
-    """Force of a memory law along ``u``, ``v`` run at `MEMORY_OVERSAMPLE` times the rate.
+def interpolated_motion(u: np.ndarray, v: np.ndarray, periodic: bool
+                        ) -> tuple[np.ndarray, np.ndarray, int, bool]:
+    """``u``, ``v`` interpolated band-limited to `MEMORY_OVERSAMPLE` times the rate (FFT for
+    whole periods, `scipy.signal.resample_poly` otherwise), with the sample count ``n`` and
+    ``periodic`` that `oversampled_force` brings the force back with."""
+    n, up = u.size, MEMORY_OVERSAMPLE
+    if periodic:
+        return _frozen(resample(u, n * up), resample(v, n * up)) + (n, True)
+    return _frozen(resample_poly(u, up, 1, window=_POLY_FILTER),
+                   resample_poly(v, up, 1, window=_POLY_FILTER)) + (n, False)
+
+
+def oversampled_force(kind: str, params: dict[str, float], u_up: np.ndarray,
+                      v_up: np.ndarray, n: int, periodic: bool) -> np.ndarray:
+    """Force of a memory law run along the motion interpolated at `MEMORY_OVERSAMPLE` times
+    the rate (`interpolated_motion`), brought back to the ``n`` samples.
 
     A slider reverses where the velocity changes sign; at the sample rate that turning point
     is missed by up to half a sample, so each Masing branch starts from a wrong ``(u_r, F_r)``
     (measured, SDOF hysteresis, multisine 2-60 Hz at 256 Hz, noise-free: the law on the
     samples fits the true force to 6-17 % and puts ``fd`` 7 % off; 8x: 1 % and 0.3-4 %).
-    The motion is interpolated band-limited (FFT for whole periods, `scipy.signal.resample_poly`
-    otherwise), the law run on it, and the force brought back to the sample rate by the same
-    anti-aliased resampling (a DAQ samples a continuous force).
+    The law runs with its state in registers (`analysis.models.memory_force_series`), and
+    the force is brought back to the sample rate by the same band-limited resampling as the
+    motion was interpolated with, anti-aliased (a DAQ samples a continuous force).
 
     Parameters
     ----------
@@ -188,22 +275,22 @@ def oversampled_force(kind: str, params: dict[str, float], u: np.ndarray, v: np.
         Element kind (a memory kind).
     params : dict
         Its parameters by name.
-    u, v : ndarray, shape (n,)
-        Deformation and its rate at the sample rate.
+    u_up, v_up : ndarray, shape (n * MEMORY_OVERSAMPLE,)
+        Interpolated deformation and rate.
+    n : int
+        Samples at the record's rate.
     periodic : bool
-        ``u`` and ``v`` hold whole periods of a periodic motion.
+        The motion holds whole periods of a periodic motion.
 
     Returns
     -------
     ndarray, shape (n,)
         The force at the sample rate.
     """
-    n, up = u.size, MEMORY_OVERSAMPLE
+    g = memory_force_series(kind, params, u_up, v_up)
     if periodic:
-        g = restoring_force(kind, params, resample(u, n * up), resample(v, n * up))[0]
         return resample(g, n)
-    g = restoring_force(kind, params, resample_poly(u, up, 1), resample_poly(v, up, 1))[0]
-    return resample_poly(g, 1, up)[:n]
+    return resample_poly(g, 1, MEMORY_OVERSAMPLE, window=_POLY_FILTER)[:n]
 
 
 def unit_force(kind: str, params: dict[str, float], w: np.ndarray, p: Prepared) -> np.ndarray:
