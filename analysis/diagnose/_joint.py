@@ -259,8 +259,12 @@ def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]
     theta = np.array([f.params[n] for f, n in zip(fits, names)])
     step = 1e-4 * np.array([max(abs(t), abs(f.ci95[n][1] - f.ci95[n][0]), 1e-300)
                             for f, n, t in zip(fits, names, theta)])
-    h = _predicted(start, search, fits, theta)
-    dh = [_predicted(start, search, fits, theta + s * e) for s, e in zip(step, np.eye(len(fits)))]
+    try:   # a step off an estimate at the edge of the valid range (an indefinite stiffness)
+        h = _predicted(start, search, fits, theta)
+        dh = [_predicted(start, search, fits, theta + s * e)
+              for s, e in zip(step, np.eye(len(fits)))]
+    except ModelError:
+        return fits
     k = len(fits)
     bread, scores = np.zeros((k, k)), []
     for i, lf in enumerate(search.levels):
