@@ -169,6 +169,10 @@ def _row(r) -> str:
     if r.unidentifiable:
         par += " " + " ".join(f"{k.split('.')[-1]} n.i. +-{100 * v:.0f}%"
                               for k, v in r.unidentifiable.items())
+    if r.intervals:
+        par += " ci " + " ".join(
+            f"{k.split('.')[-1]} {100 * (lo / t - 1):+.1f}..{100 * (hi / t - 1):+.1f}%"
+            + ("" if lo <= t <= hi else "!") for k, (_, lo, hi, t) in r.intervals.items())
     fam = "ok" if r.family_right else "WRONG"
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict
@@ -199,6 +203,9 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
         for r in pool.map(_run_named, [c.name for c in cases]):
             rows.append(r)
             print(_row(r), flush=True)
+            if json_out:   # the rows so far, for a run stopped early
+                Path(json_out).with_suffix(".partial.json").write_text(json.dumps(
+                    [dataclasses.asdict(x) for x in rows], default=str) + "\n")
     wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
     print("\nconfusion matrix (true family: what was named, count)")
     for fam, named in sorted(Z.confusion(rows).items()):
