@@ -213,6 +213,10 @@ def _row(r) -> str:
     if r.unidentifiable:
         par += " " + " ".join(f"{k.split('.')[-1]} n.i. +-{100 * v:.0f}%"
                               for k, v in r.unidentifiable.items())
+    if r.intervals:
+        par += " ci " + " ".join(
+            f"{k.split('.')[-1]} {100 * (lo / t - 1):+.1f}..{100 * (hi / t - 1):+.1f}%"
+            + ("" if lo <= t <= hi else "!") for k, (_, lo, hi, t) in r.intervals.items())
     fam = "ok" if r.family_right else "WRONG"
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict

@@ -715,6 +715,9 @@ class Outcome:
     half width over the estimate exceeds it (not judged)."""
     covered: dict[str, bool] = dataclasses.field(default_factory=dict)
     """Whether the reported 95 % interval holds the true value, per parameter named."""
+    intervals: dict[str, tuple[float, float, float, float]] = dataclasses.field(
+        default_factory=dict)
+    """Per parameter named with an interval: estimate, interval's ends and the truth."""
     held_back: tuple[float, float] | None = None
     held_back_levels: list[float] = dataclasses.field(default_factory=list)
     false_alarm: bool | None = None
@@ -791,6 +794,8 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
             value, ci = match[0]["params"][p], (match[0].get("ci95") or {}).get(p)
             if ci is not None:
                 out.covered[key] = bool(ci[0] <= e.params[p] <= ci[1])
+                out.intervals[key] = (float(value), float(ci[0]), float(ci[1]),
+                                      float(e.params[p]))
                 half = abs(ci[1] - ci[0]) / 2 / max(abs(value), 1e-300)
                 if not half <= PARAM_TOL:
                     out.unidentifiable[key] = float(half)

@@ -27,7 +27,7 @@ from ._leakage import Floor
 from ._locate import level_dependence, mismatch_band
 from ._policy import (MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary, model_change,
                      pruned, pruned_labels)
-from ._joint import joint_refit
+from ._joint import joint_refit, misfit_intervals
 from ._replay import Replay
 from ._report import LevelCurves, explain, fit_summary
 from ._evidence import Evidence, Rejection
@@ -218,6 +218,7 @@ def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
     if before is not None:
         curves = [replace(c, replay_before=b, replay_after=after[i] if chosen else b)
                   for i, (c, b) in enumerate(zip(curves, before))]
+    chosen = misfit_intervals(model, first.search, list(chosen))   # reported intervals only
     return Correction(tuple(chosen), current, tuple(curves), tuple(rejected))
 
 

@@ -33,9 +33,14 @@ from scipy.optimize import brentq, least_squares, minimize_scalar
 
 from ..errors import ModelError
 from ..models import KINDS, LINEAR_PARAM, Model
-from ._compare import chi2, model_frf
+from ._compare import chi2, model_frf, stuck_linear
 from ._linear_update import Z95
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
+
+BLOCKS = 8
+"""Contiguous frequency blocks per fitting level whose misfit scores are summed in the
+cluster-robust covariance of `misfit_intervals` (a model-form misfit is smooth in frequency:
+neighbouring lines are not independent)."""
 
 PROFILE_SPAN = np.log(2.0)
 """How far (log) the second parameter is refitted and profiled either side of its estimate:
@@ -226,3 +231,73 @@ def _edge(cost: Callable[[float], float], z0: float, z1: float, limit: float) ->
     if cost(z1) <= limit:
         return z1
     return float(brentq(lambda z: cost(z) - limit, z0, z1, xtol=0.005))
+
+
+def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
+    """``fits`` with each coefficient's 95 % interval widened, where wider, to the
+    cluster-robust (sandwich, Huber-White) interval of all coefficients on ``search``'s
+    fitting levels (start model ``start``).
+
+    The coefficient intervals of the screening, the reverse path and the joint refit hold
+    the random error only: where the model misfits beyond its noise (a start model's own
+    error, an approximate law) the misfit left is not noise, and the estimate moves with it.
+    The sandwich ``A^-1 B A^-1`` keeps the noise-only ``A = J^H J`` (variance-weighted) and
+    replaces the noise in ``B`` by the misfit actually left, its scores ``J^H r`` summed over
+    `BLOCKS` contiguous frequency blocks per level (clusters: the misfit of neighbouring
+    lines is correlated), with the small-sample factor ``G / (G - 1)``. On a model that fits
+    to its noise it equals the noise-only interval (nothing is widened); estimates and the
+    other parameters' intervals are unchanged. Stepped-sine fits (harmonic balance) keep
+    theirs.
+    """
+    if not fits or not search.continuous_grid or any(f.cand.memory and f.extra is None
+                                                     for f in fits):
+        return fits
+    for f in fits:
+        if not f.cand.linear:
+            search.ensure_basis(f.cand, f.extra)
+    names = [_name(f) for f in fits]
+    theta = np.array([f.params[n] for f, n in zip(fits, names)])
+    step = 1e-4 * np.array([max(abs(t), abs(f.ci95[n][1] - f.ci95[n][0]), 1e-300)
+                            for f, n, t in zip(fits, names, theta)])
+    try:   # a step off an estimate at the edge of the valid range (an indefinite stiffness)
+        h = _predicted(start, search, fits, theta)
+        dh = [_predicted(start, search, fits, theta + s * e)
+              for s, e in zip(step, np.eye(len(fits)))]
+    except ModelError:
+        return fits
+    k = len(fits)
+    bread, scores = np.zeros((k, k)), []
+    for i, lf in enumerate(search.levels):
+        sd = np.sqrt(lf.var)
+        r = (lf.H - h[i]) / sd
+        jac = [-(d[i] - h[i]) / (s * sd) for d, s in zip(dh, step)]
+        bread += np.array([[np.sum((np.conj(a) * b).real) for b in jac] for a in jac])
+        for blk in np.array_split(np.arange(lf.freqs.size), BLOCKS):
+            scores.append([np.sum((np.conj(a[blk]) * r[blk]).real) for a in jac])
+    g = np.array(scores)
+    inv = np.linalg.pinv(bread)
+    cov = inv @ (g.T @ g) @ inv * len(g) / max(len(g) - 1, 1)
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    out = []
+    for f, n, t, s in zip(fits, names, theta, se):
+        lo, hi = f.ci95[n]
+        wide = [min(lo, t - Z95 * s), max(hi, t + Z95 * s)]
+        if wide == [lo, hi]:
+            out.append(f)
+            continue
+        ev = dict(f.evidence, interval=(
+            f"{n} widened from [{lo:.4g}, {hi:.4g}] to the cluster-robust interval of the "
+            f"misfit left ({BLOCKS} frequency blocks per level)"))
+        out.append(Fit(f.cand, f.params, dict(f.ci95, **{n: [float(w) for w in wide]}),
+                       f.chi2, f.delta_bic, ev, extra=f.extra))
+    return out
+
+
+def _predicted(start: Model, search: Search, fits: list[Fit], theta: np.ndarray
+               ) -> list[np.ndarray]:
+    """Model FRF of every fitting level with ``fits`` at coefficients ``theta`` (the linear
+    part holds the start model's stuck stiffness, as the search's receptances do)."""
+    lin = _linear_model(stuck_linear(start), fits, theta)
+    terms = search.terms + [(f.cand.w, t, _key(f)) for f, t in zip(fits, theta)
+                            if not f.cand.linear]
+    return [model_frf(lin.linear_frf(lf.freqs), lf, terms) for lf in search.levels]

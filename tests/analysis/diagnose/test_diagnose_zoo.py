@@ -16,8 +16,6 @@ import diagnose_zoo as Z
 
 WRONG_TODAY: dict[str, str] = {
     "chain-cubic01-acc-random": "cubic p -7.8 % from accelerations",
-    "gvt-gap-joint": "gap k +7.5 % against the fit-linear start model (g +1.0 %); held-back "
-                     "0.0544 -> 0.0241",
     "gvt-cubic-tip": "'unexplained': the weak cubic at the tip gains less out of sample than "
                      "the misfit it leaves beyond the noise (mostly the fit-linear start "
                      "model's model-form error); held-back 0.0224",
