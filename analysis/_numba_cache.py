@@ -20,8 +20,8 @@ from pathlib import Path
 from numba.core.caching import NullCache
 from numba.core.registry import CPUDispatcher
 
-LAW_KERNELS = ("models._elements", "hbm._aft", "hbm._hbm", "hbm._held", "plant._plant_kernels",
-               "plant._substep")
+LAW_KERNELS = ("models._elements", "models._memory_series", "hbm._aft", "hbm._hbm", "hbm._held",
+               "plant._plant_kernels", "plant._substep")
 """Modules of this package whose numba functions contain the element law."""
 
 _disk_caches: dict[int, object] = {}

@@ -82,6 +82,9 @@ class _Search:
         return Predictor(lambda t: [1.0 + t[0] * self.b for _ in self.levels],
                          np.array([0.1]), 1, np.array([0.1]))
 
+    def companions(self, fit):
+        return []
+
 
 def test_candidate_leaving_the_valid_range_is_rejected_not_raised():
     """A stuck stiffness taken from the linear part that makes K indefinite rejects that
