@@ -23,7 +23,7 @@ from ._evidence import Evidence
 from ._result import Diagnosis
 from ._select import SHORTLIST, Fit, RandomSearch
 from ._policy import BIC_MIN, MAX_EFFECTS, SearchPass, linear_only, other_kinds, pick_holdout
-from ._where import location_table
+from ._where import location_table, screening
 
 METRIC = ("coherence-weighted relative FRF error in the recorded response kind (rms over the "
           "analysis band) on the held-back recording")
@@ -135,7 +135,7 @@ class RandomFlow(Flow):
         """Screen the library, refine the best nonlinear ones by reverse path."""
         search = RandomSearch(current, [self.preps[i] for i in self.fit_idx], self.band,
                               self.nps, self.floor)
-        fits = [f for f in search.screen() if not (memoryless and f.cand.memory)]
+        fits = [f for f in screening(search) if not (memoryless and f.cand.memory)]
         if linear_only(search):
             fits = [f for f in fits if f.cand.linear]
         nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0]

@@ -34,6 +34,7 @@ from ._engine import Flow
 from ._policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdout
 from ._replay import periodic_replay
 from ._leakage import level_floor
+from ._where import screening
 from ._report import LevelCurves
 from ._evidence import Evidence
 from ._outofsample import Predictor
@@ -377,8 +378,8 @@ def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
 def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
     """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
     if linear_only(search):
-        return [f for f in search.screen() if f.cand.linear]
-    pool = search.screen()
+        return [f for f in screening(search) if f.cand.linear]
+    pool = screening(search)
     best = pool[0]
     reduction = (search.chi2_0 - best.chi2) / search.chi2_0
     if not (best.cand.memory and best.delta_bic > BIC_MIN and reduction > MIN_REDUCTION

@@ -20,6 +20,7 @@ Two locations are *not separable* (`alternatives`) when
 
 from __future__ import annotations
 
+import copy
 import weakref
 from typing import Sequence
 
@@ -46,10 +47,16 @@ _SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def screened(search: Search) -> list[Fit]:
-    """``search.screen()``, computed once per search (the table and the alternatives share it)."""
+    """``search.screen()``, computed once per search (the pool, the table and the
+    alternatives share it); read it, do not edit its fits (`screening` copies them)."""
     if search not in _SCREENED:
         _SCREENED[search] = search.screen()
     return _SCREENED[search]
+
+
+def screening(search: Search) -> list[Fit]:
+    """A copy of `screened` whose fits the caller may refit in place (the candidates shared)."""
+    return [copy.deepcopy(f, {id(f.cand): f.cand}) for f in screened(search)]
 
 
 def best_by_location(search: Search, pool: Sequence[Fit], linear: bool | None = None

@@ -140,7 +140,9 @@ def test_support_declared_elsewhere_leaves_no_grounded_element_at_the_point(grou
     "names the lowest in-sample BIC, the gap (23470 against 29280, its width refitted on the "
     "fitting levels), followed by three further effects. Naming the fewest parameters, then "
     "the largest gain, fixes this test but measured worse on the whole zoo (family 96.7 -> "
-    "95.1 %, parameters 35 -> 34 of 47: sdof-gap named a cubic), so it did not land"))
+    "95.1 %, parameters 35 -> 34 of 47: sdof-gap named a cubic), so it did not land; nor did "
+    "naming by the BIC across levels (each fitting level predicted from the others): family "
+    "96.7 -> 95.1 % again (chain-two-effects, stiffpair-cubic1; docs/diagnose.md, session 30)"))
 def test_support_at_the_point_finds_it(grounded_cubic):
     base, recs = grounded_cubic
     held = base.with_elements([])

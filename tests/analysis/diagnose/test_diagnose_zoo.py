@@ -24,16 +24,13 @@ WRONG_TODAY: dict[str, str] = {
     "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd +5.2 % (kd +0.0 %; -16.2 % "
                                                      "before the slider's harmonics were kept, "
                                                      "the rest's cause not measured)",
-    "stiffpair-cubic1-disp-random": "named cubic springs at DOF 2 and at DOF 1 (the two move "
-                                    "within 1.5 % of each other): p -91.9 % at DOF 1; "
-                                    "held-back 2.52 -> 0.0593",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
 effects, the kind ties and the gap's and slider's refit (docs/diagnose.md, Zoo, "Merged, session
 29"); the slider rows since measured per row with memory laws run between the samples and the
 periodic records' harmonics kept (docs/diagnose.md, "Sliders between the samples and above the
-band")."""
+band"); the whole zoo again on main in session 30 (docs/diagnose.md, "Merged, session 30")."""
 
 
 def _param(case: Z.ZooCase):
