@@ -97,14 +97,20 @@ def joint_refit(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
     return fits
 
 
-def _coefficients(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
-    if len(fits) < 2 or any(f.cand.memory for f in fits):
-        return fits
+
+def _coefficients_of(search: Search, fits: list[Fit]) -> tuple[list[str], np.ndarray]:
+    """Each nonlinear fit's basis made available in the search; the fits' coefficient names
+    and values."""
     for f in fits:
         if not f.cand.linear:
             search.ensure_basis(f.cand, f.extra)
     names = [_name(f) for f in fits]
-    theta0 = np.array([f.params[n] for f, n in zip(fits, names)])
+    return names, np.array([f.params[n] for f, n in zip(fits, names)])
+
+def _coefficients(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
+    if len(fits) < 2 or any(f.cand.memory for f in fits):
+        return fits
+    names, theta0 = _coefficients_of(search, fits)
     scale = np.where(theta0 != 0, np.abs(theta0), 1.0)
 
     def predicted(theta: np.ndarray) -> list[np.ndarray]:
@@ -252,11 +258,7 @@ def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]
     if not fits or not search.continuous_grid or any(f.cand.memory and f.extra is None
                                                      for f in fits):
         return fits
-    for f in fits:
-        if not f.cand.linear:
-            search.ensure_basis(f.cand, f.extra)
-    names = [_name(f) for f in fits]
-    theta = np.array([f.params[n] for f, n in zip(fits, names)])
+    names, theta = _coefficients_of(search, fits)
     step = 1e-4 * np.array([max(abs(t), abs(f.ci95[n][1] - f.ci95[n][0]), 1e-300)
                             for f, n, t in zip(fits, names, theta)])
     try:   # a step off an estimate at the edge of the valid range (an indefinite stiffness)
