@@ -64,7 +64,7 @@ Substeps (``oversample=None``, the default)
 -------------------------------------------
 The run starts from `auto_oversample`: ``h * omega <= 0.25`` with ``omega`` the largest of the
 highest natural frequency (rad/s) of ``K`` stiffened by every element at its stiffest known
-slope (`_element_stiffness`: stick_slip ``kd``, hysteresis initial slope ``kd``, gap ``k``) and
+slope (`_substep_rule._element_stiffness`: stick_slip ``kd``, hysteresis initial slope ``kd``, gap ``k``) and
 the decay rate of the viscous slopes (Coulomb ``fc / v_reg``). Amplitude-dependent tangents
 (cubic and quadratic springs and dampers) are only known while running, and the error of the
 hold grows with them, so the run is checked by step doubling: a chunk of at most
@@ -89,11 +89,10 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
-from scipy.linalg import eigh, expm
-from scipy.sparse.csgraph import connected_components
 
 from . import _plant_kernels as _k
 from ._records import Discretisation, Outputs as _Outputs, PlantState
+from ._substep_rule import _element_slopes, _phi_functions, _tangent_omega, auto_oversample
 from ..models import KINDS, N_BUILTIN, N_PARAM, N_STATE, Model, pack_params
 from ..errors import InputError
 from ..recordings import RESPONSE_KINDS, hold_image_response, remove_hold_images
@@ -102,7 +101,6 @@ __all__ = ["Plant", "PlantError", "PlantOutput", "add_relative_noise", "auto_ove
            "hold_image_response", "remove_hold_images", "simulate"]
 
 HOLD_DEGREE = 5
-AUTO_H_OMEGA = 0.25
 ACCURACY = 3e-7        # default step-doubling bound per chunk (relative)
 CHUNK = 1024           # samples per step-doubling check
 CHECK_MARGIN = 1.2     # re-check when the running tangent frequency grows by this factor
@@ -127,71 +125,6 @@ class PlantOutput:
     response: np.ndarray          # response_kind with the sensor noise added
     element_forces: np.ndarray    # (n, n_elements): g of each element at the samples
     oversample: int = 1           # substeps per sample at the end of the block
-
-
-def _element_stiffness(el: Any, umax: float = 0.0, vmax: float = 0.0) -> tuple[float, float]:
-    """Largest stiffness and viscous slope of element ``el`` (N/m, N s/m), from its kind's
-    descriptor (`analysis.models._kinds`).
-
-    With ``umax = vmax = 0`` the slopes known before a run (piecewise-linear kinds); with the
-    element's largest deformation ``umax`` and rate ``vmax`` over a stretch of run, the
-    largest tangent of the amplitude-dependent kinds as well.
-    """
-    spec = KINDS[el.kind]
-    k = spec.stiffness(el.params, umax) if spec.stiffness is not None else 0.0
-    c = spec.damping(el.params, vmax) if spec.damping is not None else 0.0
-    return k, c
-
-
-def _element_slopes(model: Model, peak: np.ndarray | None = None) -> np.ndarray:
-    """(2, n_elements): each element's largest stiffness and viscous slope
-    (`_element_stiffness`); with ``peak`` (2 n_elements), the largest deformations then
-    rates of the elements over a stretch of run, from their running tangents (a slope grows
-    with its peak: `Plant._advance` relies on it)."""
-    ne = len(model.elements)
-    peak = np.zeros(2 * ne) if peak is None else peak
-    out = np.zeros((2, ne))
-    for i, el in enumerate(model.elements):
-        out[:, i] = _element_stiffness(el, peak[i], peak[ne + i])
-    return out
-
-
-def _tangent_omega(model: Model, slopes: np.ndarray | None = None) -> float:
-    """The frequency ``omega`` of the substep rule (module docstring), rad/s, with the
-    element slopes (`_element_slopes`; default: those known before a run)."""
-    k, c = _element_slopes(model) if slopes is None else slopes
-    wq = np.array([model.to_q(el.w) for el in model.elements]).reshape(-1, model.n_q)
-    stiff = model.stiffness + (wq.T * k) @ wq
-    visc = (wq.T * c) @ wq
-    omega = math.sqrt(max(eigh(stiff, model.mass, eigvals_only=True).max(), 0.0))
-    rate = max(eigh(visc, model.mass, eigvals_only=True).max(), 0.0)
-    return max(omega, rate)
-
-
-def auto_oversample(model: Model, fs: float) -> int:
-    """Substeps per output sample a run starts with (module docstring)."""
-    if not model.elements:
-        return 1
-    return max(1, math.ceil(_tangent_omega(model) / (AUTO_H_OMEGA * fs)))
-
-
-def _phi_functions(z: np.ndarray, p: int) -> list[np.ndarray]:
-    """``[exp(z), phi_1(z), ..., phi_p(z)]`` from augmented matrix exponentials, one per
-    block of ``z`` (its connected components: the 2 x 2 modes of a modal model), so their
-    zero pattern is exact."""
-    n_blocks, labels = connected_components(z != 0, directed=False)
-    blocks = [np.flatnonzero(labels == b) for b in range(n_blocks)]
-    out = [np.zeros_like(z) for _ in range(p + 1)]
-    for size in sorted({b.size for b in blocks}):
-        idx = np.array([b for b in blocks if b.size == size])           # (k, size)
-        big = np.zeros((idx.shape[0], size * (p + 1), size * (p + 1)))
-        big[:, :size, :size] = z[idx[:, :, None], idx[:, None, :]]
-        for i in range(p):
-            big[:, size * i:size * (i + 1), size * (i + 1):size * (i + 2)] = np.eye(size)
-        e = expm(big)
-        for i in range(p + 1):
-            out[i][idx[:, :, None], idx[:, None, :]] = e[:, :size, size * i:size * (i + 1)]
-    return out
 
 
 class Plant:
