@@ -6,14 +6,16 @@ registers it on import. A new estimator is one new module here, imported below.
 
 from __future__ import annotations
 
-from ._registry import (ESTIMATOR_KEY, Estimate, LevelEstimate, Method, add_batch_options,
-                       add_options, batch_values, find_stored, for_excitation, get, methods,
-                       option, register, stored_estimates, unregister)
+from ._registry import (ESTIMATOR_KEY, Estimate, LevelEstimate, Method, StoredEstimate,
+                       add_batch_options, add_options, batch_values, find_stored,
+                       for_excitation, get, methods, option, register, stored_estimates,
+                       unregister)
 from . import _reverse_path, _hbm  # noqa: E402,F401 - register the built-in methods, in order
 from ._reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
                            format_table as reverse_path_table)
 
-__all__ = ["ESTIMATOR_KEY", "Estimate", "LevelEstimate", "Method", "add_batch_options",
+__all__ = ["ESTIMATOR_KEY", "Estimate", "LevelEstimate", "Method", "StoredEstimate",
+           "add_batch_options",
            "add_options", "batch_values", "find_stored", "for_excitation", "get", "methods", "option",
            "register", "stored_estimates", "unregister",
            # the reverse path's own entry points (the demo)

@@ -17,11 +17,14 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 
 if TYPE_CHECKING:
     from analysis.models import Model
     from analysis.recordings import Recording
+
+    from ..store import EstimatedElement
 
 #: Key naming the estimator in a method's JSON and stored result.
 ESTIMATOR_KEY = "estimator"
@@ -32,6 +35,44 @@ class LevelEstimate(Protocol):
 
     def to_json(self) -> dict[str, Any]:
         """The JSON / stored result (contracts section 4), with ``"estimator"``."""
+
+
+@dataclass(frozen=True)
+class StoredEstimate:
+    """An estimator's JSON / stored result read back typed: what every method's result says.
+
+    Each method reads its own layout with its `Method.result` type (a subclass adding what
+    that estimator reports); this base reads the fields every layout has, old runs included
+    (elements without ``"estimated"``: `nlid_lab.store.EstimatedElement`).
+
+    Attributes
+    ----------
+    elements : tuple of EstimatedElement
+        The estimated elements (kind, w, parameters, 95 % intervals, which were estimated).
+    warnings : tuple of str
+        What the estimator warned of.
+    coherence_min : float or None
+        Lowest multiple coherence of the estimate (estimators that report one).
+    cost : float or None
+        Final cost of a fit (estimators that minimise one).
+    """
+
+    elements: tuple[EstimatedElement, ...]
+    warnings: tuple[str, ...] = ()
+    coherence_min: float | None = None
+    cost: float | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> StoredEstimate:
+        """The fields every estimator's JSON has (``elements``, ``warnings``)."""
+        return cls(**cls.common_fields(data))
+
+    @staticmethod
+    def common_fields(data: Mapping[str, Any]) -> JsonObject:
+        """``elements`` and ``warnings`` of ``data`` as this type's keyword arguments."""
+        from ..store import elements_from_json   # h5py: the store loads on use (module doc)
+        return {"elements": elements_from_json(data),
+                "warnings": tuple(str(w) for w in data.get("warnings") or ())}
 
 
 class Estimate(LevelEstimate, Protocol):
@@ -94,6 +135,9 @@ class Method:
     output_files : callable, optional
         ``output_files(options) -> list of paths``: the files its estimate writes (figures),
         checked against overwriting before any work.
+    result : type
+        `StoredEstimate` or the method's subclass of it: its ``from_json`` reads the method's
+        JSON and stored results (old layouts too) back typed (`Method.read`).
     """
 
     name: str
@@ -105,6 +149,7 @@ class Method:
     sections: Callable[..., list[Any]] | None = None
     legacy_keys: tuple[str, ...] = ()
     output_files: Callable[[Any], list[str]] | None = None
+    result: type[StoredEstimate] = StoredEstimate
 
     @property
     def result_name(self) -> str:
@@ -129,6 +174,10 @@ class Method:
         """One level's result JSON (reanalysis)."""
         one = self.estimate_level or (lambda r, m, o: self.estimate([r], m, o))
         return one(rec, model, options).to_json()
+
+    def read(self, data: Mapping[str, Any]) -> StoredEstimate:
+        """One of this method's JSON or stored results, typed (`Method.result`)."""
+        return self.result.from_json(data)
 
     def owns(self, result: Any) -> bool:
         """Whether a stored result is this method's (by ``"estimator"``, else its keys)."""

@@ -99,11 +99,11 @@ def test_block_and_dense_propagation_agree(monkeypatch):
     model = aircraft_model(n_modes=12)
     force = random_gaussian(2048, 4096.0, (2, 200), 20.0, 1)[:, None]
     blocks = Plant(model, 4096.0, [0], oversample=3)
-    assert blocks._kernel(3)["disc"].phi.size == 0
+    assert blocks._kernel(3).disc.phi.size == 0
     out_b = blocks.run(force)
     monkeypatch.setattr(Model, "decoupled", property(lambda self: False))
     dense = Plant(model, 4096.0, [0], oversample=3)
-    assert dense._kernel(3)["disc"].phi.size > 0
+    assert dense._kernel(3).disc.phi.size > 0
     out_d = dense.run(force)
     for kind in ("displacement", "velocity", "acceleration"):
         np.testing.assert_allclose(getattr(out_b, kind), getattr(out_d, kind), rtol=0,
@@ -116,11 +116,11 @@ def test_accumulated_and_direct_forms_agree(monkeypatch):
     model = aircraft_model(n_modes=12)
     force = random_gaussian(2048, 4096.0, (2, 200), 20.0, 1)[:, None]
     acc = Plant(model, 4096.0, [0], oversample=3)
-    assert acc._kernel(3)["disc"].inj_g.shape[0] == 0
+    assert acc._kernel(3).disc.inj_g.shape[0] == 0
     out_a = acc.run(force)
     monkeypatch.setattr(plant_module, "MAX_LOG_GROWTH", -1.0)
     direct = Plant(model, 4096.0, [0], oversample=3)
-    assert direct._kernel(3)["disc"].inj_g.shape[0] == plant_module.HOLD_DEGREE
+    assert direct._kernel(3).disc.inj_g.shape[0] == plant_module.HOLD_DEGREE
     out_d = direct.run(force)
     for kind in ("displacement", "velocity", "acceleration"):
         np.testing.assert_allclose(getattr(out_a, kind), getattr(out_d, kind), rtol=0,

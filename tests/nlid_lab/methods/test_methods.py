@@ -143,6 +143,37 @@ def test_stored_results_found_by_estimator_else_by_legacy_keys():
     assert methods.find_stored({"x": {"estimator": "hbm"}}, rp) is None
 
 
+def test_each_method_reads_its_results_back_typed_old_layouts_too():
+    """`Method.read`: the reanalysis rows come from the typed result, not from JSON keys."""
+    rp, hbm = methods.get("reverse-path"), methods.get("hbm")
+    el = {"kind": "cubic_spring", "w": [1.0, 0.0], "params": {"p": 2.0e11},
+          "ci95": {"p": [1.9e11, 2.1e11]}}
+    # stored before "estimator", "force_hold" and "estimated" existed
+    old = rp.read({"elements": [el], "multiple_coherence": {"min": 0.97}, "warnings": ["w1"]})
+    assert isinstance(old, methods.StoredEstimate) and type(old).__name__ == "ReversePathStored"
+    assert old.coherence_min == 0.97 and old.cost is None and old.force_hold is None
+    assert old.warnings == ("w1",) and old.elements[0].estimated == ("p",)
+    assert old.elements[0].ci95["p"] == (1.9e11, 2.1e11)
+    # screening only: no coherence
+    assert rp.read({"estimator": "reverse-path", "elements": [], "warnings": [],
+                    "force_hold": "linear"}).coherence_min is None
+    fit = hbm.read({"estimator": "hbm", "cost": 0.25, "harmonics": [1, 3], "warnings": [],
+                    "elements": [dict(el, params={"p": 2.0e11, "c": 3.0}, estimated=["p"])]})
+    assert (fit.cost, fit.coherence_min, fit.harmonics) == (0.25, None, (1, 3))
+    assert fit.elements[0].estimated == ("p",)
+    assert hbm.read({"elements": [], "cost": 1}).harmonics == ()          # before harmonics
+
+
+def test_reanalysis_row_from_the_typed_result(toy):
+    """A method without a result type of its own is read by the base `StoredEstimate`."""
+    from analysis.recordings import Recording
+    rec = Recording(FS, "random", np.array([0]), np.ones((8, 1)), np.ones((8, 1)), level=1.0)
+    row = rea._row_from_json("r.h5", 0, rec, "toy", ToyEstimate(3.0, None).to_json())
+    assert row.estimates == {"e0.cubic_spring.p": 3.0, "e0.cubic_spring.p.ci95_lo": 2.0,
+                             "e0.cubic_spring.p.ci95_hi": 4.0}
+    assert row.coherence_min is None and row.cost is None and row.ok
+
+
 def test_analyze_and_reanalyze_share_each_methods_options(run, candidate, capsys):
     flags = ["--band", "5", "100", "--nperseg", "512", "--refine", "sequential"]
     rp = methods.get("reverse-path")
