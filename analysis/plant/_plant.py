@@ -92,7 +92,8 @@ import numpy as np
 
 from . import _plant_kernels as _k
 from ._records import Discretisation, Outputs as _Outputs, PlantState
-from ._substep_rule import _element_slopes, _phi_functions, _tangent_omega, auto_oversample
+from ._substep_rule import (_blocks, _element_slopes, _phi_functions, _tangent_omega,
+                            auto_oversample, one_blas_thread)
 from ..models import KINDS, N_BUILTIN, N_PARAM, N_STATE, Model, pack_params
 from ..errors import InputError
 from ..recordings import RESPONSE_KINDS, hold_image_response, remove_hold_images
@@ -228,6 +229,7 @@ class Plant:
         self._a = np.block([[np.zeros((n_q, n_q)), np.eye(n_q)], [-mk, -mc]])
         #: fastest decay rate of the linear system, 1/s (`_discretise`: accumulated form)
         self._decay = max(0.0, float(-np.linalg.eigvals(self._a).real.min()))
+        self._blocks = _blocks(self._a)     # those of ``A h`` and ``-A h`` for every step
         self._wq = np.array([model.to_q(el.w) for el in model.elements]).reshape(-1, n_q)
         self._kernels: dict[int, _Kernel] = {}
         self.stats = np.zeros(4, dtype=np.int64)
@@ -239,9 +241,11 @@ class Plant:
         return self.model.shapes[self.force_dofs].T
 
     def _kernel(self, m: int) -> _Kernel:
-        """Integrator arrays for ``m`` substeps per sample (cached)."""
+        """Integrator arrays for ``m`` substeps per sample (cached; BLAS on one thread:
+        small matrices, `one_blas_thread`)."""
         if m not in self._kernels:
-            self._kernels[m] = self._discretise(m)
+            with one_blas_thread():
+                self._kernels[m] = self._discretise(m)
         return self._kernels[m]
 
     def _discretise(self, m: int) -> _Kernel:
@@ -254,7 +258,7 @@ class Plant:
         ne = wq.shape[0]
         bf = np.vstack([np.zeros_like(sel), minv @ sel])
         bg = np.vstack([np.zeros((n, ne)), -minv @ wq.T])
-        phis = _phi_functions(a * h, q + 1)
+        phis = _phi_functions(a * h, q + 1, self._blocks)
         nodes = np.arange(1 - q, 2, dtype=float)
         vinv = np.linalg.inv(np.vander(nodes, increasing=True))
         mono = [h * math.factorial(j) * phis[j + 1] @ bg for j in range(q + 1)]
@@ -320,7 +324,7 @@ class Plant:
         if q * h * self._decay <= MAX_LOG_GROWTH:
             # accumulated form: each node's whole influence enters the state once
             back = [np.eye(2 * n)]
-            inv = _phi_functions(-self._a * h, 0)[0]          # Phi^-1, as accurate as Phi
+            inv = _phi_functions(-self._a * h, 0, self._blocks)[0]   # Phi^-1, as accurate
             for _ in range(q):
                 back.append(inv @ back[-1])
             u_g = sum(back[d] @ wd[d] for d in range(q + 1))

@@ -4,6 +4,7 @@ report and view; stored results are found by their "estimator" (old files by the
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -172,6 +173,31 @@ def test_reanalysis_row_from_the_typed_result(toy):
     assert row.estimates == {"e0.cubic_spring.p": 3.0, "e0.cubic_spring.p.ci95_lo": 2.0,
                              "e0.cubic_spring.p.ci95_hi": 4.0}
     assert row.coherence_min is None and row.cost is None and row.ok
+
+
+def test_a_new_method_module_is_found_with_no_other_edit(tmp_path, monkeypatch):
+    """`methods.discover`: a package's modules not imported yet are imported (in name order),
+    so a module that registers a method is the whole addition."""
+    pkg = tmp_path / "toy_methods"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "_toy.py").write_text(
+        "from dataclasses import dataclass\n"
+        "from nlid_lab import methods\n"
+        "@dataclass\nclass Options:\n    pass\n"
+        "methods.register(methods.Method('toy-found', 'found', Options, 'random',\n"
+        "                                lambda recs, model, options: None))\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        assert methods.discover("toy_methods", [str(pkg)]) == ["toy_methods._toy"]
+        assert methods.get("toy-found").help == "found"
+        assert methods.discover("toy_methods", [str(pkg)]) == []          # once only
+    finally:
+        methods.unregister("toy-found")
+        for name in ("toy_methods._toy", "toy_methods"):
+            sys.modules.pop(name, None)
+    # the built-ins keep their order: reverse path is the first random-data method
+    assert [m.name for m in methods.methods()][:2] == ["reverse-path", "hbm"]
 
 
 def test_analyze_and_reanalyze_share_each_methods_options(run, candidate, capsys):
