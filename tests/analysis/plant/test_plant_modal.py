@@ -155,3 +155,33 @@ def test_aircraft_model_matches_solve_ivp():
                              input_matrix=model.shapes[[0]].T)
     out = Plant(model, 4096.0, [0]).run(force)
     assert _rel(out.displacement, ref["displacement"] @ model.shapes.T) < 1e-6
+
+
+def test_set_up_holds_blas_to_one_thread_and_uses_the_blocks_found_once(monkeypatch):
+    """`Plant._kernel` runs its matrix exponentials with BLAS on one thread (OpenBLAS threads
+    cost more than the arithmetic on these sizes) and restores the caller's threads; the
+    blocks of ``A`` found at construction are those of ``A h`` and ``-A h``."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from analysis.plant import _substep_rule as rule
+
+    def blas_threads() -> set[int]:
+        return {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+    seen = []
+    real = rule.expm
+
+    def spy(z):
+        seen.append(blas_threads())
+        return real(z)
+
+    monkeypatch.setattr(rule, "expm", spy)
+    plant = Plant(aircraft_model(n_modes=6), 4096.0, [0], oversample=3)
+    with threadpool_limits(limits=2, user_api="blas"):
+        outer = blas_threads()
+        plant._kernel(3)
+        assert blas_threads() == outer
+    assert outer != {1} and len(seen) == 2 and all(s == {1} for s in seen)
+    h = 1.0 / (4096.0 * 3)
+    for z in (plant._a * h, -plant._a * h):
+        assert [b.tolist() for b in rule._blocks(z)] == [b.tolist() for b in plant._blocks]
