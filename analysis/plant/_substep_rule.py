@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import functools
 import math
-from contextlib import AbstractContextManager
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -52,15 +54,35 @@ def _blas_controller() -> ThreadpoolController:
     return ThreadpoolController()
 
 
-def one_blas_thread() -> AbstractContextManager:
+_BLAS_LOCK = threading.Lock()
+_blas_depth = 0          # plants inside `one_blas_thread`, over all threads
+_blas_limit: Any = None  # the outermost entry's limit, restored by the last exit
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
     """BLAS on one thread inside the ``with`` block (threadpoolctl; ~50 us to enter).
 
     The plant's set-up works on matrices of 2 x 2 to ~100 x 100, where OpenBLAS's threads
     cost more than the arithmetic: measured on a shared 2-core machine, ``scipy.linalg.expm``
     of a 6 x 6 matrix took 8 ms of process CPU (20 ms wall) with its default threads and
     13 us with one (OpenBLAS issue 4387); a run's discretisations and step-doubling checks
-    then cost as much as its kernel."""
-    return _blas_controller().limit(limits=1, user_api="blas")
+    then cost as much as its kernel. The limit is process-wide: plants in several threads
+    share one, set by the first to enter and lifted by the last to leave, so the caller's
+    threads come back whatever the order."""
+    global _blas_depth, _blas_limit
+    with _BLAS_LOCK:
+        if _blas_depth == 0:
+            _blas_limit = _blas_controller().limit(limits=1, user_api="blas")
+        _blas_depth += 1
+    try:
+        yield
+    finally:
+        with _BLAS_LOCK:
+            _blas_depth -= 1
+            if _blas_depth == 0:
+                _blas_limit.restore_original_limits()
+                _blas_limit = None
 
 
 def _tangent_omega(model: Model, slopes: np.ndarray | None = None) -> float:

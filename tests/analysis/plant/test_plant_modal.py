@@ -181,6 +181,14 @@ def test_set_up_holds_blas_to_one_thread_and_uses_the_blocks_found_once(monkeypa
         outer = blas_threads()
         plant._kernel(3)
         assert blas_threads() == outer
+        # plants in two threads: entered A, B, left A, B; one thread until the last leaves
+        a, b = rule.one_blas_thread(), rule.one_blas_thread()
+        a.__enter__()
+        b.__enter__()
+        a.__exit__(None, None, None)
+        assert blas_threads() == {1}
+        b.__exit__(None, None, None)
+        assert blas_threads() == outer
     assert outer != {1} and len(seen) == 2 and all(s == {1} for s in seen)
     h = 1.0 / (4096.0 * 3)
     for z in (plant._a * h, -plant._a * h):
