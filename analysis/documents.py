@@ -8,8 +8,12 @@ document a serialiser reads or writes, whose keys the file's author (or a user) 
 - `MatTree`: a MAT file's variables as read, struct fields flattened to ``"a.b"`` names.
 - `UffDataset`: one dataset as `pyuff` reads and writes it (dataset 58, 55, 15, 82, ...).
 
-The keys of a recording file (NPZ, CSV header, a mapped MAT file) have a schema:
-`analysis.recordings.RecordingKeys`.
+Where a dict has a schema, a `TypedDict` names its keys once, beside the code that writes it:
+the keys of a recording file (NPZ, CSV header, a mapped MAT file),
+`analysis.recordings.RecordingKeys`; a model file's tables, `analysis.models.ModelTables`; a
+plant's saved state, `analysis.plant.SavedState`; what the reverse path writes into its JSON
+(``noise``: ``NoiseInfo``, the screening's ranking: ``ScreeningRow``) and the Welch settings
+its passes share (``WelchSettings``), in ``analysis/reverse_path/_documents.py``.
 """
 
 from __future__ import annotations

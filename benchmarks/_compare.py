@@ -5,8 +5,8 @@ time (``def case() -> Callable[[], object]``), written against the public API so
 on both trees. The base ref (default ``HEAD~1``) is checked out into a temporary
 ``git worktree``; each case then runs in fresh subprocesses, alternately on the base tree
 and on this one (``rounds`` each, ``repeats`` timed calls per subprocess after one untimed
-call that compiles the kernels), and the best wall-clock and thread CPU times of each tree
-are compared. Alternating in one run is what makes the ratio hold on a shared machine:
+call that compiles the kernels), and the best wall-clock, thread CPU and process CPU times of
+each tree are compared (process CPU includes the threads a library starts, e.g. OpenBLAS's). Alternating in one run is what makes the ratio hold on a shared machine:
 both trees see the same load. The base tree compiles its numba kernels once (its own cache).
 
     python benchmarks/_compare.py [--base REF] [--rounds 3] [--repeats 5] MODULE:CASE ...
@@ -48,10 +48,11 @@ def search_path(root: Path) -> list[str]:
 
 @dataclass(frozen=True)
 class Timing:
-    """Best wall-clock and thread CPU seconds of one case on one tree."""
+    """Best wall-clock, thread CPU and process CPU seconds of one case on one tree."""
 
     wall: float
     cpu: float
+    process: float = float("nan")
 
 
 def _worker(root: str, module: str, case: str, repeats: int) -> None:
@@ -64,17 +65,18 @@ def _worker(root: str, module: str, case: str, repeats: int) -> None:
     spec.loader.exec_module(mod)
     run = getattr(mod, case)()
     run()
-    wall, cpu = [], []
+    wall, cpu, process = [], [], []
     for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.thread_time()
+        t0, c0, p0 = time.perf_counter(), time.thread_time(), time.process_time()
         run()
         wall.append(time.perf_counter() - t0)
         cpu.append(time.thread_time() - c0)
+        process.append(time.process_time() - p0)
     origin = sys.modules["analysis"].__file__
-    print(json.dumps({"wall": wall, "cpu": cpu, "analysis": origin}))
+    print(json.dumps({"wall": wall, "cpu": cpu, "process": process, "analysis": origin}))
 
 
-def _time_once(root: Path, module: str, case: str, repeats: int) -> tuple[list, list]:
+def _time_once(root: Path, module: str, case: str, repeats: int) -> tuple[list, list, list]:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", str(root), module, case,
            str(repeats)]
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
@@ -84,7 +86,7 @@ def _time_once(root: Path, module: str, case: str, repeats: int) -> tuple[list, 
     data = json.loads(out.stdout.strip().splitlines()[-1])
     if not data["analysis"].startswith(str(root)):
         raise RuntimeError(f"{module}:{case} imported {data['analysis']}, not {root}")
-    return data["wall"], data["cpu"]
+    return data["wall"], data["cpu"], data["process"]
 
 
 class _BaseTree:
@@ -117,18 +119,19 @@ def compare(cases: Sequence[str], base: str = "HEAD~1", rounds: int = 3, repeats
     with _BaseTree(here, base) as tree:
         for name in cases:
             module, case = name.split(":")
-            runs = {tree: ([], []), here: ([], [])}
+            runs = {tree: ([], [], []), here: ([], [], [])}
             for _ in range(rounds):
                 for root_ in (tree, here):
-                    wall, cpu = _time_once(root_, module, case, repeats)
-                    runs[root_][0].extend(wall)
-                    runs[root_][1].extend(cpu)
-            old, new = (Timing(min(runs[r][0]), min(runs[r][1])) for r in (tree, here))
+                    for kept, times in zip(runs[root_], _time_once(root_, module, case,
+                                                                   repeats)):
+                        kept.extend(times)
+            old, new = (Timing(*(min(t) for t in runs[r])) for r in (tree, here))
             results[name] = (old, new)
-            print(f"{name}: {base} {1e3 * old.wall:.1f} ms (thread CPU {1e3 * old.cpu:.1f}), "
-                  f"this tree {1e3 * new.wall:.1f} ms (thread CPU {1e3 * new.cpu:.1f}); "
+            print(f"{name}: {base} {1e3 * old.wall:.1f} ms (thread CPU {1e3 * old.cpu:.1f}, "
+                  f"process CPU {1e3 * old.process:.1f}), this tree {1e3 * new.wall:.1f} ms "
+                  f"(thread CPU {1e3 * new.cpu:.1f}, process CPU {1e3 * new.process:.1f}); "
                   f"time ratio this / base {new.wall / old.wall:.2f} (CPU "
-                  f"{new.cpu / old.cpu:.2f})")
+                  f"{new.cpu / old.cpu:.2f}, process CPU {new.process / old.process:.2f})")
     return results
 
 

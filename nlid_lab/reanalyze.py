@@ -29,7 +29,7 @@ from analysis.models import Model
 from analysis.recordings import Recording
 
 from . import methods
-from .store import TableRow, elements_from_json, write_table
+from .store import TableRow, write_table
 
 AUTO = "auto"  # each level's method from its excitation (`nlid_lab.methods.for_excitation`)
 RUN_SUFFIXES = (".h5", ".hdf5", ".npz")
@@ -248,9 +248,11 @@ def _method_for(rec: Recording, method: str) -> str:
 
 def _row_from_json(path: str, index: int, rec: Recording, method: str,
                    result: JsonObject) -> LevelRow:
-    """The row of a level the estimator's JSON (`estimate_json`) describes."""
+    """The row of a level the estimator's JSON (`estimate_json`) describes, read back through
+    the method's result type (`nlid_lab.methods.Method.read`)."""
+    stored = methods.get(method).read(result)
     estimates: dict[str, float | None] = {}
-    for i, el in enumerate(elements_from_json(result)):
+    for i, el in enumerate(stored.elements):
         for name, value in el.params.items():
             if name not in el.estimated:                      # hbm lists known ones too
                 continue
@@ -258,10 +260,8 @@ def _row_from_json(path: str, index: int, rec: Recording, method: str,
             lo, hi = el.ci95.get(name) or (None, None)
             estimates.update({col: _num(value), f"{col}.ci95_lo": _num(lo),
                               f"{col}.ci95_hi": _num(hi)})
-    coherence = result.get("multiple_coherence") or {}
     return LevelRow(path, index, rec.level, rec.excitation, method, "ok", estimates,
-                    _num(coherence.get("min")), _num(result.get("cost")),
-                    " | ".join(str(w) for w in result.get("warnings", [])))
+                    stored.coherence_min, stored.cost, " | ".join(stored.warnings))
 
 
 def _failed_row(path: str, index: int, level: float | None, excitation: str | None,

@@ -86,19 +86,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, NotRequired, Sequence, TypedDict
 
 import numpy as np
 
 from . import _plant_kernels as _k
 from ._records import Discretisation, Outputs as _Outputs, PlantState
-from ._substep_rule import _element_slopes, _phi_functions, _tangent_omega, auto_oversample
+from ._substep_rule import (_blocks, _element_slopes, _phi_functions, _tangent_omega,
+                            auto_oversample, one_blas_thread)
 from ..models import KINDS, N_BUILTIN, N_PARAM, N_STATE, Model, pack_params
 from ..errors import InputError
 from ..recordings import RESPONSE_KINDS, hold_image_response, remove_hold_images
 
-__all__ = ["Plant", "PlantError", "PlantOutput", "add_relative_noise", "auto_oversample",
-           "hold_image_response", "remove_hold_images", "simulate"]
+__all__ = ["Plant", "PlantError", "PlantOutput", "SavedState", "add_relative_noise",
+           "auto_oversample", "hold_image_response", "remove_hold_images", "simulate"]
 
 HOLD_DEGREE = 5
 ACCURACY = 3e-7        # default step-doubling bound per chunk (relative)
@@ -125,6 +126,34 @@ class PlantOutput:
     response: np.ndarray          # response_kind with the sensor noise added
     element_forces: np.ndarray    # (n, n_elements): g of each element at the samples
     oversample: int = 1           # substeps per sample at the end of the block
+
+
+class SavedState(TypedDict):
+    """A plant's full state (`Plant.state`, `Plant.set_state`): ``x``, ``v`` in internal
+    coordinates, element memory, hold history and the substeps per sample it is spaced for,
+    the last force sample, the noise generator's state and the integrator's accumulated
+    state. A dict, so a caller may start from one with some entries replaced
+    (``dict(saved, x=..., v=...)``); ``oversample`` and ``accumulated`` may be left out."""
+
+    x: np.ndarray
+    v: np.ndarray
+    oversample: NotRequired[int]
+    element_state: np.ndarray
+    force_history: np.ndarray
+    deformation_history: np.ndarray
+    force_prev: np.ndarray
+    rng: dict[str, Any]          # `numpy.random.BitGenerator.state`, numpy's own dict
+    accumulated: NotRequired[np.ndarray]
+
+
+@dataclass(frozen=True)
+class _Kernel:
+    """What `Plant._discretise` builds for ``m`` substeps per sample: ``disc``, the
+    `Discretisation` `analysis.plant._plant_kernels.integrate` takes, and ``r_z``: the
+    pending history in the accumulated state is ``r_z z`` (`Plant._pending`)."""
+
+    disc: Discretisation
+    r_z: np.ndarray
 
 
 class Plant:
@@ -200,8 +229,9 @@ class Plant:
         self._a = np.block([[np.zeros((n_q, n_q)), np.eye(n_q)], [-mk, -mc]])
         #: fastest decay rate of the linear system, 1/s (`_discretise`: accumulated form)
         self._decay = max(0.0, float(-np.linalg.eigvals(self._a).real.min()))
+        self._blocks = _blocks(self._a)     # those of ``A h`` and ``-A h`` for every step
         self._wq = np.array([model.to_q(el.w) for el in model.elements]).reshape(-1, n_q)
-        self._kernels: dict[int, dict[str, Any]] = {}
+        self._kernels: dict[int, _Kernel] = {}
         self.stats = np.zeros(4, dtype=np.int64)
         self.reset()
 
@@ -210,16 +240,16 @@ class Plant:
         """The force directions in internal coordinates, (n_q, n_in)."""
         return self.model.shapes[self.force_dofs].T
 
-    def _kernel(self, m: int) -> dict[str, Any]:
-        """Integrator arrays for ``m`` substeps per sample (cached)."""
+    def _kernel(self, m: int) -> _Kernel:
+        """Integrator arrays for ``m`` substeps per sample (cached; BLAS on one thread:
+        small matrices, `one_blas_thread`)."""
         if m not in self._kernels:
-            self._kernels[m] = self._discretise(m)
+            with one_blas_thread():
+                self._kernels[m] = self._discretise(m)
         return self._kernels[m]
 
-    def _discretise(self, m: int) -> dict[str, Any]:
-        """Arrays for ``m`` substeps per sample: ``disc``, the `Discretisation`
-        `analysis.plant._plant_kernels.integrate` takes, and ``r_z``: the pending history in
-        the accumulated state is ``r_z z`` (`_pending`)."""
+    def _discretise(self, m: int) -> _Kernel:
+        """Arrays for ``m`` substeps per sample (`_Kernel`)."""
         model, n, q, wq = self.model, self.model.n_q, HOLD_DEGREE, self._wq
         h = 1.0 / (self.fs * m)
         minv = np.linalg.inv(model.mass)
@@ -228,7 +258,7 @@ class Plant:
         ne = wq.shape[0]
         bf = np.vstack([np.zeros_like(sel), minv @ sel])
         bg = np.vstack([np.zeros((n, ne)), -minv @ wq.T])
-        phis = _phi_functions(a * h, q + 1)
+        phis = _phi_functions(a * h, q + 1, self._blocks)
         nodes = np.arange(1 - q, 2, dtype=float)
         vinv = np.linalg.inv(np.vander(nodes, increasing=True))
         mono = [h * math.factorial(j) * phis[j + 1] @ bg for j in range(q + 1)]
@@ -281,8 +311,8 @@ class Plant:
                                     dtype=np.bool_))
         r_z = np.hstack([r_f, *r_g])
         args["r_v"] = np.ascontiguousarray(wq @ r_z[n:])
-        return {"r_z": r_z, "disc": Discretisation(**{name: args[name] for name in
-                                                         Discretisation._fields})}
+        return _Kernel(Discretisation(**{name: args[name] for name in Discretisation._fields}),
+                       r_z)
 
     def _hold_weights(self, h: float, wd: list[np.ndarray], wf0: np.ndarray,
                       wf1: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -294,7 +324,7 @@ class Plant:
         if q * h * self._decay <= MAX_LOG_GROWTH:
             # accumulated form: each node's whole influence enters the state once
             back = [np.eye(2 * n)]
-            inv = _phi_functions(-self._a * h, 0)[0]          # Phi^-1, as accurate as Phi
+            inv = _phi_functions(-self._a * h, 0, self._blocks)[0]   # Phi^-1, as accurate
             for _ in range(q):
                 back.append(inv @ back[-1])
             u_g = sum(back[d] @ wd[d] for d in range(q + 1))
@@ -324,7 +354,7 @@ class Plant:
         self.raised = 0         # times step doubling raised the substeps since the reset
 
     @property
-    def state(self) -> dict[str, Any]:
+    def state(self) -> SavedState:
         """Copy of the full state: ``x``, ``v`` (internal coordinates), element memory and
         hold history (with the substeps per sample it is spaced for), last force sample and
         noise-generator state. Pass it to `set_state` to resume from here (bit for bit: it
@@ -332,12 +362,12 @@ class Plant:
         history are left as they are)."""
         n = self.model.n_q
         y = self._s - self._pending(self.oversample, self._fprev, self._gh)
-        return {"x": y[:n], "v": y[n:], "oversample": self.oversample,
-                "element_state": self._es.copy(), "force_history": self._gh.copy(),
-                "deformation_history": self._uh.copy(), "force_prev": self._fprev.copy(),
-                "rng": self._rng.bit_generator.state, "accumulated": self._s.copy()}
+        return SavedState(x=y[:n], v=y[n:], oversample=self.oversample,
+                          element_state=self._es.copy(), force_history=self._gh.copy(),
+                          deformation_history=self._uh.copy(), force_prev=self._fprev.copy(),
+                          rng=self._rng.bit_generator.state, accumulated=self._s.copy())
 
-    def set_state(self, state: dict[str, Any]) -> None:
+    def set_state(self, state: SavedState) -> None:
         """Restore a state returned by `state` (of a plant with the same model and settings)."""
         n = self.model.n_q
         current = {"x": self._s[:n], "v": self._s[n:], "element_state": self._es,
@@ -362,7 +392,7 @@ class Plant:
     def _pending(self, m: int, fprev: np.ndarray, gh: np.ndarray) -> np.ndarray:
         """What the accumulated state holds beyond the state at ``m`` substeps per sample:
         the influence of the drive and hold history on the coming substeps (Method)."""
-        return self._kernel(m)["r_z"] @ np.concatenate([fprev, gh[:, ::-1].T.ravel()])
+        return self._kernel(m).r_z @ np.concatenate([fprev, gh[:, ::-1].T.ravel()])
 
     # --- running ----------------------------------------------------------------------
     def run(self, force: np.ndarray) -> PlantOutput:
@@ -431,7 +461,7 @@ class Plant:
         kernel = _k.integrate_strict if strict else _k.integrate
         if peak_ok is None or strict:       # slopes of registered kinds: checked in Python
             peak_ok = self._no_peaks if peak_ok is not None else self._any_peaks
-        done = kernel(force, m, kern["disc"], PlantState(self._s, self._gh, self._uh,
+        done = kernel(force, m, kern.disc, PlantState(self._s, self._gh, self._uh,
                                                              self._es, self._fprev),
                       out, self.stats, chunk or max(force.shape[0], 1), peak_ok, self._start)
         if not np.all(np.isfinite(self._s)):

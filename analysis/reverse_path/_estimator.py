@@ -15,13 +15,14 @@ import warnings as pywarnings
 
 import numpy as np
 from dataclasses import dataclass, fields, replace
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 from ..errors import InputError
 from ..spectral import (Spectra, default_nperseg, longest_nperseg, resolving_nperseg,
                         spectral_matrix)
 from ..models import Model
 from ..recordings import excitation_band
+from ._documents import NoiseInfo, WelchSettings
 from ._iv import iv_passes
 from ._noise import buried_random, noise_info, noise_variances
 from ._periodic import periodic_layout, periodic_reverse_path
@@ -181,7 +182,7 @@ def reverse_path(data: Any, model: Model, options: ReversePathOptions | None = N
 
 
 def _options(options: ReversePathOptions | None,
-             option_fields: dict[str, Any]) -> ReversePathOptions:
+             option_fields: Mapping[str, object]) -> ReversePathOptions:
     """The options given as ``options=`` or (deprecated) as keywords; the defaults without."""
     if option_fields:
         unknown_fields = set(option_fields) - {f.name for f in fields(ReversePathOptions)}
@@ -278,7 +279,7 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
                         f"{edge:.3g} Hz (noise grows as 1/f^2 when integrated): analysed from "
                         f"{edge + 2 * fsr / nps:.3g} Hz")
         lo = edge + 2 * fsr / nps
-    welch = dict(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
+    welch = WelchSettings(nperseg=nps, window=window, overlap=overlap, band=(lo, hi))
     inputs = [f"force@{d}" for d in fdofs]
     built, buried, labels = _built(recs, floors, (lo, hi), edge, opts, force_hold, info, unknown,
                                    known, warnings)
@@ -305,8 +306,8 @@ def _estimated(recs, model: Model, opts: ReversePathOptions, force_hold: str | N
 
 def _low_band_pass(result: ReversePathResult, first: list[str], recs, floors,
                    band: tuple[float, float], edge: float, opts: ReversePathOptions,
-                   force_hold: str | None, info: dict[str, Any], model: Model,
-                   welch: dict[str, Any]) -> tuple[ReversePathResult, list[str]]:
+                   force_hold: str | None, info: NoiseInfo, model: Model,
+                   welch: WelchSettings) -> tuple[ReversePathResult, list[str]]:
     """The estimate again with every integrated record's lowest band formed from the force
     through the first one (`._low_band`), and its warnings; the first when the outputs are
     explained less well (a candidate far from the structure would form a wrong band)."""

@@ -10,7 +10,6 @@ spectrum sinks into the noise floor.
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
 
@@ -19,12 +18,13 @@ from ..models import Model
 from ..plant import Plant, PlantError
 from ..spectral import Spectra, spectral_matrix
 from ._core import ReversePathResult, _channels, _estimate
+from ._documents import IvNoise, NoiseInfo, WelchSettings
 
 IV_PASSES = 2            # instrument refinements (each re-simulates with the latest estimate)
 
 
 def iv_passes(result: ReversePathResult, model: Model, built, unknown, known,
-              welch: dict[str, Any], info: dict[str, Any],
+              welch: WelchSettings, info: NoiseInfo,
               warnings: list[str]) -> ReversePathResult:
     """Instrumental-variable refinements: simulate, form instruments, re-estimate."""
     n_dof = model.n_dof
@@ -60,7 +60,7 @@ def iv_passes(result: ReversePathResult, model: Model, built, unknown, known,
 
 
 def _iv_solution(spec: Spectra, n_dof: int, n_in: int, n_r: int
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, IvNoise]:
     """IV transfer matrix, row covariance and residual variance from ``[X, R, Z]`` spectra."""
     S = spec.S
     xs, rs, zs = slice(0, n_dof), slice(n_dof, n_dof + n_r), slice(n_dof + n_r, None)
@@ -71,7 +71,7 @@ def _iv_solution(spec: Spectra, n_dof: int, n_in: int, n_r: int
     coh = [float(np.median(np.abs(S[:, n_dof + k, n_dof + n_r + k]) ** 2
                            / (auto[:, n_dof + k] * auto[:, n_dof + n_r + k])))
            for k in range(n_in, n_r)]
-    return H, cov, sigma2, {"instrument_coherence": coh}
+    return H, cov, sigma2, IvNoise(instrument_coherence=coh)
 
 
 def iv_transfer(S_xz: np.ndarray, S_rz: np.ndarray, S_zz: np.ndarray, singular: str

@@ -10,13 +10,13 @@ and warns when a deformation is buried in the noise.
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
 
 from ..recordings import KIND_ORDER, Recording
 from ..spectral import spectral_matrix
 from ._core import _Processing
+from ._documents import NoiseInfo
 
 BURIED_RANDOM = 0.1      # deformation noise std (whole record) / its noise-free rms that biases
 NOISE_THRESHOLD = 5e-3   # relative sensor-noise std above which noise="auto" uses "iv"
@@ -69,7 +69,7 @@ def noise_floor(response: np.ndarray, fs: float, band_hi: float,
 
 
 def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
-               warnings: list[str]) -> tuple[dict[str, Any], list[np.ndarray | None]]:
+               warnings: list[str]) -> tuple[NoiseInfo, list[np.ndarray | None]]:
     """Noise floors of the records and the noise treatment chosen."""
     # the cut-off only sets the "iv" low-pass: not needed when the mode rules "iv" out
     found = [noise_floor(r.response, fs, band_hi, cutoff=mode != "none") for r in recs]
@@ -87,8 +87,8 @@ def noise_info(recs: list[Recording], fs: float, band_hi: float, mode: str,
     if chosen == "iv" and rel is None:
         warnings.append("no white noise floor above the band to read the noise level from: "
                         "basis functions are not debiased; record with fs > 2.5x the band")
-    return {"method": chosen, "relative_std": None if rel is None else rel.tolist(),
-            "lowpass_hz": min(c for _, c, _ in found) if chosen == "iv" else None}, floors
+    return NoiseInfo(method=chosen, relative_std=None if rel is None else rel.tolist(),
+                     lowpass_hz=min(c for _, c, _ in found) if chosen == "iv" else None), floors
 
 
 def _std(x: np.ndarray) -> np.ndarray:

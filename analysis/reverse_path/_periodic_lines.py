@@ -6,7 +6,6 @@ lines, the per-line instrumental-variable estimate and the delete-one-realizatio
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.ndimage
@@ -15,6 +14,7 @@ import scipy.stats
 from .. import models as bas    # the reverse-path basis functions of a kind
 from ..models import restoring_force
 from ..recordings import period_spectra, periodic_kinematics
+from ._documents import PeriodicStats
 from ._iv import iv_transfer
 from ._core import (EDGE_CAP, EDGE_RUN, EDGE_SNR, Z95, ReversePathResult, _alias_upsampling,
                     _coefficients, _force_span, _Processing)
@@ -100,7 +100,7 @@ def _periodic_edge(sig: np.ndarray, noi: np.ndarray, fs: float, period: int,
 
 def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.ndarray,
                      unknown, known, fdofs: np.ndarray, split: bool, warnings: list[str]
-                     ) -> tuple[list[tuple[_Formed, np.ndarray]], _Formed, dict[str, Any]]:
+                     ) -> tuple[list[tuple[_Formed, np.ndarray]], _Formed, PeriodicStats]:
     """Lines of the half averages (A, B; with their smoothed instruments) and of the full
     average of one record.
 
@@ -171,7 +171,7 @@ def _periodic_inputs(proc: _Processing, fp: np.ndarray, yp: np.ndarray, idx: np.
 
     halves = [(formed(s, True), formed(s, False, wiener).R) for s in sets]
     full = formed(slice(None), split)
-    return halves, full, {"labels": list(labels), "relative_std": rel, "buried": buried}
+    return halves, full, PeriodicStats(labels=list(labels), relative_std=rel, buried=buried)
 
 
 def _periodic_force(el, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -43,6 +43,7 @@ from ..spectral import (Spectra, conditioned_inputs, default_nperseg, h1, multip
 from ..recordings import Recording, excitation_band
 from ._core import (N_BATCHES, _Processing, _average, _channels,
                     _element_estimates, _integrated, _records)
+from ._documents import CandidateCoefficient, ScreeningRow
 
 MIN_GAIN = 0.1    # decades of incoherence a term must remove to be selected
 FAMILY_ALPHA = 0.05   # chance that any candidate of a linear structure is called significant
@@ -69,7 +70,7 @@ class ScreeningResult:
 
     Attributes
     ----------
-    rows : list of dict
+    rows : list of ScreeningRow
         One per candidate, best first (significant, then selected, then by gain): ``rank``,
         ``kind`` (model-file kind, None for a basis no kind has), ``where``, ``label``,
         ``basis``, ``w``, ``selected``, ``significant``, ``conditioned_coherence``,
@@ -83,13 +84,13 @@ class ScreeningResult:
         ``|p|/sigma`` a selected candidate needs to be significant.
     """
 
-    rows: list[dict[str, Any]]
+    rows: list[ScreeningRow]
     coherence: list[float]
     band: tuple[float, float]
     z_crit: float
 
     @property
-    def chosen(self) -> list[dict[str, Any]]:
+    def chosen(self) -> list[ScreeningRow]:
         """The significant candidates, best first."""
         return [r for r in self.rows if r["significant"]]
 
@@ -325,7 +326,7 @@ def _rank(spec: Spectra, n_dof: int, base: list[int], first: int, cands: list[_C
 
 
 def _consistency(spec: Spectra, n_dof: int, base: list[int], selected: list[int], c: int,
-                 cand: _Candidate, fdofs: np.ndarray) -> dict[str, Any]:
+                 cand: _Candidate, fdofs: np.ndarray) -> CandidateCoefficient:
     """Coefficient of candidate ``c`` estimated with the selected set: value, 95 % interval,
     ``|p|/sigma``, ``|Im p|/|Re p|`` and the relative 95 % half-width."""
     cols = base + [s for s in selected if s != c] + [c]

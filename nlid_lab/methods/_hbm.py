@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from analysis.errors import InputError
 from analysis.recordings import StepTable
 
 from ..outputs import atomic_path
-from ._registry import ESTIMATOR_KEY, Method, option, register
+from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
 
 if TYPE_CHECKING:
     from analysis.spectral import LevelFRF
@@ -258,9 +258,8 @@ def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
 # --- report --------------------------------------------------------------------------------
 def _estimated_elements(res: dict) -> list:
     from analysis.models import Element
-    from ..store import elements_from_json
     return [Element(e.kind, np.asarray(e.w, float), dict(e.params))
-            for e in elements_from_json(res) if e.params]
+            for e in HbmStored.from_json(res).elements if e.params]
 
 
 def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] | None,
@@ -339,6 +338,22 @@ def _hbm_frf(model, rec: Recording):
     return model_curve(system, rec.freqs, amp, rec.response_kind)
 
 
+@dataclass(frozen=True)
+class HbmStored(StoredEstimate):
+    """A harmonic-balance JSON or stored result read back (`Method.result`): the elements
+    (known ones too, ``estimated`` naming the fitted parameters), warnings, final cost and
+    the harmonics balanced (empty in results stored before they were written)."""
+
+    harmonics: tuple[int, ...] = ()
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> HbmStored:
+        """Read ``data`` (`HbmEstimate.to_json`, or a result stored before ``"estimator"``)."""
+        cost = data.get("cost")
+        return cls(**cls.common_fields(data), cost=None if cost is None else float(cost),
+                   harmonics=tuple(int(k) for k in data.get("harmonics") or ()))
+
+
 def output_files(options: HbmOptions) -> list[str]:
     """``--figure`` and the loop figure beside it."""
     if not options.figure:
@@ -349,4 +364,4 @@ def output_files(options: HbmOptions) -> list[str]:
 
 register(Method(NAME, "stepped sine: multi-harmonic balance fit", HbmOptions, "stepped-sine",
                 estimate, sections=report_sections, legacy_keys=("elements", "cost"),
-                output_files=output_files))
+                output_files=output_files, result=HbmStored))

@@ -14,14 +14,20 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import importlib
+import pkgutil
+import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 
 if TYPE_CHECKING:
     from analysis.models import Model
     from analysis.recordings import Recording
+
+    from ..store import EstimatedElement
 
 #: Key naming the estimator in a method's JSON and stored result.
 ESTIMATOR_KEY = "estimator"
@@ -32,6 +38,44 @@ class LevelEstimate(Protocol):
 
     def to_json(self) -> dict[str, Any]:
         """The JSON / stored result (contracts section 4), with ``"estimator"``."""
+
+
+@dataclass(frozen=True)
+class StoredEstimate:
+    """An estimator's JSON / stored result read back typed: what every method's result says.
+
+    Each method reads its own layout with its `Method.result` type (a subclass adding what
+    that estimator reports); this base reads the fields every layout has, old runs included
+    (elements without ``"estimated"``: `nlid_lab.store.EstimatedElement`).
+
+    Attributes
+    ----------
+    elements : tuple of EstimatedElement
+        The estimated elements (kind, w, parameters, 95 % intervals, which were estimated).
+    warnings : tuple of str
+        What the estimator warned of.
+    coherence_min : float or None
+        Lowest multiple coherence of the estimate (estimators that report one).
+    cost : float or None
+        Final cost of a fit (estimators that minimise one).
+    """
+
+    elements: tuple[EstimatedElement, ...]
+    warnings: tuple[str, ...] = ()
+    coherence_min: float | None = None
+    cost: float | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> StoredEstimate:
+        """The fields every estimator's JSON has (``elements``, ``warnings``)."""
+        return cls(**cls.common_fields(data))
+
+    @staticmethod
+    def common_fields(data: Mapping[str, Any]) -> JsonObject:
+        """``elements`` and ``warnings`` of ``data`` as this type's keyword arguments."""
+        from ..store import elements_from_json   # h5py: the store loads on use (module doc)
+        return {"elements": elements_from_json(data),
+                "warnings": tuple(str(w) for w in data.get("warnings") or ())}
 
 
 class Estimate(LevelEstimate, Protocol):
@@ -94,6 +138,9 @@ class Method:
     output_files : callable, optional
         ``output_files(options) -> list of paths``: the files its estimate writes (figures),
         checked against overwriting before any work.
+    result : type
+        `StoredEstimate` or the method's subclass of it: its ``from_json`` reads the method's
+        JSON and stored results (old layouts too) back typed (`Method.read`).
     """
 
     name: str
@@ -105,6 +152,7 @@ class Method:
     sections: Callable[..., list[Any]] | None = None
     legacy_keys: tuple[str, ...] = ()
     output_files: Callable[[Any], list[str]] | None = None
+    result: type[StoredEstimate] = StoredEstimate
 
     @property
     def result_name(self) -> str:
@@ -130,6 +178,10 @@ class Method:
         one = self.estimate_level or (lambda r, m, o: self.estimate([r], m, o))
         return one(rec, model, options).to_json()
 
+    def read(self, data: Mapping[str, Any]) -> StoredEstimate:
+        """One of this method's JSON or stored results, typed (`Method.result`)."""
+        return self.result.from_json(data)
+
     def owns(self, result: Any) -> bool:
         """Whether a stored result is this method's (by ``"estimator"``, else its keys)."""
         if not isinstance(result, dict):
@@ -146,6 +198,19 @@ def register(method: Method) -> Method:
     """Add ``method`` (replacing one of the same name); returns it."""
     _METHODS[method.name] = method
     return method
+
+
+def discover(package: str, path: Sequence[str]) -> list[str]:
+    """Import every module of ``package`` (found on ``path``, its ``__path__``) not imported
+    yet, in name order: each registers its method on import, so a new estimator is one new
+    module in `nlid_lab.methods` and no other edit. Returns the modules imported."""
+    found = []
+    for info in pkgutil.iter_modules(path):
+        name = f"{package}.{info.name}"
+        if name not in sys.modules:
+            importlib.import_module(name)
+            found.append(name)
+    return found
 
 
 def unregister(name: str) -> None:

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import html
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from analysis.errors import EstimationError, InputError
 
 from ..outputs import atomic_path
-from ._registry import ESTIMATOR_KEY, Method, option, register
+from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
 
 if TYPE_CHECKING:
     from analysis.modal import ModalSummary
@@ -291,6 +291,26 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     return [sec]
 
 
+@dataclass(frozen=True)
+class ReversePathStored(StoredEstimate):
+    """A reverse-path JSON or stored result read back (`Method.result`): the elements,
+    warnings, lowest multiple coherence (None for a screening-only result) and the force hold
+    taken (None in runs stored before it was written)."""
+
+    force_hold: str | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> ReversePathStored:
+        """Read ``data`` (`ReversePathEstimate.to_json`, or a result stored before
+        ``"estimator"``, ``"force_hold"`` or ``"modal"`` were written)."""
+        coherence = data.get("multiple_coherence") or {}
+        lowest = coherence.get("min")
+        hold = data.get("force_hold")
+        return cls(**cls.common_fields(data),
+                   coherence_min=None if lowest is None else float(lowest),
+                   force_hold=None if hold is None else str(hold))
+
+
 def output_files(options: ReversePathOptions) -> list[str]:
     """``--candidate-out``."""
     return [options.candidate_out] if options.candidate_out else []
@@ -298,4 +318,5 @@ def output_files(options: ReversePathOptions) -> list[str]:
 
 register(Method(NAME, "random excitation: reverse path / NIFO", ReversePathOptions, "random",
                 estimate, estimate_level, report_sections,
-                legacy_keys=("elements", "multiple_coherence"), output_files=output_files))
+                legacy_keys=("elements", "multiple_coherence"), output_files=output_files,
+                result=ReversePathStored))

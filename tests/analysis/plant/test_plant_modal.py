@@ -99,11 +99,11 @@ def test_block_and_dense_propagation_agree(monkeypatch):
     model = aircraft_model(n_modes=12)
     force = random_gaussian(2048, 4096.0, (2, 200), 20.0, 1)[:, None]
     blocks = Plant(model, 4096.0, [0], oversample=3)
-    assert blocks._kernel(3)["disc"].phi.size == 0
+    assert blocks._kernel(3).disc.phi.size == 0
     out_b = blocks.run(force)
     monkeypatch.setattr(Model, "decoupled", property(lambda self: False))
     dense = Plant(model, 4096.0, [0], oversample=3)
-    assert dense._kernel(3)["disc"].phi.size > 0
+    assert dense._kernel(3).disc.phi.size > 0
     out_d = dense.run(force)
     for kind in ("displacement", "velocity", "acceleration"):
         np.testing.assert_allclose(getattr(out_b, kind), getattr(out_d, kind), rtol=0,
@@ -116,11 +116,11 @@ def test_accumulated_and_direct_forms_agree(monkeypatch):
     model = aircraft_model(n_modes=12)
     force = random_gaussian(2048, 4096.0, (2, 200), 20.0, 1)[:, None]
     acc = Plant(model, 4096.0, [0], oversample=3)
-    assert acc._kernel(3)["disc"].inj_g.shape[0] == 0
+    assert acc._kernel(3).disc.inj_g.shape[0] == 0
     out_a = acc.run(force)
     monkeypatch.setattr(plant_module, "MAX_LOG_GROWTH", -1.0)
     direct = Plant(model, 4096.0, [0], oversample=3)
-    assert direct._kernel(3)["disc"].inj_g.shape[0] == plant_module.HOLD_DEGREE
+    assert direct._kernel(3).disc.inj_g.shape[0] == plant_module.HOLD_DEGREE
     out_d = direct.run(force)
     for kind in ("displacement", "velocity", "acceleration"):
         np.testing.assert_allclose(getattr(out_a, kind), getattr(out_d, kind), rtol=0,
@@ -155,3 +155,41 @@ def test_aircraft_model_matches_solve_ivp():
                              input_matrix=model.shapes[[0]].T)
     out = Plant(model, 4096.0, [0]).run(force)
     assert _rel(out.displacement, ref["displacement"] @ model.shapes.T) < 1e-6
+
+
+def test_set_up_holds_blas_to_one_thread_and_uses_the_blocks_found_once(monkeypatch):
+    """`Plant._kernel` runs its matrix exponentials with BLAS on one thread (OpenBLAS threads
+    cost more than the arithmetic on these sizes) and restores the caller's threads; the
+    blocks of ``A`` found at construction are those of ``A h`` and ``-A h``."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from analysis.plant import _substep_rule as rule
+
+    def blas_threads() -> set[int]:
+        return {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+
+    seen = []
+    real = rule.expm
+
+    def spy(z):
+        seen.append(blas_threads())
+        return real(z)
+
+    monkeypatch.setattr(rule, "expm", spy)
+    plant = Plant(aircraft_model(n_modes=6), 4096.0, [0], oversample=3)
+    with threadpool_limits(limits=2, user_api="blas"):
+        outer = blas_threads()
+        plant._kernel(3)
+        assert blas_threads() == outer
+        # plants in two threads: entered A, B, left A, B; one thread until the last leaves
+        a, b = rule.one_blas_thread(), rule.one_blas_thread()
+        a.__enter__()
+        b.__enter__()
+        a.__exit__(None, None, None)
+        assert blas_threads() == {1}
+        b.__exit__(None, None, None)
+        assert blas_threads() == outer
+    assert outer != {1} and len(seen) == 2 and all(s == {1} for s in seen)
+    h = 1.0 / (4096.0 * 3)
+    for z in (plant._a * h, -plant._a * h):
+        assert [b.tolist() for b in rule._blocks(z)] == [b.tolist() for b in plant._blocks]

@@ -4,6 +4,7 @@ report and view; stored results are found by their "estimator" (old files by the
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -141,6 +142,62 @@ def test_stored_results_found_by_estimator_else_by_legacy_keys():
     assert methods.find_stored(results, rp) == ("c", new_rp)               # the last one
     assert [n for n, _ in methods.stored_estimates(results)] == ["a", "b", "c"]
     assert methods.find_stored({"x": {"estimator": "hbm"}}, rp) is None
+
+
+def test_each_method_reads_its_results_back_typed_old_layouts_too():
+    """`Method.read`: the reanalysis rows come from the typed result, not from JSON keys."""
+    rp, hbm = methods.get("reverse-path"), methods.get("hbm")
+    el = {"kind": "cubic_spring", "w": [1.0, 0.0], "params": {"p": 2.0e11},
+          "ci95": {"p": [1.9e11, 2.1e11]}}
+    # stored before "estimator", "force_hold" and "estimated" existed
+    old = rp.read({"elements": [el], "multiple_coherence": {"min": 0.97}, "warnings": ["w1"]})
+    assert isinstance(old, methods.StoredEstimate) and type(old).__name__ == "ReversePathStored"
+    assert old.coherence_min == 0.97 and old.cost is None and old.force_hold is None
+    assert old.warnings == ("w1",) and old.elements[0].estimated == ("p",)
+    assert old.elements[0].ci95["p"] == (1.9e11, 2.1e11)
+    # screening only: no coherence
+    assert rp.read({"estimator": "reverse-path", "elements": [], "warnings": [],
+                    "force_hold": "linear"}).coherence_min is None
+    fit = hbm.read({"estimator": "hbm", "cost": 0.25, "harmonics": [1, 3], "warnings": [],
+                    "elements": [dict(el, params={"p": 2.0e11, "c": 3.0}, estimated=["p"])]})
+    assert (fit.cost, fit.coherence_min, fit.harmonics) == (0.25, None, (1, 3))
+    assert fit.elements[0].estimated == ("p",)
+    assert hbm.read({"elements": [], "cost": 1}).harmonics == ()          # before harmonics
+
+
+def test_reanalysis_row_from_the_typed_result(toy):
+    """A method without a result type of its own is read by the base `StoredEstimate`."""
+    from analysis.recordings import Recording
+    rec = Recording(FS, "random", np.array([0]), np.ones((8, 1)), np.ones((8, 1)), level=1.0)
+    row = rea._row_from_json("r.h5", 0, rec, "toy", ToyEstimate(3.0, None).to_json())
+    assert row.estimates == {"e0.cubic_spring.p": 3.0, "e0.cubic_spring.p.ci95_lo": 2.0,
+                             "e0.cubic_spring.p.ci95_hi": 4.0}
+    assert row.coherence_min is None and row.cost is None and row.ok
+
+
+def test_a_new_method_module_is_found_with_no_other_edit(tmp_path, monkeypatch):
+    """`methods.discover`: a package's modules not imported yet are imported (in name order),
+    so a module that registers a method is the whole addition."""
+    pkg = tmp_path / "toy_methods"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "_toy.py").write_text(
+        "from dataclasses import dataclass\n"
+        "from nlid_lab import methods\n"
+        "@dataclass\nclass Options:\n    pass\n"
+        "methods.register(methods.Method('toy-found', 'found', Options, 'random',\n"
+        "                                lambda recs, model, options: None))\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        assert methods.discover("toy_methods", [str(pkg)]) == ["toy_methods._toy"]
+        assert methods.get("toy-found").help == "found"
+        assert methods.discover("toy_methods", [str(pkg)]) == []          # once only
+    finally:
+        methods.unregister("toy-found")
+        for name in ("toy_methods._toy", "toy_methods"):
+            sys.modules.pop(name, None)
+    # the built-ins keep their order: reverse path is the first random-data method
+    assert [m.name for m in methods.methods()][:2] == ["reverse-path", "hbm"]
 
 
 def test_analyze_and_reanalyze_share_each_methods_options(run, candidate, capsys):
