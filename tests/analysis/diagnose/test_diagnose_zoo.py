@@ -153,6 +153,52 @@ def test_daq_artifacts_add_a_mains_line_an_offset_and_quantization():
     assert hum[np.argmin(np.abs(f - 50.0))] < 1e-3 * rec.force.std()     # no mains on the force
 
 
+def test_catalogue_rows_carry_the_catalogue_at_its_levels():
+    """The new rows' records are the catalogue's (`apply_daq_artifacts` at `DaqArtifacts.of`):
+    an imported-like record with 0.5 s of zeros at both ends, cut inside its last period and
+    without a layout; a drift that moves the record's slow mean by about its catalogue level
+    (10 % of the rms at its peak)."""
+    rec = Z.zoo("sdof-cubic-acc-multisine-zeros")[0].build().recordings[0]
+    pad = int(rec.fs / 2)
+    assert rec.layout is None
+    for x in (rec.force, rec.response):
+        assert not x[:pad].any() and not x[-pad:].any() and x[pad].any() and x[-pad - 1].any()
+    assert (rec.force.shape[0] - 2 * pad) % 4096 == round(0.63 * 4096)
+    x = Z.zoo("sdof-cubic-disp-random-drift")[0].build().recordings[-1].response[:, 0]
+    slow = np.convolve(x, np.ones(1024) / 1024, mode="valid")       # below the 2 Hz band edge
+    assert 0.07 < np.ptp(slow) / x.std() < 0.13
+
+
+def test_force_dips_rows_dip_where_the_structure_resonates():
+    """`dip_gain`, with which the dipped rows set their effects' strength, is the law
+    `shaker_force` applies to the drive; the SDOF row's measured force dips at 22.5 Hz (the
+    3 kg armature's back-EMF damping takes the coil's force where the structure moves most)."""
+    from scipy.signal import welch
+    from analysis.recordings import Shaker, shaker_force
+    m, fs, n = Z.sdof(), 256.0, 1 << 14
+    coil = np.random.default_rng(0).standard_normal(n)
+    f = np.fft.rfftfreq(n, 1 / fs)
+    h = m.linear_frf(f, [0])[:, 0, 0]
+    ratio = np.fft.rfft(shaker_force(coil, fs, h)) / np.fft.rfft(coil)
+    assert np.allclose(ratio[1:], Z.dip_gain(Shaker(), f, h)[1:], rtol=1e-9)
+    rec = Z.zoo("sdof-cubic-disp-random-force-dips")[0].build().recordings[0]
+    fw, p = welch(rec.force[:, 0], rec.fs, nperseg=1024)
+    at = p[np.argmin(np.abs(fw - 22.5))]
+    assert at < 0.1 * np.median(p[(fw > 2) & (fw < 60)])
+
+
+@pytest.mark.slow
+def test_circuit_start_misfits_its_own_level_at_several_times_its_floor():
+    """The Duffing circuit's cubic acts at the level its start model is fitted on: the
+    `fit_linear` start misfits that lowest level at more than 3x the level's floor (the
+    real circuit of issue 24: 8x)."""
+    from analysis.diagnose import diagnose
+    built = Z.zoo("circuit-cubic-disp-multisine")[0].build()
+    res = Z.result_json(diagnose(built.start, built.recordings))
+    low = min(res["fit"]["levels"], key=lambda lv: lv["level"])
+    assert low["before"] > 3 * low["floor"]
+
+
 # --- the scoring ---------------------------------------------------------------------------
 
 CASE = Z.ZooCase("toy", "3-DOF chain", "disp, all", "random",
