@@ -25,6 +25,29 @@ WRONG_TODAY: dict[str, str] = {
     "twin-gvt-hysteresis_joint-acc-multisine-mains": "hysteresis fd +5.2 % (kd +0.0 %; -16.2 % "
                                                      "before the slider's harmonics were kept, "
                                                      "the rest's cause not measured)",
+    # the rows of the real-DAQ catalogue and the circuit (zooart), measured per row with
+    # ``python benchmarks/bench_diagnose.py --zoo --only NAME``
+    "chain-cubic01-disp-random-delay": "'unexplained': the responses' one-sample delay behind "
+                                       "the force is not taken out before the diagnosis (start "
+                                       "model misfit 0.26-0.31 at every level, floors "
+                                       "0.10-0.12); aligned by one sample (import "
+                                       "response_delay=1) the row is right, p -0.4 %",
+    "sdof-cubic-acc-random-clipping": "gap, not the cubic: 5 clipped acceleration samples turn "
+                                      "the cubic/gap tie to the gap (held-back 0.394 -> 0.284, "
+                                      "not confirmed); unclipped (sdof-cubic-acc-random) the "
+                                      "cubic, p -3.7 %",
+    "twin-gvt-none-acc-multisine-catalogue": "false alarm 'unexplained': the one-sample delay "
+                                             "(start misfit 0.100-0.105 at every level, floor "
+                                             "0.010); the catalogue without the delay: "
+                                             "'adequate' (0.0054-0.0060)",
+    "circuit-cubic-disp-multisine": "gap + stiffness error, not the cubic: the fit_linear start "
+                                    "misfits its own level at 30x its floor (0.315 / 0.0104); "
+                                    "held-back 1.09 -> 0.242",
+    "circuit-cubic-acc-multisine": "gap + stiffness error, not the cubic (start misfit 0.310 / "
+                                   "floor 0.0104 at its own level); held-back 1.03 -> 0.241",
+    "circuit-cubic-disp-random": "gap, not the cubic (held-back 1.14 -> 0.938, not confirmed); "
+                                 "Welch counts the distortion as noise: the start fits its "
+                                 "own level within its floor (0.087 / 0.099)",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -180,7 +203,7 @@ def test_force_dips_rows_dip_where_the_structure_resonates():
     f = np.fft.rfftfreq(n, 1 / fs)
     h = m.linear_frf(f, [0])[:, 0, 0]
     ratio = np.fft.rfft(shaker_force(coil, fs, h)) / np.fft.rfft(coil)
-    assert np.allclose(ratio[1:], Z.dip_gain(Shaker(), f, h)[1:], rtol=1e-9)
+    assert np.allclose(ratio[1:-1], Z.dip_gain(Shaker(), f, h)[1:-1], rtol=1e-9)  # Nyquist: real
     rec = Z.zoo("sdof-cubic-disp-random-force-dips")[0].build().recordings[0]
     fw, p = welch(rec.force[:, 0], rec.fs, nperseg=1024)
     at = p[np.argmin(np.abs(fw - 22.5))]
