@@ -15,7 +15,9 @@ and the 21-DOF FE beam of `gvt_scenarios`, started from `fit_linear`), and an ai
 twin: the F-16-like lumped aircraft of `f16_twin` on a soft suspension (its suspension mode
 below the band) with a stiff wing-payload interface, so that the two joint sensors move within
 5 % of each other (`twin_joint_spread`). Effect strengths are set from the linear response of
-the structure (`Excitation.rms`), not tuned to the diagnosis.
+the structure (`Excitation.rms`), not tuned to the diagnosis. `_zoo_daq` adds what real use
+brings: each artifact of the real-DAQ catalogue (`analysis.recordings.apply_daq_artifacts`), the
+whole catalogue on the twin, and a Duffing circuit started from `fit_linear` of its lowest level.
 """
 
 from __future__ import annotations
