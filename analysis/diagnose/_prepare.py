@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..recordings import (Recording, excitation_band, periodic_kinematics, record_level, remove_dc,
-                          to_kinematics)
+from ..recordings import (Recording, clean_export, excitation_band, periodic_kinematics,
+                          record_level, remove_dc, to_kinematics)
 from ..spectral import spectral_matrix
 
 EDGE_FRACTION = 0.02
@@ -68,6 +68,19 @@ def level_name(rec: Recording) -> str:
         return f"level {rec.level:g}"
     unit = "N rms" if rec.excitation == "random" else "N"
     return f"{record_level(rec):.3g} {unit}"
+
+
+def cleaned_exports(recs: list[Recording]) -> tuple[list[Recording], list[str]]:
+    """``recs`` as ``nlid-lab import`` would have stored them (`analysis.recordings.clean_export`:
+    an export's lead-in and trailing zeros dropped; a periodic record without a layout cut to
+    whole periods, its layout found), and one line per change for the warnings. Records that
+    did come through the import (or carry a layout) are returned as they are."""
+    out, notes = [], []
+    for r in recs:
+        c = clean_export(r)
+        out.append(c.recording)
+        notes += c.notes(level_name(r))
+    return out, notes
 
 
 def analysis_band(rec: Recording, nperseg: int) -> tuple[float, float]:

@@ -15,8 +15,8 @@ from ._compare import (FLOOR, choose_nperseg, element_force, error_by_dof, level
 from ._compare import LevelFRF
 from ._engine import Flow, Progress, Tick, run
 from ._leakage import leakage_bias, level_floor
-from ._prepare import (DiagnoseInputError, Prepared, analysis_band, level_name, prepare_random,
-                      prepared_band, record_level, split_segment)
+from ._prepare import (DiagnoseInputError, Prepared, analysis_band, cleaned_exports, level_name,
+                       prepare_random, prepared_band, record_level, split_segment)
 from ._replay import Replay, horizon_samples, replay, steady_replay
 from ._report import LevelCurves
 from ._evidence import Evidence
@@ -99,6 +99,8 @@ class RandomFlow(Flow):
         if len({r.fs for r in recs}) > 1 or len({tuple(r.force_dofs) for r in recs}) > 1:
             raise DiagnoseInputError("the runs differ in sample rate or force DOFs; diagnose "
                                      "runs of one test set-up together")
+        recs, notes = cleaned_exports(recs)
+        self.warnings += notes
         recs.sort(key=record_level)
         per = [period or (r.layout.period if r.layout else None) for r in recs]
         n_min = min(r.force.shape[0] for r in recs)
