@@ -21,4 +21,5 @@ __all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "JointFit", "LinearMode"
            "ModalEstimate", "ModelTables", "RESPONSE_METHOD", "SCHEMA_VERSION", "backbone",
            "describing", "fit_joint", "fit_single_mode", "free_bounds", "free_interval",
            "from_free", "frf_noise", "held_out", "joint_backbone", "model_tables",
-           "reference_correction", "reference_residuals", "stepwise_modal", "stuck_form", "to_free"]
+           "reference_correction", "reference_residuals", "stepwise_modal", "stuck_form",
+           "to_free"]

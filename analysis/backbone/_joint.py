@@ -16,7 +16,10 @@ rms, re-estimated until it settles): levels measured at different times move in 
 by what no joint law explains (temperature, the bolt's state), and a common weight would
 let that drift decide the damping law. The lowest level is the reference the linear mode was
 fitted to: its residuals are weighted by its own statistical intervals (the element may not
-change that level beyond them).
+change that level beyond them); or, *anchored*, the linear mode itself is corrected with the
+element so that the lowest level is reproduced exactly (``w0^2 = w_ref^2 - A Re N(a_ref)``,
+``2 zeta0 w0 = 2 zeta_ref w_ref - A Im N(a_ref) / w_ref``): a mode fitted at a level where
+the element already slips holds its share of that level (`reference_correction`).
 """
 
 from __future__ import annotations
@@ -128,8 +131,8 @@ def _anchored(mode: LinearMode, f_ref: float, z_ref: float, N_ref: np.ndarray
     (``f_ref`` Hz, ``z_ref``) exactly: the linear part fitted at the lowest level holds the
     elements' share there, which comes out of it (issue 24 item 1: the linear part corrected
     jointly with the elements)."""
-    w = 2 * np.pi * f_ref
-    return w**2 - mode.modal_constant * N_ref.real, 2 * z_ref * w - mode.modal_constant * N_ref.imag / w
+    w, A = 2 * np.pi * f_ref, mode.modal_constant
+    return w**2 - A * N_ref.real, 2 * z_ref * w - A * N_ref.imag / w
 
 
 def correction_of(mode: LinearMode, linear: tuple[float, float]) -> tuple[float, float]:
