@@ -14,11 +14,12 @@ from ._free import free_bounds, free_interval, from_free, to_free
 from ._backbone import (FORCE_METHOD, RESPONSE_METHOD, SCHEMA_VERSION, Backbone, BackbonePoint,
                         backbone, stepwise_modal)
 from ._joint import (JointFit, LinearMode, describing, fit_joint, held_out, joint_backbone,
-                     reference_residuals, stuck_form)
+                     reference_correction, reference_residuals, stuck_form)
 from ._simulated import ModelTables, model_tables
 
 __all__ = ["Backbone", "BackbonePoint", "FORCE_METHOD", "JointFit", "LinearMode", "ModeFit",
            "ModalEstimate", "ModelTables", "RESPONSE_METHOD", "SCHEMA_VERSION", "backbone",
            "describing", "fit_joint", "fit_single_mode", "free_bounds", "free_interval",
            "from_free", "frf_noise", "held_out", "joint_backbone", "model_tables",
-           "reference_residuals", "stepwise_modal", "stuck_form", "to_free"]
+           "reference_correction", "reference_residuals", "stepwise_modal", "stuck_form",
+           "to_free"]

@@ -16,7 +16,10 @@ rms, re-estimated until it settles): levels measured at different times move in 
 by what no joint law explains (temperature, the bolt's state), and a common weight would
 let that drift decide the damping law. The lowest level is the reference the linear mode was
 fitted to: its residuals are weighted by its own statistical intervals (the element may not
-change that level beyond them).
+change that level beyond them); or, *anchored*, the linear mode itself is corrected with the
+element so that the lowest level is reproduced exactly (``w0^2 = w_ref^2 - A Re N(a_ref)``,
+``2 zeta0 w0 = 2 zeta_ref w_ref - A Im N(a_ref) / w_ref``): a mode fitted at a level where
+the element already slips holds its share of that level (`reference_correction`).
 """
 
 from __future__ import annotations
@@ -78,6 +81,9 @@ class JointFit:
     ci95: dict[str, tuple[float, float]]
     beside: dict[str, float] | None = None
     beside_ci95: dict[str, tuple[float, float]] | None = None
+    correction: tuple[float, float] = (0.0, 0.0)
+    """Anchored fits: stiffness (N/m) and damping (N s/m) added to the linear part at the
+    point (`reference_correction`); else zero."""
 
 
 def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray,
@@ -106,13 +112,35 @@ def stuck_form(elements: Sequence[Element], amplitudes: np.ndarray, omega: float
     return out
 
 
-def _mode_at(mode: LinearMode, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _mode_at(mode: LinearMode, N: np.ndarray, linear: tuple[np.ndarray, np.ndarray] | None
+             = None) -> tuple[np.ndarray, np.ndarray]:
     """Natural frequency (Hz) and damping ratio of ``mode`` with the describing stiffness
-    ``N`` (stuck form: compensated stiffness already taken out) added at its point."""
+    ``N`` (stuck form: compensated stiffness already taken out) added at its point;
+    ``linear``: the mode's ``w0^2`` and ``2 zeta0 w0`` replaced (`_anchored`)."""
     w0, A = 2 * np.pi * mode.frequency_hz, mode.modal_constant
-    wn = np.sqrt(np.maximum(w0**2 + A * N.real, 1e-12 * w0**2))
-    zeta = (2 * mode.damping_ratio * w0 + A * N.imag / wn) / (2 * wn)
+    w0sq, tzw = (w0**2, 2 * mode.damping_ratio * w0) if linear is None else linear
+    wn = np.sqrt(np.maximum(w0sq + A * N.real, 1e-12 * w0**2))
+    zeta = (tzw + A * N.imag / wn) / (2 * wn)
     return wn / (2 * np.pi), zeta
+
+
+def _anchored(mode: LinearMode, f_ref: float, z_ref: float, N_ref: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``w0^2`` and ``2 zeta0 w0`` of the linear mode that, with the describing stiffness
+    ``N_ref`` at the reference amplitude added, gives the measured reference level
+    (``f_ref`` Hz, ``z_ref``) exactly: the linear part fitted at the lowest level holds the
+    elements' share there, which comes out of it (issue 24 item 1: the linear part corrected
+    jointly with the elements)."""
+    w, A = 2 * np.pi * f_ref, mode.modal_constant
+    return w**2 - A * N_ref.real, 2 * z_ref * w - A * N_ref.imag / w
+
+
+def correction_of(mode: LinearMode, linear: tuple[float, float]) -> tuple[float, float]:
+    """Stiffness (N/m) and viscous damping (N s/m) at the mode's point that turn ``mode``
+    into the one with ``w0^2``, ``2 zeta0 w0`` = ``linear`` (single mode: ``A dk`` moves
+    ``w0^2``, ``A dc`` moves ``2 zeta0 w0``)."""
+    w0, A = 2 * np.pi * mode.frequency_hz, mode.modal_constant
+    return (float(linear[0] - w0**2) / A, float(linear[1] - 2 * mode.damping_ratio * w0) / A)
 
 
 def joint_backbone(mode: LinearMode, kind: str, params: dict[str, float],
@@ -200,11 +228,14 @@ class _Backbone:
 class _Problem:
     """Residuals of one kind's backbone, or a pair's (``kinds``: the first one compensated
     when ``compensated``), beside ``fixed`` elements at the point, against the measured one
-    (module docstring)."""
+    (module docstring); ``anchored``: the linear mode corrected so that the reference level
+    is reproduced exactly (`_anchored`)."""
 
     def __init__(self, bb: _Backbone, mode: LinearMode, kinds: tuple[str, ...],
-                 compensated: bool, kd_max: float, fixed: Sequence[Element] = ()) -> None:
+                 compensated: bool, kd_max: float, fixed: Sequence[Element] = (),
+                 anchored: bool = False) -> None:
         self.bb, self.mode, self.kinds, self.compensated = bb, mode, kinds, compensated
+        self.anchored = anchored
         self.omega = 2 * np.pi * mode.frequency_hz
         self.base = stuck_form(fixed, bb.a, self.omega)
         self.sizes = [len(KINDS[k].params) for k in kinds]
@@ -242,8 +273,25 @@ class _Problem:
     def relative(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Relative frequency and damping residuals of the describing stiffness ``N`` (any
         leading shape, the levels last; ``fixed`` added)."""
-        fm, zm = _mode_at(self.mode, N + self.base)
+        N = N + self.base
+        fm, zm = _mode_at(self.mode, N, self.linear(N))
         return fm / self.bb.f - 1, zm / self.bb.z - 1
+
+    def linear(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The anchored linear mode's ``w0^2``, ``2 zeta0 w0`` for the total describing
+        stiffness ``N`` (levels last), or None when not anchored."""
+        if not self.anchored:
+            return None
+        r = self.bb.ref
+        return _anchored(self.mode, self.bb.f[r], self.bb.z[r], N[..., r:r + 1])
+
+    def correction(self, x: np.ndarray) -> tuple[float, float]:
+        """Stiffness and damping added to the linear part at the point (anchored), else 0."""
+        if not self.anchored:
+            return (0.0, 0.0)
+        N = sum(self.stiffness(i, p) for i, p in enumerate(self.split(x))) + self.base
+        lin = self.linear(N)
+        return correction_of(self.mode, (float(lin[0][0]), float(lin[1][0])))
 
     def groups(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.relative(sum(self.stiffness(i, p) for i, p in enumerate(self.split(x))))
@@ -299,7 +347,7 @@ def _starts(kind: str, bb: _Backbone, mode: LinearMode, kd_max: float
 
 def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
               compensated: bool, kd_max: float, beside: str | None = None,
-              fixed: Sequence[Element] = ()) -> JointFit:
+              fixed: Sequence[Element] = (), anchored: bool = False) -> JointFit:
     """Parameters of an element ``kind`` reproducing the backbone ``points``: a slider
     (`analysis.models.KINDS` with a stuck stiffness and a slip-displacement grid) or a law
     linear in one coefficient (softening or stiffening: a gap, a cubic spring, a damping
@@ -323,12 +371,16 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
     fixed : sequence of Element
         Elements the model already holds at the point (their parameters kept; stuck form,
         the mode holds their stuck stiffness).
+    anchored : bool
+        The linear mode is corrected with the elements (its frequency and damping), so that
+        the lowest level is reproduced exactly: the mode was fitted where the element already
+        acts (`JointFit.correction`); else the lowest level is held by its own intervals.
 
     Returns
     -------
     JointFit
     """
-    prob, starts = _problem(points, mode, kind, compensated, kd_max, beside, fixed)
+    prob, starts = _problem(points, mode, kind, compensated, kd_max, beside, fixed, anchored)
     if not all(starts):
         raise ValueError(f"{kind}: no start of a backbone fit (its law gives no force)")
     rest = np.arange(prob.bb.a.size) != prob.bb.ref
@@ -352,27 +404,29 @@ def fit_joint(points: list[BackbonePoint], mode: LinearMode, kind: str, *,
            for k, o, m in zip(prob.kinds, np.cumsum([0] + prob.sizes), prob.sizes)]
     rf, rz = prob.groups(x)
     return JointFit(params[0], float(np.sqrt(np.mean(rf**2))), float(np.sqrt(np.mean(rz**2))),
-                    cis[0], params[1] if beside else None, cis[1] if beside else None)
+                    cis[0], params[1] if beside else None, cis[1] if beside else None,
+                    prob.correction(x))
 
 
 def _problem(points: list[BackbonePoint], mode: LinearMode, kind: str, compensated: bool,
-             kd_max: float, beside: str | None, fixed: Sequence[Element]
+             kd_max: float, beside: str | None, fixed: Sequence[Element], anchored: bool
              ) -> tuple[_Problem, list[list[dict[str, float]]]]:
     """The fit problem and each kind's starts."""
     bb = _Backbone.of(points)
     kinds = (kind,) if beside is None else (kind, beside)
-    prob = _Problem(bb, mode, kinds, compensated, kd_max, fixed)
+    prob = _Problem(bb, mode, kinds, compensated, kd_max, fixed, anchored)
     return prob, [_starts(k, bb, mode, kd_max) for k in kinds]
 
 
 def held_out(points: list[BackbonePoint], mode: LinearMode, kind: str, fit: JointFit, *,
              compensated: bool, kd_max: float, beside: str | None = None,
-             fixed: Sequence[Element] = ()) -> tuple[np.ndarray, np.ndarray]:
+             fixed: Sequence[Element] = (), anchored: bool = False
+             ) -> tuple[np.ndarray, np.ndarray]:
     """Out-of-sample residuals of a backbone fit: every level but the reference predicted
     by ``kind`` (and ``beside``) refitted (from ``fit``) on the other levels, ``fixed`` kept;
     relative frequency and damping residuals, one per such level (in ``points`` order, the
     reference left out)."""
-    prob, _ = _problem(points, mode, kind, compensated, kd_max, beside, fixed)
+    prob, _ = _problem(points, mode, kind, compensated, kd_max, beside, fixed, anchored)
     x0 = to_free(kind, fit.params)
     if beside is not None:
         x0 = np.concatenate([x0, to_free(beside, fit.beside)])
@@ -389,10 +443,31 @@ def held_out(points: list[BackbonePoint], mode: LinearMode, kind: str, fit: Join
 
 
 def reference_residuals(points: list[BackbonePoint], mode: LinearMode,
-                        fixed: Sequence[Element] = ()) -> tuple[np.ndarray, np.ndarray]:
+                        fixed: Sequence[Element] = (), anchored: bool = False
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """Relative frequency and damping residuals of ``mode`` with ``fixed`` alone at every
-    level but the reference (the baseline an added element is scored against)."""
+    level but the reference (the baseline an added element is scored against; ``anchored``
+    as in `fit_joint`)."""
     bb = _Backbone.of(points)
-    fm, zm = _mode_at(mode, stuck_form(fixed, bb.a, 2 * np.pi * mode.frequency_hz))
+    N = stuck_form(fixed, bb.a, 2 * np.pi * mode.frequency_hz)
+    fm, zm = _mode_at(mode, N, _anchored(mode, bb.f[bb.ref], bb.z[bb.ref], N[bb.ref:bb.ref + 1])
+                      if anchored else None)
     rest = np.arange(bb.a.size) != bb.ref
     return fm[rest] / bb.f[rest] - 1, zm[rest] / bb.z[rest] - 1
+
+
+def reference_correction(points: list[BackbonePoint], mode: LinearMode,
+                         elements: Sequence[tuple[str, dict[str, float], bool]],
+                         fixed: Sequence[Element] = ()) -> tuple[float, float]:
+    """Stiffness (N/m) and damping (N s/m) to add to the linear part at the point so that
+    ``mode`` with ``elements`` (kind, parameters, compensated) and ``fixed`` (stuck form)
+    reproduces the lowest level of ``points`` (an anchored `fit_joint`'s correction, for
+    other parameters)."""
+    bb = _Backbone.of(points)
+    w0, a = 2 * np.pi * mode.frequency_hz, bb.a[bb.ref:bb.ref + 1]
+    N = stuck_form(fixed, a, w0)
+    for kind, params, compensated in elements:
+        N = N + describing(kind, params, a, w0) - (
+            params[KINDS[kind].initial_stiffness] if compensated else 0.0)
+    lin = _anchored(mode, bb.f[bb.ref], bb.z[bb.ref], N)
+    return correction_of(mode, (float(lin[0][0]), float(lin[1][0])))

@@ -41,9 +41,9 @@ from ._outofsample import Predictor
 from ._select import (SHORTLIST, Fit, Search, candidate_extras, coef_name,
                      scaled_params, screened, unit_params)
 from ._stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
-                             backbone_estimate, hbm_refit, hbm_sweep, held_elements, motion_chi2,
-                             refine, simulated_chi2, slip_grid, stuck_limit, transfer,
-                             with_candidate)
+                             backbone_estimate, correction_fits, hbm_refit, hbm_sweep,
+                             held_elements, held_mode, motion_chi2, refine, simulated_chi2,
+                             slip_grid, stuck_limit, transfer, with_candidate)
 
 PAIR_MIN = 2.0
 """Out-of-sample backbone score (a log likelihood) a pair must gain over its first kind
@@ -131,6 +131,13 @@ class SteppedSearch(Search):
         """The second element of a slider's winning pair (`_paired`): simulated with it and
         accepted with it (`companions`)."""
         super().__init__(model, levels, extra)
+        self.anchor = held_mode(model, recs) if self.on_backbone else None
+        """The mode at the held point and the measured backbone the backbone fits use."""
+        self.corrected: set[Candidate] = set()
+        """Candidates whose linear part is corrected with them (`_estimate`)."""
+        low = min(range(len(levels)), key=lambda i: levels[i].level)
+        self.low = (low, level_floor(levels[low], floor).limit)
+        """The lowest fitting level and its floor."""
 
     def ensure_basis(self, c: Candidate, extra: float | None) -> None:
         """Make ``(c, extra)`` available in every level's transfers (a grid value the
@@ -158,9 +165,56 @@ class SteppedSearch(Search):
 
     def companions(self, fit: Fit) -> list[Fit]:
         """A pair's second element, accepted with its slider (`_paired`): the pair was chosen
-        on the backbone and judged on the FRFs together (`_pair_predictor`)."""
+        on the backbone and judged on the FRFs together (`_pair_predictor`); then the linear
+        part's correction at the point when it was judged with one (`_estimate`)."""
         p = self.partner.get(fit.cand)
-        return [] if p is None else [p]
+        out = [] if p is None else [p]
+        corr = self._correction(fit.cand, fit.params, self._beside(fit.cand))
+        return out + ([] if corr is None else correction_fits(fit.cand, corr, fit.evidence))
+
+    def _correction(self, c: Candidate, params: dict[str, float], beside: Element | None
+                    ) -> tuple[float, float] | None:
+        """The linear part's stiffness and damping correction at ``c``'s location with ``c``
+        at ``params`` (and ``beside``) when ``c`` is corrected (`_estimate`), else None."""
+        if c not in self.corrected or self.anchor is None:
+            return None
+        terms = [(c.kind, params, c.compensated)]
+        if beside is not None:
+            terms.append((beside.kind, beside.params, False))
+        return self.anchor.correction(terms)
+
+    def _estimate(self, c: Candidate, beside: Candidate | None = None
+                  ) -> tuple[dict[str, float], dict[str, list[float]], dict] | None:
+        """``c`` (and ``beside``) fitted to the backbone (`.stepped_memory.backbone_estimate`);
+        when the model with that estimate misfits the lowest fitting level beyond its floor,
+        fitted again with the linear part corrected with it (``anchored``: its frequency and
+        damping at the held point such that the lowest level is reproduced with the element,
+        the correction in the evidence as ``linear_correction``): the linear part, fitted at
+        that level, holds the element's share of it there (issue 24 item 1: a correction of
+        the linear part jointly where the start model misfits). Where the element leaves the
+        lowest level within its floor (it sticks there) nothing changes."""
+        est = backbone_estimate(self.model, c, self.recs, beside=beside)
+        if est is None or self.anchor is None:
+            return est
+        b = None if beside is None else Element(beside.kind, beside.w,
+                                                dict(est[2]["beside_params"]))
+        low, limit = self.low
+        try:
+            m = with_candidate(self.model, c, est[0], b)
+            h = hbm_sweep(m, self.frfs[low])[:, HARMONICS.index(1)]
+        except (ModelError, HBMError):
+            return est
+        if not _error(self.frfs[low], h / self.frfs[low].force[:, None]) > limit:
+            return est
+        return backbone_estimate(self.model, c, self.recs, beside=beside, anchored=True) or est
+
+    def _adopt(self, c: Candidate, evidence: dict) -> None:
+        """``c`` is corrected (`_correction`) when the estimate it takes (its ``evidence``)
+        was anchored."""
+        if "linear_correction" in evidence:
+            self.corrected.add(c)
+        else:
+            self.corrected.discard(c)
 
     def _simulated(self, c: Candidate, params: dict[str, float],
                    fallback: Callable[[], list[np.ndarray]], beside: Element | None = None
@@ -169,7 +223,8 @@ class SteppedSearch(Search):
         pair's second element) added, by harmonic balance at each step's own force;
         ``fallback()`` where the balance fails."""
         try:
-            m = with_candidate(self.model, c, params, beside)
+            m = with_candidate(self.model, c, params, beside,
+                               self._correction(c, params, beside))
             i1 = HARMONICS.index(1)
             return [(hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None]
                     for frf in self.frfs]
@@ -240,11 +295,13 @@ class SteppedSearch(Search):
     def backbone_fit(self, c: Candidate) -> Fit | None:
         """A slider fitted to the levels' backbone (`.stepped_memory.backbone_estimate`),
         its misfit that of the levels simulated by harmonic balance."""
-        est = backbone_estimate(self.model, c, self.recs)
+        est = self._estimate(c)
         if est is None:
             return None
         params, ci, rms = est
-        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
+        self._adopt(c, rms)
+        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs,
+                            correction=self._correction(c, params, None))
         if x2 is None:
             return None
         ev = dict(estimator=BACKBONE_ESTIMATOR, **rms)
@@ -282,12 +339,12 @@ class SteppedSearch(Search):
                 out.append(f)
                 continue
             if f.evidence.get("estimator") != BACKBONE_ESTIMATOR:
-                est = backbone_estimate(self.model, f.cand, self.recs)
+                est = self._estimate(f.cand)
                 if est is None:
                     continue
                 f.evidence.update(est[2])
                 if self.model.elements:
-                    f = self._on_backbone(f, est[0], est[1])
+                    f = self._on_backbone(f, *est)
                     if f is None:
                         continue
             if not self.model.elements:
@@ -302,14 +359,16 @@ class SteppedSearch(Search):
                 or ((f.cand.kind, f.cand.compensated) == best
                     and "backbone_oos_gain" in f.evidence)]
 
-    def _on_backbone(self, fit: Fit, params: dict[str, float], ci: dict[str, list[float]]
-                     ) -> Fit | None:
+    def _on_backbone(self, fit: Fit, params: dict[str, float], ci: dict[str, list[float]],
+                     evidence: dict) -> Fit | None:
         """A memoryless law's pool entry with its backbone estimate (``params``, ``ci``)
         beside the elements the model holds (a later pass: the FRF screening along the
-        measured motion cannot tell its share from theirs); None when the model with it
-        cannot be simulated."""
+        measured motion cannot tell its share from theirs; ``evidence``: the estimate's,
+        `_estimate`); None when the model with it cannot be simulated."""
         c, grid = fit.cand, KINDS[fit.cand.kind].search.grid
-        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs)
+        self._adopt(c, evidence)
+        x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs,
+                            correction=self._correction(c, params, None))
         if x2 is None:
             return None
         extra = fit.extra
@@ -329,7 +388,7 @@ class SteppedSearch(Search):
         judged on the FRFs as it was chosen on the backbone."""
         best = None
         for p in partners:
-            est = backbone_estimate(self.model, fit.cand, self.recs, beside=p)
+            est = self._estimate(fit.cand, beside=p)
             if est is not None and (best is None or est[2]["backbone_oos_gain"]
                                     > best[2]["backbone_oos_gain"]):
                 best = est
@@ -337,12 +396,17 @@ class SteppedSearch(Search):
         if best is None or best[2]["backbone_oos_gain"] <= alone + PAIR_MIN:
             return fit
         ev = dict(fit.evidence, **best[2], backbone_oos_gain_alone=alone)
+        if "linear_correction" not in best[2]:        # the pair's own estimate, not alone's
+            ev.pop("linear_correction", None)
         if fit.evidence.get("estimator") != BACKBONE_ESTIMATOR:
             return replace(fit, evidence=ev)
         other = next(p for p in partners if p.kind == ev["beside_kind"])
         beside = Element(other.kind, other.w, dict(ev["beside_params"]))
-        x2 = simulated_chi2(self.model, fit.cand, best[0], self.levels, self.frfs, beside)
+        self._adopt(fit.cand, best[2])
+        x2 = simulated_chi2(self.model, fit.cand, best[0], self.levels, self.frfs, beside,
+                            self._correction(fit.cand, best[0], beside))
         if x2 is None:
+            self._adopt(fit.cand, fit.evidence)
             return fit
         bic = self.bic_gain(x2, fit.cand.n_params + other.n_params)
         self.partner[fit.cand] = Fit(other, dict(beside.params), dict(ev["beside_ci95"]), x2,

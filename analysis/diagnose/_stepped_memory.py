@@ -16,13 +16,15 @@ holds it) is fitted the same way: its transfer carries the element's force less 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..backbone import (LinearMode, backbone, fit_joint, fit_single_mode, free_bounds,
-                        free_interval, from_free, held_out, reference_residuals, to_free)
+from ..backbone import (BackbonePoint, LinearMode, backbone, fit_joint, fit_single_mode,
+                        free_bounds, free_interval, from_free, held_out, reference_correction,
+                        reference_residuals, to_free)
 from ..errors import EstimationError, ModelError
 from ..hbm import HBMError, HBMSystem
 from ..models import KINDS, Candidate, Element, Model, restoring_force
@@ -174,8 +176,56 @@ def held_elements(model: Model, dof: int) -> list[Element] | None:
     return None
 
 
+@dataclass(frozen=True)
+class HeldMode:
+    """The model's own mode at the held point (the stuck linear part,
+    `.compare.stuck_linear`), the measured backbone of the levels and the elements the model
+    holds there (stuck form)."""
+
+    mode: LinearMode
+    points: list[BackbonePoint]
+    fixed: list[Element]
+
+    def correction(self, elements: list[tuple[str, dict[str, float], bool]]
+                   ) -> tuple[float, float]:
+        """Stiffness (N/m) and damping (N s/m) to add to the linear part at the point so
+        that the mode with ``elements`` (kind, parameters, compensated) beside the fixed
+        ones reproduces the lowest level (`analysis.backbone.reference_correction`)."""
+        return reference_correction(self.points, self.mode, elements, self.fixed)
+
+
+def held_mode(model: Model, tables: list[StepTable]) -> HeldMode | None:
+    """`HeldMode` of response-controlled ``tables``; None when the model holds elements
+    away from the held point or its mode there cannot be found."""
+    dof = tables[0].control_dof
+    fixed = held_elements(model, dof)
+    if fixed is None:
+        return None
+    freqs = np.unique(np.concatenate([t.freqs for t in tables]))
+    try:
+        mf = fit_single_mode(freqs, stuck_linear(model).linear_frf(freqs)[:, dof, dof], 0)
+        points = list(backbone(tables, dof).points)
+    except (EstimationError, ValueError):
+        return None
+    return HeldMode(LinearMode(mf.frequency_hz, mf.damping_ratio,
+                               float(mf.modal_constant.real)), points, fixed)
+
+
+def correction_fits(c: Candidate, correction: tuple[float, float], evidence: dict[str, Any]
+                    ) -> list[Fit]:
+    """The linear part's correction at ``c``'s location (`HeldMode.correction`) as the
+    stiffness and damping errors that carry it into a model (`._select.corrected_model`);
+    no interval: it is no free parameter, it follows from the elements and the lowest
+    level."""
+    ev = dict(evidence, estimator=f"linear part corrected with {c.kind} at the lowest level")
+    return [Fit(Candidate(kind, c.dofs, c.n_dof, names=c.names), {name: float(v)}, {},
+                0.0, 0.0, ev)
+            for kind, name, v in (("stiffness_error", "delta_stiffness", correction[0]),
+                                  ("damping_error", "delta_damping", correction[1]))]
+
+
 def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
-                      beside: Candidate | None = None
+                      beside: Candidate | None = None, anchored: bool = False
                       ) -> tuple[dict[str, float], dict[str, list[float]],
                                  dict[str, Any]] | None:
     """An element fitted to the backbone of response-controlled levels
@@ -191,30 +241,31 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
     frequency and damping are what a joint law must reproduce; levels measured at different
     times also drift in frequency by what no joint law explains (the Brake-Reuss beam: 0.4 Hz
     up and down), and a fit of the whole FRFs lets that drift, many half-power bandwidths
-    wide, decide the damping law (docs/backbone.md)."""
-    dof = tables[0].control_dof
-    fixed = held_elements(model, dof)
-    if fixed is None:
+    wide, decide the damping law (docs/backbone.md).
+
+    ``anchored``: the linear mode is corrected with the element so that the lowest level is
+    reproduced exactly (`analysis.backbone.fit_joint`), the correction in the evidence
+    (``linear_correction``)."""
+    held = held_mode(model, tables)
+    if held is None:
         return None
-    freqs = np.unique(np.concatenate([t.freqs for t in tables]))
-    try:
-        mf = fit_single_mode(freqs, stuck_linear(model).linear_frf(freqs)[:, dof, dof], 0)
-        points = list(backbone(tables, dof).points)
-    except (EstimationError, ValueError):
-        return None
-    mode = LinearMode(mf.frequency_hz, mf.damping_ratio, float(mf.modal_constant.real))
+    mode, points, fixed = held.mode, held.points, held.fixed
     kd_max = min(stuck_limit(model, c),
                  MARGIN * (2 * np.pi * mode.frequency_hz) ** 2 / mode.modal_constant)
     other = None if beside is None else beside.kind
     try:
         jf = fit_joint(points, mode, c.kind, compensated=c.compensated, kd_max=kd_max,
-                       beside=other, fixed=fixed)
+                       beside=other, fixed=fixed, anchored=anchored)
         rf, rz = held_out(points, mode, c.kind, jf, compensated=c.compensated, kd_max=kd_max,
-                          beside=other, fixed=fixed)
+                          beside=other, fixed=fixed, anchored=anchored)
     except ValueError:
         return None
     ev: dict[str, Any] = {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms,
-                          **backbone_gain(reference_residuals(points, mode, fixed), rf, rz)}
+                          **backbone_gain(reference_residuals(points, mode, fixed, anchored),
+                                          rf, rz)}
+    if anchored:
+        ev["linear_correction"] = dict(zip(("delta_stiffness", "delta_damping"),
+                                           jf.correction))
     if other is not None:
         ev.update(beside_kind=other, beside_params=dict(jf.beside),
                   beside_ci95={n: list(v) for n, v in jf.beside_ci95.items()})
@@ -239,20 +290,28 @@ def backbone_gain(reference: tuple[np.ndarray, np.ndarray], rf: np.ndarray,
 
 
 def with_candidate(model: Model, c: Candidate, params: dict[str, float],
-                   beside: Element | None = None) -> Model:
-    """The model with ``c`` at ``params`` added (`._select.corrected_model`) and ``beside``,
-    the second element of a pair, with it; raises `ModelError` as that does."""
+                   beside: Element | None = None,
+                   correction: tuple[float, float] | None = None) -> Model:
+    """The model with ``c`` at ``params`` added (`._select.corrected_model`), ``beside``,
+    the second element of a pair, with it, and the linear part's ``correction`` at ``c``'s
+    location (`correction_fits`); raises `ModelError` as that does."""
     m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
-    return m if beside is None else m.with_elements(m.elements + [beside])
+    if beside is not None:
+        m = m.with_elements(m.elements + [beside])
+    for f in correction_fits(c, correction, {}) if correction is not None else ():
+        m = corrected_model(m, f)
+    return m
 
 
 def simulated_chi2(model: Model, c: Candidate, params: dict[str, float],
                    levels: list[LevelFRF], frfs: list[SteppedSineFRF],
-                   beside: Element | None = None) -> float | None:
-    """``chi2`` of the levels simulated by harmonic balance with ``c`` (and ``beside``)
-    added; None when the candidate leaves the model's valid range or the balance fails."""
+                   beside: Element | None = None,
+                   correction: tuple[float, float] | None = None) -> float | None:
+    """``chi2`` of the levels simulated by harmonic balance with ``c`` (``beside``, the
+    linear ``correction``) added; None when the candidate leaves the model's valid range or
+    the balance fails."""
     try:
-        m = with_candidate(model, c, params, beside)
+        m = with_candidate(model, c, params, beside, correction)
         i1 = HARMONICS.index(1)
         return float(sum(chi2(lf, (hbm_sweep(m, frf)[:, i1] / frf.force[:, None])[:, :, None])
                          for lf, frf in zip(levels, frfs)))

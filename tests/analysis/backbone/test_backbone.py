@@ -323,3 +323,33 @@ def test_two_elements_at_one_point_are_fitted_from_their_backbone():
     fm, _ = joint_backbone(mode, "gap", fit.params, np.array([points[-1].displacement_amplitude]),
                            False, [Element("cubic_spring", np.array([1.0]), fit.beside)])
     assert fm[0] == pytest.approx(fn[-1], rel=1e-5)
+
+
+def test_anchored_fit_takes_the_sliders_share_of_the_lowest_level_out_of_the_linear_mode():
+    """A linear mode fitted at a level where the slider already slips (what `fit-linear` of
+    the lowest level gives) holds the slider's share of that level. Anchored, the fit gives
+    kd and fd back within the describing function's sampling error and the correction of the
+    linear part is that share: ``kd - Re N(a_ref)`` and ``-Im N(a_ref) / w_ref``."""
+    from analysis.backbone import BackbonePoint, LinearMode, fit_joint
+    a = np.array([1e-4, 2e-4, 4e-4, 8e-4])
+    f, z = TWIN.backbone_at(a)
+    pts = [BackbonePoint(level=1.0, amplitude=x, amplitude_kind="displacement",
+                         displacement_amplitude=x, frequency_hz=fi,
+                         frequency_ci95=(fi * (1 - 1e-6), fi * (1 + 1e-6)), damping_ratio=zi,
+                         damping_ci95=(zi * 0.99, zi * 1.01), modal_constant=1.0,
+                         fit_error=0.0, method="exact", n_steps=1)
+           for x, fi, zi in zip(a, f, z)]
+    mode = LinearMode(f[0], z[0], 1 / TWIN.m)        # the lowest level's own mode
+    w0 = 2 * np.pi * f[0]
+    fit = fit_joint(pts, mode, "stick_slip", compensated=True, kd_max=0.9 * w0**2,
+                    anchored=True)
+    assert fit.params["kd"] == pytest.approx(TWIN.kd, rel=2e-3)
+    assert fit.params["fd"] == pytest.approx(TWIN.fd, rel=2e-3)
+    N_ref = TWIN.describing(a[:1])[0]
+    assert fit.correction[0] == pytest.approx(TWIN.kd - N_ref.real, rel=2e-3)
+    assert fit.correction[1] == pytest.approx(-N_ref.imag / w0, rel=2e-3)
+    # held by the lowest level's intervals instead, the slider takes the share the mode
+    # already holds for its own (measured: kd 4994 against 12500)
+    plain = fit_joint(pts, mode, "stick_slip", compensated=True, kd_max=0.9 * w0**2)
+    assert plain.correction == (0.0, 0.0)
+    assert abs(plain.params["kd"] / TWIN.kd - 1) > 0.1
