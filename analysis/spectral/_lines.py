@@ -42,7 +42,7 @@ Rule, in order:
    0.15-1.1 dB (median 0.60 dB) off its neighbours, whose scatter is 0.01 dB; at 50.02 Hz
    its period variance is 71-141 times its neighbours'. A mains line whose phase leaves the
    drive line's amplitude unchanged (in quadrature with it) and that stays locked to the
-   period is not told from the drive: the warning of `ExcitedLines.caveat` says so.
+   period is not told from the drive: the warning of `MainsCaveat` says so.
 """
 
 from __future__ import annotations
@@ -113,6 +113,28 @@ def _on_mains(freq_hz: float) -> bool:
 
 
 @dataclass(frozen=True)
+class MainsCaveat:
+    """Mains multiples on kept drive lines of a single realization (rule 6): mains locked to
+    the period and in quadrature with the drive cannot be told from it there. The one source
+    of the warning every command prints (BLA, reverse path, fit-linear, detect).
+
+    Attributes
+    ----------
+    freqs_hz : tuple of float
+        The mains multiples on kept drive lines, Hz, ascending.
+    """
+
+    freqs_hz: tuple[float, ...]
+
+    def text(self) -> str:
+        """One warning line naming the lines and what to record to check them."""
+        at = ", ".join(f"{f:g}" for f in self.freqs_hz)
+        return (f"one realization: mains on the drive line(s) at {at} Hz is told only when "
+                "it drifts from period to period or moves the line's amplitude off its "
+                "neighbours'; record two or more realizations (random phases) to check")
+
+
+@dataclass(frozen=True)
 class ExcitedLines:
     """Excited lines of a periodic drive and the interference left out.
 
@@ -129,16 +151,10 @@ class ExcitedLines:
     unchecked_mains: tuple[float, ...] = ()
     """Mains multiples (Hz) on kept drive lines of a single realization (rule 6)."""
 
-    def caveat(self) -> str | None:
-        """One warning line when mains multiples sit on kept drive lines of a single
-        realization: mains locked to the period in quadrature with the drive cannot be told
-        from it."""
-        if not self.unchecked_mains:
-            return None
-        at = ", ".join(f"{f:g}" for f in self.unchecked_mains)
-        return (f"one realization: mains on the drive line(s) at {at} Hz is told only when "
-                "it drifts from period to period or moves the line's amplitude off its "
-                "neighbours'; record two or more realizations (random phases) to check")
+    def caveat(self) -> MainsCaveat | None:
+        """The caveat when mains multiples sit on kept drive lines of a single realization
+        (`MainsCaveat`), else None."""
+        return MainsCaveat(self.unchecked_mains) if self.unchecked_mains else None
 
     def note(self) -> str | None:
         """One summary phrase naming the interference left out, or None."""

@@ -75,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
-    for warning in result.warnings:
+    caveat = () if result.caveat is None else (result.caveat.text(),)
+    for warning in result.warnings + caveat:
         print(f"warning: {warning}", file=sys.stderr)
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0
