@@ -75,6 +75,9 @@ OUTLIER = 10.0
 """Robust deviations (1.4826 MAD of its neighbours' log amplitudes about their median, or its
 own noise when larger) by which a single realization's line on a mains multiple stands off
 its neighbours to be mains (rule 6)."""
+DRIFT_LINES = 2
+"""Interference on the period's lowest lines (1 and 2) is named a drift (an offset or a slow
+drift of the sensor leaks there, docs/daq-artifacts.md)."""
 MAINS_HZ = (50.0, 60.0)
 """Mains frequencies: interference on a multiple of one (within 0.05 Hz) is named mains."""
 
@@ -88,15 +91,24 @@ class Interference:
     freq_hz : float
     level_db : float
         Its force power relative to the median of the excited lines, dB.
+    on_drive_line : bool
+        On an excited line (rules 5 and 6).
+    drift : bool
+        On one of the period's `DRIFT_LINES` lowest lines: a slow drift or an offset's
+        leakage, not a source at that frequency.
     """
 
     freq_hz: float
     level_db: float
     on_drive_line: bool = False
+    drift: bool = False
 
     def text(self) -> str:
         """``interference at 50.0 Hz, -40 dB``; on a drive line ``mains at 50.0 Hz on a drive
-        line, -17 dB`` (``mains`` on a multiple of 50 or 60 Hz)."""
+        line, -17 dB`` (``mains`` on a multiple of 50 or 60 Hz); on the lowest lines
+        ``slow drift at 0.1 Hz, -28 dB``."""
+        if self.drift:
+            return f"slow drift at {self.freq_hz:.2g} Hz, {self.level_db:.0f} dB"
         if not self.on_drive_line:
             return f"interference at {self.freq_hz:.1f} Hz, {self.level_db:.0f} dB"
         return f"{self.source} at {self.freq_hz:.1f} Hz on a drive line, {self.level_db:.0f} dB"
@@ -105,6 +117,11 @@ class Interference:
     def source(self) -> str:
         """``mains`` on a multiple of 50 or 60 Hz (within 0.05 Hz), else ``interference``."""
         return "mains" if _on_mains(self.freq_hz) else "interference"
+
+
+def _lowest(f: np.ndarray, i: int) -> bool:
+    """Line ``i`` of the grid ``f`` (from 0 Hz) is one of its `DRIFT_LINES` lowest above 0."""
+    return bool(f.size > 1 and f[0] == 0 and 0 < i <= DRIFT_LINES)
 
 
 def _on_mains(freq_hz: float) -> bool:
@@ -212,7 +229,8 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     left = np.concatenate([np.zeros(0, dtype=int)] + stray
                           + [_off_grid(b, p, ref) for b in bands])
     left = np.sort(left)
-    named = [Interference(float(f[i]), float(10 * np.log10(p[i] / ref)))
+    named = [Interference(float(f[i]), float(10 * np.log10(p[i] / ref)),
+                          drift=_lowest(f, i))
              for i in _peaks(left, p)]
     kept = np.setdiff1d(kept, left)
     a_noise = noise if amplitude_noise is None else amplitude_noise

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 def format_summary(s: LinearFitSummary, kind: str) -> str:
     """The fit's summary for people: modes table, residual pseudo-modes, in-band FRF error in
     the measured response ``kind``, interference left out."""
-    lines = [f"{len(s.modes)} mode(s) in {s.band_hz[0]:g}-{s.band_hz[1]:g} Hz from "
+    lines = [f"{len(s.modes)} mode(s) in {s.band_hz[0]:.4g}-{s.band_hz[1]:.4g} Hz from "
              f"the {s.method}; shapes mass-normalised at the driving point "
              f"'{s.driving_point}'",
              "  mode   f [Hz]   zeta [%]  stable  max MAC to another mode"]
