@@ -71,6 +71,9 @@ def run(args: argparse.Namespace) -> int:
     if result.delay_samples:
         said += (f"; the responses lag the force by {result.delay_samples:.2f} samples (the "
                  "channels' anti-alias filters differ?): taken out of the FRF before the fit")
+        if round(result.delay_samples) >= 1:    # whole samples: the importer's shift
+            said += ("; diagnose and analyze read the run as recorded: import it again with "
+                     f"response_delay={round(result.delay_samples):d} in the --map first")
     text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
