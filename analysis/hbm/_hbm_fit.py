@@ -339,7 +339,7 @@ def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
         Orders are added to ``harmonics`` (the next odd one, or the next one when even orders
         are given) up to this one while the next order would move a parameter by more than
         `TRUNCATION_SHARE` of its standard error (`_enough_orders`; said in the warnings).
-        None: ``harmonics`` as given.
+        None, or the fundamental alone (a describing-function fit): ``harmonics`` as given.
 
     Returns
     -------
@@ -455,6 +455,8 @@ def _enough_orders(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray
     given = problem.system.harmonics
     step = 2 if np.all(given % 2 == 1) else 1
     h = given
+    if given.size == 1:     # a single-harmonic (describing-function) fit is kept as asked
+        max_order = None
     while max_order is not None and int(h.max()) + step <= max_order:
         top = int(h.max()) + step
         more = HBMFit(problem.model, problem.levels, [*h, top],
