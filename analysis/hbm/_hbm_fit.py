@@ -113,6 +113,8 @@ class FitResult:
     starts: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     n_evaluations: int = 0
+    harmonics: tuple[int, ...] = ()
+    """Orders of the balance fitted (those asked for plus any `fit_hbm` added)."""
 
 
 class HBMFit:
@@ -385,7 +387,8 @@ def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
         elements[e].params[name] = float(value)
     fitted = model.with_elements(elements)
     return FitResult(fitted, dict(zip(problem.unknowns, p.tolist())), ci, c, method, record,
-                     warnings, problem.n_evaluations)
+                     warnings, problem.n_evaluations,
+                     tuple(int(h) for h in problem.system.harmonics))
 
 
 def _optimise(problem: HBMFit, z0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -463,6 +466,7 @@ def _enough_orders(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray
                       receptance=problem.system.receptance, dofs=problem.dofs,
                       n_time=problem.n_time if (problem.n_time or 0) >= 2 * top + 2 else None)
         more.delay = problem.delay
+        more.n_evaluations, more.unconverged = problem.n_evaluations, problem.unconverged
         r_more = more.residuals(z)
         shift, *_ = np.linalg.lstsq(more.jacobian(z), -r_more, rcond=None)
         if np.all(np.abs(shift) <= TRUNCATION_SHARE * _standard_errors(problem, z, r)):
