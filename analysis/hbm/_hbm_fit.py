@@ -151,6 +151,8 @@ class HBMFit:
                                 n_time=n_time)
         self.n_time = n_time
         """The balance's time samples as given (None: its default for the orders)."""
+        self.receptance = receptance
+        """The underlying linear receptance as given (None: the model's)."""
         self.unknowns = [(e, name) for e, el in enumerate(model.elements)
                          for name in el.missing]
         if not self.unknowns:
@@ -168,6 +170,23 @@ class HBMFit:
         self.delay = 0.0
         """Seconds the responses lag the force, taken out of the measured FRFs
         (`_take_out_delay`)."""
+
+    def extended(self, order: int) -> HBMFit:
+        """The same fit with harmonic ``order`` added (above the present ones), its delay and
+        counts carried over, each step's balance started from this fit's last solutions with
+        the new order at zero: a sweep started afresh can land on the other branch of a fold
+        (the campaign example's 8 N level: cubic +8.6 %)."""
+        top = max(int(order), int(self.system.harmonics.max()) + 1)
+        more = HBMFit(self.model, self.levels, [*self.system.harmonics.tolist(), top],
+                      receptance=self.receptance, dofs=self.dofs,
+                      n_time=self.n_time if (self.n_time or 0) >= 2 * top + 2 else None)
+        more.delay = self.delay
+        more.n_evaluations, more.unconverged = self.n_evaluations, self.unconverged
+        if self._last is not None:
+            more._last = (self._last[0], [np.concatenate(
+                [U, np.zeros((U.shape[0], 1, U.shape[2]), dtype=U.dtype)], axis=1)
+                for U in self._last[1]])
+        return more
 
     # --- parametrisation -----------------------------------------------------------------
     def _nominal(self) -> np.ndarray:
@@ -461,15 +480,11 @@ def _enough_orders(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray
     if given.size == 1:     # a single-harmonic (describing-function) fit is kept as asked
         max_order = None
     while max_order is not None and int(h.max()) + step <= max_order:
-        top = int(h.max()) + step
-        more = HBMFit(problem.model, problem.levels, [*h, top],
-                      receptance=problem.system.receptance, dofs=problem.dofs,
-                      n_time=problem.n_time if (problem.n_time or 0) >= 2 * top + 2 else None)
-        more.delay = problem.delay
-        more.n_evaluations, more.unconverged = problem.n_evaluations, problem.unconverged
+        sd = _standard_errors(problem, z, r)        # leaves the solutions at z to start from
+        more = problem.extended(int(h.max()) + step)
         r_more = more.residuals(z)
         shift, *_ = np.linalg.lstsq(more.jacobian(z), -r_more, rcond=None)
-        if np.all(np.abs(shift) <= TRUNCATION_SHARE * _standard_errors(problem, z, r)):
+        if np.all(np.abs(shift) <= TRUNCATION_SHARE * sd):
             break
         problem = more
         z, r = _polish(problem, z, lo, hi)
