@@ -357,10 +357,8 @@ def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
     seed : int, optional
         Seed of the start sampling.
     max_order : int, optional
-        Orders are added to ``harmonics`` (the next odd one, or the next one when even orders
-        are given) up to this one while the next order would move a parameter by more than
-        `TRUNCATION_SHARE` of its standard error (`_enough_orders`; said in the warnings).
-        None, or the fundamental alone (a describing-function fit): ``harmonics`` as given.
+        Orders added to ``harmonics`` up to this one while the next would move a parameter
+        (`_enough_orders`, said in the warnings); None or ``(1,)``: ``harmonics`` as given.
 
     Returns
     -------
@@ -395,7 +393,7 @@ def fit_hbm(model: Model, levels: Sequence[SteppedSineFRF],
         z, r = _polish(problem, best[0], lo, hi)
         z, r, said = _take_out_delay(problem, z, r, lo, hi)
         problem, z, r, more = _enough_orders(problem, z, r, lo, hi, max_order)
-        said += more
+        said = said + more
         best = (z, r, float(np.linalg.norm(r)))
     z, r, c = best
     p = problem.to_params(z)
