@@ -491,8 +491,8 @@ def _enough_orders(problem: HBMFit, z: np.ndarray, r: np.ndarray, lo: np.ndarray
         return problem, z, r, []
     return problem, z, r, [
         f"harmonic orders {', '.join(str(int(k)) for k in h[given.size:])} added to "
-        f"{', '.join(str(int(k)) for k in given)}: the truncated balance moved a parameter "
-        f"by more than {TRUNCATION_SHARE:g} of its standard error (--harmonics sets them)"]
+        f"{', '.join(str(int(k)) for k in given)}: without them the balance's truncation "
+        f"moved a parameter by more than {TRUNCATION_SHARE:g} of its standard error"]
 
 
 def _standard_errors(problem: HBMFit, z: np.ndarray, r: np.ndarray) -> np.ndarray:
