@@ -40,14 +40,15 @@ def truth() -> Model:
 
 @lru_cache(maxsize=4)
 def clean_levels(dips: bool = False, levels: tuple[float, ...] = LEVELS,
-                 periods: int = PERIODS) -> tuple[Recording, ...]:
-    """The clean recordings (noise included), one per level (force rms, N), each realization
-    1 + ``periods`` periods, as the DAQ would see them."""
+                 periods: int = PERIODS, realizations: int = REALIZATIONS
+                 ) -> tuple[Recording, ...]:
+    """The clean recordings (noise included), one per level (force rms, N), ``realizations``
+    realizations of 1 + ``periods`` periods each, as the DAQ would see them."""
     model = truth()
     out = []
     for i, rms in enumerate(levels):
         blocks = []
-        for r in range(REALIZATIONS):
+        for r in range(realizations):
             one = multisine(PERIOD, FS, BAND, rms, seed=3 + 10 * i + r)
             if dips:
                 f = np.fft.rfftfreq(PERIOD, 1 / FS)
@@ -59,7 +60,7 @@ def clean_levels(dips: bool = False, levels: tuple[float, ...] = LEVELS,
         acc = acc + NOISE * acc.std(axis=0) * rng.standard_normal(acc.shape)
         force = force + NOISE * force.std() * rng.standard_normal(force.shape)
         out.append(Recording(FS, "random", np.array([0]), force[:, None], acc, "acceleration",
-                             layout=PeriodicLayout(PERIOD, 1, periods, REALIZATIONS)))
+                             layout=PeriodicLayout(PERIOD, 1, periods, realizations)))
     return tuple(out)
 
 
@@ -86,7 +87,8 @@ def stepped_drive(path: Path) -> Path:
 
 
 def export(folder: Path, artifact: str | tuple[str, ...] | None,
-           levels: tuple[float, ...] = LEVELS, periods: int = PERIODS) -> list[Path]:
+           levels: tuple[float, ...] = LEVELS, periods: int = PERIODS,
+           realizations: int = REALIZATIONS) -> list[Path]:
     """One MAT file per level carrying ``artifact`` (several: a tuple; None: clean); the
     paths."""
     from scipy.io import savemat
@@ -94,7 +96,8 @@ def export(folder: Path, artifact: str | tuple[str, ...] | None,
     names = (artifact,) if isinstance(artifact, str) else tuple(artifact or ())
     spec = DaqArtifacts.of(list(names), FS)
     paths = []
-    for i, rec in enumerate(clean_levels("force-dips" in names, tuple(levels), periods)):
+    for i, rec in enumerate(clean_levels("force-dips" in names, tuple(levels), periods,
+                                         realizations)):
         rec = apply_daq_artifacts(rec, spec, np.random.default_rng(11 + i))
         p = Path(folder) / f"Level{i + 1}.mat"
         savemat(p, {"Force": rec.force.T, "Acceleration": rec.response.T,

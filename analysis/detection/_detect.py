@@ -184,8 +184,8 @@ def periodic_level_dependence(recordings: Sequence[Recording],
 
 
 def _bla(rec: Recording, notes: list[str] | None) -> BLA:
-    """The period-averaged FRF of a periodic level; interference it left out said in
-    ``notes``."""
+    """The period-averaged FRF of a periodic level; interference it left out and the mains
+    caveat (`analysis.spectral.MainsCaveat`) said in ``notes``."""
     b = best_linear_approximation(rec.force, rec.response, rec.fs, rec.layout.period,
                                   transient_periods=rec.layout.transient_periods,
                                   realizations=rec.layout.realizations,
@@ -193,6 +193,8 @@ def _bla(rec: Recording, notes: list[str] | None) -> BLA:
     if notes is not None and b.interference:
         notes.append(f"{level_name(rec)}: " + ", ".join(i.text() for i in b.interference)
                      + ", left out")
+    if notes is not None and b.caveat is not None:
+        notes.append(f"{level_name(rec)}: {b.caveat.text()}")
     return b
 
 

@@ -3,8 +3,9 @@ in-band FRF error, as a typed record with the command's JSON.
 
 ``LinearFitSummary.from_json(s.to_json()) == s``; the JSON is the command's (``nlid-lab
 fit-linear --json``) with ``schema_version`` first, then ``interference`` (only when lines
-were left out), ``delay_samples`` (only when a delay was taken out) and ``warnings`` (only
-when there are some) last.
+were left out), ``delay_samples`` (only when a delay was taken out), ``warnings`` (only
+when there are some) and ``mains_unchecked_hz`` (only with the mains caveat,
+`analysis.spectral.MainsCaveat`) last.
 
 `ModalSummary` is the reverse path's modal summary (`analysis.modal.modal_summary`): its JSON
 is the ``modal`` entry of ``nlid-lab analyze reverse-path --json``.
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..spectral import Interference
+from ..spectral import Interference, MainsCaveat
 
 if TYPE_CHECKING:
     from ._linear_fit import LinearFit
@@ -133,6 +134,9 @@ class LinearFitSummary:
         (`analysis.modal._delay`), samples; 0 when none was found.
     warnings : tuple of str
         What the fit could not serve (a dead channel).
+    caveat : MainsCaveat or None
+        One realization with mains multiples on the drive lines (`analysis.spectral.
+        MainsCaveat`; JSON ``"mains_unchecked_hz"``).
     """
 
     method: str
@@ -146,6 +150,7 @@ class LinearFitSummary:
     interference: tuple[Interference, ...] = ()
     delay_samples: float = 0.0
     warnings: tuple[str, ...] = ()
+    caveat: MainsCaveat | None = None
 
     @classmethod
     def of(cls, fit: LinearFit, level: float | None) -> LinearFitSummary:
@@ -164,7 +169,7 @@ class LinearFitSummary:
                    tuple(model.points), model.points[fit.data.driving_point], modes,
                    tuple(float(f) for f in pseudo), tuple(float(e) for e in fit.frf_error),
                    None if level is None else float(level), fit.data.interference,
-                   float(fit.delay_samples), tuple(fit.warnings))
+                   float(fit.delay_samples), tuple(fit.warnings), fit.data.caveat)
 
     def to_json(self) -> dict[str, Any]:
         """The command's JSON (module docstring)."""
@@ -176,11 +181,15 @@ class LinearFitSummary:
                "frf_error": dict(zip(self.points, self.frf_error)), "level": self.level}
         if self.interference:
             out["interference"] = [{"freq_hz": i.freq_hz, "level_db": i.level_db}
+                                   | ({"on_drive_line": True} if i.on_drive_line else {})
+                                   | ({"drift": True} if i.drift else {})
                                    for i in self.interference]
         if self.delay_samples:
             out["delay_samples"] = self.delay_samples
         if self.warnings:
             out["warnings"] = list(self.warnings)
+        if self.caveat is not None:
+            out["mains_unchecked_hz"] = list(self.caveat.freqs_hz)
         return out
 
     @classmethod
@@ -197,6 +206,9 @@ class LinearFitSummary:
                          for m in data["modes"]),
                    tuple(data["residual_pseudo_modes_hz"]),
                    tuple(data["frf_error"][p] for p in points), data["level"],
-                   tuple(Interference(i["freq_hz"], i["level_db"])
+                   tuple(Interference(i["freq_hz"], i["level_db"], i.get("on_drive_line", False),
+                                      i.get("drift", False))
                          for i in data.get("interference", ())),
-                   float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())))
+                   float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())),
+                   MainsCaveat(tuple(data["mains_unchecked_hz"]))
+                   if "mains_unchecked_hz" in data else None)

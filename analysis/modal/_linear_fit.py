@@ -24,8 +24,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..spectral import (Interference, best_linear_approximation, convert_frf, default_nperseg,
-                        h1, hold_gain, spectral_matrix)
+from ..spectral import (Interference, MainsCaveat, best_linear_approximation, convert_frf,
+                        default_nperseg, h1, hold_gain, spectral_matrix)
 from ._delay import response_delay
 from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
@@ -67,6 +67,8 @@ class MeasuredReceptance:
         peak); periodic levels hold only their excited lines.
     interference : tuple of Interference
         Steady force lines of a periodic level left out (`analysis.spectral.excited_lines`).
+    caveat : MainsCaveat or None
+        A periodic level of one realization with mains multiples on its drive lines.
     """
 
     freqs: np.ndarray
@@ -77,6 +79,7 @@ class MeasuredReceptance:
     method: str
     excited_hz: tuple[float, float] | None = None
     interference: tuple[Interference, ...] = ()
+    caveat: MainsCaveat | None = None
 
 
 @dataclass
@@ -120,7 +123,7 @@ def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
         return MeasuredReceptance(b.freqs, H, std, None, d,
                                   f"period-averaged FRF ({b.realizations} x {b.periods} "
                                   "periods), weighted by its noise from the period spread",
-                                  interference=b.interference)
+                                  interference=b.interference, caveat=b.caveat)
     nseg = nperseg or default_nperseg(rec.force.shape[0])
     spec = spectral_matrix(np.concatenate([rec.force, rec.response], axis=1), rec.fs,
                            nperseg=nseg)

@@ -157,7 +157,8 @@ def _lines(blocks: list, freqs: np.ndarray, band: tuple[float, float] | None, fs
     if picked.lines.size == 0:
         raise InputError(f"the force excites no line of the {n}-sample period in "
                          f"{lo:g}-{hi:g} Hz; check the band")
-    warnings += [w for w in (picked.note(), picked.caveat()) if w]
+    caveat = picked.caveat()
+    warnings += [w for w in (picked.note(), None if caveat is None else caveat.text()) if w]
     return (lo, hi), picked.lines
 
 

@@ -13,8 +13,8 @@ from ._frf import (FRF_UNITS, HELD_UNITS, LevelFRF, convert_frf, default_nperseg
 from ._resolution import (LINES_PER_BANDWIDTH, Resolution, longest_nperseg, narrowest_peak,
                           resolving_nperseg)
 from ._bla import BLA, DETECT_QUANTILE, best_linear_approximation
-from ._lines import ExcitedLines, Interference, excited_lines
-from ._sine_fit import (SteppedSineFRF, hold_gain, recording_table, sine_fit, steady_start,
+from ._lines import ExcitedLines, Interference, MainsCaveat, excited_lines
+from ._sine_fit import (SETTLE_TOL, SteppedSineFRF, hold_gain, recording_table, sine_fit, steady_start,
                         stepped_sine_frf, table_harmonics)
 from ._sweep import (NOISE_ORDERS, SweepFRF, SweepLaw, harmonic_distortion, independent_windows,
                      linear_modes,
@@ -25,6 +25,7 @@ __all__ = ["best_linear_approximation", "BLA", "conditioned_inputs", "convert_fr
            "default_nperseg", "DETECT_QUANTILE", "excited_lines", "ExcitedLines", "frf_from_bla",
            "frf_from_spectra", "FRF_UNITS", "h1", "harmonic_distortion", "HELD_UNITS", "hold_gain",
            "independent_windows", "Interference", "level_frf", "level_label", "level_name",
+           "MainsCaveat", "SETTLE_TOL",
            "LevelFRF", "linear_modes", "LINES_PER_BANDWIDTH", "longest_nperseg", "max_sweep_rate",
            "multiple_coherence", "narrowest_peak", "NOISE_ORDERS", "ordinary_coherence",
            "quasi_steady", "recording_sweep_frf", "recording_table", "Resolution",

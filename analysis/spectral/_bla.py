@@ -27,7 +27,7 @@ import scipy.stats
 
 from ..errors import InputError
 from ..recordings import steady_periods
-from ._lines import Interference, excited_lines
+from ._lines import Interference, MainsCaveat, excited_lines
 from ._sine_fit import hold_gain
 
 DETECT_QUANTILE = 0.99
@@ -64,9 +64,9 @@ class BLA:
     realizations: int
     periods: int
     interference: tuple[Interference, ...] = ()
-    caveat: str | None = None
-    """`analysis.spectral.ExcitedLines.caveat` (one realization, mains multiples on the
-    drive lines)."""
+    caveat: MainsCaveat | None = None
+    """One realization with mains multiples on the drive lines (`analysis.spectral.
+    MainsCaveat`), else None."""
 
     @property
     def var_distortion(self) -> np.ndarray:

@@ -14,7 +14,8 @@ Rule, in order:
    over the periods (power above `STEADY` times the variance of the period average);
 3. runs: candidates closer than `GAP` times their typical spacing belong to one run; a run of
    at least `BAND_LINES` lines is a designed band (with none, the largest run is), shorter
-   runs are interference;
+   runs are interference; a drift's leakage (lines contiguous from the period's first,
+   power falling, then a gap) is split off the band first and named a slow drift;
 4. within a band whose lines sit on a coarser grid (odd lines, every third line), a line off
    that grid more than `OFF_GRID_DB` below the band's median power is interference;
 5. with two or more realizations (random phases, the same amplitudes: a random-phase
@@ -42,7 +43,7 @@ Rule, in order:
    0.15-1.1 dB (median 0.60 dB) off its neighbours, whose scatter is 0.01 dB; at 50.02 Hz
    its period variance is 71-141 times its neighbours'. A mains line whose phase leaves the
    drive line's amplitude unchanged (in quadrature with it) and that stays locked to the
-   period is not told from the drive: the warning of `ExcitedLines.caveat` says so.
+   period is not told from the drive: the warning of `MainsCaveat` says so.
 """
 
 from __future__ import annotations
@@ -75,6 +76,9 @@ OUTLIER = 10.0
 """Robust deviations (1.4826 MAD of its neighbours' log amplitudes about their median, or its
 own noise when larger) by which a single realization's line on a mains multiple stands off
 its neighbours to be mains (rule 6)."""
+DRIFT_LINES = 2
+"""Interference on the period's lowest lines (1 and 2) is named a drift (an offset or a slow
+drift of the sensor leaks there, docs/daq-artifacts.md)."""
 MAINS_HZ = (50.0, 60.0)
 """Mains frequencies: interference on a multiple of one (within 0.05 Hz) is named mains."""
 
@@ -88,15 +92,24 @@ class Interference:
     freq_hz : float
     level_db : float
         Its force power relative to the median of the excited lines, dB.
+    on_drive_line : bool
+        On an excited line (rules 5 and 6).
+    drift : bool
+        On one of the period's `DRIFT_LINES` lowest lines: a slow drift or an offset's
+        leakage, not a source at that frequency.
     """
 
     freq_hz: float
     level_db: float
     on_drive_line: bool = False
+    drift: bool = False
 
     def text(self) -> str:
         """``interference at 50.0 Hz, -40 dB``; on a drive line ``mains at 50.0 Hz on a drive
-        line, -17 dB`` (``mains`` on a multiple of 50 or 60 Hz)."""
+        line, -17 dB`` (``mains`` on a multiple of 50 or 60 Hz); on the lowest lines
+        ``slow drift at 0.1 Hz, -28 dB``."""
+        if self.drift:
+            return f"slow drift at {self.freq_hz:.2g} Hz, {self.level_db:.0f} dB"
         if not self.on_drive_line:
             return f"interference at {self.freq_hz:.1f} Hz, {self.level_db:.0f} dB"
         return f"{self.source} at {self.freq_hz:.1f} Hz on a drive line, {self.level_db:.0f} dB"
@@ -107,9 +120,36 @@ class Interference:
         return "mains" if _on_mains(self.freq_hz) else "interference"
 
 
+def _lowest(f: np.ndarray, i: int) -> bool:
+    """Line ``i`` of the grid ``f`` (from 0 Hz) is one of its `DRIFT_LINES` lowest above 0."""
+    return bool(f.size > 1 and f[0] == 0 and 0 < i <= DRIFT_LINES)
+
+
 def _on_mains(freq_hz: float) -> bool:
     """On a multiple of a `MAINS_HZ` frequency, within 0.05 Hz."""
     return freq_hz > 1 and any(abs(freq_hz - m * round(freq_hz / m)) < 0.05 for m in MAINS_HZ)
+
+
+@dataclass(frozen=True)
+class MainsCaveat:
+    """Mains multiples on kept drive lines of a single realization (rule 6): mains locked to
+    the period and in quadrature with the drive cannot be told from it there. The one source
+    of the warning every command prints (BLA, reverse path, fit-linear, detect).
+
+    Attributes
+    ----------
+    freqs_hz : tuple of float
+        The mains multiples on kept drive lines, Hz, ascending.
+    """
+
+    freqs_hz: tuple[float, ...]
+
+    def text(self) -> str:
+        """One warning line naming the lines and what to record to check them."""
+        at = ", ".join(f"{f:g}" for f in self.freqs_hz)
+        return (f"one realization: mains on the drive line(s) at {at} Hz is told only when "
+                "it drifts from period to period or moves the line's amplitude off its "
+                "neighbours'; record two or more realizations (random phases) to check")
 
 
 @dataclass(frozen=True)
@@ -129,16 +169,10 @@ class ExcitedLines:
     unchecked_mains: tuple[float, ...] = ()
     """Mains multiples (Hz) on kept drive lines of a single realization (rule 6)."""
 
-    def caveat(self) -> str | None:
-        """One warning line when mains multiples sit on kept drive lines of a single
-        realization: mains locked to the period in quadrature with the drive cannot be told
-        from it."""
-        if not self.unchecked_mains:
-            return None
-        at = ", ".join(f"{f:g}" for f in self.unchecked_mains)
-        return (f"one realization: mains on the drive line(s) at {at} Hz is told only when "
-                "it drifts from period to period or moves the line's amplitude off its "
-                "neighbours'; record two or more realizations (random phases) to check")
+    def caveat(self) -> MainsCaveat | None:
+        """The caveat when mains multiples sit on kept drive lines of a single realization
+        (`MainsCaveat`), else None."""
+        return MainsCaveat(self.unchecked_mains) if self.unchecked_mains else None
 
     def note(self) -> str | None:
         """One summary phrase naming the interference left out, or None."""
@@ -188,7 +222,7 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     idx = np.flatnonzero(cand)
     if idx.size == 0:
         return ExcitedLines(idx)
-    runs = _runs(idx)
+    runs = _drift_head(_runs(idx), p)
     bands = [r for r in runs if r.size >= BAND_LINES] or [max(runs, key=len)]
     kept = np.concatenate(bands)
     ref = float(np.median(p[kept]))
@@ -196,7 +230,8 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     left = np.concatenate([np.zeros(0, dtype=int)] + stray
                           + [_off_grid(b, p, ref) for b in bands])
     left = np.sort(left)
-    named = [Interference(float(f[i]), float(10 * np.log10(p[i] / ref)))
+    named = [Interference(float(f[i]), float(10 * np.log10(p[i] / ref)),
+                          drift=_lowest(f, i))
              for i in _peaks(left, p)]
     kept = np.setdiff1d(kept, left)
     a_noise = noise if amplitude_noise is None else amplitude_noise
@@ -255,6 +290,24 @@ def _on_drive_lines(kept: np.ndarray, amp: np.ndarray, noise: np.ndarray
     hit = own & (var > SPREAD_RATIO * _neighbours(var))
     level = 10 * np.log10(2 * var[hit] / np.maximum(a.mean(axis=0)[hit] ** 2, 1e-300))
     return kept[hit], level
+
+
+def _drift_head(runs: list[np.ndarray], power: np.ndarray) -> list[np.ndarray]:
+    """The first run split where a drift's leakage joins a band: lines contiguous from one of
+    the period's `DRIFT_LINES` lowest, power falling line by line (an offset change or a
+    slow drift leaks as ``1/k``), then a gap wider than the rest's spacing before the band.
+    Within `GAP` the band's run took them in: the artifact twin's drift (lines 1-4 at 0.5 Hz,
+    the band from line 10) widened the fit to 0.5-100 Hz with 12 % FRF error."""
+    first = runs[0]
+    if first.size < 2 or not 0 < first[0] <= DRIFT_LINES:
+        return runs
+    head = 1 + int(np.argmax(np.diff(first) > 1)) if np.any(np.diff(first) > 1) else first.size
+    rest = first[head:]
+    if rest.size < 2 or rest[0] - first[head - 1] <= np.median(np.diff(rest)):
+        return runs
+    if np.any(np.diff(power[first[:head]]) > 0):
+        return runs
+    return [first[:head], rest, *runs[1:]]
 
 
 def _runs(idx: np.ndarray) -> list[np.ndarray]:

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 def format_summary(s: LinearFitSummary, kind: str) -> str:
     """The fit's summary for people: modes table, residual pseudo-modes, in-band FRF error in
     the measured response ``kind``, interference left out."""
-    lines = [f"{len(s.modes)} mode(s) in {s.band_hz[0]:g}-{s.band_hz[1]:g} Hz from "
+    lines = [f"{len(s.modes)} mode(s) in {s.band_hz[0]:.4g}-{s.band_hz[1]:.4g} Hz from "
              f"the {s.method}; shapes mass-normalised at the driving point "
              f"'{s.driving_point}'",
              "  mode   f [Hz]   zeta [%]  stable  max MAC to another mode"]
@@ -71,11 +71,15 @@ def run(args: argparse.Namespace) -> int:
     if result.delay_samples:
         said += (f"; the responses lag the force by {result.delay_samples:.2f} samples (the "
                  "channels' anti-alias filters differ?): taken out of the FRF before the fit")
+        if round(result.delay_samples) >= 1:    # whole samples: the importer's shift
+            said += ("; diagnose and analyze read the run as recorded: import it again with "
+                     f"response_delay={round(result.delay_samples):d} in the --map first")
     text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
     print(text, file=summary_stream(args.json, args.quiet))
-    for warning in result.warnings:
+    caveat = () if result.caveat is None else (result.caveat.text(),)
+    for warning in result.warnings + caveat:
         print(f"warning: {warning}", file=sys.stderr)
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0

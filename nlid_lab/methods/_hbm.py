@@ -191,7 +191,8 @@ def estimate(recs: Sequence[Recording], model: Model, options: HbmOptions | None
     fit = fit_hbm(model, levels, harmonics, receptance=receptance, method=options.optimizer,
                   n_starts=options.starts)
     fit.warnings = rate_warnings + list(fit.warnings)
-    return HbmEstimate(model, fit, levels, harmonics, receptance, options, recs)
+    return HbmEstimate(model, fit, levels, np.asarray(fit.harmonics), receptance, options,
+                       recs)                   # the orders fitted: fit_hbm may add some
 
 
 def figures(result: FitResult, levels: list[SteppedSineFRF], harmonics: np.ndarray,

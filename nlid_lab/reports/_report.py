@@ -210,9 +210,14 @@ def modal_fit_section(run: RunData) -> Section | None:
                    for i, (f, z, s) in enumerate(zip(m.freqs_hz, m.damping, m.support)))
     errors = ", ".join(f"{'DOF ' if points is None else ''}{html.escape(p)} {100 * e:.1f} %"
                        for p, e in zip(model.points, fit.frf_error))
-    left_out = "".join(f" Force line at {i.freq_hz:.1f} Hz ({i.level_db:.0f} dB): "
-                       "interference, left out of the excited lines."
+    left_out = "".join(f" Force line left out of the excited lines: {html.escape(i.text())}."
                        for i in fit.data.interference)
+    if fit.delay_samples:
+        left_out += (f" The responses lag the force by {fit.delay_samples:.2f} samples: taken "
+                     "out of the FRF before the fit (import with <code>response_delay=</code> "
+                     "to align the run for the other estimators).")
+    if fit.data.caveat is not None:
+        left_out += f" Caveat: {html.escape(fit.data.caveat.text())}."
     sec = Section(title,
                   f"The lowest level ({html.escape(level_name(rec))}), the closest to linear: "
                   f"{html.escape(fit.data.method)}, modes in {m.band_hz[0]:.3g}-"
@@ -305,13 +310,21 @@ def write_report(run: RunData, out_dir: str | Path, progress: Callable[[int], No
     return WrittenReport(str(page), tuple(written), tuple(s.title for s in secs))
 
 
+def _averages(f: LevelFRF) -> str:
+    """What a level's FRF averages: Welch segments, or realizations x periods of a
+    period-averaged multisine."""
+    if f.bla is None:
+        return str(f.n_averages)
+    return f"{f.bla.realizations} x {f.bla.periods} periods"
+
+
 def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],
                 estimators: Estimators) -> str:
     """The report page: the run's levels, stored estimates and every section with its
     figures."""
     esc = html.escape
     rows = "".join(f"<tr><td>{i + 1}</td><td>{esc(f.label)}</td><td>{esc(f.excitation)}</td>"
-                   f"<td>{f.freqs.size}</td><td>{f.n_averages}</td></tr>"
+                   f"<td>{f.freqs.size}</td><td>{_averages(f)}</td></tr>"
                    for i, f in enumerate(frfs))
     body = [f"<h1>nlid-lab report: {esc(run.name)}</h1>",
             f"<p>Run file <code>{esc(str(run.path))}</code> · status <b>{esc(run.status)}</b>"

@@ -147,3 +147,22 @@ def test_flat_ends_are_the_export_padding():
     assert flat_ends(x[:, :1], x[:, 1:]) == (300, 100)
     assert flat_ends(x[300:900]) == (0, 0)           # no padding
     assert flat_ends(np.zeros((10, 1))) == (0, 0)    # nothing moves: nothing to trim
+
+
+
+def test_a_slow_drift_is_not_a_transient():
+    """The artifact catalogue's drift (a quarter sine over the record plus a ramp, peak 0.1 of
+    the rms, `analysis.recordings.DaqArtifacts`) moves each period's mean and tilt: with the
+    periods' trends taken out the count is the clean twin's (1 of 4 per realization; the
+    drift made it 2 before)."""
+    import sys
+    from pathlib import Path
+    sys.path.append(str(Path(__file__).resolve().parents[2]))
+    import daq_twin as T
+    from analysis.recordings import DaqArtifacts, apply_daq_artifacts
+
+    rec = T.clean_levels(False, T.LEVELS, 3)[0]
+    for arts in ([], ["drift"]):
+        a = apply_daq_artifacts(rec, DaqArtifacts.of(arts, T.FS), np.random.default_rng(11))
+        p = find_period(a.force[:, 0], settle=a.response)
+        assert (p.transient_periods, p.periods, p.realizations) == (1, 4, 3), arts

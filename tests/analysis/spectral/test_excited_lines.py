@@ -254,7 +254,7 @@ def test_mains_on_a_drive_line_in_one_realization(seed):
     f, p, var = _one_realization(None, seed=seed)
     got = excited_lines(f, p, var)
     assert not got.interference and got.lines.size == 301
-    assert got.caveat().startswith("one realization: mains on the drive line(s) at 50, 60 Hz")
+    assert got.caveat().text().startswith("one realization: mains on the drive line(s) at 50, 60 Hz")
 
 
 def test_mains_locked_in_quadrature_is_not_told_in_one_realization():
