@@ -49,8 +49,9 @@ class Prepared:
         from it).
     noise : (ndarray, ndarray), optional
         White sensor noise variance per DOF in ``x`` and ``v`` (`.sensor_noise`: read
-        below the band of a random record); None when not read (periodic records: their
-        deformation is the Wiener-filtered period average).
+        below the band of a random velocity or acceleration record); None when not read
+        (displacement records; periodic records: their deformation is the Wiener-filtered
+        period average).
     """
 
     x: np.ndarray
@@ -129,7 +130,11 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
         return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
                         rec.force_hold, rec.response_kind)
     x, v = to_kinematics(resp, rec.fs, rec.response_kind, highpass=highpass, lowpass=lowpass)
-    floor = floor_below_band(force, resp, rec.fs, band)
+    # integrated records only: their noise grows as 1/f^k towards the high-pass; a
+    # displacement record's white noise is a negligible share, and below the band a
+    # displacement holds the element's low-frequency distortion, not only the noise
+    floor = (None if rec.response_kind == "displacement"
+             else floor_below_band(force, resp, rec.fs, band))
     noise = None if floor is None else kinematic_noise(floor, rec.response_kind, highpass,
                                                        lowpass)
     if rec.response_kind != "displacement":
