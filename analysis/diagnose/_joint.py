@@ -258,9 +258,10 @@ def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]
     slider's slip displacement), the log of that grid value: the second parameter's
     interval (a gap's ``g``, a slider's ``fd = kd * slip``) comes from their joint
     covariance (delta method), so a slider's ``fd`` carries ``kd``'s error as well as the
-    slip's (the profile alone, `grid_refit`, lets them trade off). On a model that fits to
-    its noise it estimates the noise interval; estimates are unchanged. Stepped-sine fits
-    (harmonic balance) keep theirs.
+    slip's (the profile alone, `grid_refit`, lets them trade off). Each interval is the
+    widest of the cluster-robust and the noise-only ones, with the second parameters free
+    and fixed (`_sandwich`). On a model that fits to its noise it estimates the noise
+    interval; estimates are unchanged. Stepped-sine fits (harmonic balance) keep theirs.
     """
     if not fits or not search.continuous_grid or any(f.cand.memory and f.extra is None
                                                      for f in fits):
