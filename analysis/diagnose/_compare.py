@@ -34,6 +34,7 @@ from ..modal import welch_smoothing
 from ..recordings import KIND_ORDER
 from ..spectral import excited_lines, h1, hold_gain, multiple_coherence, spectral_matrix
 from ._prepare import Prepared
+from ._sensor_noise import noise_bias
 
 GROUP = 8
 FLOOR = 0.01
@@ -310,7 +311,8 @@ def element_force(el: Element, p: Prepared) -> np.ndarray:
     """A model element's force along the measured motion, in the *stuck form*: less its
     stuck stiffness times the deformation, which `stuck_linear` holds instead."""
     u, v = deformation(p, el.w)
-    return law_force(el.kind, el.params, u, v, p.period) - stuck_stiffness(el) * u
+    return (law_force(el.kind, el.params, u, v, p.period) - stuck_stiffness(el) * u
+            - noise_bias(el.kind, el.params, el.w, u, v, p.noise))
 
 
 def stuck_linear(model: Model) -> Model:

@@ -17,6 +17,7 @@ from ..errors import InputError
 from ..recordings import (Recording, clean_export, excitation_band, periodic_kinematics,
                           record_level, remove_dc, to_kinematics)
 from ..spectral import spectral_matrix
+from ._sensor_noise import floor_below_band, kinematic_noise
 
 EDGE_FRACTION = 0.02
 """Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
@@ -46,6 +47,11 @@ class Prepared:
     response_kind : str
         The kind the response was recorded as (displacement and velocity were formed
         from it).
+    noise : (ndarray, ndarray), optional
+        White sensor noise variance per DOF in ``x`` and ``v`` (`.sensor_noise`: read
+        below the band of a random velocity or acceleration record); None when not read
+        (displacement records; periodic records: their deformation is the Wiener-filtered
+        period average).
     """
 
     x: np.ndarray
@@ -58,6 +64,7 @@ class Prepared:
     label: str
     force_hold: str = "none"
     response_kind: str = "displacement"
+    noise: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def level_name(rec: Recording) -> str:
@@ -136,11 +143,18 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
         return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
                         rec.force_hold, rec.response_kind)
     x, v = to_kinematics(resp, rec.fs, rec.response_kind, highpass=highpass, lowpass=lowpass)
+    # integrated records only: their noise grows as 1/f^k towards the high-pass; a
+    # displacement record's white noise is a negligible share, and below the band a
+    # displacement holds the element's low-frequency distortion, not only the noise
+    floor = (None if rec.response_kind == "displacement"
+             else floor_below_band(force, resp, rec.fs, band))
+    noise = None if floor is None else kinematic_noise(floor, rec.response_kind, highpass,
+                                                       lowpass)
     if rec.response_kind != "displacement":
         edge = int(EDGE_FRACTION * x.shape[0])
         x, v, force = x[edge:-edge], v[edge:-edge], force[edge:-edge]
     return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
-                    rec.force_hold, rec.response_kind)
+                    rec.force_hold, rec.response_kind, noise)
 
 
 def kinematic_band(fs: float, kind: str, band: tuple[float, float],

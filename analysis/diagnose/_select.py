@@ -37,6 +37,7 @@ from ._linear_update import Z95, fit_linear_error, updated_frf, updated_receptan
 from ._outofsample import Predictor
 from ._prepare import Prepared
 from ._result import CandidateFit
+from ._sensor_noise import noise_bias
 
 SHORTLIST = 4
 REACH = 1.5
@@ -96,7 +97,8 @@ def candidate_force(c: Candidate, extra: float | None, p: Prepared) -> np.ndarra
     compensated candidate less its stuck stiffness, which the linear part holds)."""
     params = unit_params(c.kind, extra)
     u, v = deformation(p, c.w)
-    g = law_force(c.kind, params, u, v, p.period)
+    g = law_force(c.kind, params, u, v, p.period) - noise_bias(c.kind, params, c.w, u, v,
+                                                                 p.noise)
     if c.compensated:
         g = g - params[KINDS[c.kind].initial_stiffness] * u
     return g
