@@ -164,7 +164,10 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     taken = {(f.cand.kind, f.cand.dofs) for f in earlier}
     pool = [f for f in pool if (f.cand.kind, f.cand.dofs) not in taken]
     labels = [lf.label for lf in search.levels]
-    ref = reference(search.levels, search.H0s, [not b for b in beyond])
+    # The start model's own misfit where it is declared within its floor scales what the
+    # first effect is judged against; a further effect must explain more than all the rest
+    # (the start model's error and the earlier estimates' model-form error included).
+    ref = 1.0 if earlier else reference(search.levels, search.H0s, [not b for b in beyond])
 
     candidates = judged(pool)
 
