@@ -168,8 +168,10 @@ def test_a_start_models_own_misfit_at_every_level_is_the_scale_not_a_veto():
     error (its own model-form error, level-independent, at the noise's order) and the effect
     grows with level. Against the noise alone the candidate leaves more than it gains (the
     former veto); against the misfit the start model shows where it is declared within its
-    floor (the lowest level), the effect wins and gains beyond its scaled deviation; the
-    same scale rejects a candidate that only takes a share of the start model's error."""
+    floor (the lowest level), the effect wins and gains beyond its scaled deviation. A
+    candidate along a share of the start model's own error gains less than the effect (the
+    effect is the one accepted) and, judged against the noise alone as a further effect is,
+    leaves more than it gains."""
     levels, b = _levels([0.0, 0.01, 0.03], seed=9)
     f = levels[0].freqs[:, None, None]
     own = 0.01 * np.exp(1j * f / 5.0)                        # about the noise's size
@@ -192,10 +194,12 @@ def test_a_start_models_own_misfit_at_every_level_is_the_scale_not_a_veto():
     assert s.wins and s.gain > s.left
     # a candidate along a part of the start model's own error: a share of that error
     other = np.where(f < 35.0, own, 0.0) / 0.01
-    share = score(start, H0, Predictor(lambda t: [1.0 + t[0] * other for _ in start],
-                                       np.array([1.0]), 1, np.array([1.0])), ref)
-    assert share.gain > OOS_Z * share.deviation and share.left > share.gain
-    assert not share.wins
+    along = Predictor(lambda t: [1.0 + t[0] * other for _ in start], np.array([1.0]), 1,
+                      np.array([1.0]))
+    assert score(start, H0, along, ref).gain < s.gain
+    further = score(start, H0, along)
+    assert further.gain > OOS_Z * further.sd and further.left > further.gain
+    assert not further.wins
     assert reference(start, H0, [False, False, False]) == 1.0     # no level within: noise
 
 
