@@ -203,6 +203,24 @@ def test_a_start_models_own_misfit_at_every_level_is_the_scale_not_a_veto():
     assert reference(start, H0, [False, False, False]) == 1.0     # no level within: noise
 
 
+def test_within_every_floor_a_misfit_that_changes_with_level_is_still_sought():
+    """`policy.residual_dependent`: the homogeneity test on the residuals of the lowest and
+    highest fitting level. A linear model of a structure whose FRF moves with level leaves
+    residuals that move with it (a nonlinear candidate is sought, however small the misfit
+    against the floors); a model that follows each level leaves noise that does not."""
+    from types import SimpleNamespace
+
+    from analysis.diagnose._policy import residual_dependent
+    levels, b = _levels([0.0, 0.02], seed=4)
+    linear = SimpleNamespace(levels=levels, H0s=[np.ones_like(lf.H) for lf in levels])
+    assert residual_dependent(linear)
+    follows = SimpleNamespace(levels=levels, H0s=[1.0 + e * b for e in (0.0, 0.02)])
+    assert not residual_dependent(follows)
+    flat, _ = _levels([0.01, 0.01], seed=4)
+    assert not residual_dependent(SimpleNamespace(levels=flat,
+                                                  H0s=[np.ones_like(lf.H) for lf in flat]))
+
+
 def test_kinds_tie_within_their_uncertainty_or_the_misfit_left():
     a = Score(1000.0, 10.0, (), (), True)
     assert tied(a, Score(960.0, 10.0, (), (), True))             # 40 < 3.72 * 14.1
