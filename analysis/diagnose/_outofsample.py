@@ -20,9 +20,13 @@ judgement:
   (its 95 % interval on all fitting levels excludes zero).
 
 A candidate *wins* when its parameter is distinguishable from zero, its gain exceeds `Z` of
-its standard deviations and the misfit it leaves out of sample beyond the noise
+its deviations and the misfit it leaves out of sample beyond what an exact model shows
 (`Score.left`: model-form error, systematic across lines, which the noise deviation does not
-cover), and no left-out level is predicted worse by more than `Z` of that level's. Two
+cover), and no left-out level is predicted worse by more than `Z` of that level's. What an
+exact model shows is the noise times `reference` (`Score.ref`, at least 1): the reduced
+misfit of the current model on the levels within their floor, which the caller
+(`.policy.decide`) takes for the first effect only; the deviations are the noise's times its
+square root. Two
 candidates are tied (`tied`) when their gains differ by no more than that uncertainty. Where the current model misfits its lowest fitting level beyond the floor (its
 linear part is off), a nonlinear candidate is scored jointly with a stiffness correction at
 its own location (`Predictor.joint_at`), so that the linear error does not count against it;
