@@ -144,11 +144,15 @@ def beyond_floor(search: Search, floors: Sequence[Floor]) -> list[bool]:
 def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Model], float],
            floors: Sequence[Floor], *, earlier: Sequence[Fit] = ()) -> SearchPass:
     """Nothing when every fitting level lies within its floor (``floors``, in the search's
-    order: the model is adequate there); else accept the candidate of ``pool`` with the
-    largest out-of-sample gain that wins
+    order: the model is adequate there) and its misfit does not change with level
+    (`residual_dependent`; when it does, nonlinear candidates only); else accept the
+    candidate of ``pool`` with the largest out-of-sample gain that wins
     (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when the
     model misfits its lowest level (its linear part is off), nonlinear ones also jointly
-    with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
+    with a stiffness correction at their location; every one with the ``earlier`` accepted
+    effects free.
+    The first effect is judged against the start model's own misfit on the levels within
+    their floor (`.outofsample.reference`), a further one against the noise alone.
     An element kind already accepted at a location is not offered again there (either
     form: the joint refit corrects its estimate). Candidates with a significant gain that
     lose on another count, or that leave the model's valid range, are kept in ``rejected``
