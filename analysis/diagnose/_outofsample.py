@@ -20,9 +20,13 @@ judgement:
   (its 95 % interval on all fitting levels excludes zero).
 
 A candidate *wins* when its parameter is distinguishable from zero, its gain exceeds `Z` of
-its standard deviations and the misfit it leaves out of sample beyond the noise
+its deviations and the misfit it leaves out of sample beyond what an exact model shows
 (`Score.left`: model-form error, systematic across lines, which the noise deviation does not
-cover), and no left-out level is predicted worse by more than `Z` of that level's. Two
+cover), and no left-out level is predicted worse by more than `Z` of that level's. What an
+exact model shows is the noise times `reference` (`Score.ref`, at least 1): the reduced
+misfit of the current model on the levels within their floor, which the caller
+(`.policy.decide`) takes for the first effect only; the deviations are the noise's times its
+square root. Two
 candidates are tied (`tied`) when their gains differ by no more than that uncertainty. Where the current model misfits its lowest fitting level beyond the floor (its
 linear part is off), a nonlinear candidate is scored jointly with a stiffness correction at
 its own location (`Predictor.joint_at`), so that the linear error does not count against it;
@@ -123,22 +127,32 @@ class Score:
     interval: tuple[tuple[float, float], ...] = ()
     chi2: float = 0.0
     left: float = 0.0
-    """The misfit left out of sample beyond what noise explains: the current model's
-    misfit less the gain less the number of effective values (zero when within it)."""
+    """The misfit left out of sample beyond what an exact model shows: the current
+    model's misfit less the gain less ``ref`` times the number of effective values (zero
+    when within it)."""
+    ref: float = 1.0
+    """The reduced misfit an exact model shows on these data (`reference`: at least 1, the
+    noise alone); the gain's and every level's deviation are the noise's times its square
+    root."""
+
+    @property
+    def deviation(self) -> float:
+        """The gain's deviation: the noise's, scaled by the square root of ``ref``."""
+        return float(self.sd * np.sqrt(self.ref))
 
     @property
     def harmed(self) -> int | None:
         """Index of the first fitting level predicted worse beyond its uncertainty."""
         for i, (g, s) in enumerate(zip(self.level_gain, self.level_sd)):
-            if g < -Z * s:
+            if g < -Z * s * np.sqrt(self.ref):
                 return i
         return None
 
     @property
     def wins(self) -> bool:
-        """Distinguishable, a gain beyond its noise and model-form uncertainty and no
-        significant harm."""
-        return (self.distinct and self.gain > Z * self.sd and self.gain > self.left
+        """Distinguishable, a gain beyond its deviation and beyond the misfit it leaves
+        (model-form error), and no significant harm."""
+        return (self.distinct and self.gain > Z * self.deviation and self.gain > self.left
                 and self.harmed is None)
 
     def reason(self, labels: Sequence[str]) -> str:
@@ -148,12 +162,15 @@ class Score:
         k = self.harmed
         if k is not None:
             return (f"fitted on the other levels it predicts {labels[k]} worse (misfit "
-                    f"{-self.level_gain[k]:.3g} higher, uncertainty {self.level_sd[k]:.3g})")
-        if self.gain <= Z * self.sd:
+                    f"{-self.level_gain[k]:.3g} higher, uncertainty "
+                    f"{self.level_sd[k] * np.sqrt(self.ref):.3g})")
+        if self.gain <= Z * self.deviation:
             return (f"its out-of-sample gain {self.gain:.3g} is within {Z:g} x its "
-                    f"uncertainty {self.sd:.3g}")
+                    f"uncertainty {self.deviation:.3g}")
+        beyond = ("the noise" if self.ref <= 1.0 else
+                  f"what the levels within their floor show ({self.ref:.3g} x the noise)")
         return (f"its out-of-sample gain {self.gain:.3g} is less than the misfit it leaves "
-                f"beyond the noise {self.left:.3g} (model-form error)")
+                f"beyond {beyond} {self.left:.3g} (model-form error)")
 
     def evidence(self) -> dict[str, float]:
         """The numbers for a candidate's evidence mapping."""
@@ -163,6 +180,8 @@ class Score:
                                                  zip(self.level_gain, self.level_sd)))
         if self.joint is not None:
             out["joint_delta_stiffness"] = float(self.joint)
+        if self.ref > 1.0:
+            out["oos_reference"] = float(self.ref)
         return out
 
 
@@ -172,8 +191,20 @@ def halves(n: int) -> np.ndarray:
     return (np.arange(n) // run) % 2
 
 
-def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor) -> Score:
-    """Out-of-sample score of ``pred`` against the current model FRFs ``H0s``."""
+def reference(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray],
+              within: Sequence[bool]) -> float:
+    """The reduced misfit an exact model shows on these data: that of the current model
+    ``H0s`` on the levels ``within`` their floor (declared fitted to what the data can tell),
+    at least 1 (the noise alone; also when no level is within its floor)."""
+    x2 = sum(_chi2(lf, h) for lf, h, w in zip(levels, H0s, within) if w)
+    n = sum(lf.n_values for lf, w in zip(levels, within) if w)
+    return max(1.0, float(x2 / n)) if n else 1.0
+
+
+def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor,
+          ref: float = 1.0) -> Score:
+    """Out-of-sample score of ``pred`` against the current model FRFs ``H0s`` (``ref``:
+    the `reference` scale of the misfit an exact model shows)."""
     theta = np.asarray(pred.theta, dtype=float).copy()
     for _ in range(3 if pred.nuisance else 0):   # Gauss-Newton: the nuisance starts at 0
         cells = _cells(levels, pred, theta)
@@ -215,10 +246,11 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     interval = tuple((float(t - Z95 * e), float(t + Z95 * e)) if f else (0.0, 0.0)
                      for t, e, f in zip(theta, se, free))
     x2 = sum(_chi2(lf, h) for lf, h in zip(levels, pred.predict(theta)))
-    left = sum(_chi2(lf, h) - lf.n_values for lf, h in zip(levels, H0s)) - gain
+    left = sum(_chi2(lf, h) - ref * lf.n_values for lf, h in zip(levels, H0s)) - gain
     return Score(float(gain), float(np.sqrt(var)), tuple(lg), tuple(ls), distinct,
                  None if pred.joint_at is None else float(theta[pred.joint_at]),
-                 tuple(float(t) for t in theta), interval, float(x2), max(float(left), 0.0))
+                 tuple(float(t) for t in theta), interval, float(x2), max(float(left), 0.0),
+                 float(ref))
 
 
 def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray,
@@ -300,4 +332,5 @@ def tied(a: Score, b: Score) -> bool:
     """Whether two candidates' gains differ by no more than their uncertainty: `Z` of the
     two gains' deviations combined, or the misfit the better of the two leaves beyond the
     noise (model-form error), whichever is larger."""
-    return abs(a.gain - b.gain) <= max(Z * float(np.hypot(a.sd, b.sd)), min(a.left, b.left))
+    return abs(a.gain - b.gain) <= max(Z * float(np.hypot(a.deviation, b.deviation)),
+                                       min(a.left, b.left))

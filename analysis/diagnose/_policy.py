@@ -4,7 +4,7 @@ searches)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -17,7 +17,7 @@ from ._leakage import Floor
 from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
 from ._report import LevelCurves
-from ._outofsample import Z as OOS_Z, Score, score, tied
+from ._outofsample import Z as OOS_Z, Score, reference, score, tied
 from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from ._result import KindAlternative
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
@@ -144,11 +144,15 @@ def beyond_floor(search: Search, floors: Sequence[Floor]) -> list[bool]:
 def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Model], float],
            floors: Sequence[Floor], *, earlier: Sequence[Fit] = ()) -> SearchPass:
     """Nothing when every fitting level lies within its floor (``floors``, in the search's
-    order: the model is adequate there); else accept the candidate of ``pool`` with the
-    largest out-of-sample gain that wins
+    order: the model is adequate there) and its misfit does not change with level
+    (`residual_dependent`; when it does, nonlinear candidates only); else accept the
+    candidate of ``pool`` with the largest out-of-sample gain that wins
     (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when the
     model misfits its lowest level (its linear part is off), nonlinear ones also jointly
-    with a stiffness correction at their location; every one with the ``earlier`` accepted effects free.
+    with a stiffness correction at their location; every one with the ``earlier`` accepted
+    effects free.
+    The first effect is judged against the start model's own misfit on the levels within
+    their floor (`.outofsample.reference`), a further one against the noise alone.
     An element kind already accepted at a location is not offered again there (either
     form: the joint refit corrects its estimate). Candidates with a significant gain that
     lose on another count, or that leave the model's valid range, are kept in ``rejected``
@@ -157,11 +161,17 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
     joint = beyond[low]
     if not any(beyond):
-        return SearchPass(search, pool, _reduction(search, pool[0]) if pool else 0.0, False,
-                          model, 0.0)
+        if not residual_dependent(search):
+            return SearchPass(search, pool, _reduction(search, pool[0]) if pool else 0.0,
+                              False, model, 0.0)
+        pool = [f for f in pool if not f.cand.linear]
     taken = {(f.cand.kind, f.cand.dofs) for f in earlier}
     pool = [f for f in pool if (f.cand.kind, f.cand.dofs) not in taken]
     labels = [lf.label for lf in search.levels]
+    # The start model's own misfit where it is declared within its floor scales what the
+    # first effect is judged against; a further effect must explain more than all the rest
+    # (the start model's error and the earlier estimates' model-form error included).
+    ref = 1.0 if earlier else reference(search.levels, search.H0s, [not b for b in beyond])
 
     candidates = judged(pool)
 
@@ -169,7 +179,7 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
         out = []
         for f in candidates:
             both = jointly and not f.cand.linear and not (f.cand.memory and f.extra is None)
-            s = score(search.levels, search.H0s, search.predictor(f, both, earlier))
+            s = score(search.levels, search.H0s, search.predictor(f, both, earlier), ref)
             f.evidence.update(s.evidence())
             out.append((f, s))
         return sorted(out, key=lambda fs: -fs[1].gain)
@@ -188,7 +198,7 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     refused: set[int] = set()
     for f, s in scored:
         if not s.wins:
-            if s.gain > OOS_Z * s.sd and id(f) not in winning:
+            if s.gain > OOS_Z * s.deviation and id(f) not in winning:
                 reject(f, s.reason(labels))
             continue
         if id(f) in refused:
@@ -279,6 +289,17 @@ def with_linear_part(search: Search, fit: Fit, s: Score) -> list[Fit]:
 
 def _reduction(search: Search, fit: Fit) -> float:
     return float((search.chi2_0 - fit.chi2) / search.chi2_0)
+
+
+def residual_dependent(search: Search) -> bool:
+    """True when the current model's misfit changes with level beyond the random error
+    (the homogeneity test on the residuals ``H - H_model`` of the lowest and highest fitting
+    level): within every floor, the model still misses how the structure changes with
+    level, which only a nonlinear candidate can explain. On the starting linear model this
+    is the level-dependence test of the measured FRFs."""
+    dep = level_dependence([replace(lf, H=lf.H - h) for lf, h in zip(search.levels,
+                                                                      search.H0s)])
+    return dep is not None and dep.dependent
 
 
 def linear_only(search: Search) -> bool:

@@ -190,10 +190,17 @@ def _explain(d: Diagnosis, cands: Sequence[Candidate]) -> str:
         return (lvl + f"Every level lies within its noise and model-precision floor (FRF error "
                 f"by level: {_levels_text(d, False)}) and no candidate in the library "
                 f"({LIBRARY}) improves the fit significantly: the model is adequate for these "
-                "recordings." + _rejected_text(d))
+                f"recordings, up to {_top(d)} (the highest level recorded; what acts only "
+                "above it, or below every floor, these recordings cannot show)."
+                + _rejected_text(d))
     if d.verdict == Verdict.UNEXPLAINED:
         return lvl + _unexplained(d)
     return lvl + _discrepancy(d, cands)
+
+
+def _top(d: Diagnosis) -> str:
+    """The label of the highest level."""
+    return max(d.fit.levels, key=lambda lv: lv.level).label
 
 
 def _unexplained(d: Diagnosis) -> str:
@@ -205,8 +212,9 @@ def _unexplained(d: Diagnosis) -> str:
             f"{100 * max(tried.best_chi2_reduction, 0.0):.3g} % of the weighted misfit in "
             f"sample; judged out of sample it gains {oos['oos_gain']:.3g} (uncertainty "
             f"{oos['oos_sd']:.3g}), and it needs {OOS_Z:g} times its uncertainty, more "
-            "than the misfit it leaves beyond the noise, a parameter distinguishable from "
-            "zero and no level predicted worse by the fit on the others."
+            "than the misfit it leaves beyond the noise (beyond the start model's own misfit "
+            "at the levels within their floor, for a first effect), a parameter "
+            "distinguishable from zero and no level predicted worse by the fit on the others."
             if tried.best and "oos_gain" in oos else "")
     return (f"The model misfits beyond the noise and model-precision floor and nothing "
             f"in the library ({tried.candidates} candidates: {LIBRARY}) explains enough: "

@@ -51,11 +51,10 @@ def test_clearance_engaged_at_the_peaks():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 24, open: 'unexplained' (zoo row gvt-cubic-tip): the weak cubic at the tip gains "
-    "less out of sample than the misfit it leaves beyond the noise, most of it the fit-linear "
-    "start model's model-form error (docs/diagnose.md, Zoo)"))
 def test_grounded_cubic_at_a_sensor():
+    """The weak cubic beside the fit-linear start model's own misfit (every level about 2.15
+    x its noise where it lies within its floor): judged against that misfit, not against the
+    noise alone (docs/diagnose.md, "The start model's own misfit")."""
     check_discrepancy(grounded_cubic())
 
 

@@ -15,7 +15,8 @@ import pytest
 import diagnose_zoo as Z
 from analysis.diagnose import CandidateFit, KindAlternative
 from analysis.diagnose._compare import LevelFRF
-from analysis.diagnose._outofsample import Z as OOS_Z, Predictor, Score, halves, score, tied
+from analysis.diagnose._outofsample import (Z as OOS_Z, Predictor, Score, halves, reference,
+                                            score, tied)
 from analysis.diagnose._report import _kind_tie
 
 STIFF = 0.05 * 2.0e4
@@ -160,6 +161,64 @@ def test_an_effect_explaining_a_minority_of_a_systematic_misfit_loses():
     assert "model-form error" in s.reason([lf.label for lf in skewed])
     clean = score(levels, H0, _pred(levels, b, _fit(levels, b)))
     assert clean.wins and clean.left == 0.0
+
+
+def test_a_start_models_own_misfit_at_every_level_is_the_scale_not_a_veto():
+    """gvt-cubic-tip in small: the start model misfits every level by the same systematic
+    error (its own model-form error, level-independent, at the noise's order) and the effect
+    grows with level. Against the noise alone the candidate leaves more than it gains (the
+    former veto); against the misfit the start model shows where it is declared within its
+    floor (the lowest level), the effect wins and gains beyond its scaled deviation. A
+    candidate along a share of the start model's own error gains less than the effect (the
+    effect is the one accepted) and, judged against the noise alone as a further effect is,
+    leaves more than it gains."""
+    levels, b = _levels([0.0, 0.01, 0.03], seed=9)
+    f = levels[0].freqs[:, None, None]
+    own = 0.01 * np.exp(1j * f / 5.0)                        # about the noise's size
+    start = [LevelFRF(lf.label, lf.level, lf.freqs, lf.H + own, lf.weight, lf.var,
+                      lf.bin_factor) for lf in levels]
+    H0 = [np.ones_like(lf.H) for lf in start]
+    law = (0.0, 1.0, 3.0)                                   # the effect's amplitude law
+
+    def cubic() -> Predictor:
+        t = sum(np.sum(np.conj(a * b) * (lf.H - 1.0)).real for a, lf in zip(law, start))
+        t /= sum(a * a for a in law) * np.sum(np.abs(b) ** 2)
+        return Predictor(lambda t: [1.0 + t[0] * a * b for a in law], np.array([t]), 1,
+                         np.array([1.0]))
+    alone = score(start, H0, cubic())
+    assert alone.gain > OOS_Z * alone.sd and alone.left > alone.gain and not alone.wins
+    ref = reference(start, H0, [True, False, False])
+    assert 1.7 < ref < 2.3               # the lowest level's reduced misfit: noise + own error
+    s = score(start, H0, cubic(), ref)
+    assert s.ref == ref and s.deviation > s.sd
+    assert s.wins and s.gain > s.left
+    # a candidate along a part of the start model's own error: a share of that error
+    other = np.where(f < 35.0, own, 0.0) / 0.01
+    along = Predictor(lambda t: [1.0 + t[0] * other for _ in start], np.array([1.0]), 1,
+                      np.array([1.0]))
+    assert score(start, H0, along, ref).gain < s.gain
+    further = score(start, H0, along)
+    assert further.gain > OOS_Z * further.sd and further.left > further.gain
+    assert not further.wins
+    assert reference(start, H0, [False, False, False]) == 1.0     # no level within: noise
+
+
+def test_within_every_floor_a_misfit_that_changes_with_level_is_still_sought():
+    """`policy.residual_dependent`: the homogeneity test on the residuals of the lowest and
+    highest fitting level. A linear model of a structure whose FRF moves with level leaves
+    residuals that move with it (a nonlinear candidate is sought, however small the misfit
+    against the floors); a model that follows each level leaves noise that does not."""
+    from types import SimpleNamespace
+
+    from analysis.diagnose._policy import residual_dependent
+    levels, b = _levels([0.0, 0.02], seed=4)
+    linear = SimpleNamespace(levels=levels, H0s=[np.ones_like(lf.H) for lf in levels])
+    assert residual_dependent(linear)
+    follows = SimpleNamespace(levels=levels, H0s=[1.0 + e * b for e in (0.0, 0.02)])
+    assert not residual_dependent(follows)
+    flat, _ = _levels([0.01, 0.01], seed=4)
+    assert not residual_dependent(SimpleNamespace(levels=flat,
+                                                  H0s=[np.ones_like(lf.H) for lf in flat]))
 
 
 def test_kinds_tie_within_their_uncertainty_or_the_misfit_left():
