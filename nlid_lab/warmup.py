@@ -34,8 +34,8 @@ def kernels_cached() -> bool:
 def warm_up() -> float:
     """Run tiny problems through every numba kernel; returns the seconds it took."""
     # imported here: importing them is the start of the work this function times
-    from analysis.hbm import continue_frf
-    from analysis.models import KINDS, restoring_force
+    from analysis.hbm import continue_frf, sweep_held
+    from analysis.models import KINDS, Refs, memory_force_series, restoring_force
     from analysis.hbm import HBMSystem
     from analysis.models import Model
     from analysis.plant import simulate
@@ -44,8 +44,17 @@ def warm_up() -> float:
     t0 = time.perf_counter()
     rng = np.random.default_rng(0)
     force = rng.normal(size=(256, 1))
-    kind = next(iter(KINDS))
-    restoring_force(kind, dict.fromkeys(KINDS[kind].params, 1.0), force[:, 0], force[:, 0])
+    # the force series of every kind, on writable and on read-only motion (the diagnosis's
+    # recordings are read-only: numba compiles each flag apart)
+    frozen = 1e-3 * force[:, 0]
+    frozen.flags.writeable = False
+    refs = Refs(k=2e4, f=50.0, u=1e-3, c=4.0, v=0.4)
+    for kind, spec in KINDS.items():
+        params = {p.name: p.scale(refs) for p in spec.parameters}
+        for u in (frozen.copy(), frozen):
+            restoring_force(kind, params, u, u)
+            if spec.memory:
+                memory_force_series(kind, params, u, u)
     for path in sorted(MODELS.glob("*.toml")):
         model = Model.load(path)
         x = simulate(model, force, 1024.0, [0])
@@ -55,6 +64,7 @@ def warm_up() -> float:
             fn = float(model.natural_frequencies()[0])
             system.sweep([0.8 * fn, fn], 1.0, sensitivities=[(0, 0)])
             continue_frf(system, 0.8 * fn, 0.85 * fn, 1.0, max_points=5)
+            sweep_held(system, [0.8 * fn, fn], [1.0], 0, 1e-6)  # response-held steps
     return time.perf_counter() - t0
 
 

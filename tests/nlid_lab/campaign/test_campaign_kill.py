@@ -25,6 +25,9 @@ ROOT = Path(__file__).resolve().parents[3]
 MODELS = ROOT / "examples" / "models"
 LEVELS, AVERAGES = 3, 6
 STEPPED_LEVELS, STEPS = 2, 11
+#: kills per test in `make test` (each a campaign process and a resume); test_sigkill_many_trials
+#: (slow) kills the random campaign ten times
+TRIALS = 2
 
 
 def _campaign(tmp_path: Path, example: str, edits: dict[str, str]) -> Path:
@@ -104,7 +107,7 @@ def _kill_and_resume(campaign: Path, out: Path, per_level: int, n_levels: int,
 
 def test_sigkill_then_resume(tmp_path):
     rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "5")))
-    for trial in range(3):
+    for trial in range(TRIALS):
         d = tmp_path / f"t{trial}"
         d.mkdir()
         _kill_and_resume(random_campaign(d), d / "run.h5", AVERAGES, LEVELS,
@@ -120,12 +123,12 @@ def test_stepped_sigkill_then_resume(tmp_path):
     assert [lv.n_segments for lv in ref.levels] == [STEPS] * STEPPED_LEVELS
     rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "7")))
     cut = []
-    for trial in range(3):
+    for trial in range(TRIALS):
         d = tmp_path / f"t{trial}"
         d.mkdir()
         out = d / "run.h5"
         # the first kill lands as soon as the file exists, before the first step; the
-        # others once 1 .. n - 4 steps are committed (a few to spare: steps stored between
+        # next once 1 .. n - 4 steps are committed (a few to spare: steps stored between
         # the poll that sees the count and the kill), so they hit mid-run on any machine
         at = 0 if trial == 0 else rng.randint(1, STEPS * STEPPED_LEVELS - 4)
         before, kept = _kill_and_resume(campaign, out, STEPS, STEPPED_LEVELS, at=at)
@@ -152,7 +155,7 @@ def test_periodic_sigkill_then_resume(tmp_path):
         "averages = 8": "averages = 6", "periods = 8 ": "periods = 3 "})
     rng = random.Random(int(os.environ.get("NLID_KILL_SEED", "3")))
     cut = []
-    for trial in range(3):
+    for trial in range(TRIALS):
         d = tmp_path / f"t{trial}"
         d.mkdir()
         # killed once 1 .. 3 of the 6 realizations are committed (three to spare)
