@@ -17,12 +17,12 @@ from analysis.diagnose._search import RandomFlow, _misfit
 from analysis.recordings import model_at_sensors, one_kind
 
 
-def _flow(name: str, move: int = 0) -> RandomFlow:
-    """The diagnosis' random flow (preparation only) on zoo row ``name``, its responses
-    moved ``move`` samples earlier first."""
+def _flow(name: str, move: int = 0, levels: slice = slice(None)) -> RandomFlow:
+    """The diagnosis' random flow (preparation only) on zoo row ``name`` (its ``levels``),
+    its responses moved ``move`` samples earlier first."""
     (case,) = [c for c in Z.zoo(name) if c.name == name]
     built = case.build()
-    recs = [one_kind(r) for r in built.recordings]
+    recs = [one_kind(r) for r in built.recordings][levels]
     if move:
         recs = [replace(r, force=r.force[:-move], response=r.response[move:]) for r in recs]
     model = model_at_sensors(built.start, recs, "diagnose")
@@ -48,6 +48,12 @@ def test_delay_follows_the_data(move, expected):
     """The same records aligned by hand: no delay; moved one sample too far: a lead."""
     flow = _flow("chain-cubic01-disp-random-delay", move)
     assert (None if flow.delay is None else flow.delay.samples) == expected
+
+
+def test_delay_of_one_level_confirmed_on_its_held_back_segment():
+    flow = _flow("chain-cubic01-disp-random-delay", levels=slice(0, 1))
+    assert flow.delay is not None and flow.delay.samples == 1
+    assert flow.delay.confirmed_on.endswith("(held-back segment)")
 
 
 def test_no_delay_where_the_start_model_holds():
