@@ -12,6 +12,7 @@ measured force (`_replay`). The stages are one engine for random and stepped-sin
 docs/diagnose.md.
 """
 
+from ._alignment import ResponseDelay
 from ._prepare import DiagnoseInputError, level_name
 from ._evidence import Evidence, LocationRow, Misfit, PairThrough, PassSummary, Rejection
 from ._result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis,
@@ -28,5 +29,5 @@ __all__ = [
     "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
     "KindAlternative",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
-    "LocationRow", "PairThrough", "Misfit", "LevelResiduals",
+    "LocationRow", "PairThrough", "Misfit", "LevelResiduals", "ResponseDelay",
 ]

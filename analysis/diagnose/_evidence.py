@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._alignment import ResponseDelay
 from ._json_fields import Json, opt, pair
 from ._locate import LevelDependence
 
@@ -200,7 +201,8 @@ class Evidence:
     """The numbers behind the verdict (first search pass, the passes, rejections, misfit).
 
     ``band_hz``, ``nperseg``, ``replay_horizon_samples``, ``locations`` and
-    ``residual_share_by_dof`` are filled on random data, ``odd_harmonic_ratio`` on stepped
+    ``residual_share_by_dof`` are filled on random data (``response_delay`` there when one
+    was taken out, `alignment`), ``odd_harmonic_ratio`` on stepped
     sine; None elsewhere (and then not written).
     """
 
@@ -219,6 +221,7 @@ class Evidence:
     level_dependence: LevelDependence | None = None
     residual_share_by_dof: tuple[float, ...] | None = None
     odd_harmonic_ratio: float | None = None
+    response_delay: ResponseDelay | None = None
 
     def to_json(self) -> Json:
         out: Json = {"chi2_start": self.chi2_start, "n_values": self.n_values,
@@ -242,6 +245,8 @@ class Evidence:
             out["residual_share_by_dof"] = list(self.residual_share_by_dof)
         if self.odd_harmonic_ratio is not None:
             out["odd_harmonic_ratio"] = self.odd_harmonic_ratio
+        if self.response_delay is not None:
+            out["response_delay"] = self.response_delay.to_json()
         return out
 
     @classmethod
@@ -258,4 +263,5 @@ class Evidence:
                    tuple(Rejection.from_json(r) for r in data.get("rejected") or ()),
                    opt(Misfit, data.get("misfit")),
                    opt(LevelDependence, data.get("level_dependence")),
-                   None if share is None else tuple(share), data.get("odd_harmonic_ratio"))
+                   None if share is None else tuple(share), data.get("odd_harmonic_ratio"),
+                   opt(ResponseDelay, data.get("response_delay")))

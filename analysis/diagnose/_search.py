@@ -14,7 +14,8 @@ from ._compare import (FLOOR, choose_nperseg, element_force, error_by_dof, level
                       stuck_linear, weighted_error)
 from ._compare import LevelFRF
 from ._engine import Flow, Progress, Tick, run
-from ._leakage import leakage_bias, level_floor
+from ._alignment import aligned
+from ._leakage import Floor, leakage_bias, level_floor
 from ._prepare import (DiagnoseInputError, Prepared, analysis_band, cleaned_exports, level_name,
                        prepare_random, prepared_band, record_level, split_segment)
 from ._replay import Replay, horizon_samples, replay, steady_replay
@@ -110,6 +111,9 @@ class RandomFlow(Flow):
         band = (float(band[0]), float(band[1]))
         preps = [prepare_random(r, band, level_name(r),
                                 period=int(p) if p else None) for r, p in zip(recs, per)]
+        preps, self.delay = aligned(preps, lambda p: _misfit(model, p, band, nps, floor))
+        if self.delay is not None:
+            self.warnings.append(self.delay.note())
         hold = pick_holdout([p.level for p in preps], holdout)
         if hold is None:
             pairs = [split_segment(p) for p in preps]
@@ -163,7 +167,7 @@ class RandomFlow(Flow):
 
     def evidence(self, first: SearchPass, common: Evidence) -> Evidence:
         return replace(common, band_hz=self.band, nperseg=self.nps,
-                       replay_horizon_samples=self.horizon,
+                       replay_horizon_samples=self.horizon, response_delay=self.delay,
                        locations=location_table(first.search, first.pool),
                        residual_share_by_dof=tuple(_share(first.search)))
 
@@ -213,6 +217,12 @@ def _predicted(model: Model, p: Prepared, band, nps: int, floor: float):
     linear = stuck_linear(model)
     lf.leakage = leakage_bias(linear, lf, terms)
     return lf, model_frf(linear.linear_frf(lf.freqs), lf, terms)
+
+
+def _misfit(model: Model, p: Prepared, band, nps: int, floor: float) -> tuple[float, Floor]:
+    """``model``'s misfit at one prepared level and the level's floor."""
+    lf, h = _predicted(model, p, band, nps, floor)
+    return weighted_error(lf, h), level_floor(lf, floor)
 
 
 def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,

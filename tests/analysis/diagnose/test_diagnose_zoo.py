@@ -29,19 +29,10 @@ WRONG_TODAY: dict[str, str] = {
                                                      "+5.8 %)",
     # the rows of the real-DAQ catalogue and the circuit (zooart), measured per row with
     # ``python benchmarks/bench_diagnose.py --zoo --only NAME``
-    "chain-cubic01-disp-random-delay": "'unexplained': the responses' one-sample delay behind "
-                                       "the force is not taken out before the diagnosis (start "
-                                       "model misfit 0.26-0.31 at every level, floors "
-                                       "0.10-0.12); aligned by one sample (import "
-                                       "response_delay=1) the row is right, p -0.4 %",
     "sdof-cubic-acc-random-clipping": "gap, not the cubic: 5 clipped acceleration samples turn "
                                       "the cubic/gap tie to the gap (held-back 0.394 -> 0.284, "
                                       "not confirmed); unclipped (sdof-cubic-acc-random) the "
                                       "cubic, p -3.7 %",
-    "twin-gvt-none-acc-multisine-catalogue": "false alarm 'unexplained': the one-sample delay "
-                                             "(start misfit 0.100-0.105 at every level, floor "
-                                             "0.010); the catalogue without the delay: "
-                                             "'adequate' (0.0054-0.0060)",
     "circuit-cubic-disp-multisine": "gap + stiffness error, not the cubic: the fit_linear start "
                                     "misfits its own level at 30x its floor (0.315 / 0.0104); "
                                     "held-back 1.09 -> 0.242",

@@ -1,0 +1,98 @@
+"""The responses' delay behind the force, read and taken out before the diagnosis
+(`analysis.diagnose._alignment`): found on a zoo row that carries it, in either direction;
+never on the same data aligned, on a start model that holds, or on a slider acting at the
+lowest level (where a shift does lower the start model's misfit at every level)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import diagnose_zoo as Z
+from analysis.diagnose import Evidence, ResponseDelay
+from analysis.diagnose._alignment import shifted
+from analysis.diagnose._compare import FLOOR
+from analysis.diagnose._prepare import Prepared
+from analysis.diagnose._search import RandomFlow, _misfit
+from analysis.recordings import model_at_sensors, one_kind
+
+
+def _flow(name: str, move: int = 0, levels: slice = slice(None)) -> RandomFlow:
+    """The diagnosis' random flow (preparation only) on zoo row ``name`` (its ``levels``),
+    its responses moved ``move`` samples earlier first."""
+    (case,) = [c for c in Z.zoo(name) if c.name == name]
+    built = case.build()
+    recs = [one_kind(r) for r in built.recordings][levels]
+    if move:
+        recs = [replace(r, force=r.force[:-move], response=r.response[move:]) for r in recs]
+    model = model_at_sensors(built.start, recs, "diagnose")
+    return RandomFlow(model, recs, holdout=None, band=built.band, nperseg=None, period=None,
+                      floor=FLOOR)
+
+
+def test_delay_found_taken_out_and_said():
+    flow = _flow("chain-cubic01-disp-random-delay")
+    d = flow.delay
+    assert d is not None and d.samples == 1
+    assert d.misfit_before[0] > d.limit >= d.misfit_after[0]          # within its floor
+    assert d.misfit_before[1] - d.misfit_after[1] > d.noise             # confirmed
+    assert any("lag the force by 1 sample" in w and "response_delay=1" in w
+               for w in flow.warnings)
+    model = flow.model
+    assert _misfit(model, flow.preps[0], flow.band, flow.nps, FLOOR)[0] == pytest.approx(
+        d.misfit_after[0])                                              # the levels aligned
+
+
+@pytest.mark.parametrize("move, expected", [(1, None), (2, -1)])
+def test_delay_follows_the_data(move, expected):
+    """The same records aligned by hand: no delay; moved one sample too far: a lead."""
+    flow = _flow("chain-cubic01-disp-random-delay", move)
+    assert (None if flow.delay is None else flow.delay.samples) == expected
+
+
+def test_delay_of_one_level_confirmed_on_its_held_back_segment():
+    flow = _flow("chain-cubic01-disp-random-delay", levels=slice(0, 1))
+    assert flow.delay is not None and flow.delay.samples == 1
+    assert flow.delay.confirmed_on.endswith("(held-back segment)")
+
+
+def test_no_delay_where_the_start_model_holds():
+    assert _flow("sdof-none-disp-random").delay is None
+
+
+def test_no_delay_on_a_slider_at_the_lowest_level():
+    """A Jenkins element acting at every level: a one-sample lead lowers the start model's
+    misfit at every level (a phase like the slider's dissipation), but leaves the lowest far
+    outside its floor, so no delay is read."""
+    flow = _flow("sdof-jenkins-disp-random")
+    assert flow.delay is None
+    before = [_misfit(flow.model, p, flow.band, flow.nps, FLOOR) for p in flow.preps]
+    after = [_misfit(flow.model, shifted(p, -1), flow.band, flow.nps, FLOOR)
+             for p in flow.preps]
+    assert all(a[0] < b[0] - b[1].noise for a, b in zip(after, before))
+    assert min(a[0] / a[1].limit for a in after) > 10
+
+
+def test_shift_of_a_periodic_record_is_exact():
+    period, n_per, fs = 64, 3, 64.0
+    t = np.arange(period * n_per)
+    wave = lambda s: np.column_stack([np.sin(2 * np.pi * 3 * s / period),
+                                      np.cos(2 * np.pi * 5 * s / period)])
+    p = Prepared(wave(t), 2 * wave(t), np.ones((t.size, 1)), np.array([0]), fs, 1.0, period,
+                 "level 1")
+    for d in (1, -2):
+        q = shifted(p, d)
+        np.testing.assert_allclose(q.x, wave(t + d), atol=1e-12)
+        np.testing.assert_allclose(q.v, 2 * wave(t + d), atol=1e-12)
+        assert q.force is p.force
+    r = shifted(replace(p, period=None), 2)                       # random: two samples fewer
+    np.testing.assert_array_equal(r.x, p.x[2:])
+    assert r.force.shape[0] == r.x.shape[0] == t.size - 2
+
+
+def test_delay_in_the_evidence_json():
+    d = ResponseDelay(1, "level 1", "level 4", (0.31, 0.26), (0.076, 0.16), 0.106, 0.064)
+    data = Evidence(response_delay=d).to_json()
+    assert data["response_delay"]["samples"] == 1
+    assert Evidence.from_json(data).response_delay == d
+    assert "response_delay" not in Evidence().to_json()             # goldens: not written
