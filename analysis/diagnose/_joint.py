@@ -127,7 +127,10 @@ def _coefficients(start: Model, search: Search, fits: list[Fit]) -> list[Fit]:
         return np.concatenate(out)
 
     x2_seq = sum(chi2(lf, h) for lf, h in zip(search.levels, predicted(theta0)))
-    sol = least_squares(resid, np.sign(theta0) + (theta0 == 0), method="lm")
+    try:   # a step through an invalid model (a negative stiffness): the range is left
+        sol = least_squares(resid, np.sign(theta0) + (theta0 == 0), method="lm")
+    except ModelError:
+        return fits
     theta = sol.x * scale
     x2 = sum(chi2(lf, h) for lf, h in zip(search.levels, predicted(theta)))
     if not x2 < x2_seq or not all(_valid(search, f, t) for f, t in zip(fits, theta)):

@@ -27,9 +27,14 @@ exact model shows is the noise times `reference` (`Score.ref`, at least 1): the 
 misfit of the current model on the levels within their floor, which the caller
 (`.policy.decide`) takes for the first effect only; the deviations are the noise's times its
 square root. Two
-candidates are tied (`tied`) when their gains differ by no more than that uncertainty. Where the current model misfits its lowest fitting level beyond the floor (its
-linear part is off), a nonlinear candidate is scored jointly with a stiffness correction at
-its own location (`Predictor.joint_at`), so that the linear error does not count against it;
+candidates are tied (`tied`) when their gains differ by no more than that uncertainty. A
+level's harm is judged against its own deviation times the square root of the current
+model's reduced misfit there (at least ``ref``): a level the current model already misfits
+(its linear part off) is not a noise-level yardstick. Where the current model misfits its
+lowest fitting level (`.policy.decide`), a nonlinear candidate is also scored jointly with a
+stiffness correction
+at its own location (`Predictor.joint_at`, `.select.JOINT_KINDS`), so that a start model's
+equivalent linear error does not count against it;
 a further candidate is scored with the effects already accepted free (a scale of each
 element's force, a correction of each linear error), so that it is not credited with their
 estimation error.
@@ -105,7 +110,9 @@ class Score:
     gain, sd : float
         Gain over the left-out half-levels and its standard deviation.
     level_gain, level_sd : tuple of float
-        Per fitting level, the gain predicted from the other levels and its deviation.
+        Per fitting level, the gain predicted from the other levels and its deviation
+        (times the square root of the current model's reduced misfit there over ``ref``,
+        when above 1).
     distinct : bool
         Every own parameter's 95 % interval on all fitting levels excludes zero.
     joint : float or None
@@ -208,8 +215,10 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
     theta = np.asarray(pred.theta, dtype=float).copy()
     for _ in range(3 if pred.nuisance else 0):   # Gauss-Newton: the nuisance starts at 0
         cells = _cells(levels, pred, theta)
-        theta = theta + np.linalg.lstsq(sum(c[2] for c in cells), sum(c[3] for c in cells),
-                                        rcond=1e-12)[0]
+        A, g = sum(c[2] for c in cells), sum(c[3] for c in cells)
+        n = 1 / np.sqrt(np.maximum(np.diag(A), 1e-300))   # normalised: any scale
+        theta = theta + n * np.linalg.lstsq(A * n[:, None] * n[None, :], n * g,
+                                            rcond=1e-12)[0]
     cells = _cells(levels, pred, theta)
     A_all, g_all = sum(c[2] for c in cells), sum(c[3] for c in cells)
     bf = float(np.mean([lf.bin_factor for lf in levels]))
@@ -239,7 +248,7 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
                                               pred.own if pred.nuisance else 0),
                        np.ones(lf.freqs.size, dtype=bool))
         lg.append(g_)
-        ls.append(float(np.sqrt(v_)))
+        ls.append(float(np.sqrt(v_ * max(1.0, _chi2(lf, H0s[lv]) / lf.n_values / ref))))
     free = _fold(theta, A_all, g_all, bf, d_ref)[1]
     distinct = bool(free[own].all() and (not pred.positive or np.all(theta[own] > 0)))
     se = np.sqrt(np.clip(np.diag(np.linalg.pinv(A_all, rcond=1e-14)), 0, None) * bf / 2)

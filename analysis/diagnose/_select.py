@@ -46,6 +46,11 @@ tangent stiffness must stay positive (a replay may overshoot the measured motion
 MARGIN = 0.9
 """Share of the structure's own stiffness at a location that a softening candidate may
 remove at the edge of `REACH` (softening beyond it makes the replay diverge)."""
+JOINT_KINDS = ("stiffness_error",)
+"""The linear corrections at a nonlinear candidate's location fitted jointly with it
+(`Search.predictor`): a start model fitted on data holds the equivalent (secant) stiffness
+of whatever acts there at that level. A damping correction beside it was tried (session 31):
+it named spurious damping errors beside true effects on start models without one."""
 
 
 @dataclass
@@ -217,7 +222,7 @@ class Search:
         own = [(c.kind, c.w)] if c.linear else []
         if not c.linear:
             self.ensure_basis(c, fit.extra)
-        lin = own + ([("stiffness_error", c.w)] if joint and not c.linear else []) + [
+        lin = own + ([(k, c.w) for k in JOINT_KINDS] if joint and not c.linear else []) + [
             (f.cand.kind, f.cand.w) for f in earlier if f.cand.linear]
         scaled = [self._element_index(f) for f in earlier if not f.cand.linear]
         k_lin = len(lin) - len(own)
