@@ -143,18 +143,25 @@ def test_describing_function_of_a_slider_is_the_closed_form():
     np.testing.assert_allclose(N, TWIN.describing(a), rtol=2e-3)
 
 
+def _exact_points(a, f, z):
+    """Backbone points of an exact backbone (displacement amplitudes ``a``, frequencies
+    ``f``, damping ratios ``z``) with intervals narrow enough to weigh them alike."""
+    from analysis.backbone import BackbonePoint
+    return [BackbonePoint(level=1.0, amplitude=x, amplitude_kind="displacement",
+                          displacement_amplitude=x, frequency_hz=fi,
+                          frequency_ci95=(fi * (1 - 1e-6), fi * (1 + 1e-6)), damping_ratio=zi,
+                          damping_ci95=(zi * 0.99, zi * 1.01), modal_constant=1.0,
+                          fit_error=0.0, method="exact", n_steps=1)
+            for x, fi, zi in zip(a, f, z)]
+
+
 def test_joint_fitted_to_an_exact_backbone_is_the_twins():
     """The exact backbone of the twin (stuck mode, compensated slider): kd and fd back
     within the describing function's sampling error, from the grid's starts."""
-    from analysis.backbone import BackbonePoint, LinearMode, fit_joint
+    from analysis.backbone import LinearMode, fit_joint
     a = np.array([2e-5, 5e-5, 1e-4, 2e-4, 4e-4, 8e-4])
     f, z = TWIN.backbone_at(a)
-    pts = [BackbonePoint(level=1.0, amplitude=x, amplitude_kind="displacement",
-                         displacement_amplitude=x, frequency_hz=fi,
-                         frequency_ci95=(fi * (1 - 1e-6), fi * (1 + 1e-6)), damping_ratio=zi,
-                         damping_ci95=(zi * 0.99, zi * 1.01), modal_constant=1.0,
-                         fit_error=0.0, method="exact", n_steps=1)
-           for x, fi, zi in zip(a, f, z)]
+    pts = _exact_points(a, f, z)
     w0 = np.sqrt((TWIN.k + TWIN.kd) / TWIN.m)
     mode = LinearMode(w0 / (2 * np.pi), TWIN.c / (2 * TWIN.m * w0), 1 / TWIN.m)
     fit = fit_joint(pts, mode, "stick_slip", compensated=True, kd_max=0.9 * w0**2)
@@ -330,15 +337,10 @@ def test_anchored_fit_takes_the_sliders_share_of_the_lowest_level_out_of_the_lin
     the lowest level gives) holds the slider's share of that level. Anchored, the fit gives
     kd and fd back within the describing function's sampling error and the correction of the
     linear part is that share: ``kd - Re N(a_ref)`` and ``-Im N(a_ref) / w_ref``."""
-    from analysis.backbone import BackbonePoint, LinearMode, fit_joint
+    from analysis.backbone import LinearMode, fit_joint
     a = np.array([1e-4, 2e-4, 4e-4, 8e-4])
     f, z = TWIN.backbone_at(a)
-    pts = [BackbonePoint(level=1.0, amplitude=x, amplitude_kind="displacement",
-                         displacement_amplitude=x, frequency_hz=fi,
-                         frequency_ci95=(fi * (1 - 1e-6), fi * (1 + 1e-6)), damping_ratio=zi,
-                         damping_ci95=(zi * 0.99, zi * 1.01), modal_constant=1.0,
-                         fit_error=0.0, method="exact", n_steps=1)
-           for x, fi, zi in zip(a, f, z)]
+    pts = _exact_points(a, f, z)
     mode = LinearMode(f[0], z[0], 1 / TWIN.m)        # the lowest level's own mode
     w0 = 2 * np.pi * f[0]
     fit = fit_joint(pts, mode, "stick_slip", compensated=True, kd_max=0.9 * w0**2,
