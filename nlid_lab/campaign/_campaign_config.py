@@ -321,6 +321,9 @@ def _plan(data: dict, kind: Excitation, fs: float) -> RandomSpec | SteppedSpec |
                           _opt(t, "max_control_iterations", "random", RandomSpec, lo=1,
                                integer=True, hi=100))
         return _periodic(t, spec, fs)
+    if kind != Excitation.STEPPED_SINE:     # a kind recordings know that campaigns do not run
+        raise CampaignError(f"campaigns run {Excitation.RANDOM}, {Excitation.STEPPED_SINE} and "
+                            f"{Excitation.SWEPT_SINE} excitations, not {kind}")
     t = _table(data, "stepped")
     _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
                  "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
