@@ -147,11 +147,16 @@ class Score:
         """The gain's deviation: the noise's, scaled by the square root of ``ref``."""
         return float(self.sd * np.sqrt(self.ref))
 
+    def level_deviation(self, i: int) -> float:
+        """Fitting level ``i``'s deviation: its ``level_sd`` scaled by the square root of
+        ``ref``."""
+        return float(self.level_sd[i] * np.sqrt(self.ref))
+
     @property
     def harmed(self) -> int | None:
         """Index of the first fitting level predicted worse beyond its uncertainty."""
-        for i, (g, s) in enumerate(zip(self.level_gain, self.level_sd)):
-            if g < -Z * s * np.sqrt(self.ref):
+        for i, g in enumerate(self.level_gain):
+            if g < -Z * self.level_deviation(i):
                 return i
         return None
 
@@ -170,7 +175,7 @@ class Score:
         if k is not None:
             return (f"fitted on the other levels it predicts {labels[k]} worse (misfit "
                     f"{-self.level_gain[k]:.3g} higher, uncertainty "
-                    f"{self.level_sd[k] * np.sqrt(self.ref):.3g})")
+                    f"{self.level_deviation(k):.3g})")
         if self.gain <= Z * self.deviation:
             return (f"its out-of-sample gain {self.gain:.3g} is within {Z:g} x its "
                     f"uncertainty {self.deviation:.3g}")
