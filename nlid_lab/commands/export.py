@@ -8,7 +8,7 @@ from pathlib import Path
 
 from analysis.errors import InputError
 
-from ..formats import recording_keys, write_csv, write_npz
+from ..formats import format_of, recording_keys, suffix_list
 from ..outputs import add_force_option, atomic_path, refuse_overwrite, with_checks, write_json
 from .repair import check_runs
 
@@ -18,18 +18,14 @@ def run(args: argparse.Namespace) -> int:
     from ..store import open_run
 
     out = Path(args.out)
-    suffix = out.suffix.lower()
-    if suffix not in (".npz", ".csv", ".mat"):
-        raise InputError(f"--out {out}: export to a .npz, .csv or .mat recording")
+    fmt = format_of(out)
+    if fmt is None or fmt.write is None:
+        raise InputError(f"--out {out}: export to a {suffix_list('write')} recording")
     refuse_overwrite(args.force, out, args.json)
     checks = check_runs([args.run])
     rec = open_run(args.run).recording(args.level)
     with atomic_path(out) as tmp:
-        if suffix == ".mat":
-            from ..formats import write_mat
-            write_mat(tmp, rec)
-        else:
-            (write_npz if suffix == ".npz" else write_csv)(tmp, rec)
+        fmt.write(tmp, rec)
     if args.json != "-":
         print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
               f"-> {out}")

@@ -45,45 +45,19 @@ def _read_levels(src: Path, args: argparse.Namespace, found: dict) -> list:
 
 
 def _read(src: Path, args: argparse.Namespace, found: dict):
-    suffix = src.suffix.lower()
+    """The recording of one file, by its format (`formats.FORMATS`): through the channel
+    map when ``--map`` is given and the format takes one, else as the file holds it."""
     given = _sweep_keys(args)
-    if suffix == ".npz":
-        if not given:
-            return formats.read_npz(src)
-        return formats.recording_from_keys(
-            {**formats.load_npz_keys(src), **given}, src)
-    if suffix == ".csv" and args.map:
-        tree, units = formats.read_csv_columns(src)
-        cmap = _channel_map(args.map).with_units(units)
-        if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
-            cmap = dataclasses.replace(cmap, fs="fs")    # a '# fs = ...' line
-        elif cmap.fs == "Fs" and "Fs" not in tree:
-            raise InputError(f"{src}: the CSV gives no sample rate; add fs=RATE (Hz) to --map "
-                             "(e.g. --map force=Force response=Acceleration1,Acceleration2 "
-                             "fs=400)")
-        return _mapped({**formats.apply_map(tree, cmap, str(src)), **given}, src, args, found)
-    if suffix == ".csv":
-        cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
-        return formats.read_csv(src, force_cols=cols, response_kind=args.response_kind,
-                                      force_dofs=args.force_dofs,
-                                      excitation=given.get("excitation"),
-                                      keys={k: v for k, v in given.items()
-                                            if k != "excitation"})
-    if suffix == ".mat":
-        tree = formats.read_mat_tree(src)
-        if not args.map and formats.is_recording(tree):   # written by nlid-lab export
-            rec = formats.read_mat_recording(src)
-            if given:
-                raise InputError(f"{src}: an nlid-lab recording names its excitation and "
-                                 "sweep; drop --excitation/--sweep")
-            return rec
-        if not args.map:
-            raise InputError(f"{src}: a MAT file needs --map (e.g. --map force=Force "
-                             "response=Acceleration[0:3]:g fs=Fs force_dofs=0); the file holds "
-                             + ", ".join(sorted(tree)))
-        return _mapped({**formats.apply_map(tree, _channel_map(args.map), str(src)), **given},
-                       src, args, found)
-    raise InputError(f"{src}: unknown recording type '{suffix}'; import .npz, .csv or .mat")
+    fmt = formats.format_of(src)
+    if fmt is None:
+        raise InputError(f"{src}: unknown recording type '{src.suffix.lower()}'; import "
+                         f"{formats.suffix_list('read')}")
+    if args.map and fmt.mapped is not None:
+        return _mapped({**fmt.mapped(src, _channel_map(args.map)), **given}, src, args, found)
+    if fmt.read is None:
+        raise InputError(f"{src}: a {fmt.name} file needs --map (docs/recording-formats.md)")
+    cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
+    return fmt.read(src, formats.ReadOptions(given, cols, args.response_kind, args.force_dofs))
 
 
 def _channel_map(items: list[str]):

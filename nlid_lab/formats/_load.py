@@ -1,4 +1,5 @@
-"""Recordings of any supported file by its suffix: a run (``.h5``), NPZ or CSV."""
+"""Recordings of any supported file by its suffix: a run (``.h5``) or a format of `FORMATS`
+that commands read directly (NPZ, CSV)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,7 @@ from pathlib import Path
 
 from analysis.recordings import Recording, StepTable
 
-from ._csv import read_csv
-from ._npz import read_npz
+from ._formats import ReadOptions, format_of, suffix_list
 
 
 def load_recordings(path: str | os.PathLike) -> list[Recording | StepTable]:
@@ -21,8 +21,8 @@ def load_recordings(path: str | os.PathLike) -> list[Recording | StepTable]:
     suffix = path.suffix.lower()
     if suffix in (".h5", ".hdf5"):
         return open_run(path).recordings()
-    if suffix == ".npz":
-        return [read_npz(path)]
-    if suffix == ".csv":
-        return [read_csv(path)]
-    raise StoreError(f"{path}: unknown recording type '{suffix}'; use .h5, .npz or .csv")
+    fmt = format_of(path)
+    if fmt is not None and fmt.direct and fmt.read is not None:
+        return [fmt.read(path, ReadOptions())]
+    raise StoreError(f"{path}: unknown recording type '{suffix}'; use "
+                     f"{suffix_list('direct', ('.h5',))}")
