@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from analysis.models import Model  # noqa: E402
-from drivers.base import Channel, RandomOutput  # noqa: E402
+from drivers.base import Channel
+from drivers.outputs import RandomOutput  # noqa: E402
 from drivers.frame import FrameParser, encode_frame  # noqa: E402
 from drivers.rig import SimRig  # noqa: E402
 

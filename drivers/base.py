@@ -18,12 +18,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from types import TracebackType
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from . import pauses
 from .errors import CommsError, DriverConfigError, StateError
+
+if TYPE_CHECKING:
+    from .outputs import Output
 
 T = TypeVar("T")
 QUANTITIES = ("force", "displacement", "velocity", "acceleration")
@@ -148,72 +151,6 @@ class _Lifecycle:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
-
-
-@dataclass(frozen=True)
-class RandomOutput:
-    """Band-limited Gaussian noise; ``level`` is the drive rms in volts."""
-
-    band: tuple[float, float]
-    seed: int | None = None
-
-
-@dataclass(frozen=True)
-class MultisineOutput:
-    """Periodic random: a random-phase multisine with a flat amplitude spectrum in ``band``,
-    one period of ``period`` samples at the DAQ's sample rate (generator and DAQ share the
-    sample clock), repeated; ``level`` is the drive rms in volts."""
-
-    band: tuple[float, float]
-    period: int
-    seed: int | None = None
-
-
-@dataclass(frozen=True)
-class SineOutput:
-    """Pure sine at ``freq`` Hz; ``level`` is the drive amplitude in volts."""
-
-    freq: float
-
-
-@dataclass(frozen=True)
-class SweepOutput:
-    """Swept sine (`analysis.recordings.SweepLaw`: ``start_hz`` -> ``stop_hz``, ``law``
-    linear or log, ``rate`` Hz/s or octaves/min), starting when the output turns on and
-    silent once the sweep is over; ``level`` is the drive amplitude in volts."""
-
-    start_hz: float
-    stop_hz: float
-    law: str = "linear"
-    rate: float = 1.0
-
-
-Output = RandomOutput | MultisineOutput | SineOutput | SweepOutput
-
-
-def check_output(output: Output, fs: float | None = None) -> None:
-    """Raise `DriverConfigError` if an output description is unusable."""
-    if isinstance(output, (RandomOutput, MultisineOutput)):
-        lo, hi = output.band
-        if not (0 <= lo < hi) or (fs is not None and hi > fs / 2):
-            raise DriverConfigError(f"random band {list(output.band)} must satisfy "
-                                    "0 <= lo < hi <= fs/2")
-        if isinstance(output, MultisineOutput) and not (
-                isinstance(output.period, int) and 16 <= output.period <= 1 << 24):
-            raise DriverConfigError(f"multisine period {output.period} must be an integer "
-                                    "number of samples in 16..2^24")
-    elif isinstance(output, SineOutput):
-        if not output.freq > 0 or (fs is not None and output.freq >= fs / 2):
-            raise DriverConfigError(f"sine frequency {output.freq} Hz must lie in (0, fs/2)")
-    elif isinstance(output, SweepOutput):
-        top = max(output.start_hz, output.stop_hz)
-        if output.law not in ("linear", "log") or not (
-                min(output.start_hz, output.stop_hz) > 0 and output.rate > 0
-                and output.start_hz != output.stop_hz) or (fs is not None and top >= fs / 2):
-            raise DriverConfigError(f"sweep {output} must go between two different "
-                                    "frequencies in (0, fs/2), linear or log, at a rate > 0")
-    else:
-        raise DriverConfigError(f"unknown output type {type(output).__name__}")
 
 
 #: Seconds a shaker ramps its drive to a new level or to zero (every backend's default).

@@ -13,24 +13,21 @@ within that lookahead, where the small image term follows the predicted drive).
 
 from __future__ import annotations
 
+import copy
 import threading
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.plant import (ExcitationError, Plant, hold_image_response, multisine, random_gaussian,
-                            sine_block)
+from analysis.plant import Plant, hold_image_response
 from analysis.models import Model
-from analysis.recordings import HOLD_IMAGE_LOOKAHEAD, SweepLaw
+from analysis.recordings import HOLD_IMAGE_LOOKAHEAD
 
-from .base import (Channel, MultisineOutput, Output, RandomOutput, SineOutput, SweepOutput,
-                   check_output)
+from .base import Channel
 from .errors import DriverConfigError
+from .outputs import Output, Player, check_output
 
-# Random drive is generated in chunks of this many samples, independent of the DAQ frame
-# size, so that the drive sequence depends only on the seed.
-RANDOM_CHUNK = 8192
 WARM_VOLTS = (0.1, 1.0, 3.0)  # drive rms of the warm-up, V (`SimRig._warm_up`)
 
 
@@ -105,18 +102,12 @@ class SimRig:
                            noise_std=noise_std, response_kind=response_kind, seed=seed)
         self.lock = threading.RLock()
         self._output: Output | None = None
+        self._player: Player | None = None
+        self._last: dict[type, Player] = {}   # the last player of each output type
         self._level = 0.0
         self._on = False
         self._envelope = 0.0
         self._ramp_per_sample = 1.0
-        self._phase = 0.0
-        self._chunk: np.ndarray | None = None
-        self._chunk_index = -1
-        self._chunk_pos = 0
-        self._period: np.ndarray | None = None     # one multisine period
-        self._period_pos = 0
-        self._sweep: SweepLaw | None = None
-        self._sweep_pos = 0                         # samples of the sweep played so far
         self.sample_index = 0
         self.zero_commanded_at: float | None = None
         self._past_force = np.zeros((HOLD_IMAGE_LOOKAHEAD, 1))   # before the start: at rest
@@ -146,21 +137,10 @@ class SimRig:
             An output this sample rate cannot produce.
         """
         check_output(output, self.fs)
-        period = None
-        if isinstance(output, MultisineOutput):
-            try:
-                period = multisine(output.period, self.fs, output.band, 1.0, output.seed)
-            except ExcitationError as exc:        # e.g. no line of the period in the band
-                raise DriverConfigError(str(exc)) from None
+        player = output.player(self.fs, self.seed, self._last.get(type(output)))
         with self.lock:
-            self._output = output
-            if isinstance(output, RandomOutput):
-                self._chunk, self._chunk_index, self._chunk_pos = None, -1, 0
-            if period is not None:
-                self._period, self._period_pos = period, 0
-            if isinstance(output, SweepOutput):
-                self._sweep = SweepLaw(output.start_hz, output.stop_hz, output.law, output.rate)
-                self._sweep_pos = 0
+            self._output, self._player = output, player
+            self._last[type(output)] = player
 
     def set_level(self, level: float) -> None:
         """Set the drive level, V."""
@@ -219,59 +199,22 @@ class SimRig:
 
     def _peek(self, n: int) -> np.ndarray:
         """The next ``n`` drive samples if no command changes them; the drive state is kept."""
-        keys = ("_envelope", "_phase", "_chunk", "_chunk_index", "_chunk_pos", "_period_pos",
-                "_sweep_pos")
-        saved = {k: getattr(self, k) for k in keys}
+        envelope, player = self._envelope, self._player
+        self._player = copy.copy(player)
         wave = self._drive(n)
-        for k, v in saved.items():
-            setattr(self, k, v)
+        self._envelope, self._player = envelope, player
         return wave
 
     def _drive(self, n: int) -> np.ndarray:
         env = self._envelope_samples(n)
-        if self._output is None or not np.any(env):
-            if isinstance(self._output, SineOutput):
-                self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
-                    % (2 * np.pi)
-            if isinstance(self._output, MultisineOutput):
-                self._period_pos = (self._period_pos + n) % self._period.size
+        if self._player is None or not np.any(env):
+            if self._player is not None:
+                self._player.idle(n)
             return np.zeros(n)
-        if isinstance(self._output, SineOutput):
-            wave = sine_block(self._output.freq, 1.0, n, self.fs, phase=self._phase)
-            self._phase = (self._phase + 2 * np.pi * self._output.freq * n / self.fs) \
-                % (2 * np.pi)
-        elif isinstance(self._output, MultisineOutput):
-            idx = (self._period_pos + np.arange(n)) % self._period.size
-            wave = self._period[idx]
-            self._period_pos = int(idx[-1] + 1) % self._period.size
-        elif isinstance(self._output, SweepOutput):
-            t = (self._sweep_pos + np.arange(n)) / self.fs
-            wave = np.where(t <= self._sweep.duration, np.sin(self._sweep.phase(t)), 0.0)
-            self._sweep_pos += n
-        else:
-            wave = self._random(n)
-        return self._level * env * wave
+        return self._level * env * self._player.play(n)
 
     def _envelope_samples(self, n: int) -> np.ndarray:
         step = self._ramp_per_sample if self._on else -self._ramp_per_sample
         env = np.clip(self._envelope + step * np.arange(1, n + 1), 0.0, 1.0)
         self._envelope = float(env[-1])
         return env
-
-    def _random(self, n: int) -> np.ndarray:
-        out = np.empty(n)
-        filled = 0
-        assert isinstance(self._output, RandomOutput)
-        base = self._output.seed if self._output.seed is not None else (self.seed or 0)
-        while filled < n:
-            if self._chunk is None or self._chunk_pos >= RANDOM_CHUNK:
-                self._chunk_index += 1
-                seed = np.random.SeedSequence([base, self._chunk_index]).generate_state(1)[0]
-                self._chunk = random_gaussian(RANDOM_CHUNK, self.fs, self._output.band, 1.0,
-                                              int(seed))
-                self._chunk_pos = 0
-            take = min(n - filled, RANDOM_CHUNK - self._chunk_pos)
-            out[filled:filled + take] = self._chunk[self._chunk_pos:self._chunk_pos + take]
-            self._chunk_pos += take
-            filled += take
-        return out

@@ -14,9 +14,11 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 
-from .base import (DEFAULT_RAMP_TIME, DeviceState, MultisineOutput, Output, RandomOutput,
-                   SignalGenerator, SineOutput, SweepOutput, check_output)
+from .base import DEFAULT_RAMP_TIME, DeviceState, SignalGenerator
+from .outputs import (MultisineOutput, Output, RandomOutput, SineOutput, SweepOutput,
+                      check_output)
 from .errors import CommsError, DeviceError, DriverConfigError, DriverTimeout
 from .serial_link import SerialLink
 from .watchdog_beat import BeatProcess
@@ -32,6 +34,33 @@ FEED_REPLY_TIMEOUT = 0.25
 #: s; with beats feeding the controller (`drivers.watchdog_beat`) the thread's feed replies
 #: only tell the host the link is alive (the controller zeroes the drive by itself)
 LINK_CHECK_PATIENCE = 0.5
+
+
+def _random(output: RandomOutput) -> list[str]:
+    cmds = [f"SOUR:RAND:SEED {int(output.seed)}"] if output.seed is not None else []
+    return cmds + [f"SOUR:RAND:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
+                   "SOUR:FUNC RAND"]
+
+
+def _multisine(output: MultisineOutput) -> list[str]:
+    cmds = [f"SOUR:MSIN:SEED {int(output.seed)}"] if output.seed is not None else []
+    return cmds + [f"SOUR:MSIN:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
+                   f"SOUR:MSIN:PER {output.period}", "SOUR:FUNC MSIN"]
+
+
+def _sweep(output: SweepOutput) -> list[str]:
+    return [f"SOUR:SWE:STAR {output.start_hz:.12g}", f"SOUR:SWE:STOP {output.stop_hz:.12g}",
+            f"SOUR:SWE:LAW {output.law.upper()}", f"SOUR:SWE:RATE {output.rate:.12g}",
+            "SOUR:FUNC SWE"]
+
+
+def _sine(output: SineOutput) -> list[str]:
+    return ["SOUR:FUNC SIN", f"SOUR:FREQ {output.freq:.12g}"]
+
+
+#: The commands that select each output this controller plays (`drivers.outputs`).
+_WAVEFORMS: dict[type, Callable[..., list[str]]] = {
+    RandomOutput: _random, MultisineOutput: _multisine, SweepOutput: _sweep, SineOutput: _sine}
 
 
 class SerialShaker(SignalGenerator):
@@ -154,22 +183,11 @@ class SerialShaker(SignalGenerator):
                       action="configure")
         check_output(output)
         level = self.check_level(level)
-        if isinstance(output, RandomOutput):
-            cmds = [f"SOUR:RAND:SEED {int(output.seed)}"] if output.seed is not None else []
-            cmds += [f"SOUR:RAND:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
-                     "SOUR:FUNC RAND"]
-        elif isinstance(output, MultisineOutput):
-            cmds = [f"SOUR:MSIN:SEED {int(output.seed)}"] if output.seed is not None else []
-            cmds += [f"SOUR:MSIN:BAND {output.band[0]:.9g},{output.band[1]:.9g}",
-                     f"SOUR:MSIN:PER {output.period}", "SOUR:FUNC MSIN"]
-        elif isinstance(output, SweepOutput):
-            cmds = [f"SOUR:SWE:STAR {output.start_hz:.12g}",
-                    f"SOUR:SWE:STOP {output.stop_hz:.12g}",
-                    f"SOUR:SWE:LAW {output.law.upper()}", f"SOUR:SWE:RATE {output.rate:.12g}",
-                    "SOUR:FUNC SWE"]
-        else:
-            assert isinstance(output, SineOutput)
-            cmds = ["SOUR:FUNC SIN", f"SOUR:FREQ {output.freq:.12g}"]
+        waveform = _WAVEFORMS.get(type(output))
+        if waveform is None:
+            raise DriverConfigError(f"the serial shaker cannot play {type(output).__name__}; "
+                                    f"it plays {', '.join(t.__name__ for t in _WAVEFORMS)}")
+        cmds = waveform(output)
         cmds += [f"SOUR:RAMP {self.ramp_time:.6g}", f"SOUR:VOLT {level:.12g}"]
         for cmd in cmds:
             self._send(cmd, timeout)

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import threading
 
-from .base import (DEFAULT_RAMP_TIME, Acquirer, Block, Channel, DeviceState, Output,
-                   SignalGenerator, SineOutput)
+from .base import (DEFAULT_RAMP_TIME, Acquirer, Block, Channel, DeviceState,
+                   SignalGenerator)
+from .outputs import Output, SineOutput
 from .errors import DriverConfigError, UnknownBackendError
 from .rig import SimRig
 

@@ -12,7 +12,8 @@ from collections import deque
 
 import numpy as np
 
-from ..base import Channel, MultisineOutput, RandomOutput, SineOutput, SweepOutput
+from ..base import Channel
+from ..outputs import MultisineOutput, RandomOutput, SineOutput, SweepOutput
 from ..errors import DriverConfigError
 from ..frame import MAX_SAMPLES, encode_frame
 from ..rig import SimRig

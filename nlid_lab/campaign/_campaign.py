@@ -21,13 +21,12 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from analysis.recordings import PeriodicLayout
-from drivers.base import DATA_TIMEOUT, Block, MultisineOutput, Output, RandomOutput, SineOutput
+from analysis.recordings import Control
+from drivers.base import DATA_TIMEOUT, Block
 from drivers.errors import CommsError
+from drivers.outputs import MultisineOutput, Output, RandomOutput, SineOutput
 
 from ._campaign_bench import Bench, open_bench
-from analysis.recordings import Control
-
 from ._campaign_config import Campaign, RandomSpec, SteppedSpec, SweepSpec
 from ._campaign_sweep import run_sweeps
 from ._observer import CampaignObserver, CampaignStart, LevelStatus, LevelSummary, Watchers
@@ -420,9 +419,7 @@ class _Runner:
     @property
     def _skip(self) -> int:
         """Samples of a stored block before its steady part (transient periods)."""
-        p = self.c.plan
-        return p.transient_periods * p.block_size \
-            if isinstance(p, RandomSpec) and p.periodic else 0
+        return self.c.plan.skip
 
     def _level_start(self, i: int, target: float, planned: int) -> LevelWriter:
         lw = self.writer.level(i, target)
@@ -445,7 +442,8 @@ class _Runner:
             x = block[self._skip:, 0]
             n, total, squares = n + x.size, total + x.sum(), squares + x @ x
             amplitudes.append(amplitude)
-        stepped = isinstance(self.c.plan, (SteppedSpec, SweepSpec))
+        plan = self.c.plan
+        stepped = plan.measure == "amplitude"
         force = error = None
         if amplitudes and stepped:
             force = float(np.mean(amplitudes))
@@ -454,50 +452,31 @@ class _Runner:
         elif amplitudes:
             force = float(np.sqrt(max(squares / n - (total / n) ** 2, 0.0)))
             error = force / target - 1
-        unit = "sweep" if isinstance(self.c.plan, SweepSpec) else \
-            "step" if stepped else "realization" if self._skip else "block"
-        held = ("force", "N")
-        if isinstance(self.c.plan, SteppedSpec) and self.c.plan.control == Control.RESPONSE:
-            ch = self.c.channels[self._held_col(self.c.plan)]
-            held = (f"response ({ch.name})", ch.unit)
-        summary = LevelSummary(lw.index, target, "amplitude" if stepped else "rms", unit,
+        summary = LevelSummary(lw.index, target, plan.measure, plan.unit,
                                lw.n_segments, planned, force, error, self._drive,
-                               time.monotonic() - self._level_t0, *held)
+                               time.monotonic() - self._level_t0, *plan.held(self.c.channels))
         self.summaries.append(summary)
         self.observer.level_finished(summary)
 
     def run(self) -> None:
         c = self.c
-        per_level = c.plan.averages if isinstance(c.plan, RandomSpec) else \
-            1 if isinstance(c.plan, SweepSpec) else len(c.plan.freqs)
-        periodic = isinstance(c.plan, RandomSpec) and c.plan.periodic   # block = realization
-        stepped, swept = isinstance(c.plan, SteppedSpec), isinstance(c.plan, SweepSpec)
-        unit = "step" if stepped else "sweep" if swept else \
-            "realization" if self._skip else "block"
         info = CampaignStart(
-            fs=c.fs, excitation=c.kind, force_dofs=(c.force_dof,), n_dof=c.n_dof,
+            fs=c.fs, excitation=c.plan.excitation, force_dofs=(c.force_dof,), n_dof=c.n_dof,
             response_kind=c.response_kind, sensors=c.sensors,
             channels=tuple((ch.name, ch.unit) for ch in c.channels), levels=tuple(c.levels),
-            block_len=c.plan.block_size * ((c.plan.transient_periods + c.plan.periods)
-                                           if periodic else 1),
-            averages=1 if swept else getattr(c.plan, "averages", None),   # sweep: H1 live
-            planned=per_level, unit=unit,
+            block_len=c.plan.block_len, planned=c.plan.per_level, unit=c.plan.unit,
             stored=tuple(self.writer.level(i, x).n_segments for i, x in enumerate(c.levels)),
-            period=c.plan.block_size if periodic else None,
-            transient_periods=c.plan.transient_periods if periodic else 1,
-            n_steps=per_level if stepped else None,
-            harmonics=tuple(range(c.plan.harmonics + 1)) if stepped else None)
+            **c.plan.start_info())
         self.observer.campaign_started(info)
         try:
-            if isinstance(c.plan, RandomSpec):
-                self.random(c.plan)
-            elif isinstance(c.plan, SweepSpec):
-                run_sweeps(self, c.plan)
-            else:
-                self.stepped(c.plan)
+            c.plan.run(self)
         except BaseException:
             self._safe_stop()
             raise
+
+    def swept(self, plan: SweepSpec) -> None:
+        """Per level: hold the force amplitude on a sine, then play the sweep once."""
+        run_sweeps(self, plan)
 
     def _safe_stop(self) -> None:
         """Ramp the drive to zero whatever failed; a dead shaker link is reported, not
@@ -521,21 +500,7 @@ def _channels_json(c: Campaign) -> list[dict[str, Any]]:
 
 def _excitation_json(c: Campaign) -> dict[str, Any]:
     """The run's ``excitation_settings`` attribute (stored as JSON): the kind and its plan."""
-    plan = dict(c.plan.__dict__)
-    if isinstance(c.plan, SweepSpec):
-        plan["laws"] = [dict(law.__dict__) for law in c.plan.laws]
-    if isinstance(c.plan, SteppedSpec) and c.plan.control_dof is not None:
-        dofs = sorted(ch.dof for ch in c.channels if ch.quantity != "force")
-        plan["control_dof"] = dofs.index(c.plan.control_dof)   # the run's response channel
-    return {"kind": c.kind, **plan}
-
-
-def _layout(c: Campaign) -> PeriodicLayout | None:
-    """Periodic-random runs: a block is one realization of the multisine."""
-    p = c.plan
-    if not (isinstance(p, RandomSpec) and p.periodic):
-        return None
-    return PeriodicLayout(p.block_size, p.transient_periods, p.periods, p.averages)
+    return {"kind": c.plan.excitation, **c.plan.settings(c.channels)}
 
 
 def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
@@ -573,7 +538,7 @@ def run_campaign(c: Campaign, out: str | Path, *, resume: bool = False,
         with RunWriter(out, fs=c.fs, excitation=_excitation_json(c), force_dofs=[c.force_dof],
                        n_dof=c.n_dof, response_kind=c.response_kind,
                        channels=_channels_json(c), settings=settings, force_hold=hold,
-                       layout=_layout(c), sensors=c.sensors,
+                       layout=c.plan.layout(), sensors=c.sensors,
                        model_toml=bench.model_toml, source=bench.source,
                        mode="resume" if resume else "overwrite" if overwrite else "create"
                        ) as writer:

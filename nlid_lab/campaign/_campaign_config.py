@@ -9,12 +9,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from analysis.documents import TomlTable
+from analysis.documents import JsonObject, TomlTable
 from analysis.errors import RecordingError
 from analysis.models import Model, parse_toml, read_text
-from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, ResponseKind, SensorMap,
-                                 SweepLaw)
+from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, PeriodicLayout,
+                                 ResponseKind, SensorMap, SweepLaw)
 from drivers import DEFAULT_RAMP_TIME, Channel
 from drivers.faults import FaultSpec
 
@@ -23,10 +24,12 @@ from ._campaign_devices import (SIMULATED, Role, _channels, _check_channel_set, 
                                _limits, _sensor_channels, _sensors, _url, _watchdog, scheme)
 from ._campaign_fields import (CampaignError, _choice, _levels, _num, _opt, _table,
                               _unknown)
+from ._plans import PLANS, LevelPlan, plan_of, register_plan
 
 DIRECTIONS = ("up", "down", "up-down")
-TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "random", "stepped",
-            "sweep", "safety", "emulator", "sensors"}
+#: the campaign file's tables and keys besides its kind's table (`LevelPlan.table`)
+TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "safety", "emulator",
+            "sensors"}
 MAX_PLAN_S = 3600.0          # measurement time `campaign run` starts without --yes
 MAX_PLAN_BYTES = 2 * 2**30   # recorded data `campaign run` starts without --yes
 
@@ -40,8 +43,12 @@ class PlantSpec:
     oversample: int | None = None
 
 
+@register_plan
 @dataclass
-class RandomSpec:
+class RandomSpec(LevelPlan):
+    """Random plan ([random]): per level, hold the force rms, then record ``averages`` blocks
+    (periodic: ``averages`` realizations of a multisine of period ``block_size``)."""
+
     levels: list[float]
     averages: int
     block_size: int
@@ -53,9 +60,83 @@ class RandomSpec:
     periods: int = 8             # steady periods per realization (periodic only)
     transient_periods: int = 1   # leading periods per realization, dropped (periodic only)
 
+    kind = excitation = Excitation.RANDOM
+    table = "random"
 
+    @classmethod
+    def from_table(cls, data: TomlTable, fs: float) -> "RandomSpec":
+        """The [random] table."""
+        t = _table(data, "random")
+        _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
+                     "tolerance", "max_control_iterations", "periodic", "periods",
+                     "transient_periods"}, "random")
+        band = t.get("band")
+        if not (isinstance(band, list) and len(band) == 2 and all(
+                isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
+                and 0 <= band[0] < band[1] <= fs / 2):
+            raise CampaignError(f"[random] band must be [lo, hi] Hz with 0 <= lo < hi <= fs/2 "
+                                f"= {fs / 2:g}, got {band!r}")
+        spec = cls(_levels(t, "random"), _num(t, "averages", "random", lo=1, integer=True,
+                                              hi=100000),
+                   _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
+                   (float(band[0]), float(band[1])),
+                   _opt(t, "settle_blocks", "random", cls, lo=0, integer=True),
+                   _opt(t, "tolerance", "random", cls, lo=0, open_lo=True, hi=1),
+                   _opt(t, "max_control_iterations", "random", cls, lo=1, integer=True,
+                        hi=100))
+        return _periodic(t, spec, fs)
+
+    @property
+    def title(self) -> str:
+        return "periodic-random" if self.periodic else str(self.kind)
+
+    @property
+    def unit(self) -> str:
+        return "realization" if self.periodic else "block"
+
+    @property
+    def per_level(self) -> int:
+        return self.averages
+
+    @property
+    def skip(self) -> int:
+        return self.transient_periods * self.block_size if self.periodic else 0
+
+    @property
+    def block_len(self) -> int:
+        return self.block_size * ((self.transient_periods + self.periods) if self.periodic
+                                  else 1)
+
+    def blocks_per_level(self, fs: float) -> tuple[int, int]:
+        control = self.settle_blocks + 1
+        if self.periodic:                   # a block is one period here
+            record = self.averages * (self.transient_periods + self.periods)
+            return control + record, self.max_control_iterations * control + record
+        return control + self.averages - 1, self.max_control_iterations * control + \
+            self.averages
+
+    def layout(self) -> PeriodicLayout | None:
+        """Periodic-random runs: a block is one realization of the multisine."""
+        if not self.periodic:
+            return None
+        return PeriodicLayout(self.block_size, self.transient_periods, self.periods,
+                              self.averages)
+
+    def start_info(self) -> dict[str, Any]:
+        return {"averages": self.averages,
+                "period": self.block_size if self.periodic else None,
+                "transient_periods": self.transient_periods if self.periodic else 1}
+
+    def run(self, runner: Any) -> None:
+        runner.random(self)
+
+
+@register_plan
 @dataclass
-class SteppedSpec:
+class SteppedSpec(LevelPlan):
+    """Stepped-sine plan ([stepped]): per level and frequency, hold the force (or response)
+    amplitude until the response settles, then record one block with its harmonics."""
+
     levels: list[float]
     freqs: list[float]
     block_size: int
@@ -67,9 +148,92 @@ class SteppedSpec:
     control: Control = Control.FORCE   # held per step: the force or the response amplitude
     control_dof: int | None = None     # response control: the held channel's DOF
 
+    kind = excitation = Excitation.STEPPED_SINE
+    table = "stepped"
+    measure = "amplitude"
 
+    @classmethod
+    def from_table(cls, data: TomlTable, fs: float) -> "SteppedSpec":
+        """The [stepped] table."""
+        t = _table(data, "stepped")
+        _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
+                     "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
+                     "max_control_iterations", "control", "control_dof"}, "stepped")
+        freqs = _freqs(t)
+        if max(freqs) >= fs / 2:
+            raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
+        control = t.get("control", str(Control.FORCE))
+        if control not in list(Control):
+            raise CampaignError(f"[stepped] control must be one of {', '.join(Control)}, got "
+                                f"{control!r}")
+        if "control_dof" in t and control != Control.RESPONSE:
+            raise CampaignError("[stepped] control_dof names the held response channel; give "
+                                "it with control = \"response\" or leave it out")
+        cdof = _num(t, "control_dof", "stepped", default=None, lo=0, integer=True, hi=10**6)
+        return cls(_levels(t, "stepped"), freqs,
+                   _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
+                   _opt(t, "harmonics", "stepped", cls, lo=1, hi=50, integer=True),
+                   _opt(t, "tolerance", "stepped", cls, lo=0, open_lo=True, hi=1),
+                   _opt(t, "settle_tolerance", "stepped", cls, lo=0, open_lo=True, hi=1),
+                   _opt(t, "max_settle_blocks", "stepped", cls, lo=2, integer=True, hi=10000),
+                   _opt(t, "max_control_iterations", "stepped", cls, lo=1, integer=True,
+                        hi=100), Control(control), cdof)
+
+    @property
+    def unit(self) -> str:
+        return "step"
+
+    @property
+    def per_level(self) -> int:
+        return len(self.freqs)
+
+    def blocks_per_level(self, fs: float) -> tuple[int, int]:
+        """Per step: skip, two to compare, the recorded one (at least); every settling
+        allowance of every control try (at most)."""
+        tries = self.max_control_iterations + 1 if self.control == Control.RESPONSE else 1
+        return 4 * len(self.freqs), (tries * self.max_settle_blocks + 1) * len(self.freqs)
+
+    def stored_bytes(self, n_channels: int, fs: float) -> int:
+        """Each step's block and its harmonics (JSON text)."""
+        text = len(self.freqs) * 48 * n_channels * (self.harmonics + 1)
+        return len(self.freqs) * self.block_size * n_channels * 8 + text
+
+    def check(self, channels: list[Channel]) -> None:
+        """A response-controlled plan holds a response channel (default: the one at the
+        force)."""
+        dofs = sorted(c.dof for c in channels if c.quantity != "force")
+        if self.control != Control.RESPONSE:
+            return
+        if self.control_dof is None:
+            self.control_dof = next(c.dof for c in channels if c.quantity == "force")
+        if self.control_dof not in dofs:
+            raise CampaignError(f"[stepped] control_dof = {self.control_dof} has no response "
+                                f"channel; use one of the response channels' dof {dofs}")
+
+    def settings(self, channels: list[Channel]) -> JsonObject:
+        plan = dict(self.__dict__)
+        if self.control_dof is not None:
+            dofs = sorted(ch.dof for ch in channels if ch.quantity != "force")
+            plan["control_dof"] = dofs.index(self.control_dof)   # the run's response channel
+        return plan
+
+    def start_info(self) -> dict[str, Any]:
+        return {"averages": None, "n_steps": len(self.freqs),
+                "harmonics": tuple(range(self.harmonics + 1))}
+
+    def held(self, channels: list[Channel]) -> tuple[str, str]:
+        if self.control != Control.RESPONSE:
+            return ("force", "N")
+        ch = next(ch for ch in channels if ch.quantity != "force" and ch.dof == self.control_dof)
+        return (f"response ({ch.name})", ch.unit)
+
+    def run(self, runner: Any) -> None:
+        runner.stepped(self)
+
+
+@register_plan
 @dataclass
-class SweepSpec:
+class SweepSpec(LevelPlan):
     """Swept-sine plan: one level per (force amplitude, direction), amplitudes in order."""
 
     levels: list[float]           # force amplitude of each level, N
@@ -79,19 +243,55 @@ class SweepSpec:
     max_control_iterations: int = 8
     lead_s: float = 0.5           # recorded before the sweep starts (trimmed when stored)
 
+    kind = excitation = Excitation.SWEPT_SINE
+    table = "sweep"
+    measure = "amplitude"
+
+    @classmethod
+    def from_table(cls, data: TomlTable, fs: float) -> "SweepSpec":
+        return _sweep(data, fs)
+
+    @property
+    def unit(self) -> str:
+        return "sweep"
+
+    @property
+    def per_level(self) -> int:
+        return 1
+
+    def blocks_per_level(self, fs: float) -> tuple[int, int]:
+        """Control: skip + measure per try; the sweep itself with its lead."""
+        sweep = math.ceil((max(lw.duration for lw in self.laws) + 2 * self.lead_s) * fs
+                          / self.block_size)
+        return 2 + sweep, 2 * self.max_control_iterations + sweep
+
+    def stored_bytes(self, n_channels: int, fs: float) -> int:
+        return (self.blocks_per_level(fs)[0] - 2) * self.block_size * n_channels * 8
+
+    def settings(self, channels: list[Channel]) -> JsonObject:
+        plan = dict(self.__dict__)
+        plan["laws"] = [dict(law.__dict__) for law in self.laws]
+        return plan
+
+    def start_info(self) -> dict[str, Any]:
+        return {"averages": 1}   # sweep: H1 live
+
+    def run(self, runner: Any) -> None:
+        runner.swept(self)
+
 
 @dataclass
 class Campaign:
     """A validated campaign."""
 
     name: str
-    kind: Excitation
+    kind: str                            # the plan's `LevelPlan.kind` (built-in: `Excitation`)
     shaker_url: str
     daq_url: str
     fs: float
     channels: list[Channel]
     response_kind: str                   # a `ResponseKind`, or ``MIXED`` with a sensor map
-    plan: RandomSpec | SteppedSpec | SweepSpec
+    plan: LevelPlan                      # the kind's plan (`PLANS`)
     plant: PlantSpec | None = None
     frame_size: int = 32
     comms_timeout: float | None = None   # None: the DAQ driver's frame interval + margin
@@ -114,19 +314,7 @@ class Campaign:
         """DAQ blocks of ``plan.block_size`` one level takes: at least (level control right
         at once, every step settled at the first check) and at most (every control and
         settling allowance used); drive ramps and transport latency come on top."""
-        p = self.plan
-        if isinstance(p, SweepSpec):     # control: skip + measure per try; the sweep itself
-            sweep = math.ceil((max(lw.duration for lw in p.laws) + 2 * p.lead_s) * self.fs
-                              / p.block_size)
-            return 2 + sweep, 2 * p.max_control_iterations + sweep
-        if isinstance(p, SteppedSpec):   # per step: skip, two to compare, the recorded one
-            tries = p.max_control_iterations + 1 if p.control == Control.RESPONSE else 1
-            return 4 * len(p.freqs), (tries * p.max_settle_blocks + 1) * len(p.freqs)
-        control = p.settle_blocks + 1
-        if p.periodic:                   # a block is one period here
-            record = p.averages * (p.transient_periods + p.periods)
-            return control + record, p.max_control_iterations * control + record
-        return control + p.averages - 1, p.max_control_iterations * control + p.averages
+        return self.plan.blocks_per_level(self.fs)
 
     def plan_size(self) -> tuple[float, float, int]:
         """Least and most measurement time (s) of the whole plan (see `blocks_per_level`), and
@@ -140,14 +328,7 @@ class Campaign:
         """Bytes the run file holds at the end of the plan: the samples of every stored
         block or step on every channel (float64) and each step's harmonics (JSON) in
         stepped-sine runs."""
-        p, n_ch = self.plan, len(self.channels)
-        per_level = p.averages * (p.transient_periods + p.periods if p.periodic else 1) \
-            if isinstance(p, RandomSpec) else len(p.freqs) if isinstance(p, SteppedSpec) \
-            else self.blocks_per_level()[0] - 2
-        samples = per_level * p.block_size
-        text = len(p.freqs) * 48 * n_ch * (p.harmonics + 1) \
-            if isinstance(p, SteppedSpec) else 0
-        return len(self.levels) * (samples * n_ch * 8 + text)
+        return len(self.levels) * self.plan.stored_bytes(len(self.channels), self.fs)
 
     def plan_summary(self) -> str:
         """One line: the planned measurement time and recorded data."""
@@ -298,71 +479,6 @@ def _sweep(data: dict, fs: float) -> SweepSpec:
                      _opt(t, "lead", "sweep", SweepSpec, "lead_s", lo=0.0, hi=60))
 
 
-def _plan(data: dict, kind: Excitation, fs: float) -> RandomSpec | SteppedSpec | SweepSpec:
-    if kind == Excitation.SWEPT_SINE:
-        return _sweep(data, fs)
-    if kind == Excitation.RANDOM:
-        t = _table(data, "random")
-        _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
-                     "tolerance", "max_control_iterations", "periodic", "periods",
-                     "transient_periods"}, "random")
-        band = t.get("band")
-        if not (isinstance(band, list) and len(band) == 2 and all(
-                isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
-                and 0 <= band[0] < band[1] <= fs / 2):
-            raise CampaignError(f"[random] band must be [lo, hi] Hz with 0 <= lo < hi <= fs/2 "
-                                f"= {fs / 2:g}, got {band!r}")
-        spec = RandomSpec(_levels(t, "random"), _num(t, "averages", "random", lo=1,
-                                                     integer=True, hi=100000),
-                          _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
-                          (float(band[0]), float(band[1])),
-                          _opt(t, "settle_blocks", "random", RandomSpec, lo=0, integer=True),
-                          _opt(t, "tolerance", "random", RandomSpec, lo=0, open_lo=True, hi=1),
-                          _opt(t, "max_control_iterations", "random", RandomSpec, lo=1,
-                               integer=True, hi=100))
-        return _periodic(t, spec, fs)
-    if kind != Excitation.STEPPED_SINE:     # a kind recordings know that campaigns do not run
-        raise CampaignError(f"campaigns run {Excitation.RANDOM}, {Excitation.STEPPED_SINE} and "
-                            f"{Excitation.SWEPT_SINE} excitations, not {kind}")
-    t = _table(data, "stepped")
-    _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
-                 "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
-                 "max_control_iterations", "control", "control_dof"}, "stepped")
-    freqs = _freqs(t)
-    if max(freqs) >= fs / 2:
-        raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
-    control = t.get("control", str(Control.FORCE))
-    if control not in list(Control):
-        raise CampaignError(f"[stepped] control must be one of {', '.join(Control)}, got "
-                            f"{control!r}")
-    if "control_dof" in t and control != Control.RESPONSE:
-        raise CampaignError("[stepped] control_dof names the held response channel; give it "
-                            "with control = \"response\" or leave it out")
-    cdof = _num(t, "control_dof", "stepped", default=None, lo=0, integer=True, hi=10**6)
-    return SteppedSpec(_levels(t, "stepped"), freqs,
-                       _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
-                       _opt(t, "harmonics", "stepped", SteppedSpec, lo=1, hi=50, integer=True),
-                       _opt(t, "tolerance", "stepped", SteppedSpec, lo=0, open_lo=True, hi=1),
-                       _opt(t, "settle_tolerance", "stepped", SteppedSpec, lo=0, open_lo=True,
-                            hi=1),
-                       _opt(t, "max_settle_blocks", "stepped", SteppedSpec, lo=2, integer=True,
-                            hi=10000),
-                       _opt(t, "max_control_iterations", "stepped", SteppedSpec, lo=1,
-                            integer=True, hi=100), Control(control), cdof)
-
-
-def _check_control(plan: SteppedSpec, channels: list[Channel]) -> None:
-    """A response-controlled plan holds a response channel (default: the one at the force)."""
-    dofs = sorted(c.dof for c in channels if c.quantity != "force")
-    if plan.control != Control.RESPONSE:
-        return
-    if plan.control_dof is None:
-        plan.control_dof = next(c.dof for c in channels if c.quantity == "force")
-    if plan.control_dof not in dofs:
-        raise CampaignError(f"[stepped] control_dof = {plan.control_dof} has no response "
-                            f"channel; use one of the response channels' dof {dofs}")
-
-
 def _plant(data: TomlTable, base: Path | None, shaker_url: str, daq_url: str
            ) -> PlantSpec | None:
     """The ``[plant]`` of a simulated bench (None for real hardware); both devices simulated
@@ -395,8 +511,8 @@ def parse_campaign(data: TomlTable, base: Path | None = None) -> Campaign:
     """Validate a campaign dict (as read from TOML); paths relative to ``base``."""
     if not isinstance(data, dict):
         raise CampaignError("a campaign file is a TOML table")
-    _unknown(data, TOP_KEYS, "top level")
-    kind = _choice(data.get("kind"), Excitation, "kind")
+    _unknown(data, TOP_KEYS | {p.table for p in PLANS.values()}, "top level")
+    plan_class = plan_of(data)
     shaker, daq = _table(data, "shaker"), _table(data, "daq")
     _unknown(shaker, {"url", "ramp_time", "gain_guess", "max_drive", "watchdog"}, "shaker")
     _unknown(daq, {"url", "fs", "frame_size", "response_kind", "comms_timeout"}, "daq")
@@ -418,11 +534,10 @@ def parse_campaign(data: TomlTable, base: Path | None = None) -> Campaign:
     name = data.get("name", "campaign")
     if not isinstance(name, str):
         raise CampaignError("name must be a string")
-    plan = _plan(data, kind, fs)
-    if isinstance(plan, SteppedSpec):
-        _check_control(plan, channels)
+    plan = plan_class.from_table(data, fs)
+    plan.check(channels)
     return Campaign(
-        name=name, kind=kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
+        name=name, kind=plan_class.kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
         channels=channels, response_kind=response_kind, plan=plan,
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,

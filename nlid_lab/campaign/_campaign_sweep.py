@@ -16,7 +16,7 @@ import numpy as np
 
 from analysis.spectral import sine_fit
 from analysis.recordings import Sweep
-from drivers.base import SineOutput, SweepOutput
+from drivers.outputs import SineOutput, SweepOutput
 
 from ._campaign_config import SweepSpec
 

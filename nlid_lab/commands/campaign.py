@@ -13,7 +13,6 @@ import threading
 from typing import Sequence
 
 from analysis.errors import InputError
-from analysis.recordings import Excitation
 
 from ..outputs import add_quiet_option, refuse_overwrite, summary_stream, write_json
 POLL_MS = 100
@@ -179,9 +178,7 @@ def _run(args: argparse.Namespace) -> int:
     overwrite = args.force and not args.resume
     started = _Started()
     observers = [started] + ([] if args.quiet else [CampaignProgress(sys.stderr)])
-    unit = {Excitation.RANDOM: "block", Excitation.SWEPT_SINE: "sweep"}.get(campaign.kind, "step")
-    planned = campaign.plan.averages if campaign.kind == Excitation.RANDOM else \
-        1 if campaign.kind == Excitation.SWEPT_SINE else len(campaign.plan.freqs)
+    unit, planned = campaign.plan.unit, campaign.plan.per_level
     try:
         if args.live or args.live_close:
             result = run_live(campaign, args.out, resume=args.resume, overwrite=overwrite,
@@ -214,12 +211,8 @@ def _check(args: argparse.Namespace) -> int:
 
     c = load_campaign(args.campaign)
     excess = c.plan_excess(load_plant_model(c) if c.plant is not None else None)
-    n = c.plan.averages if c.kind == Excitation.RANDOM else \
-        1 if c.kind == Excitation.SWEPT_SINE else len(c.plan.freqs)
-    unit = {Excitation.STEPPED_SINE: "steps", Excitation.SWEPT_SINE: "sweeps"}.get(c.kind) or (
-        "realizations" if c.plan.periodic else "blocks")
-    kind = "periodic-random" if c.kind == Excitation.RANDOM and c.plan.periodic else c.kind
-    print(f"{args.campaign}: valid {kind} campaign, {len(c.levels)} level(s) x {n} {unit}, "
+    print(f"{args.campaign}: valid {c.plan.title} campaign, {len(c.levels)} level(s) x "
+          f"{c.plan.per_level} {c.plan.unit}s, "
           f"shaker {c.shaker_url}, DAQ {c.daq_url}; {c.plan_summary()}"
           f"{f'; {excess}: campaign run needs --yes' if excess else ''}")
     return 0

@@ -9,7 +9,8 @@ import pytest
 
 from analysis.models import Model
 from drivers import can_protocol as proto, open_daq, open_shaker
-from drivers.base import Channel, RandomOutput
+from drivers.base import Channel
+from drivers.outputs import RandomOutput
 from drivers.emulators._can_emu import CanDaqEmulator
 from drivers.emulators._faults import FaultPlan
 from drivers.errors import DeviceError, DriverTimeout

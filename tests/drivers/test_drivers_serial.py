@@ -8,7 +8,8 @@ import pytest
 
 from analysis.models import Model
 from drivers import open_daq, open_shaker
-from drivers.base import Channel, MultisineOutput, RandomOutput, SineOutput
+from drivers.base import Channel
+from drivers.outputs import MultisineOutput, RandomOutput, SineOutput
 from drivers.emulators._faults import FaultPlan
 from drivers.emulators._serial_emu import ESTOP_RAMP, SerialDaqEmulator, SerialShakerEmulator
 from drivers.errors import (CommsError, DeviceError, Disconnected, DriverConfigError,

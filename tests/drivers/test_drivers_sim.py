@@ -7,7 +7,8 @@ import pytest
 
 from analysis.models import Model
 from drivers import open_daq, open_shaker
-from drivers.base import Channel, RandomOutput
+from drivers.base import Channel
+from drivers.outputs import RandomOutput
 from drivers.errors import UnknownBackendError
 from drivers.rig import SimRig
 from drivers.sim import register_rig, unregister_rig

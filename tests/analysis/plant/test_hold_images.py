@@ -16,7 +16,7 @@ from analysis.models import Element, Model
 from analysis.recordings import (HOLD_IMAGE_LOOKAHEAD, Recording, hold_image_gain, hold_image_taps,
                                  hold_images)
 from analysis.reverse_path import ReversePathOptions, reverse_path
-from drivers.base import RandomOutput
+from drivers.outputs import RandomOutput
 from drivers.rig import SimRig
 from nlid_lab.commands.simulate import simulate_drive
 from nlid_lab.formats import Drive
