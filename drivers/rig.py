@@ -22,7 +22,7 @@ import numpy as np
 
 from analysis.plant import Plant, hold_image_response
 from analysis.models import Model
-from analysis.recordings import HOLD_IMAGE_LOOKAHEAD
+from analysis.recordings import HOLD_IMAGE_LOOKAHEAD, RESPONSE_KINDS
 
 from .base import Channel
 from .errors import DriverConfigError
@@ -192,7 +192,7 @@ class SimRig:
             self.sample_index += n
         fs, gains = self.fs, self.plant.image_gains
         kinds = {k: getattr(out, k) - hold_image_response(context, fs, k, gains)
-                 for k in ("displacement", "velocity", "acceleration")}
+                 for k in RESPONSE_KINDS}
         response = out.response - hold_image_response(context, fs, self.response_kind, gains)
         return RigSamples(first, force, kinds["displacement"], kinds["velocity"],
                           kinds["acceleration"], response, self.response_kind)

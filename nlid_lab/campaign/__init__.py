@@ -2,7 +2,8 @@
 
 Modules behind this API: ``_campaign``, ``_campaign_config``, ``_campaign_fields``,
 ``_campaign_devices`` (the device tables), ``_campaign_bench``, ``_campaign_sweep``,
-``_observer``, ``_plans`` (the kinds campaigns run: `LevelPlan`, `PLANS`). Code inside this package imports its siblings by their private module path.
+``_observer``, ``_plans`` (the kinds campaigns run: `LevelPlan`, `PLANS`). Code inside this
+package imports its siblings by their private module path.
 """
 
 from ._campaign import CampaignAborted, harmonics, run_campaign

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import (RESPONSE_KINDS, PeriodicLayout, StepTable, find_period,
+from analysis.recordings import (RESPONSE_KINDS, Excitation, PeriodicLayout, StepTable, find_period,
                                  flat_ends, whole_periods)
 from analysis.spectral import HELD_UNITS
 
@@ -24,7 +24,7 @@ def _sweep_keys(args: argparse.Namespace) -> dict:
     """Keys ``--excitation``/``--sweep`` add to (or override in) each file."""
     keys = {} if args.excitation is None else {"excitation": args.excitation}
     if args.sweep:
-        if args.excitation not in (None, "swept-sine"):
+        if args.excitation not in (None, Excitation.SWEPT_SINE):
             raise InputError(f"--sweep describes a swept sine; drop it or use --excitation "
                              f"swept-sine (not {args.excitation})")
         keys = {"excitation": "swept-sine", **parse_sweep_option(args.sweep).keys()}
@@ -75,7 +75,7 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     their transient periods unless given (noted in ``args.period_given``)."""
     if args.response_kind:
         keys["response_kind"] = args.response_kind
-    random = keys.get("excitation", "random") == "random" and "freqs" not in keys
+    random = keys.get("excitation", Excitation.RANDOM) == Excitation.RANDOM and "freqs" not in keys
     delay = keys.pop("response_delay", None)
     if random:
         _trim_flat_ends(keys, src, args)

@@ -2,10 +2,10 @@
 units, FE modes from UFF, stepped-sine tables (phasors per step) and controller exports of them.
 
 Modules behind this API: ``_recording_keys`` (a file's keys and their checks), ``_npz``,
-``_csv`` (with ``_csv_text`` and ``_csv_header``), ``_formats`` (the formats by suffix: `FORMATS`), ``_load`` (any file by suffix),
-``_monitors``, ``_sensor_files``, ``_drives``, ``_mat_io``, ``_mat_recording``,
-``_sweep_keys``, ``_units``, ``_fe_modes``, ``_tables``. Code inside this package imports its
-siblings by their private module path.
+``_csv`` (with ``_csv_text`` and ``_csv_header``), ``_formats`` (the formats by suffix:
+`FORMATS`), ``_load`` (any file by suffix), ``_monitors``, ``_sensor_files``, ``_drives``,
+``_mat_io``, ``_mat_recording``, ``_sweep_keys``, ``_units``, ``_fe_modes``, ``_tables``. Code
+inside this package imports its siblings by their private module path.
 """
 
 from ._recording_keys import LAYOUT_KEYS, RecordingFileError

@@ -17,8 +17,8 @@ import numpy as np
 
 from analysis.documents import MatTree
 from analysis.models import read_text
-from analysis.recordings import (KEYS as SENSOR_KEYS, Recording, RecordingKeys, StepTable,
-                                 sensor_map)
+from analysis.recordings import (KEYS as SENSOR_KEYS, Excitation, Recording,
+                                 RecordingKeys, StepTable, sensor_map)
 
 from ._csv_header import Column, is_force, parse_header
 from ._csv_text import MAX_CSV_BYTES, csv_keys, csv_table
@@ -67,7 +67,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
     kind = _response_kind(keys, responses, file_kind, response_kind, path)
     exc = excitation or (scalar_key(keys, "excitation", str, path) if "excitation" in keys
                          else "random")
-    if exc not in ("random", "swept-sine"):
+    if exc not in (Excitation.RANDOM, Excitation.SWEPT_SINE):
         raise RecordingFileError(f"{path}: CSV holds random or swept-sine recordings, not {exc}")
     keys["excitation"] = np.str_(exc)
     keys.pop("force_dofs", None)
@@ -77,7 +77,7 @@ def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
         response = data[:, [c.index for c in responses]] * [c.factor for c in responses]
         monitors, units = monitor_fields(keys, force.shape[:-1], path)
         sweep = None
-        if exc == "swept-sine":
+        if exc == Excitation.SWEPT_SINE:
             sweep, force, response, amplitude = sweep_fields(keys, force, response, fs)
             file_level = amplitude if file_level is None else file_level
             if monitors and len(force) != data.shape[0]:      # law estimated: trimmed
@@ -238,11 +238,11 @@ def write_csv(path: str | os.PathLike, rec: Recording | StepTable) -> None:
     if isinstance(rec, StepTable):
         Path(path).write_text(csv_text(rec))
         return
-    if rec.excitation == "stepped-sine":
+    if rec.excitation == Excitation.STEPPED_SINE:
         raise RecordingFileError("CSV holds random and swept-sine recordings; write stepped "
                                  "sine as NPZ")
     drop = ("force_dofs", "force", "response", "monitor") + (
-        ("excitation",) if rec.excitation == "random" else ())
+        ("excitation",) if rec.excitation == Excitation.RANDOM else ())
     keys = {k: v for k, v in recording_keys(rec).items() if k not in drop}
     keys.update({k: np.str_(",".join(v.tolist())) for k, v in keys.items()
                  if k in SENSOR_KEYS + MONITOR_KEYS})

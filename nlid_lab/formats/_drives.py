@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from analysis.recordings import KEYS as SENSOR_KEYS
-from analysis.recordings import MAX_FS, MAX_SAMPLE, MIN_FS, PeriodicLayout, Sweep, names
+from analysis.recordings import (MAX_FS, MAX_SAMPLE, MIN_FS, Excitation, PeriodicLayout, Sweep,
+                                 names)
 
 from ._recording_keys import (RecordingFileError, array_key, extra_keys, layout_of, level_of,
                               load_npz_file, scalar_key)
@@ -66,7 +67,7 @@ def read_drive(path: str | os.PathLike) -> Drive:
         # sensor-map keys: where the forces act and what the channels measure
         sensors = {k: names(data[k], k) for k in SENSOR_KEYS if k in data}
         swept = freqs is None and "excitation" in data \
-            and scalar_key(data, "excitation", str, path) == "swept-sine"
+            and scalar_key(data, "excitation", str, path) == Excitation.SWEPT_SINE
         excitation = "stepped-sine" if freqs is not None else "swept-sine" if swept \
             else "random"
         level, level_from = level_of(data, path, excitation)

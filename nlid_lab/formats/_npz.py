@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.recordings import Recording, RecordingKeys, StepTable
+from analysis.recordings import Excitation, Recording, RecordingKeys, StepTable
 
 from ._monitors import monitor_fields, monitor_keys, trimmed
 from ._recording_keys import (LAYOUT_KEYS, RecordingFileError, array_key, extra_keys,
@@ -56,7 +56,7 @@ def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
         kind = scalar_key(data, "response_kind", str, path) if "response_kind" in data else None
         monitors, units = monitor_fields(data, force.shape[:-1], path)
         sweep = None
-        if excitation == "swept-sine":
+        if excitation == Excitation.SWEPT_SINE:
             sweep, force, response, amplitude = sweep_fields(data, force, response, fs)
             level = amplitude if level is None else level
             if monitors and len(force) != len(next(iter(monitors.values()))):  # law estimated
@@ -70,7 +70,8 @@ def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
             layout=layout_of(data, path, force.shape[0] if force.ndim else 0), sweep=sweep,
             extra=extra_keys(data, excitation, level_from), meta={"source": str(path)},
             monitors=monitors, monitor_units=units,
-            **(control_fields(data, path)._asdict() if excitation == "stepped-sine" else {}))
+            **(control_fields(data, path)._asdict() if excitation == Excitation.STEPPED_SINE
+               else {}))
     except (TypeError, ValueError) as exc:  # RecordingError included: name the file
         raise RecordingFileError(f"{path}: {exc}") from None
 

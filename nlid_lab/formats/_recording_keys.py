@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, PeriodicLayout,
-                                 RecordingKeys, SensorMap)
+from analysis.recordings import (FORCE_HOLDS, KEYS as SENSOR_KEYS, SWEEP_KEYS, Excitation,
+                                 PeriodicLayout, RecordingKeys, SensorMap)
 
 from ._monitors import MONITOR_KEYS
 from ._tables import CONTROL_KEYS
@@ -85,7 +85,7 @@ LAYOUT_KEYS = ("period", "transient_periods", "periods", "realizations")
 
 def level_key(excitation: str) -> str:
     """The key a recording's nominal level is written under."""
-    return "force_rms" if excitation == "random" else "force_amplitude"
+    return "force_rms" if excitation == Excitation.RANDOM else "force_amplitude"
 
 
 
@@ -137,9 +137,9 @@ def extra_keys(data: RecordingKeys, excitation: str, level_from: str | None) -> 
     ``level``) stays here too, so that the file's own key is written back."""
     known = (set(CORE_KEYS) | set(LAYOUT_KEYS) | set(SENSOR_KEYS) | set(MONITOR_KEYS)
              | {"force_hold"})
-    if excitation == "swept-sine":
+    if excitation == Excitation.SWEPT_SINE:
         known |= set(SWEEP_KEYS)
-    if excitation == "stepped-sine":
+    if excitation == Excitation.STEPPED_SINE:
         known |= set(CONTROL_KEYS)
     if level_from == level_key(excitation):
         known.add(level_from)

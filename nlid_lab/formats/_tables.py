@@ -25,8 +25,7 @@ import numpy as np
 from analysis.documents import MatTree
 from analysis.errors import InputError
 from analysis.recordings import (KIND_ORDER, KEYS as SENSOR_KEYS, STEP_TABLE_KEYS, Control,
-                                 RecordingKeys,
-                                 Recording, SensorMap, StepTable)
+                                 Excitation, Recording, RecordingKeys, SensorMap, StepTable)
 
 from ._mat_io import map_items, map_value
 from ._units import lookup
@@ -68,7 +67,7 @@ def table_from_keys(data: RecordingKeys, path: str | os.PathLike) -> StepTable:
     try:
         excitation = str(_scalar(data, "excitation", path)) if "excitation" in data \
             else "stepped-sine"
-        if excitation != "stepped-sine":
+        if excitation != Excitation.STEPPED_SINE:
             raise TableFileError(f"{path}: a table is a stepped sine, not {excitation}")
         response = np.asarray(data["response_phasor"])
         n_out = response.shape[-1] if response.ndim == 2 else 1
@@ -116,7 +115,7 @@ def control_fields(data: RecordingKeys, path: Path) -> ControlFields:
 def control_keys(rec: Recording) -> dict[str, np.ndarray]:
     """The keys of what a stepped-sine time-block recording's controller held (written for
     every stepped-sine recording, as a table's are)."""
-    if rec.excitation != "stepped-sine":
+    if rec.excitation != Excitation.STEPPED_SINE:
         return {}
     out = {"control": np.str_(rec.control)}
     if rec.control_dof is not None:
