@@ -10,6 +10,7 @@ plays its `drivers.outputs` records; the run stores its levels as recordings of 
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 from analysis.documents import JsonObject, TomlTable
@@ -19,7 +20,7 @@ from drivers import Channel
 from ._campaign_fields import CampaignError
 
 
-class LevelPlan:
+class LevelPlan(ABC):
     """What a campaign of one excitation kind does per level (a dataclass subclass per kind,
     its fields in the order of its table's keys: they are the run's stored settings).
 
@@ -44,6 +45,7 @@ class LevelPlan:
     measure: ClassVar[str] = "rms"
 
     @classmethod
+    @abstractmethod
     def from_table(cls, data: TomlTable, fs: float) -> "LevelPlan":
         """The plan of a campaign file (``data``: the whole file, ``fs``: the DAQ's rate).
 
@@ -52,7 +54,6 @@ class LevelPlan:
         CampaignError
             A key of the table is missing or out of range (the message names it).
         """
-        raise NotImplementedError
 
     @property
     def title(self) -> str:
@@ -65,9 +66,9 @@ class LevelPlan:
         return "block"
 
     @property
+    @abstractmethod
     def per_level(self) -> int:
         """Segments a complete level stores."""
-        raise NotImplementedError
 
     @property
     def skip(self) -> int:
@@ -79,10 +80,10 @@ class LevelPlan:
         """Samples of one stored block (what the live view shows as one)."""
         return self.block_size
 
+    @abstractmethod
     def blocks_per_level(self, fs: float) -> tuple[int, int]:
         """DAQ blocks of ``block_size`` one level takes: at least (level control right at
         once) and at most (every control and settling allowance used)."""
-        raise NotImplementedError
 
     def stored_bytes(self, n_channels: int, fs: float) -> int:
         """Bytes one level leaves in the run file (float64 samples of every channel)."""
@@ -107,9 +108,9 @@ class LevelPlan:
         """What a level holds and its unit, for the level summary."""
         return ("force", "N")
 
+    @abstractmethod
     def run(self, runner: Any) -> None:
         """Measure every level not stored yet (``runner``: the campaign's runner)."""
-        raise NotImplementedError
 
 
 #: The kinds campaigns run, by ``kind``.
