@@ -38,6 +38,10 @@ class Player(Protocol):
     def idle(self, n: int) -> None:
         """``n`` samples pass with the output silent (its ramp at zero)."""
 
+    def resume(self, last: "Player | None") -> None:
+        """Take over from ``last``, the last player of the same record type (None: the
+        first), as the rig switches to this one (under its lock: ``last`` stands still)."""
+
 
 def _band(band: tuple[float, float], fs: float | None) -> None:
     lo, hi = band
@@ -56,7 +60,7 @@ class RandomOutput:
         """Raise `DriverConfigError` if the band is unusable (at ``fs``, when given)."""
         _band(self.band, fs)
 
-    def player(self, fs: float, seed: int | None, last: Player | None) -> Player:
+    def player(self, fs: float, seed: int | None) -> Player:
         """A fresh noise stream, seeded by the record's seed, else the rig's ``seed``."""
         return _RandomPlayer(fs, self.band, self.seed if self.seed is not None else seed or 0)
 
@@ -88,6 +92,9 @@ class _RandomPlayer:
     def idle(self, n: int) -> None:
         """The noise waits: it resumes where it stopped."""
 
+    def resume(self, last: Player | None) -> None:
+        """Start afresh."""
+
 
 @dataclass(frozen=True)
 class MultisineOutput:
@@ -106,7 +113,7 @@ class MultisineOutput:
             raise DriverConfigError(f"multisine period {self.period} must be an integer "
                                     "number of samples in 16..2^24")
 
-    def player(self, fs: float, seed: int | None, last: Player | None) -> Player:
+    def player(self, fs: float, seed: int | None) -> Player:
         """The period, played from its start."""
         try:
             period = multisine(self.period, fs, self.band, 1.0, self.seed)
@@ -129,6 +136,9 @@ class _PeriodPlayer:
         """The period runs on the sample clock, heard or not."""
         self.pos = (self.pos + n) % self.period.size
 
+    def resume(self, last: Player | None) -> None:
+        """Start afresh."""
+
 
 @dataclass(frozen=True)
 class SineOutput:
@@ -141,9 +151,9 @@ class SineOutput:
         if not self.freq > 0 or (fs is not None and self.freq >= fs / 2):
             raise DriverConfigError(f"sine frequency {self.freq} Hz must lie in (0, fs/2)")
 
-    def player(self, fs: float, seed: int | None, last: Player | None) -> Player:
-        """The sine, phase-continuous with the last sine played (``last``)."""
-        return _SinePlayer(fs, self.freq, last.phase if last is not None else 0.0)
+    def player(self, fs: float, seed: int | None) -> Player:
+        """The sine, phase-continuous with the last sine played (`_SinePlayer.resume`)."""
+        return _SinePlayer(fs, self.freq)
 
 
 @dataclass
@@ -160,6 +170,10 @@ class _SinePlayer:
     def idle(self, n: int) -> None:
         """The phase runs on, heard or not."""
         self.phase = (self.phase + 2 * np.pi * self.freq * n / self.fs) % (2 * np.pi)
+
+    def resume(self, last: "_SinePlayer | None") -> None:
+        """Start where the last sine's phase stands."""
+        self.phase = last.phase if last is not None else 0.0
 
 
 @dataclass(frozen=True)
@@ -183,7 +197,7 @@ class SweepOutput:
             raise DriverConfigError(f"sweep {self} must go between two different "
                                     "frequencies in (0, fs/2), linear or log, at a rate > 0")
 
-    def player(self, fs: float, seed: int | None, last: Player | None) -> Player:
+    def player(self, fs: float, seed: int | None) -> Player:
         """The sweep from its start."""
         return _SweepPlayer(fs, SweepLaw(self.start_hz, self.stop_hz, self.law, self.rate))
 
@@ -201,6 +215,9 @@ class _SweepPlayer:
 
     def idle(self, n: int) -> None:
         """The sweep starts when the output turns on."""
+
+    def resume(self, last: Player | None) -> None:
+        """Start afresh."""
 
 
 Output = RandomOutput | MultisineOutput | SineOutput | SweepOutput

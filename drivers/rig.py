@@ -137,8 +137,9 @@ class SimRig:
             An output this sample rate cannot produce.
         """
         check_output(output, self.fs)
-        player = output.player(self.fs, self.seed, self._last.get(type(output)))
-        with self.lock:
+        player = output.player(self.fs, self.seed)     # its samples made outside the lock
+        with self.lock:      # the last player stands still while the new one takes it over
+            player.resume(self._last.get(type(output)))
             self._output, self._player = output, player
             self._last[type(output)] = player
 

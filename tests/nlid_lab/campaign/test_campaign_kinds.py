@@ -47,7 +47,7 @@ class BurstOutput:
         if not 0 < self.fraction <= 1:
             raise DriverConfigError(f"burst fraction {self.fraction} must be in (0, 1]")
 
-    def player(self, fs: float, seed: int | None, last: Any) -> "_BurstPlayer":
+    def player(self, fs: float, seed: int | None) -> "_BurstPlayer":
         return _BurstPlayer(self, fs)
 
 
@@ -69,6 +69,9 @@ class _BurstPlayer:
 
     def idle(self, n: int) -> None:
         self.pos += n
+
+    def resume(self, last: Any) -> None:
+        """Bursts start afresh at each configure."""
 
 
 # --- the campaign's plan: its table, record and level loop ---------------------------------
