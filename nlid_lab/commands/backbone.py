@@ -23,14 +23,14 @@ if TYPE_CHECKING:
 
 def levels(paths: list[str]) -> list[StepTable]:
     """The stepped-sine levels of the runs as tables (time blocks sine-fitted), run order."""
-    from analysis.recordings import StepTable, one_kind
+    from analysis.recordings import Excitation, StepTable, one_kind
     from analysis.spectral import recording_table
 
     from ..formats import load_recordings
     out = []
     for path in paths:
         for rec in load_recordings(path):
-            if rec.excitation != "stepped-sine":
+            if rec.excitation != Excitation.STEPPED_SINE:
                 raise InputError(f"{path}: a backbone needs stepped-sine levels (tables or "
                                  f"time blocks), not {rec.excitation}")
             rec = one_kind(rec)

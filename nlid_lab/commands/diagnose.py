@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     """Diagnose the runs against the model; write JSON, corrected model and report."""
     from analysis.diagnose import RESULT_NAME, DiagnoseInputError, diagnose
     from analysis.models import Model
-    from analysis.recordings import at_points, model_at_sensors, one_kind
+    from analysis.recordings import Excitation, at_points, model_at_sensors, one_kind
 
     from nlid_lab.progress import progress
     from nlid_lab.formats import load_recordings
@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     model = Model.load(args.model)
     checks = check_runs(args.runs)
     recs = [one_kind(r) for path in args.runs for r in load_recordings(path)]
-    if any(r.excitation == "swept-sine" for r in recs):
+    if any(r.excitation == Excitation.SWEPT_SINE for r in recs):
         raise DiagnoseInputError("diagnose takes random, multisine or stepped-sine runs, "
                                  "not swept sine; test a sweep with `nlid-lab detect` and "
                                  "fit it with `nlid-lab analyze hbm`")

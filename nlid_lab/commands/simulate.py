@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import (ARTIFACTS, RESPONSE_KINDS, DaqArtifacts, Recording, SensorMap,
-                                 apply_daq_artifacts, shaker_force)
+from analysis.recordings import (ARTIFACTS, RESPONSE_KINDS, DaqArtifacts, Excitation, Recording,
+                                 SensorMap, apply_daq_artifacts, shaker_force)
 
 from ..formats import Drive, read_drive, read_sensors, write_npz
 from .. import sim_budget
@@ -102,7 +102,7 @@ def _at_sensors(model: Model, smap: SensorMap, outs: list, force: np.ndarray, fs
     idx = np.array([model.point_index(p) for p in smap.response_points])
     kinds = np.array(smap.response_kinds)
     response = np.empty((len(force), idx.size))
-    for kind in ("displacement", "velocity", "acceleration"):
+    for kind in RESPONSE_KINDS:
         cols = np.flatnonzero(kinds == kind)
         if cols.size:
             samples = np.concatenate([getattr(o, kind)[:, idx[cols]] for o in outs])
@@ -167,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
                                            "oversample": rec.meta["oversample"]})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
-              "n_steps": int(rec.force.shape[0]) if rec.excitation != "random" else None,
+              "n_steps": int(rec.force.shape[0]) if rec.excitation != Excitation.RANDOM else None,
               "response_kind": rec.response_kind,
               "oversample": rec.meta["oversample"],
               "oversample_raised": rec.meta["oversample_raised"],

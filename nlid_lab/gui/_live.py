@@ -19,7 +19,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from analysis.recordings import MIXED, SensorMap
+from analysis.recordings import MIXED, Excitation, SensorMap
 from analysis.spectral import (FRF_UNITS, LevelFRF, Spectra, best_linear_approximation,
                                frf_from_bla, frf_from_spectra, sine_fit, spectral_matrix)
 
@@ -264,7 +264,7 @@ class LiveView(QtWidgets.QWidget):
     @property
     def stepped(self) -> bool:
         """Whether the campaign is a stepped sine."""
-        return self.info is not None and self.info.excitation == "stepped-sine"
+        return self.info is not None and self.info.excitation == Excitation.STEPPED_SINE
 
     def orders(self, n_rows: int) -> list[int]:
         """Harmonic order of each row of ``harmonics`` (campaign default: 0, 1, ... n-1)."""

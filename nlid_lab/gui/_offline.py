@@ -12,7 +12,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from analysis.spectral import FRF_UNITS, LevelFRF, convert_frf, sine_fit
-from analysis.recordings import Recording, StepTable, channel_labels
+from analysis.recordings import Excitation, Recording, StepTable, channel_labels
 
 from .. import methods
 from ..reports import RunData, estimate_rows
@@ -153,7 +153,7 @@ class OfflineView(QtWidgets.QWidget):
             frf = self.frfs[r][i]
             if q >= frf.H.shape[1]:
                 continue
-            stepped = frf.excitation == "stepped-sine"
+            stepped = frf.excitation == Excitation.STEPPED_SINE
             sym = dict(symbol="o", symbolSize=5, symbolBrush=colour, symbolPen=colour)
             extra = sym if stepped else {}
             name = f"{self.runs[r].name}: {frf.label}" if multi_run else frf.label
@@ -236,9 +236,9 @@ def _excitation(frf: LevelFRF) -> str:
 
 
 def _averages(frf: LevelFRF) -> str:
-    if frf.excitation == "stepped-sine":
+    if frf.excitation == Excitation.STEPPED_SINE:
         return f"{frf.freqs.size} steps"
-    if frf.excitation == "swept-sine":
+    if frf.excitation == Excitation.SWEPT_SINE:
         return f"{frf.freqs.size} tracked points"
     return f"{frf.n_averages} {'realizations' if frf.bla is not None else 'averages'}"
 

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from analysis.errors import InputError
-from analysis.recordings import StepTable
+from analysis.recordings import Excitation, StepTable
 
 from ..outputs import atomic_path
 from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
@@ -62,8 +62,8 @@ class HbmOptions:
 
 def _stepped(recs: Sequence[Recording], force_hold: str | None = None) -> list[Recording]:
     """The stepped-sine ``recs``; ``force_hold`` overrides what they declare."""
-    bad = [rec.excitation for rec in recs if rec.excitation not in ("stepped-sine",
-                                                                     "swept-sine")]
+    bad = [rec.excitation for rec in recs
+           if rec.excitation not in (Excitation.STEPPED_SINE, Excitation.SWEPT_SINE)]
     if bad:
         raise InputError(f"analyze hbm needs stepped- or swept-sine runs, got {bad[0]} data; "
                          "use analyze reverse-path for random excitation")
@@ -180,7 +180,7 @@ def estimate(recs: Sequence[Recording], model: Model, options: HbmOptions | None
     recs = _stepped(recs, options.force_hold)
     levels, rate_warnings = [], []
     for rec in recs:
-        if rec.excitation == "swept-sine":
+        if rec.excitation == Excitation.SWEPT_SINE:
             level, said = _sweep_points(rec, model, harmonics[harmonics > 0])
             levels.append(level)
             rate_warnings += said
@@ -295,7 +295,8 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
                       "element when the run holds its model (paper fig 4.7).")
         sec.figures.append(("hysteresis_loops", report_figures.hysteresis_loops(loops)))
         out.append(sec)
-    stepped = [(f, r) for f, r in zip(frfs, run.recordings) if f.excitation == "stepped-sine"]
+    stepped = [(f, r) for f, r in zip(frfs, run.recordings)
+               if f.excitation == Excitation.STEPPED_SINE]
     if est and ref is not None and stepped:
         fitted = [_hbm_frf(ref.with_elements(est), r) for _, r in stepped]
         sec = Section("Measured vs estimated model", "Stepped-sine FRFs at every level "

@@ -251,10 +251,10 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     from ..reports import PARAM_UNITS, Section, candidate_model, reference_model
 
     from analysis.errors import InputError
-    from analysis.recordings import model_at_sensors, one_kind
+    from analysis.recordings import Excitation, model_at_sensors, one_kind
 
     model = candidate_model(run, candidate)
-    recs = [one_kind(r) for r in run.recordings if r.excitation == "random"]
+    recs = [one_kind(r) for r in run.recordings if r.excitation == Excitation.RANDOM]
     if model is None or not recs or not any(not el.known for el in model.elements):
         return []
     ref = reference_model(run)

@@ -18,6 +18,7 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from analysis.recordings import Excitation
 from analysis.spectral import HELD_UNITS
 
 if TYPE_CHECKING:
@@ -51,7 +52,7 @@ def level_unit(frf: "LevelFRF") -> str:
     response-controlled level: its held response's unit)."""
     if frf.level_kind != "force":
         return HELD_UNITS[frf.level_kind]
-    return "N rms" if frf.excitation == "random" else "N"
+    return "N rms" if frf.excitation == Excitation.RANDOM else "N"
 
 
 def _level_title(frf: "LevelFRF") -> str:
@@ -132,7 +133,7 @@ def frf_levels(frfs: Sequence["LevelFRF"], out: int, inp: int = 0,
     fig, mag, ph = _frf_axes(f"FRF per level: {_pair_name(ref, out, inp, names)}")
     for frf, colour in zip(frfs, _colours_of(frfs)):
         h = frf.H[:, out, inp]
-        style = "o-" if frf.excitation == "stepped-sine" else "-"
+        style = "o-" if frf.excitation == Excitation.STEPPED_SINE else "-"
         mag.semilogy(frf.freqs, np.abs(h), style, color=colour, ms=3, lw=1.2, label=frf.label)
         ph.plot(*phase_lines(frf.freqs, h), style, color=colour, ms=3, lw=1.2)
     mag.set_ylabel(f"|H| [{ref.units}]")

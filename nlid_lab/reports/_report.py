@@ -19,7 +19,7 @@ from analysis.detection import bla_summary, level_change
 from analysis.documents import JsonObject
 from analysis.errors import EstimationError, InputError
 from analysis.modal import fit_linear
-from analysis.recordings import channel_labels, one_kind, record_level
+from analysis.recordings import Excitation, channel_labels, one_kind, record_level
 from analysis.spectral import LevelFRF, level_label
 
 from ..formats import describe
@@ -110,7 +110,7 @@ def diagnosis_section(run: RunData) -> Section | None:
             fit.metric, float(fit.before), float(fit.after),
             f"FRF error before and after the correction (verdict: {d.verdict})",
             diagnosis_levels(d, "N rms" if run.recordings and
-                             run.recordings[0].excitation == "random" else "N"))))
+                             run.recordings[0].excitation == Excitation.RANDOM else "N"))))
     tr = fit.time_residual
     if tr is not None:
         sec.figures.append(("diagnosis_time", figures.diagnosis_fit(
@@ -136,7 +136,7 @@ def level_change_section(run: RunData) -> Section | None:
     """Two or more random (Welch) levels: where the FRF changes with level beyond its noise
     (`analysis.detection.level_change`)."""
     random = [r for r in run.recordings
-              if r.excitation == "random" and r.layout is None]
+              if r.excitation == Excitation.RANDOM and r.layout is None]
     if len(random) < 2:
         return None
     try:
@@ -192,7 +192,7 @@ def modal_fit_section(run: RunData) -> Section | None:
     """Random or multisine levels: the modal fit `nlid-lab fit-linear` makes of the lowest
     one (stabilisation diagram and the modes), or why it cannot be made."""
     from analysis.diagnose import level_name   # the diagnosis room loads on use
-    random = [r for r in run.recordings if r.excitation == "random"]
+    random = [r for r in run.recordings if r.excitation == Excitation.RANDOM]
     if not random:
         return None
     rec = one_kind(min(random, key=record_level))      # mixed kinds: as fit-linear reads them
@@ -236,7 +236,7 @@ def sweep_section(run: RunData) -> Section | None:
     """Swept-sine levels: each level's sweep (direction, law, whether estimated on import)."""
 
     swept = [(i, r) for i, r in enumerate(run.recordings)
-             if r.excitation == "swept-sine" and r.sweep is not None]
+             if r.excitation == Excitation.SWEPT_SINE and r.sweep is not None]
     if not swept:
         return None
     said = "; ".join(f"{level_label(r, i)}: {describe(r.sweep)}" for i, r in swept)

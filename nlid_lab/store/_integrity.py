@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from analysis.recordings import Excitation
+
 
 class LeftOutReason(StrEnum):
     """Why a stored block is not used."""
@@ -101,8 +103,8 @@ def planned_blocks_json(excitation_settings: dict[str, Any]) -> int | None:
     if not isinstance(levels, list):
         return None
     kind = excitation_settings.get("kind")
-    per_level = excitation_settings.get("averages") if kind == "random" else \
-        1 if kind == "swept-sine" else len(excitation_settings.get("freqs") or []) or None
+    per_level = excitation_settings.get("averages") if kind == Excitation.RANDOM else \
+        1 if kind == Excitation.SWEPT_SINE else len(excitation_settings.get("freqs") or []) or None
     return len(levels) * per_level if isinstance(per_level, int) else None
 
 

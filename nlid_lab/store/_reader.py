@@ -10,8 +10,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from analysis.recordings import (Control, PeriodicLayout, Recording, SensorMap, StepTable,
-                                 Sweep)
+from analysis.recordings import (Control, Excitation, PeriodicLayout, Recording, SensorMap,
+                                 StepTable, Sweep)
 
 from ._common import (FORMAT, StoreError, _append_log, _crc,
                       _json_at, _json_default, _open, _open_swmr_write, _read_extra,
@@ -179,7 +179,7 @@ class Run:
             """Each monitor's samples, the blocks joined by ``stack``."""
             return {} if not units else {name: stack([p[2][:, j] for p in parts])
                                          for j, name in enumerate(units)}
-        if self.meta["excitation"] == "swept-sine":
+        if self.meta["excitation"] == Excitation.SWEPT_SINE:
             keys = next((e for e in extra if e), None)
             if keys is None:
                 raise StoreError(f"{self.path} level {index}: a swept-sine level without its "
@@ -189,7 +189,7 @@ class Run:
                              response=np.concatenate([p[1] for p in parts]),
                              sweep=Sweep.from_keys(keys), monitors=monitors(np.concatenate),
                              **common)
-        if self.meta["excitation"] == "random":
+        if self.meta["excitation"] == Excitation.RANDOM:
             meta["block_starts"] = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
             meta["seq_gaps"] = int(np.count_nonzero(np.diff(seg["seq"]) != 1))
             layout = self._layout(parts)
@@ -470,7 +470,7 @@ def save_recording(path: str | os.PathLike,
     for i, other in enumerate(recs[1:], 1):
         _check_same_run(first, other, i)
     excitation = meta.pop("excitation_settings", None) or {"kind": first.excitation}
-    if first.excitation == "stepped-sine":      # what the controller held (read back above)
+    if first.excitation == Excitation.STEPPED_SINE:   # what the controller held (read back)
         excitation.setdefault("control", str(first.control))
         excitation.setdefault("control_dof", first.control_dof)
     with RunWriter(path, fs=first.fs, excitation=excitation, force_dofs=first.force_dofs,
@@ -483,9 +483,9 @@ def save_recording(path: str | os.PathLike,
             lv = run.level(index, np.nan if r.level is None else r.level)
             mon = (np.stack(list(r.monitors.values()), axis=-1) if r.monitors
                    else np.zeros(r.force.shape[:-1] + (0,)))
-            if r.excitation == "swept-sine":
+            if r.excitation == Excitation.SWEPT_SINE:
                 lv.append_block(r.force, r.response, extra=r.sweep.keys(), monitor=mon)
-            elif r.excitation == "random":
+            elif r.excitation == Excitation.RANDOM:
                 n = r.layout.realization_samples if r.layout else len(r.force)
                 for i in range(0, len(r.force), n):
                     lv.append_block(r.force[i:i + n], r.response[i:i + n],
