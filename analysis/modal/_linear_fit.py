@@ -31,7 +31,7 @@ from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
 from ._modal import welch_smoothing
 from ..models import Model
-from ..recordings import KIND_ORDER, Recording, StepTable
+from ..recordings import KIND_ORDER, Excitation, Recording, StepTable
 
 #: A random level's lines count as excited where the force autospectrum is within this many
 #: dB of its peak (a band-limited drive leaves the lines beyond its band to noise).
@@ -101,7 +101,7 @@ def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
     periodic level's lines picked within ``band`` (Hz) when given."""
     if isinstance(rec, StepTable):
         return table_receptance(rec)
-    if rec.excitation != "random":
+    if rec.excitation != Excitation.RANDOM:
         raise InputError(f"fit-linear takes a random or multisine level, got "
                          f"{rec.excitation}: the modal fit needs uniformly spaced lines")
     if rec.n_in != 1:

@@ -31,7 +31,8 @@ from scipy.stats import t as student_t
 from .. import models as bas    # the reverse-path basis functions of a kind
 from ..models import Element, Model, restoring_force
 from ..errors import InputError
-from ..recordings import KIND_ORDER, Recording, signal_bandwidth, to_kinematics
+from ..recordings import (KIND_ORDER, Excitation, Recording, ResponseKind, signal_bandwidth,
+                          to_kinematics)
 from ..spectral import Spectra, conditioned_inputs, h1, multiple_coherence, spectral_matrix
 from ._low_band import LowBand
 
@@ -148,7 +149,7 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
         raise InputError("reverse path takes a Recording, a list of them, or a "
                          "(force, response) tuple")
     for r in recs:
-        if r.excitation != "random":
+        if r.excitation != Excitation.RANDOM:
             raise InputError("reverse path needs random excitation; for stepped-sine runs use "
                              "`nlid-lab analyze hbm`")
         _dead_channels(r)
@@ -269,17 +270,18 @@ def _channels(response: np.ndarray, force_in: np.ndarray, force_dofs: np.ndarray
     # Frequency-domain integration/differentiation leaves end effects of a few periods of
     # the lowest analysed frequency: those samples are dropped from every channel.
     edge = int(min(n // 16, 4 * fs / max(lo, 1.0)))
-    if proc.kind == "displacement" and not needs_v:
+    if proc.kind == ResponseKind.DISPLACEMENT and not needs_v:
         x, v, edge = response, None, 0
     else:
         # Only the velocity is low-passed: cutting the displacement would drop true content
         # and bias the basis; its white noise is removed exactly by the debiasing instead.
-        hp = max(lo / 2, 2 * fs / n, proc.highpass) if proc.kind != "displacement" else 0.0
+        hp = 0.0 if proc.kind == ResponseKind.DISPLACEMENT else \
+            max(lo / 2, 2 * fs / n, proc.highpass)
         x, v = to_kinematics(response, fs, proc.kind, highpass=hp)
         if proc.lowpass is not None and needs_v:
             v = to_kinematics(response, fs, proc.kind, highpass=hp, lowpass=proc.lowpass)[1]
     force = force_in if proc.hold == "none" else _linear_hold(force_in, fs)
-    if low is not None and proc.kind != "displacement":
+    if low is not None and proc.kind != ResponseKind.DISPLACEMENT:
         x, v = low.apply(x, v, force, force_dofs, fs)
     force, cols, labels = _inputs(x, v, force, force_dofs, proc, unknown, known, warnings,
                                   noise_var, buried, edge)

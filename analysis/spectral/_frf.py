@@ -14,7 +14,8 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, measured_level
+from ..recordings import (KIND_ORDER, Excitation, Recording, StepTable, excitation_band,
+                          measured_level)
 from ._sine_fit import hold_gain, sine_fit
 from ._sweep import recording_sweep_frf
 
@@ -108,7 +109,7 @@ def level_name(rec: Recording | StepTable) -> str:
     exports such as MAT files carry no level), three figures."""
     if isinstance(rec, StepTable):
         return f"{rec.level:.3g} {HELD_UNITS.get(rec.control_kind, 'N')}"
-    unit = "N rms" if rec.excitation == "random" else "N"
+    unit = "N rms" if rec.excitation == Excitation.RANDOM else "N"
     value = measured_level(rec) if rec.level is None else rec.level
     return f"{value:.3g} {unit}"
 
@@ -148,10 +149,10 @@ def level_frf(rec: Recording | StepTable, index: int = 0,
     if isinstance(rec, StepTable):
         return LevelFRF(freqs=rec.freqs.copy(), H=rec.frf(), n_averages=1,
                         level_kind=rec.control_kind, **common)
-    if rec.excitation == "stepped-sine":
+    if rec.excitation == Excitation.STEPPED_SINE:
         freqs, H = sine_frf(rec)
         return LevelFRF(freqs=freqs, H=H, n_averages=1, **common)
-    if rec.excitation == "swept-sine":
+    if rec.excitation == Excitation.SWEPT_SINE:
         r = recording_sweep_frf(rec)
         H = convert_frf(r.frf, r.freqs, "displacement", rec.response_kind)
         return LevelFRF(freqs=r.freqs, H=H[:, :, None], n_averages=1, sweep=r, **common)

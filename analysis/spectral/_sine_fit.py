@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import RecordingError
-from ..recordings import KIND_ORDER, Recording, StepTable
+from ..recordings import KIND_ORDER, Excitation, Recording, ResponseKind, StepTable
 
 
 def sine_fit(block: np.ndarray, fs: float, freq: float,
@@ -208,7 +208,7 @@ def stepped_sine_frf(recording: Recording | StepTable, harmonics: Sequence[int] 
     """
     if isinstance(recording, StepTable):
         return table_harmonics(recording, harmonics, input_index)
-    if recording.excitation != "stepped-sine":
+    if recording.excitation != Excitation.STEPPED_SINE:
         raise RecordingError("harmonic balance needs stepped-sine recordings, got "
                              f"{recording.excitation}; record a stepped-sine level")
     if not 0 <= input_index < recording.n_in:
@@ -233,9 +233,9 @@ def stepped_sine_frf(recording: Recording | StepTable, harmonics: Sequence[int] 
         ref = np.exp(-1j * h * np.angle(fc))          # force fundamental phase -> 0
         xc = xc * ref[:, None]
         w = 2 * np.pi * f * h
-        if recording.response_kind == "velocity":
+        if recording.response_kind == ResponseKind.VELOCITY:
             xc = xc / (1j * w)[:, None]
-        elif recording.response_kind == "acceleration":
+        elif recording.response_kind == ResponseKind.ACCELERATION:
             xc = xc / (-(w ** 2))[:, None]
         X[s] = xc
         force[s] = abs(fc) * gain[s]
@@ -296,7 +296,7 @@ def recording_table(rec: Recording) -> StepTable:
     -------
     StepTable
     """
-    if rec.excitation != "stepped-sine":
+    if rec.excitation != Excitation.STEPPED_SINE:
         raise RecordingError(f"a stepped-sine table comes from stepped-sine data, not "
                              f"{rec.excitation}")
     gain = hold_gain(rec.freqs, rec.fs, rec.force_hold)

@@ -26,7 +26,8 @@ from scipy.stats import f as f_dist
 
 from ..errors import RecordingError
 from ._sine_fit import SteppedSineFRF, hold_gain
-from ..recordings import SWEEP_LAWS, Sweep, SweepLaw, active_span  # noqa: F401  (re-exported)
+from ..recordings import (SWEEP_LAWS, Excitation, Sweep, SweepLaw,  # noqa: F401  (re-exported)
+                          active_span)
 
 NOISE_ORDERS = (1.5, 2.5)
 #: orders are fitted up to this fraction of fs (near Nyquist a sine fit is ill-conditioned
@@ -341,7 +342,7 @@ def recording_sweep_frf(rec, *, harmonics: Sequence[int] = (1, 2, 3, 5), **kwarg
     **kwargs
         Passed to `sweep_frf` (``cycles``, ``points``).
     """
-    if rec.excitation != "swept-sine" or rec.sweep is None:
+    if rec.excitation != Excitation.SWEPT_SINE or rec.sweep is None:
         raise RecordingError(f"a sweep FRF needs swept-sine data, got {rec.excitation}")
     a, b = active_span(rec.force[:, 0])
     return sweep_frf(rec.force[a:b, 0], rec.response[a:b], rec.fs, rec.sweep.law,
