@@ -285,7 +285,6 @@ class Campaign:
     """A validated campaign."""
 
     name: str
-    kind: str                            # the plan's `LevelPlan.kind` (built-in: `Excitation`)
     shaker_url: str
     daq_url: str
     fs: float
@@ -305,6 +304,11 @@ class Campaign:
     source: Path | None = None
     raw: TomlTable = field(default_factory=dict)
     sensors: SensorMap | None = None   # [sensors]: channels at model points (sim:// only)
+
+    @property
+    def kind(self) -> str:
+        """The campaign file's ``kind``: its plan's (an `Excitation` for the built-in kinds)."""
+        return self.plan.kind
 
     @property
     def simulated(self) -> bool:
@@ -537,7 +541,7 @@ def parse_campaign(data: TomlTable, base: Path | None = None) -> Campaign:
     plan = plan_class.from_table(data, fs)
     plan.check(channels)
     return Campaign(
-        name=name, kind=plan_class.kind, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
+        name=name, shaker_url=shaker_url, daq_url=daq_url, fs=fs,
         channels=channels, response_kind=response_kind, plan=plan,
         plant=plant,
         frame_size=_num(daq, "frame_size", "daq", default=frame_default, lo=1, hi=4096,
