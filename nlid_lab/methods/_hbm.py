@@ -364,6 +364,7 @@ def output_files(options: HbmOptions) -> list[str]:
     return [str(dest), str(dest.with_name(dest.stem + "-loop.png"))]
 
 
-register(Method(NAME, "stepped sine: multi-harmonic balance fit", HbmOptions, "stepped-sine",
+register(Method(NAME, "stepped sine: multi-harmonic balance fit", HbmOptions,
+                Excitation.STEPPED_SINE,
                 estimate, sections=report_sections, legacy_keys=("elements", "cost"),
                 output_files=output_files, result=HbmStored))

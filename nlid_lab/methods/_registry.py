@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 from analysis.documents import JsonObject
 from analysis.errors import InputError
+from analysis.recordings import Excitation
 
 if TYPE_CHECKING:
     from analysis.models import Model
@@ -121,7 +122,7 @@ class Method:
         One line for ``analyze --help``.
     options : type
         Dataclass of the method's settings; its `option` fields are the command-line flags.
-    excitation : str
+    excitation : Excitation
         Excitation of the levels it estimates from (``reanalyze --method auto`` picks the first
         registered method matching a level).
     estimate : callable
@@ -146,7 +147,7 @@ class Method:
     name: str
     help: str
     options: type
-    excitation: str
+    excitation: Excitation
     estimate: Callable[[Sequence[Recording], Model, Any], Estimate]
     estimate_level: Callable[[Recording, Model, Any], LevelEstimate] | None = None
     sections: Callable[..., list[Any]] | None = None

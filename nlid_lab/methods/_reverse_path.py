@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from analysis.errors import EstimationError, InputError
+from analysis.recordings import Excitation
 
 from ..outputs import atomic_path
 from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
@@ -251,7 +252,7 @@ def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
     from ..reports import PARAM_UNITS, Section, candidate_model, reference_model
 
     from analysis.errors import InputError
-    from analysis.recordings import Excitation, model_at_sensors, one_kind
+    from analysis.recordings import model_at_sensors, one_kind
 
     model = candidate_model(run, candidate)
     recs = [one_kind(r) for r in run.recordings if r.excitation == Excitation.RANDOM]
@@ -316,7 +317,8 @@ def output_files(options: ReversePathOptions) -> list[str]:
     return [options.candidate_out] if options.candidate_out else []
 
 
-register(Method(NAME, "random excitation: reverse path / NIFO", ReversePathOptions, "random",
+register(Method(NAME, "random excitation: reverse path / NIFO", ReversePathOptions,
+                Excitation.RANDOM,
                 estimate, estimate_level, report_sections,
                 legacy_keys=("elements", "multiple_coherence"), output_files=output_files,
                 result=ReversePathStored))
