@@ -110,7 +110,15 @@ class LevelPlan(ABC):
 
     @abstractmethod
     def run(self, runner: Any) -> None:
-        """Measure every level not stored yet (``runner``: the campaign's runner)."""
+        """Measure every level not stored yet.
+
+        ``runner`` is the campaign's runner (`_campaign._Runner`); a level loop uses its
+        ``_level_start`` / ``_level_end`` (the level's writer and summary), ``_start`` /
+        ``_stop`` (an output record on the shaker, the DAQ streaming), ``control`` (the
+        level control on a measure of a block), ``take`` and ``split`` (contiguous samples,
+        force and response columns), ``_stored`` and ``observer`` (what the watchers are
+        told), as `RandomSpec`, `SteppedSpec` and `SweepSpec` (``_campaign_sweep``) do.
+        """
 
 
 #: The kinds campaigns run, by ``kind``.
