@@ -220,6 +220,8 @@ def _row(r) -> str:
     fam = ("WRONG" if not r.family_right else "ambig" if r.kind == "ambiguous" else "ok")
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict
+    if r.tied:
+        named += " (tied " + ", ".join(r.tied) + ")"
     err = f"  error: {r.error[:100]}" if r.error else ""
     return (f"{r.name:<52} {r.family:<17} {fam:<5} {r.location:<9} {named:<40} {par:<26} "
             f"{hb:<18} {r.seconds:6.1f} s {r.cpu_seconds:6.1f} s cpu{alarm}{err}")

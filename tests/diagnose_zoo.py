@@ -736,6 +736,8 @@ class Outcome:
     """Every true kind named, or stated as honestly tied with a named one (`honest_tie`)."""
     kind: str = "wrong"
     """``right`` (every true kind named), ``ambiguous`` (one only stated as tied), ``wrong``."""
+    tied: list[str] = dataclasses.field(default_factory=list)
+    """Per named effect with kind alternatives, ``named~alternative~...`` (as stated)."""
     location: str = "-"
     """``right``, ``ambiguous`` (the truth listed in ``location.alternatives``), ``wrong``,
     ``-`` (nothing to locate)."""
@@ -803,6 +805,8 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
     out = Outcome(case.name, truth.family, res["verdict"],
                   [f"{m['kind']}@{'-'.join(sorted(_found_points(m, case.channels)))}"
                    for m in found])
+    out.tied = ["~".join([m["kind"]] + [a["kind"] for a in m["alternatives"]])
+                for m in found if m.get("alternatives")]
     fit = res.get("fit") or {}
     if "before" in fit and "after" in fit:
         out.held_back = (float(fit["before"]), float(fit["after"]))

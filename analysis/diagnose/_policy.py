@@ -20,6 +20,7 @@ from ._report import LevelCurves
 from ._outofsample import Z as OOS_Z, Score, reference, score, tie_threshold, tied
 from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from ._result import KindAlternative
+from ._encompass import encompassing
 from ._separate import Law, separation
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 from ._where import MAX_ALTERNATIVES
@@ -234,8 +235,12 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     """The winner named among the kinds the data cannot tell from ``f`` (the winner with the
     largest gain), and the others as `KindAlternative`s. A kind is tied with ``f`` when it
     wins too and their gains differ by less than the difference's uncertainty
-    (`.outofsample.tied`); among the tied (each kind at its best gain) the one with the
-    lowest `bic` is named: at equal fit, the one with fewer parameters. At most
+    (`.outofsample.tied`). Among the tied (each kind at its best gain) the one that
+    encompasses all the others (`.encompass.encompassing`: it still wins out of sample on
+    the model holding any other, and no other on the model holding it) is named alone, with
+    them in its evidence (``encompasses``): the data do tell them apart. Else the tie stands
+    and the one with the lowest `bic` is named: at equal fit, the one with fewer
+    parameters. At most
     `.where.MAX_ALTERNATIVES` are listed, the best scored first, each with its parameters,
     the numbers of its side of the tie and what would separate it from the named one at the
     highest fitting level (`.separate.separation`)."""
@@ -244,6 +249,11 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
         if sg.wins and g.cand.kind not in best and (g is f or tied(s, sg)):
             best[g.cand.kind] = (g, sg)
     if len(best) < 2:
+        return f, s, ()
+    won = encompassing(search, list(best.values()))
+    if won is not None:
+        f, s = won
+        f.evidence["encompasses"] = ", ".join(k for k in best if k != f.cand.kind)
         return f, s, ()
     f, s = min(best.values(), key=lambda gs: bic(search, *gs))
     f.evidence.update(oos_reference=float(s.ref), oos_left=float(s.left))

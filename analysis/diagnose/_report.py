@@ -256,7 +256,7 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
         rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
                 f"explains {100 * fit.explained:.3g} % of the squared FRF error, the rest is "
                 "unexplained (see evidence.misfit).")
-    ties = "".join(_kind_tie(ch) for ch in d.chosen)
+    ties = "".join(_kind_tie(ch) + _encompassed(ch) for ch in d.chosen)
     return (f"The mismatch is {what}{band_txt}: {found}.{_ambiguity(cands[0], d)}{ties}{runner}"
             f"{second} With it the held-back FRF error {change(fit.before, fit.after)}"
             f"{time_txt}; by level: {_levels_text(d, True)}.{rest}" + _rejected_text(d)
@@ -357,6 +357,19 @@ def _kind_tie(c: CandidateFit) -> str:
             "fitting levels (misfit plus ln N per parameter: at equal fit, the fewest "
             "parameters); the others' parameters are in the missing_physics entry's "
             "alternatives.")
+
+
+def _encompassed(c: CandidateFit) -> str:
+    """The kinds that tied with a found effect's out of sample but that it encompasses
+    (`.encompass.encompassing`); empty when none."""
+    others = c.evidence.get("encompasses")
+    if not others:
+        return ""
+    kind = c.kind.replace("_", " ")
+    return (f" The {kind} is named over the {others.replace('_', ' ')}, whose out-of-sample "
+            f"gains tie with its: added to the model holding any of them the {kind} still "
+            "wins out of sample, and none of them does added to the model holding the "
+            f"{kind} (encompassing test).")
 
 
 def _separate_by(named: str, a: KindAlternative) -> str:

@@ -237,8 +237,6 @@ class Location:
         out["band_hz"] = as_list(self.band_hz)
         if self.alternatives:
             out["alternatives"] = [a.to_json() for a in self.alternatives]
-            # the numbers the tie was judged on (`.outofsample.tied`): this kind's side
-            out["evidence"] = {k: self.evidence[k] for k in TIE_EVIDENCE if k in self.evidence}
         return out
 
     @classmethod
