@@ -366,7 +366,8 @@ def _encompassed(c: CandidateFit) -> str:
     if not others:
         return ""
     kind = c.kind.replace("_", " ")
-    return (f" The {kind} is named over the {others.replace('_', ' ')}, whose out-of-sample "
+    names = " and the ".join(k.replace("_", " ") for k in others.split(", "))
+    return (f" The {kind} is named over the {names}, whose out-of-sample "
             f"gains tie with its: added to the model holding any of them the {kind} still "
             "wins out of sample, and none of them does added to the model holding the "
             f"{kind} (encompassing test).")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from analysis.diagnose import CandidateFit, KindAlternative, KindSeparation
-from analysis.diagnose._report import _kind_tie
+from analysis.diagnose._report import _encompassed, _kind_tie
 from analysis.diagnose._separate import equivalent_stiffness, separable
 
 
@@ -71,3 +71,13 @@ def test_the_verdict_says_ambiguous_and_what_level_would_separate_them():
     text = _kind_tie(CandidateFit("stick_slip", (1.0,), (1,), None, {}, {},
                                   alternatives=(unknown,)))
     assert "A level beyond the fitted ones would separate them." in text
+
+
+def test_a_tie_the_data_break_names_the_encompassing_kind_and_why():
+    c = CandidateFit("cubic_spring", (1.0,), (0,), ("0",), {"p": 2e8}, {},
+                     evidence={"encompasses": "quadratic_spring, gap"})
+    text = _encompassed(c)
+    assert text.startswith(" The cubic spring is named over the quadratic spring and the gap, "
+                           "whose out-of-sample gains tie with its: added to the model holding "
+                           "any of them the cubic spring still wins out of sample")
+    assert _kind_tie(c) == "" and _encompassed(CUBIC) == ""
