@@ -240,10 +240,9 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     the model holding any other, and no other on the model holding it) is named alone, with
     them in its evidence (``encompasses``): the data do tell them apart. Else the tie stands
     and the one with the lowest `bic` is named: at equal fit, the one with fewer
-    parameters. At most
-    `.where.MAX_ALTERNATIVES` are listed, the best scored first, each with its parameters,
-    the numbers of its side of the tie and what would separate it from the named one at the
-    highest fitting level (`.separate.separation`)."""
+    parameters. At most `.where.MAX_ALTERNATIVES` are listed, the best scored first, each
+    with its parameters, the numbers of its side of the tie and what would separate it from
+    the named one at the highest fitting level (`.separate.separation`)."""
     best: dict[str, tuple[Fit, Score]] = {}
     for g, sg in scored:
         if sg.wins and g.cand.kind not in best and (g is f or tied(s, sg)):
