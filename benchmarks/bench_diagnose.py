@@ -217,9 +217,11 @@ def _row(r) -> str:
         par += " ci " + " ".join(
             f"{k.split('.')[-1]} {100 * (lo / t - 1):+.1f}..{100 * (hi / t - 1):+.1f}%"
             + ("" if lo <= t <= hi else "!") for k, (_, lo, hi, t) in r.intervals.items())
-    fam = "ok" if r.family_right else "WRONG"
+    fam = ("WRONG" if not r.family_right else "ambig" if r.kind == "ambiguous" else "ok")
     alarm = "" if r.false_alarm is None else ("  FALSE ALARM" if r.false_alarm else "")
     named = ", ".join(r.found) or r.verdict
+    if r.tied:
+        named += " (tied " + ", ".join(r.tied) + ")"
     err = f"  error: {r.error[:100]}" if r.error else ""
     return (f"{r.name:<52} {r.family:<17} {fam:<5} {r.location:<9} {named:<40} {par:<26} "
             f"{hb:<18} {r.seconds:6.1f} s {r.cpu_seconds:6.1f} s cpu{alarm}{err}")
@@ -258,8 +260,8 @@ def run_zoo(pattern: str | None, workers: int, json_out: str | None) -> None:
     print(f"\ntotals over {tot['cases']} cases ({tot['effect_rows']} with an effect, "
           f"{tot['none_rows']} none; {tot['errors']} crashed), wall {wall:.0f} s, load "
           f"average {load0:.1f} before, {load1:.1f} after, {os.cpu_count()} cores")
-    print(f"  family right          {100 * tot['family_right']:5.1f} %  (target >= "
-          f"{100 * tg['family_right']:.0f} %)")
+    print(f"  family right/ambig.   {100 * tot['family_right']:5.1f} %  (target >= "
+          f"{100 * tg['family_right']:.0f} %; {tot['family_ambiguous']} honestly tied)")
     print(f"  location right/ambig. {100 * tot['location_right']:5.1f} %  (target >= "
           f"{100 * tg['location_right']:.0f} %; {tot['location_ambiguous']} ambiguous)")
     print(f"  false alarms          {tot['false_alarms']:5d}    (target 0, of "

@@ -32,6 +32,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from analysis.diagnose._outofsample import Z as OOS_Z
 from analysis.models import Element, Model, Support
 from analysis.plant import random_gaussian
 from analysis.recordings import (DaqArtifacts, Recording, Shaker, apply_daq_artifacts,
@@ -732,6 +733,11 @@ class Outcome:
     verdict: str = "error"
     found: list[str] = dataclasses.field(default_factory=list)
     family_right: bool = False
+    """Every true kind named, or stated as honestly tied with a named one (`honest_tie`)."""
+    kind: str = "wrong"
+    """``right`` (every true kind named), ``ambiguous`` (one only stated as tied), ``wrong``."""
+    tied: list[str] = dataclasses.field(default_factory=list)
+    """Per named effect with kind alternatives, ``named~alternative~...`` (as stated)."""
     location: str = "-"
     """``right``, ``ambiguous`` (the truth listed in ``location.alternatives``), ``wrong``,
     ``-`` (nothing to locate)."""
@@ -791,12 +797,16 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
     stick-slip, hysteresis and Segalman's Iwan: a Jenkins slider is the Iwan whose sliders all
     slip at once). Where is the data's: a parameter whose reported 95 % interval is wider
     than `PARAM_TOL` either side of its estimate is not identifiable from these recordings
-    and is not judged (`Outcome.unidentifiable`)."""
+    and is not judged (`Outcome.unidentifiable`). A true kind not named but stated as tied
+    with a named one (`honest_tie`) counts as the family found, ``ambiguous``, and its
+    location and parameters are judged on that alternative."""
     truth = case.truth
     found = res.get("missing_physics") or []
     out = Outcome(case.name, truth.family, res["verdict"],
                   [f"{m['kind']}@{'-'.join(sorted(_found_points(m, case.channels)))}"
                    for m in found])
+    out.tied = ["~".join([m["kind"]] + [a["kind"] for a in m["alternatives"]])
+                for m in found if m.get("alternatives")]
     fit = res.get("fit") or {}
     if "before" in fit and "after" in fit:
         out.held_back = (float(fit["before"]), float(fit["after"]))
@@ -804,17 +814,20 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
     if truth.family == "none":
         out.false_alarm = res["verdict"] != "adequate"
         out.family_right = not out.false_alarm
+        out.kind = "right" if out.family_right else "wrong"
         return out
     alts = [frozenset(a.get("points") or [case.channels[i] for i in a.get("dofs", [])])
             for a in (res.get("location") or {}).get("alternatives", [])]
-    kinds_ok, where, errs = [], [], {}
+    kinds, where, errs = [], [], {}
     for e in truth.effects:
         want = frozenset(e.points)
         hits = [m for m in found if m["kind"] in (e.kind, *e.also)]
-        kinds_ok.append(bool(hits))
-        at = [m for m in found if _found_points(m, case.channels) == want]
-        where.append("right" if at else "ambiguous" if want in alts else "wrong")
-        match = sorted((m for m in hits if m in at), key=lambda m: m["kind"] != e.kind)
+        tie = [] if hits else honest_tie(found, e)
+        kinds.append("right" if hits else "ambiguous" if tie else "wrong")
+        at = [m for m in found + tie if _found_points(m, case.channels) == want]
+        where.append("right" if any(m in found for m in at) else
+                     "ambiguous" if at or want in alts else "wrong")
+        match = sorted((m for m in hits or tie if m in at), key=lambda m: m["kind"] != e.kind)
         for p in e.identifiable:
             key = f"{e.kind}.{p}"
             if not match or p not in match[0]["params"]:
@@ -830,13 +843,57 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
                     out.unidentifiable[key] = float(half)
                     continue
             errs[key] = float(value / e.params[p] - 1.0)
-    out.family_right = res["verdict"] == "discrepancy" and all(kinds_ok)
+    out.family_right = res["verdict"] == "discrepancy" and "wrong" not in kinds
+    out.kind = (("right" if all(k == "right" for k in kinds) else "ambiguous")
+                if out.family_right else "wrong")
     out.location = ("right" if all(w == "right" for w in where) else
                     "wrong" if "wrong" in where else "ambiguous")
     out.param_errors = errs
     if errs:
         out.params_ok = all(abs(v) <= PARAM_TOL for v in errs.values())
     return out
+
+
+MAX_TIED_KINDS = 2
+"""Kinds an honest kind ambiguity may name at one effect (the named one and one
+alternative, a family's accepted kinds counting as one): a verdict listing more says little
+and does not score."""
+
+
+def honest_tie(found: list[dict[str, Any]], e: Effect) -> list[dict[str, Any]]:
+    """The true kind of ``e`` as a kind alternative of a named effect, as a ``found``-like
+    entry (its kind, location, parameters and intervals), when that tie is real by the
+    stated rule (`real_tie`) and names at most `MAX_TIED_KINDS` kinds; else empty."""
+    family = {e.kind, *e.also}
+    for m in found:
+        listed = {m["kind"]} | {a["kind"] for a in m.get("alternatives") or []}
+        if len({k if k not in family else e.kind for k in listed}) > MAX_TIED_KINDS:
+            continue
+        for a in m.get("alternatives") or []:
+            if a["kind"] in family and real_tie(m.get("evidence") or {}, a):
+                return [{"kind": a["kind"], "dofs": a["dofs"], "points": a.get("points"),
+                         "params": a.get("params") or {}, "ci95": a.get("ci95") or {}}]
+    return []
+
+
+def real_tie(named: dict[str, Any], alt: dict[str, Any]) -> bool:
+    """Whether the named kind's and the alternative's stated out-of-sample numbers tie by
+    the diagnosis's stated rule (`analysis.diagnose` docs, "Kind ties"; recomputed here, not
+    taken on trust): both gains beyond `OOS_Z` of their deviations (the noise's times the
+    square root of their reference) and their difference within `OOS_Z` of the two combined,
+    or within the smaller misfit either leaves (model-form error). A result without the
+    numbers does not tie."""
+    keys = ("oos_gain", "oos_sd", "oos_left")
+    if not all(k in named for k in keys) or not all(k in alt for k in keys):
+        return False
+    dev = [float(x["oos_sd"]) * np.sqrt(float(x.get("oos_reference", 1.0)))
+           for x in (named, alt)]
+    gains = [float(named["oos_gain"]), float(alt["oos_gain"])]
+    if not all(g > OOS_Z * d for g, d in zip(gains, dev)):
+        return False
+    return abs(gains[0] - gains[1]) <= max(OOS_Z * float(np.hypot(*dev)),
+                                           min(float(named["oos_left"]),
+                                               float(alt["oos_left"])))
 
 
 TARGETS = {"family_right": 0.90, "location_right": 0.90, "false_alarms": 0,
@@ -855,6 +912,7 @@ def totals(rows: list[Outcome]) -> dict[str, Any]:
         "cases": len(rows), "effect_rows": len(effect), "none_rows": len(none),
         "errors": sum(r.error is not None for r in rows),
         "family_right": sum(r.family_right for r in rows) / max(len(rows), 1),
+        "family_ambiguous": sum(r.kind == "ambiguous" for r in effect),
         "location_right": (sum(r.location in ("right", "ambiguous") for r in effect)
                            / max(len(effect), 1)),
         "location_ambiguous": sum(r.location == "ambiguous" for r in effect),

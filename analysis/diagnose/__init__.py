@@ -16,8 +16,8 @@ from ._alignment import ResponseDelay
 from ._prepare import DiagnoseInputError, level_name
 from ._evidence import Evidence, LocationRow, Misfit, PairThrough, PassSummary, Rejection
 from ._result import (RESULT_NAME, SCHEMA_VERSION, Alternative, CandidateFit, Diagnosis,
-                      FitSummary, KindAlternative, LevelError, LevelResiduals, Location,
-                      TimeResidual, Verdict)
+                      FitSummary, KindAlternative, KindSeparation, LevelError, LevelResiduals,
+                      Location, TimeResidual, Verdict)
 from ._search import diagnose
 
 __all__ = [
@@ -27,7 +27,7 @@ __all__ = [
     "level_name",
     # the result (frozen dataclasses; Diagnosis.to_json / from_json)
     "Diagnosis", "SCHEMA_VERSION", "RESULT_NAME", "Verdict", "Location", "Alternative", "CandidateFit",
-    "KindAlternative",
+    "KindAlternative", "KindSeparation",
     "FitSummary", "LevelError", "TimeResidual", "Evidence", "PassSummary", "Rejection",
     "LocationRow", "PairThrough", "Misfit", "LevelResiduals", "ResponseDelay",
 ]

@@ -343,8 +343,13 @@ def _jacobian(predict: Predict, theta: np.ndarray, scale: np.ndarray) -> list[np
 
 
 def tied(a: Score, b: Score) -> bool:
-    """Whether two candidates' gains differ by no more than their uncertainty: `Z` of the
-    two gains' deviations combined, or the misfit the better of the two leaves beyond the
-    noise (model-form error), whichever is larger."""
-    return abs(a.gain - b.gain) <= max(Z * float(np.hypot(a.deviation, b.deviation)),
-                                       min(a.left, b.left))
+    """Whether two candidates' gains differ by no more than their uncertainty
+    (`tie_threshold`)."""
+    return abs(a.gain - b.gain) <= tie_threshold(a, b)
+
+
+def tie_threshold(a: Score, b: Score) -> float:
+    """The uncertainty of two candidates' gain difference: `Z` of the two gains' deviations
+    combined, or the misfit the better of the two leaves beyond the noise (model-form
+    error), whichever is larger."""
+    return max(Z * float(np.hypot(a.deviation, b.deviation)), min(a.left, b.left))

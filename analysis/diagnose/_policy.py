@@ -17,9 +17,11 @@ from ._leakage import Floor
 from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
 from ._report import LevelCurves
-from ._outofsample import Z as OOS_Z, Score, reference, score, tied
+from ._outofsample import Z as OOS_Z, Score, reference, score, tie_threshold, tied
 from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from ._result import KindAlternative
+from ._encompass import encompassing
+from ._separate import Law, separation
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 from ._where import MAX_ALTERNATIVES
 
@@ -233,20 +235,49 @@ def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Sc
     """The winner named among the kinds the data cannot tell from ``f`` (the winner with the
     largest gain), and the others as `KindAlternative`s. A kind is tied with ``f`` when it
     wins too and their gains differ by less than the difference's uncertainty
-    (`.outofsample.tied`); among the tied (each kind at its best gain) the one with the
-    lowest `bic` is named: at equal fit, the one with fewer parameters. At most
-    `.where.MAX_ALTERNATIVES` are listed, the best scored first."""
+    (`.outofsample.tied`). Among the tied (each kind at its best gain) the one that
+    encompasses all the others (`.encompass.encompassing`: it still wins out of sample on
+    the model holding any other, and no other on the model holding it) is named alone, with
+    them in its evidence (``encompasses``): the data do tell them apart. Else the tie stands
+    and the one with the lowest `bic` is named: at equal fit, the one with fewer
+    parameters. At most `.where.MAX_ALTERNATIVES` are listed, the best scored first, each
+    with its parameters, the numbers of its side of the tie and what would separate it from
+    the named one at the highest fitting level (`.separate.separation`)."""
     best: dict[str, tuple[Fit, Score]] = {}
     for g, sg in scored:
         if sg.wins and g.cand.kind not in best and (g is f or tied(s, sg)):
             best[g.cand.kind] = (g, sg)
     if len(best) < 2:
         return f, s, ()
+    won = encompassing(search, list(best.values()))
+    if won is not None:
+        f, s = won
+        f.evidence["encompasses"] = ", ".join(k for k in best if k != f.cand.kind)
+        return f, s, ()
     f, s = min(best.values(), key=lambda gs: bic(search, *gs))
-    return f, s, tuple(
-        KindAlternative(g.cand.kind, g.cand.dofs, tuple(g.cand.points), sg.gain, sg.sd,
-                        bic(search, g, sg))
-        for g, sg in best.values() if g is not f)[:MAX_ALTERNATIVES]
+    f.evidence.update(oos_reference=float(s.ref), oos_left=float(s.left))
+    named = as_scored(f, s)
+    out = []
+    for g, sg in best.values():
+        if g is not f:
+            law = as_scored(g, sg)
+            out.append(KindAlternative(g.cand.kind, g.cand.dofs, tuple(g.cand.points),
+                                       sg.gain, sg.sd, bic(search, g, sg), law.params,
+                                       law.ci95, float(sg.ref), float(sg.left),
+                                       separation(search, named, law,
+                                                  tie_threshold(s, sg))))
+    return f, s, tuple(out[:MAX_ALTERNATIVES])
+
+
+def as_scored(fit: Fit, s: Score) -> Law:
+    """``fit``'s law as it was scored: its parameters at the joint estimate with its
+    stiffness correction when it was scored jointly with one (else as fitted)."""
+    if s.joint is None or fit.cand.memory and fit.extra is None:
+        return Law(fit.cand, dict(fit.params), {k: (v[0], v[1]) for k, v in fit.ci95.items()})
+    name = coef_name(fit.cand.kind)
+    ci = dict({k: (v[0], v[1]) for k, v in fit.ci95.items()}, **{name: s.interval[0]})
+    return Law(fit.cand, scaled_params(fit.cand.kind, s.estimate[0], fit.extra), ci,
+               float(s.joint))
 
 
 def other_kinds(fits: list[Fit], n: int) -> list[Fit]:

@@ -12,8 +12,8 @@ from ..models import Candidate
 from ._leakage import Floor
 from ._outofsample import Z as OOS_Z
 from ._replay import Replay
-from ._result import (Alternative, CandidateFit, Diagnosis, FitSummary, LevelError,
-                     LevelResiduals, TimeResidual, Verdict)
+from ._result import (Alternative, CandidateFit, Diagnosis, FitSummary, KindAlternative,
+                     LevelError, LevelResiduals, TimeResidual, Verdict)
 
 FLOOR_METHOD = ("a level lies within its floor when its FRF error is at most sqrt(precision^2 + "
                 "noise^2 + 3.72 sd): noise = the H1 random error expected from the measured "
@@ -129,7 +129,8 @@ def explain(d: Diagnosis, cands: Sequence[Candidate]) -> Diagnosis:
         if c.alternatives:
             d = replace(d, warnings=d.warnings + (
                 f"the kind is ambiguous: {_kinds(c)} explain the data equally (the "
-                "missing_physics entry's alternatives hold the numbers)",))
+                "missing_physics entry's alternatives hold the numbers and what measurement "
+                "would separate them)",))
     if d.verdict == Verdict.DISCREPANCY and fit.after > UNCONFIRMED * fit.before:
         warning = (f"the held-back recording does not confirm the finding (error "
                    f"{change(fit.before, fit.after)}): the fitting levels cannot tell the "
@@ -255,7 +256,7 @@ def _discrepancy(d: Diagnosis, cands: Sequence[Candidate]) -> str:
         rest = (f" The corrected model still misfits {', '.join(out)} beyond the floor: it "
                 f"explains {100 * fit.explained:.3g} % of the squared FRF error, the rest is "
                 "unexplained (see evidence.misfit).")
-    ties = "".join(_kind_tie(ch) for ch in d.chosen)
+    ties = "".join(_kind_tie(ch) + _encompassed(ch) for ch in d.chosen)
     return (f"The mismatch is {what}{band_txt}: {found}.{_ambiguity(cands[0], d)}{ties}{runner}"
             f"{second} With it the held-back FRF error {change(fit.before, fit.after)}"
             f"{time_txt}; by level: {_levels_text(d, True)}.{rest}" + _rejected_text(d)
@@ -335,8 +336,9 @@ def _kinds(c: CandidateFit) -> str:
 
 
 def _kind_tie(c: CandidateFit) -> str:
-    """The kinds the data cannot tell apart at one found effect, from the numbers, and which
-    is named (`.policy.kind_ties`); empty without alternatives."""
+    """The kinds the data cannot tell apart at one found effect, from the numbers, which is
+    named (`.policy.kind_ties`) and what measurement would separate them
+    (`.separate.separation`); empty without alternatives."""
     if not c.alternatives:
         return ""
     gains = [a.oos_gain for a in c.alternatives]
@@ -344,9 +346,53 @@ def _kind_tie(c: CandidateFit) -> str:
     if own is not None:
         gains = [float(own)] + gains
     spread = 100 * (max(gains) - min(gains)) / max(abs(max(gains)), 1e-300)
+    seps = [_separate_by(c.kind, a) for a in c.alternatives]
+    how = " ".join(t for t in seps if t) or ("A level beyond the fitted ones would separate "
+                                             "them.")
     return (f" {_kinds(c).capitalize()} explain the data equally (out-of-sample gains "
             + ", ".join(f"{g:.4g}" for g in gains)
-            + f": within {spread:.2g} %, inside their uncertainty); a level beyond the "
-            f"fitted ones would separate them. The {c.kind.replace('_', ' ')} is named: of "
-            "the tied kinds, the lowest BIC on the fitting levels (misfit plus ln N per "
-            "parameter: at equal fit, the fewest parameters).")
+            + f": within {spread:.2g} %, inside their uncertainty): the kind is ambiguous. "
+            f"{how} The "
+            f"{c.kind.replace('_', ' ')} is named: of the tied kinds, the lowest BIC on the "
+            "fitting levels (misfit plus ln N per parameter: at equal fit, the fewest "
+            "parameters); the others' parameters are in the missing_physics entry's "
+            "alternatives.")
+
+
+def _encompassed(c: CandidateFit) -> str:
+    """The kinds that tied with a found effect's out of sample but that it encompasses
+    (`.encompass.encompassing`); empty when none."""
+    others = c.evidence.get("encompasses")
+    if not others:
+        return ""
+    kind = c.kind.replace("_", " ")
+    names = " and the ".join(k.replace("_", " ") for k in others.split(", "))
+    return (f" The {kind} is named over the {names}, whose out-of-sample "
+            f"gains tie with its: added to the model holding any of them the {kind} still "
+            "wins out of sample, and none of them does added to the model holding the "
+            f"{kind} (encompassing test).")
+
+
+def _separate_by(named: str, a: KindAlternative) -> str:
+    """What would separate the named kind from the tied ``a``, from its numbers ("" when
+    not computed)."""
+    sep = a.separation
+    if sep is None:
+        return ""
+    one, other = named.replace("_", " "), a.kind.replace("_", " ")
+    at = (f"At {sep.at:g} x the deformation of the highest fitting level ({sep.level:.3g}) "
+          f"the {one} and the {other} predict equivalent stiffnesses "
+          f"{sep.stiffness_at[0]:.4g} and {sep.stiffness_at[1]:.4g} N/m, FRFs differing by a "
+          f"misfit of {sep.difference_at:.3g} (at the level itself {sep.difference:.3g}) "
+          f"against the {sep.threshold:.3g} within which they tie")
+    if sep.separating is None:
+        return (at + ": up to 4 x that deformation their FRFs stay within it; a level "
+                "beyond the fitted ones cannot separate them by the FRF.")
+    if sep.separating <= 1.0:
+        return (at + ": the models differ at the highest level already, but the data there "
+                "cannot tell which is right; a higher level (their difference grows "
+                f"{sep.difference_at / max(sep.difference, 1e-300):.2g}x by {sep.at:g} x the "
+                "deformation) or a level of another excitation would.")
+    return (at + f": a level moving the structure about {sep.separating:.2g} x as far (about "
+            f"{sep.separating * sep.level:.3g}, the force scaling roughly with it) would "
+            "separate them.")

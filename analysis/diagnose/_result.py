@@ -39,11 +39,64 @@ class Verdict(StrEnum):
     UNEXPLAINED = "unexplained"
 
 
+TIE_EVIDENCE = ("oos_gain", "oos_sd", "oos_reference", "oos_left")
+"""Evidence a ``missing_physics`` entry with kind alternatives carries: its side of the tie."""
+
+
+@dataclass(frozen=True)
+class KindSeparation:
+    """What would separate two tied kinds (`.separate.separation`): both fitted laws'
+    equivalent stiffness at the highest fitting level's deformation scaled, and the distance
+    of the FRFs they make there (`chi2` of that level's noise) against the tie's threshold
+    (`.outofsample.tie_threshold`).
+
+    Attributes
+    ----------
+    level : float
+        The highest fitting level.
+    threshold : float
+        The tie's threshold (``chi2``): the gain difference within which the two tie.
+    difference : float
+        The two FRFs' distance at that level itself (``chi2``).
+    at : float
+        The scale of the level's deformation at which both are always given (1.5).
+    difference_at : float
+        The two FRFs' distance there.
+    stiffness_at : (float, float)
+        The named kind's and the alternative's equivalent stiffness there (N/m).
+    separating : float or None
+        The smallest scale (up to 4) at which the FRFs differ by more than the threshold: a level
+        of about ``separating * level`` separates them; None: not within 4x.
+    """
+
+    level: float
+    threshold: float
+    difference: float
+    at: float
+    difference_at: float
+    stiffness_at: tuple[float, float]
+    separating: float | None
+
+    def to_json(self) -> Json:
+        return {"level": self.level, "threshold": self.threshold,
+                "difference": self.difference,
+                "at": self.at, "difference_at": self.difference_at,
+                "stiffness_at": list(self.stiffness_at), "separating": self.separating}
+
+    @classmethod
+    def from_json(cls, data: Json) -> KindSeparation:
+        return cls(data["level"], data["threshold"], data["difference"], data["at"],
+                   data["difference_at"], pair(data["stiffness_at"]), data.get("separating"))
+
+
 @dataclass(frozen=True)
 class KindAlternative:
     """Another kind the data cannot tell from a found effect's (`.policy.kind_ties`): its
     location, its out-of-sample gain and deviation, and its BIC on the fitting levels
-    (misfit plus ``ln N`` per parameter; the lowest of the tied is the one named)."""
+    (misfit plus ``ln N`` per parameter; the lowest of the tied is the one named); its
+    parameters and their 95 % intervals as scored, what its gain was judged against
+    (``oos_reference``, ``oos_left``: `.outofsample.Score`) and what would separate it from
+    the named kind (None where not computed)."""
 
     kind: str
     dofs: tuple[int, ...]
@@ -51,16 +104,29 @@ class KindAlternative:
     oos_gain: float
     oos_sd: float
     bic: float
+    params: Mapping[str, float] = field(default_factory=dict)
+    ci95: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    oos_reference: float = 1.0
+    oos_left: float = 0.0
+    separation: KindSeparation | None = None
 
     def to_json(self) -> Json:
-        return {"kind": self.kind, "dofs": list(self.dofs), "points": as_list(self.points),
-                "oos_gain": self.oos_gain, "oos_sd": self.oos_sd, "bic": self.bic}
+        out = {"kind": self.kind, "dofs": list(self.dofs), "points": as_list(self.points),
+               "oos_gain": self.oos_gain, "oos_sd": self.oos_sd, "bic": self.bic,
+               "params": dict(self.params), "ci95": {k: list(v) for k, v in self.ci95.items()},
+               "oos_reference": self.oos_reference, "oos_left": self.oos_left}
+        if self.separation is not None:
+            out["separation"] = self.separation.to_json()
+        return out
 
     @classmethod
     def from_json(cls, data: Json) -> KindAlternative:
-        points = data.get("points")
+        points, sep = data.get("points"), data.get("separation")
         return cls(data["kind"], tuple(data["dofs"]), None if points is None else tuple(points),
-                   data["oos_gain"], data["oos_sd"], data["bic"])
+                   data["oos_gain"], data["oos_sd"], data["bic"], dict(data.get("params") or {}),
+                   {k: pair(v) for k, v in (data.get("ci95") or {}).items()},
+                   data.get("oos_reference", 1.0), data.get("oos_left", 0.0),
+                   None if sep is None else KindSeparation.from_json(sep))
 
 
 @dataclass(frozen=True)
@@ -107,6 +173,8 @@ class CandidateFit:
             out["stuck_stiffness_from_linear_part"] = True
         if self.alternatives:
             out["alternatives"] = [a.to_json() for a in self.alternatives]
+            # the numbers the tie was judged on (`.outofsample.tied`): this kind's side
+            out["evidence"] = {k: self.evidence[k] for k in TIE_EVIDENCE if k in self.evidence}
         return out
 
     @classmethod

@@ -262,6 +262,11 @@ class Search:
                "stiffness_error": self.model.stiffness}[kind]
         return 1e-3 * max(abs(float(wq @ mat @ wq)), 1e-300)
 
+    def deformation(self, c: Candidate, level: int) -> np.ndarray | None:
+        """The measured deformation along ``c`` at fitting level ``level``; None where the
+        search keeps no time series (`.separate`)."""
+        return None
+
     def memory_frfs(self, c: Candidate, params: dict[str, float]) -> list[np.ndarray]:
         """Model FRFs of the fitting levels with memory element ``c`` (``params``) added;
         only searches that fit memory laws in all their parameters have it."""
@@ -353,6 +358,9 @@ class RandomSearch(Search):
             for e in extras:
                 bases[(c, e)] = candidate_force(c, e, p)
         return level_frf(p, self.band, self.nperseg, bases, floor=floor)
+
+    def deformation(self, c: Candidate, level: int) -> np.ndarray | None:
+        return self.preps[level].x @ c.w
 
     def ensure_basis(self, c: Candidate, extra: float | None) -> None:
         for p, lf in zip(self.preps, self.levels):

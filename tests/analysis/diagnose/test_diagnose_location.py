@@ -135,23 +135,36 @@ def test_support_declared_elsewhere_leaves_no_grounded_element_at_the_point(grou
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 24, open: cubic and gap tie out of sample (gains 3.600e5 and 3.539e5) and the tie "
-    "names the lowest in-sample BIC, the gap (23470 against 29280, its width refitted on the "
-    "fitting levels), followed by three further effects. Naming the fewest parameters, then "
-    "the largest gain, fixes this test but measured worse on the whole zoo (family 96.7 -> "
-    "95.1 %, parameters 35 -> 34 of 47: sdof-gap named a cubic), so it did not land; nor did "
-    "naming by the BIC across levels (each fitting level predicted from the others): family "
-    "96.7 -> 95.1 % again (chain-two-effects, stiffpair-cubic1; docs/diagnose.md, session 30)"))
 def test_support_at_the_point_finds_it(grounded_cubic):
+    """The cubic at the declared support, named or stated as honestly tied (the issue's "or
+    listed as an alternative with 'ambiguous'"): cubic and gap tie out of sample (gains
+    3.580e5 and 3.620e5, within the misfit either leaves, 2.48e4), the cubic is named (its
+    BIC on the fitting levels 28400 against the gap's 29039), and the verdict says the kind is
+    ambiguous and which level would separate them: the two laws' FRFs differ by a misfit of
+    2.8e3 at the highest level, within the tie, and by 2.3e4 at 1.5x its deformation (1.52x,
+    about 18 N, separates them). Three further effects follow (a stiffness error, a quadratic
+    spring, a stiffness error); their reported 95 % intervals all hold zero (docs/diagnose.md,
+    "Session 32")."""
+    import diagnose_zoo as Z
     base, recs = grounded_cubic
     held = base.with_elements([])
     held.support = Support((1,))
     d = diagnose(held, recs)
     assert d.verdict == "discrepancy"
-    assert d.chosen[0].kind == "cubic_spring" and d.chosen[0].dofs == (1,)
     assert "supported at 1 ([support])" in d.explanation
     assert "the support at DOF 1" in d.explanation
+    first = d.to_json()["missing_physics"][0]
+    assert first["dofs"] == [1]
+    tied = [a for a in first.get("alternatives", []) if Z.real_tie(first["evidence"], a)]
+    assert first["kind"] == "cubic_spring" or [a["kind"] for a in tied] == ["cubic_spring"]
+    assert {a["kind"] for a in tied} == {a["kind"] for a in first.get("alternatives", [])}
+    if tied:
+        assert "the kind is ambiguous" in d.explanation
+        for a in tied:
+            sep = a["separation"]
+            # tied at the highest level, apart beyond it: a higher level separates them
+            assert sep["difference"] <= sep["threshold"] and sep["separating"] > 1.0
+            assert sep["difference_at"] > 4 * sep["difference"]
 
 
 def test_explanation_says_ambiguous_and_names_the_joint_as_a_joint():
