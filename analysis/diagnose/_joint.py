@@ -336,22 +336,39 @@ def _sandwich(start: Model, search: Search, fits: list[Fit], theta: np.ndarray
                     search.ensure_basis(g.cand, g.extra)
             dh.append([(d - h0) / LOG_STEP
                        for d, h0 in zip(_predicted(start, search, moved, theta), h)])
-    bread, scores = np.zeros((len(dh), len(dh))), []
+    blocks, scores = [], []
     for i, lf in enumerate(search.levels):
         sd = np.sqrt(lf.var)
         r = (lf.H - h[i]) / sd
         jac = [-d[i] / sd for d in dh]
-        bread += np.array([[np.sum((np.conj(a) * b).real) for b in jac] for a in jac])
         for blk in np.array_split(np.arange(lf.freqs.size), BLOCKS):
+            blocks.append([[np.sum((np.conj(a[blk]) * b[blk]).real) for b in jac]
+                           for a in jac])
             scores.append([np.sum((np.conj(a[blk]) * r[blk]).real) for a in jac])
-    g, k = np.array(scores), len(fits)
+    a_g, g, k = np.array(blocks), np.array(scores), len(fits)
+    bread = a_g.sum(axis=0)
     bf = np.mean([lf.bin_factor for lf in search.levels])
     out = []
     for keep in (slice(None), slice(0, k)):   # the second parameters free, then fixed
         inv = np.zeros_like(bread)
         inv[keep, keep] = np.linalg.pinv(bread[keep, keep])
-        out += [inv @ (g.T @ g) @ inv * len(g) / max(len(g) - 1, 1), inv * bf / 2]
+        out += [_cluster_jackknife(bread, a_g, g, keep), inv * bf / 2]
     return out
+
+
+def _cluster_jackknife(bread: np.ndarray, a_g: np.ndarray, g: np.ndarray, keep: slice
+                       ) -> np.ndarray:
+    """Leave-one-block-out (cluster jackknife, CR3) covariance of the parameters ``keep``:
+    each block's linearised refit without it, ``-(A - A_g)^-1 s_g``, and their spread times
+    ``(G - 1) / G``; the other rows and columns zero. Unlike ``A^-1 (sum s_g s_g^T) A^-1``
+    it is not fooled where a block pins a parameter (its score is the one the fit zeroed):
+    the refit without that block moves by what the block alone decided."""
+    n = len(g)
+    steps = np.zeros((n, bread.shape[0]))
+    for j in range(n):
+        steps[j, keep] = -np.linalg.pinv((bread - a_g[j])[keep, keep]) @ g[j, keep]
+    dev = steps - steps.mean(axis=0)
+    return dev.T @ dev * (n - 1) / max(n, 1)
 
 
 def _wider(ci: list[float], value: float, se: float) -> list[float]:
