@@ -128,9 +128,9 @@ def test_slider_sandwich_covers_a_misfit_its_noise_understates():
     widens by the reduced misfit; the sandwich alone must see the misfit itself. Over 60
     realizations its ``kd`` and ``fd`` intervals cover >= 85 % (measured 92 % and 88 %,
     half widths 1.2x the estimates' ``Z95`` spread). The leave-one-block-out covariance
-    (`_joint._cluster_jackknife`) does this; the cluster-robust ``A^-1 B A^-1 G/(G-1)`` it
-    replaced covered ``kd`` 82 % (half width 0.52 % against 0.65 % needed): the blocks that
-    pin ``kd`` have the scores the fit zeroed."""
+    (`_joint._cluster_jackknife`, taken for second-parameter kinds) does this; the
+    cluster-robust ``A^-1 B A^-1 G/(G-1)`` alone covered ``kd`` 82 % (half width 0.52 %
+    against 0.65 % needed): the blocks that pin ``kd`` have the scores the fit zeroed."""
     _, reported, alone = _runs(60, understated=3.0)
     for name, truth in (("kd", KD), ("fd", KD * SLIP)):
         est = np.array([f.params[name] for f in reported])
@@ -146,8 +146,8 @@ def test_twin_slider_fd_interval_covers_over_multisine_realizations():
     the slip force's error spreads over -3.6 .. +5.7 % (standard deviation 3.1 %, mean +1.0 %;
     without sensor noise seeds 1-6 still -1.7 .. +4.3 %: the realization, not the noise).
     The reported ``fd`` and ``kd`` intervals each cover at least 7 of 10 (at a nominal 95 %
-    fewer happens 1 % of the time; measured 8 and 9; with the cluster-robust sandwich before
-    the leave-one-block-out covariance ``fd`` 4 of 10, half widths 1.0-4.3 %) and are not
+    fewer happens 1 % of the time; measured 8 and 9; with the cluster-robust sandwich alone,
+    before the leave-one-block-out covariance, ``fd`` 4 of 10, half widths 1.0-4.3 %) and are not
     widened beyond twice the spread (``Z95`` standard deviations)."""
     import diagnose_zoo as Z
     cases = [Z._mapped_case("twin-jenkins_joint-acc-multisine", "twin", Z.TWIN_MS, Z.A,
