@@ -38,9 +38,9 @@ from ._linear_update import Z95
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 
 BLOCKS = 8
-"""Contiguous frequency blocks per fitting level left out one at a time in the cluster
-jackknife of `misfit_intervals` (a model-form misfit is smooth in frequency: neighbouring
-lines are not independent)."""
+"""Contiguous frequency blocks per fitting level: the clusters of `misfit_intervals`'
+cluster-robust covariance and jackknife (a model-form misfit is smooth in frequency:
+neighbouring lines are not independent)."""
 
 PROFILE_SPAN = np.log(2.0)
 """How far (log) the second parameter is refitted and profiled either side of its estimate:
@@ -266,8 +266,7 @@ def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]
     covariance (delta method), so a slider's ``fd`` carries ``kd``'s error as well as the
     slip's (the profile alone, `grid_refit`, lets them trade off). Each interval is the
     widest of the cluster-robust (and jackknife) and noise-only ones, with the second
-    parameters free
-    and fixed (`_sandwich`). On a model that fits to its noise it estimates the noise
+    parameters free and fixed (`_sandwich`). On a model that fits to its noise it estimates the noise
     interval; estimates are unchanged. Stepped-sine fits (harmonic balance) keep theirs.
     """
     if not fits or not search.continuous_grid or any(f.cand.memory and f.extra is None
