@@ -6,9 +6,15 @@ so the truth and the noise are known exactly and the fitted model holds the trut
 A slider's ``kd`` and slip displacement trade off (a later slip with a softer spring explains
 nearly the same FRFs); ``fd = kd * slip`` is pinned better than either, but not exactly: its
 interval must hold ``kd``'s error at a fixed slip too (the profile's ends alone gave a
-zero-width ``fd`` interval, zoo `gvt-jenkins-joint`)."""
+zero-width ``fd`` interval, zoo `gvt-jenkins-joint`).
+
+Then the reported intervals over realizations where they matter: the level's stated noise
+a third of the true one (a variance read from a few periods), and the zoo's
+`twin-jenkins_joint-acc-multisine` over ten multisine realizations (its slip force moves by
+about 3 % from one to the next, without sensor noise too)."""
 
 import numpy as np
+import pytest
 
 from analysis.diagnose._compare import LevelFRF, model_frf
 from analysis.diagnose._joint import grid_refit, misfit_intervals
@@ -57,10 +63,10 @@ def _unit_motion() -> np.ndarray:
     return 1.0 / (1.2e4 - w ** 2 + 2j * w)
 
 
-def _realization(rng: np.random.Generator) -> tuple[Fit, Fit, Fit]:
+def _realization(rng: np.random.Generator, understated: float = 1.0) -> tuple[Fit, Fit, Fit]:
     """One realization's fit after the profile (`grid_refit`), after `misfit_intervals`,
     and with the sandwich's intervals alone (`misfit_intervals` on the profiled estimates
-    with zero-width intervals)."""
+    with zero-width intervals); the noise added is ``understated`` times the stated one."""
     start = _model()
     cand = next(c for c in library(1) if c.kind == "stick_slip")
     amps = [a * (0.5 + FREQS / FREQS.max()) for a in AMPLITUDES]
@@ -75,7 +81,7 @@ def _realization(rng: np.random.Generator) -> tuple[Fit, Fit, Fit]:
         h = model_frf(hl, lf, [(cand.w, KD, (cand, SLIP))])
         lf.var = (NOISE * np.abs(h)) ** 2
         e = rng.standard_normal(h.shape) + 1j * rng.standard_normal(h.shape)
-        lf.H = h + e * np.sqrt(lf.var / 2)
+        lf.H = h + understated * e * np.sqrt(lf.var / 2)
     guess = 1.3 * SLIP                # a grid value off the truth, as the screening's
     search.ensure_basis(cand, guess)
     first = Fit(cand, scaled_params("stick_slip", KD, guess), {"kd": [KD, KD]}, 0.0, 0.0,
@@ -89,9 +95,9 @@ def _realization(rng: np.random.Generator) -> tuple[Fit, Fit, Fit]:
     return profiled, reported, alone
 
 
-def _runs(n: int) -> tuple[list[Fit], ...]:
+def _runs(n: int, understated: float = 1.0) -> tuple[list[Fit], ...]:
     rng = np.random.default_rng(3)
-    return tuple(zip(*[_realization(rng) for _ in range(n)]))
+    return tuple(zip(*[_realization(rng, understated) for _ in range(n)]))
 
 
 def _coverage(fits: list[Fit], name: str, truth: float) -> float:
@@ -114,3 +120,41 @@ def test_slider_intervals_cover_at_about_the_nominal_rate():
             assert _coverage(fits, name, truth) >= 0.85, name
             half = np.median([(f.ci95[name][1] - f.ci95[name][0]) / 2 for f in fits])
             assert half < 2 * Z95 * np.std(est), name
+
+
+@pytest.mark.slow
+def test_slider_sandwich_covers_a_misfit_its_noise_understates():
+    """The noise 3x the stated one (a variance from three periods runs low): the profile
+    widens by the reduced misfit; the sandwich alone must see the misfit itself. Over 60
+    realizations its ``kd`` and ``fd`` intervals cover >= 85 % (measured 92 % and 88 %,
+    half widths 1.2x the estimates' ``Z95`` spread). The leave-one-block-out covariance
+    (`_joint._cluster_jackknife`, taken for second-parameter kinds) does this; the
+    cluster-robust ``A^-1 B A^-1 G/(G-1)`` alone covered ``kd`` 82 % (half width 0.52 %
+    against 0.65 % needed): the blocks that pin ``kd`` have the scores the fit zeroed."""
+    _, reported, alone = _runs(60, understated=3.0)
+    for name, truth in (("kd", KD), ("fd", KD * SLIP)):
+        est = np.array([f.params[name] for f in reported])
+        for fits in (reported, alone):
+            assert _coverage(fits, name, truth) >= 0.85, name
+        half = np.median([(f.ci95[name][1] - f.ci95[name][0]) / 2 for f in alone])
+        assert half < 2 * Z95 * np.std(est), name
+
+
+@pytest.mark.slow
+def test_twin_slider_fd_interval_covers_over_multisine_realizations():
+    """`twin-jenkins_joint-acc-multisine` with seeds 1-10 (multisine phases and sensor noise):
+    the slip force's error spreads over -3.6 .. +5.7 % (standard deviation 3.1 %, mean +1.0 %;
+    without sensor noise seeds 1-6 still -1.7 .. +4.3 %: the realization, not the noise).
+    The reported ``fd`` and ``kd`` intervals each cover at least 7 of 10 (at a nominal 95 %
+    fewer happens 1 % of the time; measured 8 and 9; with the cluster-robust sandwich alone,
+    before the leave-one-block-out covariance, ``fd`` 4 of 10, half widths 1.0-4.3 %) and are not
+    widened beyond twice the spread (``Z95`` standard deviations)."""
+    import diagnose_zoo as Z
+    cases = [Z._mapped_case("twin-jenkins_joint-acc-multisine", "twin", Z.TWIN_MS, Z.A,
+                            Z.TWIN_CH, ("stick_slip", ("wing", "payload"), "joint"), seed=s)
+             for s in range(1, 11)]
+    rows = [Z.run_case(c).intervals for c in cases]
+    for name in ("stick_slip.fd", "stick_slip.kd"):
+        est, lo, hi, truth = np.array([r[name] for r in rows]).T
+        assert np.sum((lo <= truth) & (truth <= hi)) >= 7, name
+        assert np.median((hi - lo) / 2) < 2 * Z95 * np.std(est), name
