@@ -68,7 +68,7 @@ def blas_threads() -> Iterator[None]:
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     limits = None
     if "numpy" in sys.modules:
-        from threadpoolctl import threadpool_limits
+        from threadpoolctl import threadpool_limits   # only then: no cost at start-up
         limits = threadpool_limits(limits=1, user_api="blas")
     try:
         yield
