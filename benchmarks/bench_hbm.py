@@ -17,15 +17,22 @@
    <= 254 ms, its time before the ``[modal]`` form made `linear_frf` slower).
 5. This tree against a base commit (default HEAD~1) in the same run (`benchmarks/_compare.py`):
    the continuation and the FRF of 1., alternately in subprocesses, best of each.
+6. With ``--pyharm PYTHON`` (an interpreter that has pyHarm, ``pip install pyHarm-os``; not a
+   dependency): the curve of 4. by pyHarm's arc length (`pyharm_duffing.py`, in a subprocess)
+   and by `continue_frf` at several step limits, alternately, with each one's fold error
+   against a finely stepped `continue_frf` (``max_step`` 0.01): time at equal accuracy.
 
     python benchmarks/bench_hbm.py [--level 100] [--settle-cycles 150] [--fs 16384] [--starts 4]
-                                   [--base REF | --no-compare]
+                                   [--base REF | --no-compare] [--pyharm PYTHON [--only-pyharm]]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -140,14 +147,62 @@ def continuation_case() -> None:
           + ", ".join(f"{f:.3f} Hz" for f in branch.freqs[branch.folds]))
 
 
+def _fold_error(folds: np.ndarray, ref: np.ndarray) -> float:
+    """Largest distance of the reference folds to the nearest fold found, Hz (inf if none)."""
+    folds = np.asarray(folds, dtype=float)
+    return float(max(np.abs(folds - r).min() for r in ref)) if folds.size else np.inf
+
+
+def pyharm_case(python: str, rounds: int = 2) -> None:
+    """Case 6: pyHarm's arc length against `continue_frf` on the curve of case 4."""
+    system = duffing_system()
+    fine = continue_frf(system, 12.0, 22.0, 1.0, max_step=0.01, max_points=20000)
+    ref = fine.fold_freqs
+    ours = {step: [] for step in (0.1, 0.3, 1.0)}
+    theirs = {ds: [] for ds in (0.5, 2.0)}
+    script = str(Path(__file__).resolve().parent / "pyharm_duffing.py")
+    for _ in range(rounds):
+        for step, times in ours.items():
+            continue_frf(system, 12.0, 22.0, 1.0, max_step=step)      # compiled, warm
+            c0 = time.thread_time()
+            branch = continue_frf(system, 12.0, 22.0, 1.0, max_step=step)
+            times.append((time.thread_time() - c0, branch.freqs.size,
+                          _fold_error(branch.fold_freqs, ref),
+                          _fold_error(branch.freqs[branch.folds], ref)))
+        for ds, runs in theirs.items():
+            with tempfile.TemporaryDirectory() as scratch:     # pyHarm writes a log folder
+                out = subprocess.run([python, script, "--ds-max", str(ds), "--repeats", "2"],
+                                     capture_output=True, text=True, check=True, cwd=scratch)
+            res = json.loads(out.stdout.strip().splitlines()[-1])
+            runs.append((res["cpu"], res["points"], _fold_error(res["folds"], ref)))
+    print(f"6. the curve of 4. against pyHarm's arc length (same run, {rounds} rounds, best "
+          f"thread CPU, set-up included; fold error: largest distance to the folds of "
+          f"max_step 0.01, " + ", ".join(f"{f:.8f}" for f in ref) + " Hz; ours: "
+          f"`Branch.fold_freqs`, in brackets its fold points; pyHarm: its turning points):")
+    for step, table in ours.items():
+        cpu, points, err, err_points = min(table)
+        print(f"   continue_frf max_step {step:<6g} {points:4d} points, {1e3 * cpu:6.1f} ms, "
+              f"fold error {err:.1e} Hz ({err_points:.1e})")
+    for ds, table in theirs.items():
+        cpu, points, err = min(table)
+        print(f"   pyHarm ds_max {ds:<14g} {points:4d} points, {1e3 * cpu:6.1f} ms, "
+              f"fold error {err:.1e} Hz")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--level", type=float, default=100.0, help="force amplitude, N")
     parser.add_argument("--settle-cycles", type=float, default=150.0)
     parser.add_argument("--fs", type=float, default=16384.0, help="time-domain sample rate")
     parser.add_argument("--starts", type=int, default=4)
+    parser.add_argument("--pyharm", metavar="PYTHON",
+                        help="interpreter with pyHarm installed: also run case 6")
+    parser.add_argument("--only-pyharm", action="store_true", help="run case 6 alone")
     add_options(parser)
     args = parser.parse_args()
+    if args.pyharm and args.only_pyharm:
+        pyharm_case(args.pyharm)
+        return
     model = Model.load(ROOT / "examples" / "models" / "sdof-stick-slip.toml")
     freqs = np.linspace(50.0, 350.0, 200)
 
@@ -185,6 +240,8 @@ def main() -> None:
                  if end else s.get("error", "")))
 
     continuation_case()
+    if args.pyharm:
+        pyharm_case(args.pyharm)
     if not args.no_compare:
         compare(["bench_hbm:continuation", "bench_hbm:frf_sweep", "bench_hbm:receptance"],
                 args.base)

@@ -2,6 +2,10 @@
 
 Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 any other failure.
 Set ``NLID_DEBUG=1`` to see tracebacks.
+
+BLAS runs on one thread for a command (`blas_threads`) unless the environment sets its
+threads (``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS``, ...): the estimators work on small
+matrices, where OpenBLAS's threads cost more than they save (docs/simulated-plant.md).
 """
 
 from __future__ import annotations
@@ -23,6 +27,10 @@ from . import __version__, commands
 
 #: Commands that run no numba kernel (no "compiling" notice for them).
 NO_KERNELS = frozenset({"import", "import-modes", "repair", "warmup"})
+#: Variables that set the BLAS threads (OpenBLAS reads the first three; MKL, BLIS their own):
+#: when one is set, the CLI leaves the threads to it.
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS",
+                         "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -47,6 +55,30 @@ def _bad_input_types() -> tuple[type[BaseException], ...]:
 
 
 @contextlib.contextmanager
+def blas_threads() -> Iterator[None]:
+    """BLAS on one thread inside the block unless a `BLAS_THREAD_VARIABLES` entry is set.
+
+    ``OPENBLAS_NUM_THREADS=1`` holds for the BLAS libraries loaded inside the block (a
+    command imports numpy and scipy when it needs them) and for the processes it starts;
+    those already loaded (a caller in the same process) are limited with threadpoolctl.
+    Both are undone at the end; a library first loaded inside keeps its one thread."""
+    if any(name in os.environ for name in BLAS_THREAD_VARIABLES):
+        yield
+        return
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    limits = None
+    if "numpy" in sys.modules:
+        from threadpoolctl import threadpool_limits   # only then: no cost at start-up
+        limits = threadpool_limits(limits=1, user_api="blas")
+    try:
+        yield
+    finally:
+        os.environ.pop("OPENBLAS_NUM_THREADS", None)
+        if limits is not None:
+            limits.restore_original_limits()
+
+
+@contextlib.contextmanager
 def _held_runtime_warnings(hold: bool) -> Iterator[list[str]]:
     """Collect numpy's floating-point RuntimeWarnings (one line each) instead of printing
     them: a bad input that ends in a one-line error must not bring a screen of them."""
@@ -65,7 +97,13 @@ def _held_runtime_warnings(hold: bool) -> Iterator[list[str]]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit code (0
-    success, 2 bad input, 1 other failure, 130 interrupted)."""
+    success, 2 bad input, 1 other failure, 130 interrupted). BLAS on one thread unless the
+    environment says otherwise (`blas_threads`, set before numpy loads)."""
+    with blas_threads():
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = os.environ.get("NLID_DEBUG") == "1"

@@ -79,3 +79,17 @@ def test_time_domain_sweep_lands_on_the_same_branches(system):
 def test_bad_range(system):
     with pytest.raises(InputError, match="two different positive"):
         continue_frf(system, 50.0, 50.0, FORCE)
+
+
+def test_fold_frequencies_between_the_points(system, branch):
+    """The folds' frequencies by Hermite interpolation along the arc (error ~ step^4) turn
+    beyond both points around each fold, and a run with 10x the step finds them 100x closer
+    to those of the default step than its own fold points are (the points: ~ step^2)."""
+    upper, lower = branch.folds
+    assert branch.fold_freqs[0] >= branch.freqs[upper - 1:upper + 1].max()
+    assert branch.fold_freqs[1] <= branch.freqs[lower - 1:lower + 1].min()
+    coarse = continue_frf(system, 40.0, 80.0, FORCE, max_step=1.0)
+    assert coarse.folds.size == 2
+    by_point = np.abs(coarse.freqs[coarse.folds] - branch.fold_freqs)
+    by_turn = np.abs(coarse.fold_freqs - branch.fold_freqs)
+    assert np.all(by_turn <= by_point / 100), (by_turn, by_point)
