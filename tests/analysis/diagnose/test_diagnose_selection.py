@@ -245,3 +245,24 @@ def test_a_kind_alternative_round_trips_and_is_explained_from_the_numbers():
     assert "1.222e+05, 1.219e+05, 1.213e+05: within 0.75 %" in text
     assert "The cubic spring is named" in text
     assert _kind_tie(CandidateFit("gap", (1.0,), (0,), None, {}, {})) == ""
+
+
+def _scored(gain: float, correction: tuple[float, float] | None = None) -> Score:
+    """A score of deviation 100 (chi2 units), with a joint correction's interval when given."""
+    if correction is None:
+        return Score(gain, 100.0, (), (), True)
+    return Score(gain, 100.0, (), (), True, joint=sum(correction) / 2,
+                 estimate=(1.0, sum(correction) / 2), interval=((0.5, 1.5), correction))
+
+
+def test_a_joint_correction_is_kept_only_where_the_data_support_it():
+    """`policy.supported`: the correction distinguishable from zero, and the pair better out
+    of sample, beyond the two's uncertainty (Z x 141 = 526), than the candidate alone and
+    than every candidate winning alone with fewer parameters."""
+    from analysis.diagnose._policy import supported
+    assert supported(_scored(1000.0), _scored(2000.0, (-700.0, -600.0)), [])
+    assert not supported(_scored(1000.0), _scored(2000.0, (0.0, 0.0)), [])   # not distinct
+    assert not supported(_scored(1000.0), _scored(1400.0, (-700.0, -600.0)), [])   # tied
+    # a simpler candidate explaining as much: the correction is not needed
+    assert not supported(_scored(1000.0), _scored(2000.0, (-700.0, -600.0)), [_scored(1900.0)])
+    assert supported(_scored(1000.0), _scored(2000.0, (-700.0, -600.0)), [_scored(1400.0)])
