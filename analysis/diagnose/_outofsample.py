@@ -267,6 +267,23 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
                  float(ref))
 
 
+def refitted(levels: Sequence[LevelFRF], pred: Predictor) -> list[np.ndarray]:
+    """Model FRF per fitting level with ``pred``'s own parameters at zero and its nuisance
+    (the effects already accepted, free) refitted on all levels: what re-estimating those
+    effects alone explains, the baseline a further candidate's gain is measured from
+    (`.policy.decide`: it is not credited with their estimation error)."""
+    theta = np.asarray(pred.theta, dtype=float).copy()
+    theta[:pred.own] = 0.0
+    nuis = slice(pred.own, theta.size)
+    for _ in range(3):   # Gauss-Newton, normalised as in `score`
+        cells = _cells(levels, pred, theta)
+        A = sum(c[2] for c in cells)[nuis, nuis]
+        g = sum(c[3] for c in cells)[nuis]
+        n = 1 / np.sqrt(np.maximum(np.diag(A), 1e-300))
+        theta[nuis] += n * np.linalg.lstsq(A * n[:, None] * n[None, :], n * g, rcond=1e-12)[0]
+    return pred.predict(theta)
+
+
 def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray,
           hold: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """The weighted least-squares step from ``theta`` on the normal equations ``A``, ``g``

@@ -17,7 +17,7 @@ from ._leakage import Floor
 from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
 from ._report import LevelCurves
-from ._outofsample import Z as OOS_Z, Score, reference, score, tied
+from ._outofsample import Z as OOS_Z, Score, reference, refitted, score, tied
 from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from ._result import KindAlternative
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
@@ -214,18 +214,30 @@ def judge(search: Search, candidates: Sequence[Fit], earlier: Sequence[Fit], ref
     stiffness correction at its location where the data support the correction
     (`supported`; linear errors and memory laws fitted in all their parameters alone); the
     numbers recorded in its evidence."""
-    alone = [(f, score(search.levels, search.H0s, search.predictor(f, False, earlier), ref))
+    base = baseline(search, candidates, earlier)
+    alone = [(f, score(search.levels, base, search.predictor(f, False, earlier), ref))
              for f in candidates]
     out = []
     for f, s in alone:
         if not f.cand.linear and not (f.cand.memory and f.extra is None):
-            pair = score(search.levels, search.H0s, search.predictor(f, True, earlier), ref)
+            pair = score(search.levels, base, search.predictor(f, True, earlier), ref)
             k = n_params(f, pair)
             if supported(s, pair, [sg for g, sg in alone if sg.wins and n_params(g, sg) < k]):
                 s = pair
         f.evidence.update(s.evidence())
         out.append((f, s))
     return sorted(out, key=lambda fs: -fs[1].gain)
+
+
+def baseline(search: Search, candidates: Sequence[Fit], earlier: Sequence[Fit]
+             ) -> list[np.ndarray]:
+    """What a candidate's gain is measured from: the current model, or with ``earlier``
+    accepted effects, the current model with them refitted alone (`.outofsample.refitted`:
+    a further candidate scored with them free is credited only with what it adds)."""
+    for f in candidates if earlier else ():
+        if not (f.cand.memory and f.extra is None):
+            return refitted(search.levels, search.predictor(f, False, earlier))
+    return search.H0s
 
 
 def supported(alone: Score, pair: Score, simpler: Sequence[Score]) -> bool:
