@@ -266,3 +266,22 @@ def test_a_joint_correction_is_kept_only_where_the_data_support_it():
     # a simpler candidate explaining as much: the correction is not needed
     assert not supported(_scored(1000.0), _scored(2000.0, (-700.0, -600.0)), [_scored(1900.0)])
     assert supported(_scored(1000.0), _scored(2000.0, (-700.0, -600.0)), [_scored(1400.0)])
+
+
+def test_a_further_candidate_is_not_credited_with_the_earlier_effects_refit():
+    """The misfit left is an earlier effect's estimation error (``0.05 b``, its scale free as
+    nuisance); a candidate of another shape ``c`` scored with it gains only within noise from
+    the earlier effect refitted alone (`outofsample.refitted`), though about 60 deviations
+    from the current model."""
+    from analysis.diagnose._outofsample import refitted
+    levels, b = _levels([0.05, 0.05, 0.05])
+    c = np.cos(levels[0].freqs / 7.0)[:, None, None] + 0j
+    pred = Predictor(lambda t: [1.0 + t[0] * c + t[1] * b for _ in levels], np.array([0.0, 0.0]),
+                     1, np.array([1.0, 1.0]))
+    H0 = [np.ones_like(lf.H) for lf in levels]
+    s0 = score(levels, H0, pred)
+    assert s0.gain > 10 * OOS_Z * s0.sd and not s0.distinct   # its own shape: no claim
+    base = refitted(levels, pred)
+    np.testing.assert_allclose(base[0], 1.0 + _fit(levels, b) * b, rtol=1e-9)
+    s = score(levels, base, pred)
+    assert abs(s.gain) < OOS_Z * s.sd and not s.wins
