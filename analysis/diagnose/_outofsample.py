@@ -30,14 +30,13 @@ square root. Two
 candidates are tied (`tied`) when their gains differ by no more than that uncertainty. A
 level's harm is judged against its own deviation times the square root of the current
 model's reduced misfit there (at least ``ref``): a level the current model already misfits
-(its linear part off) is not a noise-level yardstick. Where the current model misfits its
-lowest fitting level (`.policy.decide`), a nonlinear candidate is also scored jointly with a
-stiffness correction
-at its own location (`Predictor.joint_at`, `.select.JOINT_KINDS`), so that a start model's
-equivalent linear error does not count against it;
-a further candidate is scored with the effects already accepted free (a scale of each
-element's force, a correction of each linear error), so that it is not credited with their
-estimation error.
+(its linear part off) is not a noise-level yardstick. A nonlinear candidate is also scored
+jointly with a stiffness correction at its own location (`Predictor.joint_at`,
+`.select.JOINT_KINDS`), kept where the data support it (`.policy.supported`), so that a
+start model's equivalent linear error does not count against it; a further candidate is
+scored with the effects already accepted free (a scale of each element's force, a correction
+of each linear error), its gain measured from them refitted alone (`refitted`), so that it
+is not credited with their estimation error.
 
 The fit on a fold is the weighted least-squares step from the candidate's estimate on all
 fitting levels (Gauss-Newton, numerical Jacobian: exact for the kinds linear in their

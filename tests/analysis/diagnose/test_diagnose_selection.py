@@ -1,5 +1,5 @@
 """One selection principle (`analysis.diagnose._outofsample`): candidates judged out of sample
-with their uncertainty, a linear correction allowed jointly where the start model misfits.
+with their uncertainty, a linear correction kept jointly where the data support it.
 
 The regression of issue 24's real Duffing circuit: a start model whose linear part is off at
 every level (its stiffness 5 % low) and a missing cubic spring. The cubic must be named, with
