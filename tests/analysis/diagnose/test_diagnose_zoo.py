@@ -33,18 +33,6 @@ WRONG_TODAY: dict[str, str] = {
                                       "the cubic/gap tie to the gap (held-back 0.394 -> 0.284, "
                                       "not confirmed); unclipped (sdof-cubic-acc-random) the "
                                       "cubic, p -3.7 %",
-    "circuit-cubic-acc-multisine": "gap + stiffness error, not the cubic: jointly with its "
-                                   "stiffness correction the cubic wins (gain 2.99e5 against "
-                                   "the gap's 2.48e5, p -4.1 %) but the correction (-843) "
-                                   "leaves the fit_linear start's valid range (a 1 Hz residual "
-                                   "mode of stiffness 39.5, participation 0.23 at the sensor); "
-                                   "held-back 1.03 -> 0.241",
-    "circuit-cubic-disp-random": "gap, not the cubic (held-back 1.14 -> 0.938, not confirmed): "
-                                 "the start fits its own level within its floor (0.087 / "
-                                 "0.099), so no joint stiffness correction is tried; the cubic "
-                                 "alone predicts 1 N worse by 36 deviations (-5737 / 160), the "
-                                 "gap, which 1 N does not reach, harms nothing (docs/diagnose.md, "
-                                 "Merged, session 31)",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -57,7 +45,8 @@ second parameters' joint intervals (docs/diagnose.md, "Sensor noise debiased, se
 parameters from the joint covariance");
 
 ``gvt-cubic-tip`` and ``beam-cubic_tip-disp-random-few`` per row in session 31 (``--only``,
-docs/diagnose.md, "The start model's own misfit as the scale")."""
+docs/diagnose.md, "The start model's own misfit as the scale"); the circuit rows right since
+session 32 (the whole zoo, docs/diagnose.md, "Session 32: the circuit")."""
 
 
 def _param(case: Z.ZooCase):
