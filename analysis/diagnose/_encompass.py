@@ -65,9 +65,9 @@ def _predict(search: Search, a: Held, b: Held, joint: bool
         terms = search.terms + [(ca.w, pa * (1 + t[1]), (ca, fa.extra)),
                                 (cb.w, t[0], (cb, fb.extra))]
         out = []
-        for lf, hl in zip(search.levels, search.H_lins):
+        for lf, hl, hm in zip(search.levels, search.H_lins, search.H_modes):
             if joint:
-                hl = updated_receptance(hl, "stiffness_error", ca.w, t[2], lf.freqs)
+                hl = updated_receptance(hl, hm, "stiffness_error", ca.w, t[2], lf.freqs)[0]
             out.append(model_frf(hl, lf, terms))
         return out
     return predict

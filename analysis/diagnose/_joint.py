@@ -34,7 +34,7 @@ from scipy.optimize import brentq, least_squares, minimize_scalar
 from ..errors import ModelError
 from ..models import KINDS, LINEAR_PARAM, Model
 from ._compare import chi2, model_frf, stuck_linear
-from ._linear_update import Z95
+from ._linear_update import Z95, correction_q
 from ._select import Fit, Search, coef_name, corrected_model, scaled_params
 
 BLOCKS = 8
@@ -60,7 +60,7 @@ def _linear_model(start: Model, fits: list[Fit], theta: np.ndarray) -> Model:
             "stiffness": start.stiffness.copy()}
     for f, t in zip(fits, theta):
         if f.cand.linear:
-            wq = start.to_q(f.cand.w)
+            wq = correction_q(start, f.cand.w)
             mats[f.cand.kind.split("_")[0]] += t * np.outer(wq, wq)
     return start.with_linear(mats["mass"], mats["damping"], mats["stiffness"], [])
 

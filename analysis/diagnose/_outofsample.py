@@ -30,14 +30,13 @@ square root. Two
 candidates are tied (`tied`) when their gains differ by no more than that uncertainty. A
 level's harm is judged against its own deviation times the square root of the current
 model's reduced misfit there (at least ``ref``): a level the current model already misfits
-(its linear part off) is not a noise-level yardstick. Where the current model misfits its
-lowest fitting level (`.policy.decide`), a nonlinear candidate is also scored jointly with a
-stiffness correction
-at its own location (`Predictor.joint_at`, `.select.JOINT_KINDS`), so that a start model's
-equivalent linear error does not count against it;
-a further candidate is scored with the effects already accepted free (a scale of each
-element's force, a correction of each linear error), so that it is not credited with their
-estimation error.
+(its linear part off) is not a noise-level yardstick. A nonlinear candidate is also scored
+jointly with a stiffness correction at its own location (`Predictor.joint_at`,
+`.select.JOINT_KINDS`), kept where the data support it (`.policy.supported`), so that a
+start model's equivalent linear error does not count against it; a further candidate is
+scored with the effects already accepted free (a scale of each element's force, a correction
+of each linear error), its gain measured from them refitted alone (`refitted`), so that it
+is not credited with their estimation error.
 
 The fit on a fold is the weighted least-squares step from the candidate's estimate on all
 fitting levels (Gauss-Newton, numerical Jacobian: exact for the kinds linear in their
@@ -265,6 +264,23 @@ def score(levels: Sequence[LevelFRF], H0s: Sequence[np.ndarray], pred: Predictor
                  None if pred.joint_at is None else float(theta[pred.joint_at]),
                  tuple(float(t) for t in theta), interval, float(x2), max(float(left), 0.0),
                  float(ref))
+
+
+def refitted(levels: Sequence[LevelFRF], pred: Predictor) -> list[np.ndarray]:
+    """Model FRF per fitting level with ``pred``'s own parameters at zero and its nuisance
+    (the effects already accepted, free) refitted on all levels: what re-estimating those
+    effects alone explains, the baseline a further candidate's gain is measured from
+    (`.policy.decide`: it is not credited with their estimation error)."""
+    theta = np.asarray(pred.theta, dtype=float).copy()
+    theta[:pred.own] = 0.0
+    nuis = slice(pred.own, theta.size)
+    for _ in range(3):   # Gauss-Newton, normalised as in `score`
+        cells = _cells(levels, pred, theta)
+        A = sum(c[2] for c in cells)[nuis, nuis]
+        g = sum(c[3] for c in cells)[nuis]
+        n = 1 / np.sqrt(np.maximum(np.diag(A), 1e-300))
+        theta[nuis] += n * np.linalg.lstsq(A * n[:, None] * n[None, :], n * g, rcond=1e-12)[0]
+    return pred.predict(theta)
 
 
 def _fold(theta: np.ndarray, A: np.ndarray, g: np.ndarray, bf: float, d_ref: np.ndarray,

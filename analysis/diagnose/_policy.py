@@ -17,7 +17,7 @@ from ._leakage import Floor
 from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
 from ._report import LevelCurves
-from ._outofsample import Z as OOS_Z, Score, reference, score, tie_threshold, tied
+from ._outofsample import Z as OOS_Z, Score, reference, refitted, score, tie_threshold, tied
 from ._evidence import Misfit, PassSummary, Rejection, Tried, TrendPoint
 from ._result import KindAlternative
 from ._encompass import encompassing
@@ -149,10 +149,9 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     order: the model is adequate there) and its misfit does not change with level
     (`residual_dependent`; when it does, nonlinear candidates only); else accept the
     candidate of ``pool`` with the largest out-of-sample gain that wins
-    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged alone and, when the
-    model misfits its lowest level (its linear part is off), nonlinear ones also jointly
-    with a stiffness correction at their location; every one with the ``earlier`` accepted
-    effects free.
+    (`.outofsample.Score.wins`); the `SCORED` best in sample are judged (`judge`: a
+    nonlinear one jointly with a stiffness correction at its location where the data
+    support it, `supported`), every one with the ``earlier`` accepted effects free.
     The first effect is judged against the start model's own misfit on the levels within
     their floor (`.outofsample.reference`), a further one against the noise alone.
     An element kind already accepted at a location is not offered again there (either
@@ -160,8 +159,6 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     lose on another count, or that leave the model's valid range, are kept in ``rejected``
     with their reason."""
     beyond = beyond_floor(search, floors)
-    low = min(range(len(search.levels)), key=lambda j: search.levels[j].level)
-    joint = beyond[low]
     if not any(beyond):
         if not residual_dependent(search):
             return SearchPass(search, pool, _reduction(search, pool[0]) if pool else 0.0,
@@ -176,17 +173,7 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     ref = 1.0 if earlier else reference(search.levels, search.H0s, [not b for b in beyond])
 
     candidates = judged(pool)
-
-    def judge(jointly: bool) -> list[tuple[Fit, Score]]:
-        out = []
-        for f in candidates:
-            both = jointly and not f.cand.linear and not (f.cand.memory and f.extra is None)
-            s = score(search.levels, search.H0s, search.predictor(f, both, earlier), ref)
-            f.evidence.update(s.evidence())
-            out.append((f, s))
-        return sorted(out, key=lambda fs: -fs[1].gain)
-    scored = judge(False) + (judge(True) if joint else [])
-    scored.sort(key=lambda fs: -fs[1].gain)
+    scored = judge(search, candidates, earlier, ref)
     winning = {id(f) for f, s in scored if s.wins}
     ranked = list({id(f): f for f, _ in scored}.values())
     ranked += [f for f in pool if all(f is not g for g in candidates)]
@@ -223,11 +210,60 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
     return SearchPass(search, ranked, first, False, model, 0.0, rejected)
 
 
+def judge(search: Search, candidates: Sequence[Fit], earlier: Sequence[Fit], ref: float
+          ) -> list[tuple[Fit, Score]]:
+    """Each candidate's out-of-sample score, best gain first: alone, or jointly with a
+    stiffness correction at its location where the data support the correction
+    (`supported`; linear errors and memory laws fitted in all their parameters alone); the
+    numbers recorded in its evidence."""
+    base = baseline(search, candidates, earlier)
+    alone = [(f, score(search.levels, base, search.predictor(f, False, earlier), ref))
+             for f in candidates]
+    out = []
+    for f, s in alone:
+        if not f.cand.linear and not (f.cand.memory and f.extra is None):
+            pair = score(search.levels, base, search.predictor(f, True, earlier), ref)
+            k = n_params(f, pair)
+            if supported(s, pair, [sg for g, sg in alone if sg.wins and n_params(g, sg) < k]):
+                s = pair
+        f.evidence.update(s.evidence())
+        out.append((f, s))
+    return sorted(out, key=lambda fs: -fs[1].gain)
+
+
+def baseline(search: Search, candidates: Sequence[Fit], earlier: Sequence[Fit]
+             ) -> list[np.ndarray]:
+    """What a candidate's gain is measured from: the current model, or with ``earlier``
+    accepted effects, the current model with them refitted alone (`.outofsample.refitted`:
+    a further candidate scored with them free is credited only with what it adds)."""
+    for f in candidates if earlier else ():
+        if not (f.cand.memory and f.extra is None):
+            return refitted(search.levels, search.predictor(f, False, earlier))
+    return search.H0s
+
+
+def supported(alone: Score, pair: Score, simpler: Sequence[Score]) -> bool:
+    """Whether the data support a candidate's joint stiffness correction: the correction's
+    95 % interval on all fitting levels excludes zero, and the pair predicts out of sample
+    better, beyond the uncertainty of the two (`.outofsample.tied`), than the candidate
+    alone and than every candidate that wins alone with fewer parameters (``simpler``).
+    Whatever the start model's provenance: one fitted where the structure is already
+    nonlinear holds that level's equivalent stiffness, which the correction takes out."""
+    if pair.joint is None or pair.interval[1] == (0.0, 0.0):
+        return False
+    return all(pair.gain > s.gain and not tied(s, pair) for s in [alone, *simpler])
+
+
+def n_params(fit: Fit, s: Score) -> int:
+    """The candidate's parameters as scored: coefficients, nuisance and a refined grid
+    value."""
+    return len(s.estimate) + (fit.extra is not None)
+
+
 def bic(search: Search, fit: Fit, s: Score) -> float:
     """The candidate's BIC on the fitting levels as scored: its misfit plus ``ln N`` per
     parameter (coefficients, nuisance and a refined grid value)."""
-    k = len(s.estimate) + (fit.extra is not None)
-    return float(s.chi2 + k * np.log(search.n_values))
+    return float(s.chi2 + n_params(fit, s) * np.log(search.n_values))
 
 
 def kind_ties(search: Search, scored: Sequence[tuple[Fit, Score]], f: Fit, s: Score

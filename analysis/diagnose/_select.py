@@ -33,7 +33,8 @@ from ..reverse_path import ReversePathOptions, reverse_path
 from ._compare import (LevelFRF, add_basis, chi2, deformation, element_force, law_force,
                       level_frf, model_frf, stuck_linear)
 from ._leakage import leakage_bias
-from ._linear_update import Z95, fit_linear_error, updated_frf, updated_receptance
+from ._linear_update import (Z95, correction_q, fit_linear_error, modes_model, updated_frf,
+                             updated_receptance)
 from ._outofsample import Predictor
 from ._prepare import Prepared
 from ._result import CandidateFit
@@ -162,6 +163,11 @@ class Search:
         self.H_lins = [stuck_linear(model).linear_frf(lf.freqs) for lf in self.levels]
         self.terms = [(el.w, 1.0, ("model", i)) for i, el in enumerate(model.elements)]
         self.H0s = [model_frf(hl, lf, self.terms) for hl, lf in zip(self.H_lins, self.levels)]
+        modes = modes_model(model)   # what a linear error corrects (`.linear_update`)
+        self.H_modes = self.H_lins if modes is None else [modes.linear_frf(lf.freqs)
+                                                          for lf in self.levels]
+        self.H0_modes = self.H0s if modes is None else [
+            model_frf(hm, lf, self.terms) for hm, lf in zip(self.H_modes, self.levels)]
         self.chi2_0 = sum(chi2(lf, h) for lf, h in zip(self.levels, self.H0s))
         self.n_values = sum(lf.n_values for lf in self.levels)
 
@@ -233,10 +239,10 @@ class Search:
             if not c.linear:
                 terms.append((c.w, t[0], (c, fit.extra)))
             out = []
-            for lf, hl in zip(self.levels, self.H_lins):
+            for lf, hl, hm in zip(self.levels, self.H_lins, self.H_modes):
                 for j, (kind, w) in enumerate(lin):
-                    hl = updated_receptance(hl, kind, w, t[j if c.linear else j + 1],
-                                            lf.freqs)
+                    hl, hm = updated_receptance(hl, hm, kind, w, t[j if c.linear else j + 1],
+                                                lf.freqs)
                 out.append(model_frf(hl, lf, terms))
             return out
         theta = np.zeros(1 + k_lin + len(scaled))
@@ -257,7 +263,7 @@ class Search:
 
     def _linear_size(self, kind: str, w: np.ndarray) -> float:
         """A small linear error of ``kind`` at ``w`` (1e-3 of the model's own along it)."""
-        wq = self.model.to_q(w)
+        wq = correction_q(self.model, w)
         mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
                "stiffness_error": self.model.stiffness}[kind]
         return 1e-3 * max(abs(float(wq @ mat @ wq)), 1e-300)
@@ -297,11 +303,13 @@ class Search:
         fits = []
         for c in self.cands:
             if c.linear:
-                delta, se = fit_linear_error(c, self.levels, self.H_lins, self.H0s)
+                delta, se = fit_linear_error(c, self.levels, self.H_modes, self.H0_modes,
+                                             self.H0s)
                 if not self.linear_ok(c, delta):
                     continue
-                x2 = sum(chi2(lf, updated_frf(c, delta, lf.freqs, hl, h0))
-                         for lf, hl, h0 in zip(self.levels, self.H_lins, self.H0s))
+                x2 = sum(chi2(lf, updated_frf(c, delta, lf.freqs, hm, h0m, h0))
+                         for lf, hm, h0m, h0 in zip(self.levels, self.H_modes, self.H0_modes,
+                                                    self.H0s))
                 name = LINEAR_PARAM[c.kind]
                 fits.append(Fit(c, {name: delta}, {name: [delta - Z95 * se, delta + Z95 * se]},
                                 x2, self.bic_gain(x2, c.n_params), {"estimator": "frf-fit"}))
@@ -322,7 +330,7 @@ class Search:
 
     def linear_ok(self, c: Candidate, delta: float) -> bool:
         """A linear update must leave the mass positive definite and C, K semi-definite."""
-        wq = self.model.to_q(c.w)
+        wq = correction_q(self.model, c.w)
         ww = np.outer(wq, wq)
         mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
                "stiffness_error": self.model.stiffness}[c.kind] + delta * ww
@@ -494,7 +502,7 @@ def _corrected_model(model: Model, fit: Fit) -> Model:
                                  model.stiffness - kd * np.outer(wq, wq), elements,
                                  f"{model.name} + {c.kind}")
     delta = next(iter(fit.params.values()))
-    wq = model.to_q(c.w)
+    wq = correction_q(model, c.w)
     mats = {"mass": model.mass.copy(), "damping": model.damping.copy(),
             "stiffness": model.stiffness.copy()}
     mats[c.kind.split("_")[0]] += delta * np.outer(wq, wq)

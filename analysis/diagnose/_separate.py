@@ -83,14 +83,14 @@ def separation(search: Search, named: Law, other: Law, threshold: float
     if u is None or not np.any(u):
         return None
     u = u[:: max(1, u.size // MAX_SAMPLES)]
-    lf, hl = search.levels[top], search.H_lins[top]
+    lf, hl, hm = search.levels[top], search.H_lins[top], search.H_modes[top]
     s = np.unique(np.concatenate([SCALES, [AT]]))
     ks = [equivalent_stiffness(f.cand.kind, f.params, u, s) + f.joint
           for f in (named, other)]
 
     def frf(k: float) -> np.ndarray:
-        return model_frf(updated_receptance(hl, "stiffness_error", a.w, k, lf.freqs), lf,
-                         search.terms)
+        return model_frf(updated_receptance(hl, hm, "stiffness_error", a.w, k, lf.freqs)[0],
+                         lf, search.terms)
 
     diff = np.array([chi2(replace(lf, H=frf(ka)), frf(kb)) for ka, kb in zip(*ks)])
     beyond = np.flatnonzero(diff > threshold)

@@ -30,18 +30,6 @@ WRONG_TODAY: dict[str, str] = {
                                       "misses 5 %: 5 clipped acceleration samples (held-back "
                                       "0.394 -> 0.284, not confirmed); unclipped "
                                       "(sdof-cubic-acc-random) the cubic, p -2.5 %",
-    "circuit-cubic-acc-multisine": "gap + stiffness error, not the cubic: jointly with its "
-                                   "stiffness correction the cubic wins (gain 2.99e5 against "
-                                   "the gap's 2.48e5, p -4.1 %) but the correction (-843) "
-                                   "leaves the fit_linear start's valid range (a 1 Hz residual "
-                                   "mode of stiffness 39.5, participation 0.23 at the sensor); "
-                                   "held-back 1.03 -> 0.241",
-    "circuit-cubic-disp-random": "gap, not the cubic (held-back 1.14 -> 0.938, not confirmed): "
-                                 "the start fits its own level within its floor (0.087 / "
-                                 "0.099), so no joint stiffness correction is tried; the cubic "
-                                 "alone predicts 1 N worse by 36 deviations (-5737 / 160), the "
-                                 "gap, which 1 N does not reach, harms nothing (docs/diagnose.md, "
-                                 "Merged, session 31)",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -57,7 +45,8 @@ parameters from the joint covariance");
 docs/diagnose.md, "The start model's own misfit as the scale"); the whole zoo in session 32
 with the second parameters' cluster jackknife: ``twin-gvt-hysteresis_joint-acc-multisine-mains``
 left (fd +5.3 %, 95 % -0.3 .. +10.8 %: not identifiable to 5 %, as its realizations say,
--3.1 .. +9.6 %; docs/diagnose.md, "Session 32: intervals that cover")."""
+-3.1 .. +9.6 %; docs/diagnose.md, "Session 32: intervals that cover"); the circuit rows right since
+session 32 (the whole zoo, docs/diagnose.md, "Session 32: the circuit")."""
 
 
 def _param(case: Z.ZooCase):
