@@ -6,6 +6,8 @@ tells the diagnosis what to look for.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -101,7 +103,11 @@ def test_real_recording_issues_multisine_acceleration_dc():
 
 
 def test_held_back_segment_with_single_level(cubic):
-    d = diagnose(cubic.start, cubic.recordings[-1:])
+    """One level, the first half (2^15 samples) of the top level's record: a segment of it
+    is held back (measured: the cubic at -4.7 %, held-back error 1.81 -> 0.10)."""
+    rec = cubic.recordings[-1]
+    half = rec.force.shape[0] // 2
+    d = diagnose(cubic.start, [replace(rec, force=rec.force[:half], response=rec.response[:half])])
     assert d.level_dependent is None
     assert d.chosen[0].kind == "cubic_spring"
     assert d.chosen[0].dofs == (2,)
