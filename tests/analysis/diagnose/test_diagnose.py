@@ -6,8 +6,6 @@ tells the diagnosis what to look for.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -59,7 +57,9 @@ def check(sc, d, rel_tol: float = 0.08) -> None:
 
 @pytest.fixture(scope="module")
 def cubic():
-    return hidden_cubic()
+    """2^15 samples per level (measured with seeds 11-14: p -4.2 to -4.9 %, a bias of the
+    shorter record, 2^16 gives -1.4 %; held-back 1.51 -> 0.075; half the time of 2^16)."""
+    return hidden_cubic(n=1 << 15)
 
 
 def test_hidden_grounded_cubic_at_unforced_dof(cubic):
@@ -103,11 +103,7 @@ def test_real_recording_issues_multisine_acceleration_dc():
 
 
 def test_held_back_segment_with_single_level(cubic):
-    """One level, the first half (2^15 samples) of the top level's record: a segment of it
-    is held back (measured: the cubic at -4.7 %, held-back error 1.81 -> 0.10)."""
-    rec = cubic.recordings[-1]
-    half = rec.force.shape[0] // 2
-    d = diagnose(cubic.start, [replace(rec, force=rec.force[:half], response=rec.response[:half])])
+    d = diagnose(cubic.start, cubic.recordings[-1:])
     assert d.level_dependent is None
     assert d.chosen[0].kind == "cubic_spring"
     assert d.chosen[0].dofs == (2,)
