@@ -143,11 +143,12 @@ def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str,
     url = {"serial": "serial-emu://", "can": f"can-emu://virtual/nr-{out.stem}"}[backend]
     if pace is not None:
         url += f"?pace={pace:g}"
-    # 1 s blocks at 1024 Hz, each spanning a dozen watchdog periods (80 ms) and many DAQ
-    # frames; the level control accepts 25 % (what is checked is the timing, not the level):
-    # a settle block, a measured one and an average per level, 6 s at real-time pace
+    # 0.5 s blocks at 1024 Hz, each spanning six watchdog periods (80 ms) and 16 DAQ frames;
+    # the level control accepts 25 % (what is checked is the timing, not the level): a settle
+    # block, a measured one and an average per level, and the moments a trip is likeliest
+    # (start, level change, end), about 3 s at real-time pace
     doc = campaign_doc(backend, out.stem, daq={"url": url},
-                       random={"averages": 1, "block_size": 1024, "levels": [5.0, 20.0],
+                       random={"averages": 1, "block_size": 512, "levels": [5.0, 20.0],
                                "tolerance": 0.25})
     benches = []
     try:

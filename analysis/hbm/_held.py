@@ -163,7 +163,9 @@ def sweep_held(system: HBMSystem, freqs: Sequence[float], force: Sequence[float]
         The force amplitudes that hold them.
     """
     freqs, force, P = system._check(freqs, force, None)
-    amplitude = np.broadcast_to(np.asarray(amplitude, dtype=float), freqs.shape)
+    # a writable copy: a read-only view (``broadcast_to`` of a full array) is another numba
+    # type, a second compilation of `_held_sweep` (~10 CPU s) beside the one `warmup` caches
+    amplitude = np.array(np.broadcast_to(np.asarray(amplitude, dtype=float), freqs.shape))
     if not 0 <= dof < system.model.n_dof or not (np.isfinite(amplitude).all()
                                                  and (amplitude > 0).all()):
         raise HBMError(f"held DOF {dof} must be in 0..{system.model.n_dof - 1} and every held "
@@ -185,7 +187,7 @@ def sweep_held(system: HBMSystem, freqs: Sequence[float], force: Sequence[float]
     cx[:, 1, i1::nb], cx[:, 1, nh + i1::nb] = c.imag, c.real
     ax = np.ascontiguousarray(np.stack([a.real, a.imag], axis=1))
     Z, Gv, ok, iters = _held_sweep(
-        Hr, ylin, cx, ax, np.ascontiguousarray(amplitude), 2 * np.pi * freqs, system.codes, P,
+        Hr, ylin, cx, ax, amplitude, 2 * np.pi * freqs, system.codes, P,
         system.memory, system.harmonics, *system._tables, system.max_periods, system.tol,
         system.max_iter)
     s = (Z[:, -2] + 1j * Z[:, -1]) * amplitude          # complex force scale

@@ -47,8 +47,32 @@ def cubic_files(tmp_path_factory):
     return sc, root, npz, h5
 
 
-@pytest.mark.parametrize("kind", ["npz", "h5"])
+def test_npz_and_hdf5_runs_load_the_same_recordings(cubic_files):
+    """Every field the diagnosis reads is equal whether a level was written as NPZ or into an
+    HDF5 run; only ``meta`` (where it came from, outside the contract) differs. The diagnosis
+    of the NPZ runs is therefore slow-only (`test_cli_diagnose_runs_on_npz_and_hdf5[npz]`):
+    `make test` diagnoses the HDF5 runs."""
+    import dataclasses
+
+    from nlid_lab.formats import load_recordings
+    _, _, npz, h5 = cubic_files
+    for a_path, b_path in zip(npz, h5):
+        (a,), (b,) = load_recordings(a_path), load_recordings(b_path)
+        for field in dataclasses.fields(a):
+            if field.name == "meta":
+                continue
+            x, y = getattr(a, field.name), getattr(b, field.name)
+            if isinstance(x, np.ndarray):
+                np.testing.assert_array_equal(x, y, err_msg=field.name)
+                assert x.dtype == y.dtype, field.name
+            else:
+                assert x == y, field.name
+
+
+@pytest.mark.parametrize("kind", [pytest.param("npz", marks=pytest.mark.slow), "h5"])
 def test_cli_diagnose_runs_on_npz_and_hdf5(cubic_files, kind, diagnose_once):
+    """The command on NPZ files (slow: they load as the HDF5 runs do,
+    `test_npz_and_hdf5_runs_load_the_same_recordings`) and on HDF5 runs."""
     sc, root, npz, h5 = cubic_files
     runs = npz if kind == "npz" else h5
     out, fixed = root / f"out-{kind}.json", root / f"fixed-{kind}.toml"
