@@ -103,7 +103,8 @@ def shifted(p: Prepared, d: int) -> Prepared:
         return replace(p, x=roll(p.x), v=roll(p.v))
     n = p.x.shape[0]
     motion, force = (slice(d, n), slice(0, n - d)) if d > 0 else (slice(0, n + d), slice(-d, n))
-    return replace(p, x=p.x[motion], v=p.v[motion], force=p.force[force])
+    hit = None if p.clipped is None else p.clipped[motion] | p.clipped[force]
+    return replace(p, x=p.x[motion], v=p.v[motion], force=p.force[force], clipped=hit)
 
 
 def aligned(preps: list[Prepared], misfit: Misfit

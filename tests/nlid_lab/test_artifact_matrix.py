@@ -227,6 +227,10 @@ def test_artifact_gives_the_clean_result_or_one_line(folder, artifact, path):
         assert got["err"] and "\n" not in got["err"], text
     else:
         assert text == "same" or text.startswith("warned: "), text
+    if path in ("import", "detect"):      # clipped samples named where they are, only there
+        said = (got["result"].get("clipped") if path == "import" else
+                [n for n in got["result"]["notes"] if "clipped sample" in n])
+        assert bool(said) == (artifact == "clipping"), said
 
 
 def test_clean_twin_runs_every_path(folder):

@@ -29,10 +29,6 @@ WRONG_TODAY: dict[str, str] = {
                                                      "+5.8 %)",
     # the rows of the real-DAQ catalogue and the circuit (zooart), measured per row with
     # ``python benchmarks/bench_diagnose.py --zoo --only NAME``
-    "sdof-cubic-acc-random-clipping": "gap, not the cubic: 5 clipped acceleration samples turn "
-                                      "the cubic/gap tie to the gap (held-back 0.394 -> 0.284, "
-                                      "not confirmed); unclipped (sdof-cubic-acc-random) the "
-                                      "cubic, p -3.7 %",
     "circuit-cubic-acc-multisine": "gap + stiffness error, not the cubic: jointly with its "
                                    "stiffness correction the cubic wins (gain 2.99e5 against "
                                    "the gap's 2.48e5, p -4.1 %) but the correction (-843) "
