@@ -59,7 +59,7 @@ class Prepared:
         Samples of a random record whose motion a clipped sample reaches
         (`analysis.recordings.ClippingCaveat`): the Welch segments holding one are left out
         of its spectra. None: nothing clipped (a periodic record drops the clipped periods
-        instead).
+        instead, and marks its samples only when it cannot: fewer than two would stay).
     clipped_periods : int
         Periods of a periodic record left out for holding a clipped sample.
     """
@@ -165,12 +165,12 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
 def clipped_note(caveat: ClippingCaveat, p: Prepared) -> str:
     """The diagnosis's warning line for a level's clipped samples: the caveat and what was
     left out of ``p`` (its periods, or the Welch segments the samples reach)."""
-    if p.period is not None:
+    if p.period is not None and (p.clipped_periods or p.clipped is not None):
         kept = ("left out of the diagnosis: the periods holding them" if p.clipped_periods
-                else "kept: every period holds one (fewer than two would stay)")
+                else "kept: fewer than two periods would stay without them")
         what = f"{kept} ({p.clipped_periods} of {p.clipped_periods + p.x.shape[0] // p.period})"
     elif p.clipped is None:
-        what = "they fall outside the analysed samples"
+        what = "they fall outside the analysed samples (transient periods, trimmed ends)"
     else:
         share = 100 * float(p.clipped.mean())
         what = (f"left out of the diagnosis: the Welch segments they reach ({share:.2g} % of "
@@ -210,18 +210,20 @@ def _prepare_periodic(rec: Recording, force: np.ndarray, resp: np.ndarray, label
             f"{label}: {rows.size} samples hold fewer than {transient_periods + 2} "
             f"periods of {period} samples; give the right --period or a longer record")
     rows = rows[transient_periods * period: (transient_periods + n_per) * period]
-    dropped = 0
+    dropped, kept = 0, None
     if hit is not None:
         bad = hit[rows].reshape(n_per, period).any(axis=1)
         if bad.any() and n_per - bad.sum() >= 2:
             rows, dropped = rows.reshape(n_per, period)[~bad].ravel(), int(bad.sum())
+        elif bad.any():
+            kept = hit[rows]
     force, resp = remove_dc(force[rows]), remove_dc(resp[rows])
     # whole periods: exact DFT lines, no extension or end effect
     x, v = (a.reshape(resp.shape) for a in periodic_kinematics(
         resp.reshape(-1, period, resp.shape[1]), rec.fs, rec.response_kind,
         highpass=band[0], lowpass=band[1]))
     return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
-                    rec.force_hold, rec.response_kind, clipped_periods=dropped)
+                    rec.force_hold, rec.response_kind, clipped=kept, clipped_periods=dropped)
 
 
 def kinematic_band(fs: float, kind: str, band: tuple[float, float],

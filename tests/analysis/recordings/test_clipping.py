@@ -97,3 +97,18 @@ def test_random_record_spectra_leave_out_the_segments_reached():
         data, 256.0, nperseg=256).n_avg
     want = sum(q.S * q.n_avg for q in parts) / sp.n_avg
     np.testing.assert_allclose(sp.S, want, rtol=1e-12)
+
+
+def test_periodic_record_clipped_in_every_period_keeps_them_and_says_so():
+    """Fewer than two periods would stay: none is left out, and the warning says why."""
+    period = 512
+    force = np.tile(_random(10)[:period], (4, 1))
+    resp = np.tile(_random(11)[:period], (4, 1)) + 1e-3 * _random(12)[:4 * period]
+    peak = np.abs(resp).max()
+    for k in range(4):                                     # a shock in every period
+        resp[k * period + 50: k * period + 52] += 5 * peak
+    rec = _rec(np.clip(resp, -2 * peak, 2 * peak), force)
+    c = recording_clipping(rec, "level 1")
+    p = prepare_random(rec, (5.0, 60.0), "level 1", period=period, clipped=c)
+    assert p.clipped_periods == 0 and p.x.shape[0] == 3 * period and p.clipped.any()
+    assert "kept: fewer than two periods would stay without them (0 of 3)" in clipped_note(c, p)
