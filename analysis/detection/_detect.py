@@ -35,7 +35,8 @@ from ..spectral import (BLA, DETECT_QUANTILE, best_linear_approximation, default
                         hold_gain, level_name, multiple_coherence, sine_fit, spectral_matrix)
 from ..backbone import frf_noise
 from ..errors import InputError
-from ..recordings import KIND_ORDER, Recording, StepTable, excitation_band, record_level
+from ..recordings import (KIND_ORDER, Recording, StepTable, excitation_band, record_level,
+                          recording_clipping)
 from ._detect_sweep import sweep_tests
 from ._result import Detection, DetectionTest, TestMethod
 
@@ -82,6 +83,9 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> De
     if not tests:
         raise InputError("no level to test: give random or stepped-sine runs at two or more "
                          "levels, or periodic-random or swept-sine runs")
+    notes += [c.text("a clipped channel looks like a hard nonlinearity to these tests")
+              for r in recs if isinstance(r, Recording)
+              and (c := recording_clipping(r, level_name(r))) is not None]
     unknown = sum(r.level is None for r in random + stepped)
     if unknown:
         notes.append(f"{unknown} level(s) carry no nominal level (e.g. a CSV imported without "

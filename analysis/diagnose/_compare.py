@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import weakref
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Hashable
 
 import numpy as np
@@ -400,10 +400,26 @@ def _excited(p: Prepared, freqs: np.ndarray, fpsd: np.ndarray, band: tuple[float
 
 
 def _spectra(p: Prepared, band: tuple[float, float], nperseg: int, data: np.ndarray):
+    """Spectral matrix of ``data`` (rows of ``p``): exact lines of whole periods for a
+    periodic record; Welch segments of a random one, leaving out those a clipped sample
+    reaches (`Prepared.clipped`)."""
     if p.period is not None:
         return spectral_matrix(data, p.fs, nperseg=p.period, window="boxcar", overlap=0.0,
                                band=band)
-    return spectral_matrix(data, p.fs, nperseg=nperseg, band=band)
+    pieces = [data] if p.clipped is None else [
+        data[a:b] for a, b in _runs(~p.clipped) if b - a >= nperseg]
+    parts = [spectral_matrix(d, p.fs, nperseg=nperseg, band=band) for d in pieces or [data]]
+    if len(parts) == 1:
+        return parts[0]
+    n_avg = sum(sp.n_avg for sp in parts)
+    S = sum(sp.S * sp.n_avg for sp in parts) / n_avg
+    return replace(parts[0], S=S, n_avg=n_avg, n_eff=sum(sp.n_eff for sp in parts))
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` of each run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[::2], edges[1::2]))
 
 
 def _transfers(p: Prepared, band: tuple[float, float], nperseg: int,

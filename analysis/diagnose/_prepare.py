@@ -14,13 +14,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..recordings import (Recording, clean_export, excitation_band, periodic_kinematics,
-                          record_level, remove_dc, to_kinematics)
+from ..recordings import (ClippingCaveat, Recording, clean_export, excitation_band,
+                          periodic_kinematics, record_level, remove_dc, to_kinematics)
 from ..spectral import spectral_matrix
 from ._sensor_noise import floor_below_band, kinematic_noise
 
 EDGE_FRACTION = 0.02
 """Fraction of an integrated record dropped at each end (FFT-integration end effects)."""
+CLIP_REACH = 1.0
+"""Periods of the integration's high-pass over which a clipped sample's error is taken to
+reach the motion (`clip_margin`)."""
 
 
 class DiagnoseInputError(InputError):
@@ -52,6 +55,13 @@ class Prepared:
         below the band of a random velocity or acceleration record); None when not read
         (displacement records; periodic records: their deformation is the Wiener-filtered
         period average).
+    clipped : ndarray of bool, shape (n,), optional
+        Samples of a random record whose motion a clipped sample reaches
+        (`analysis.recordings.ClippingCaveat`): the Welch segments holding one are left out
+        of its spectra. None: nothing clipped (a periodic record drops the clipped periods
+        instead, and marks its samples only when it cannot: fewer than two would stay).
+    clipped_periods : int
+        Periods of a periodic record left out for holding a clipped sample.
     """
 
     x: np.ndarray
@@ -65,6 +75,8 @@ class Prepared:
     force_hold: str = "none"
     response_kind: str = "displacement"
     noise: tuple[np.ndarray, np.ndarray] | None = None
+    clipped: np.ndarray | None = None
+    clipped_periods: int = 0
 
 
 def level_name(rec: Recording) -> str:
@@ -99,7 +111,8 @@ def analysis_band(rec: Recording, nperseg: int) -> tuple[float, float]:
 
 
 def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
-                   period: int | None = None, transient_periods: int = 1) -> Prepared:
+                   period: int | None = None, transient_periods: int = 1,
+                   clipped: ClippingCaveat | None = None) -> Prepared:
     """Displacement/velocity of a random or periodic-multisine recording.
 
     Parameters
@@ -115,33 +128,23 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
         recording's ``layout``, the layout's transient periods of every realization are
         dropped instead.
     transient_periods : int
+    clipped : ClippingCaveat, optional
+        The record's clipped samples: a random record marks the samples they reach
+        (`Prepared.clipped`), a periodic one leaves out the periods holding them.
     """
     if rec.excitation != "random":
         raise DiagnoseInputError(f"{label}: expected a random recording, got {rec.excitation}")
     force = remove_dc(rec.force)
     resp = remove_dc(rec.response)
-    lay = rec.layout
-    if period is not None and lay is not None and lay.period == period:
-        steady = (np.arange(lay.realizations)[:, None] * lay.realization_samples
-                  + lay.transient_periods * period + np.arange(lay.periods * period)).ravel()
-        force, resp, transient_periods = force[steady], resp[steady], 0
-    if period is not None:
-        n_per = force.shape[0] // period - transient_periods
-        if n_per < 2:
-            raise DiagnoseInputError(
-                f"{label}: {force.shape[0]} samples hold fewer than {transient_periods + 2} "
-                f"periods of {period} samples; give the right --period or a longer record")
-        keep = slice(transient_periods * period, (transient_periods + n_per) * period)
-        force, resp = remove_dc(force[keep]), remove_dc(resp[keep])
     # Low-pass well above the band: keeps the harmonics the nonlinear forces need while
     # cutting the sensor noise that differentiation would amplify near Nyquist.
     highpass, lowpass = kinematic_band(rec.fs, rec.response_kind, band, period is not None)
-    if period is not None:   # whole periods: exact DFT lines, no extension or end effect
-        x, v = (a.reshape(resp.shape) for a in periodic_kinematics(
-            resp.reshape(-1, period, resp.shape[1]), rec.fs, rec.response_kind,
-            highpass=highpass, lowpass=lowpass))
-        return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
-                        rec.force_hold, rec.response_kind)
+    # a periodic record's motion is formed period by period: a clipped sample stays in its own
+    margin = 0 if period is not None else clip_margin(rec.fs, rec.response_kind, highpass)
+    hit = None if clipped is None else _reach(force.shape[0], clipped.samples, margin)
+    if period is not None:
+        return _prepare_periodic(rec, force, resp, label, period, transient_periods,
+                                 (highpass, lowpass), hit)
     x, v = to_kinematics(resp, rec.fs, rec.response_kind, highpass=highpass, lowpass=lowpass)
     # integrated records only: their noise grows as 1/f^k towards the high-pass; a
     # displacement record's white noise is a negligible share, and below the band a
@@ -153,8 +156,74 @@ def prepare_random(rec: Recording, band: tuple[float, float], label: str, *,
     if rec.response_kind != "displacement":
         edge = int(EDGE_FRACTION * x.shape[0])
         x, v, force = x[edge:-edge], v[edge:-edge], force[edge:-edge]
+        hit = None if hit is None else hit[edge:-edge]
     return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
-                    rec.force_hold, rec.response_kind, noise)
+                    rec.force_hold, rec.response_kind, noise,
+                    None if hit is None or not hit.any() else hit)
+
+
+def clipped_note(caveat: ClippingCaveat, p: Prepared) -> str:
+    """The diagnosis's warning line for a level's clipped samples: the caveat and what was
+    left out of ``p`` (its periods, or the Welch segments the samples reach)."""
+    if p.period is not None and (p.clipped_periods or p.clipped is not None):
+        kept = ("left out of the diagnosis: the periods holding them" if p.clipped_periods
+                else "kept: fewer than two periods would stay without them")
+        what = f"{kept} ({p.clipped_periods} of {p.clipped_periods + p.x.shape[0] // p.period})"
+    elif p.clipped is None:
+        what = "they fall outside the analysed samples (transient periods, trimmed ends)"
+    else:
+        share = 100 * float(p.clipped.mean())
+        what = (f"left out of the diagnosis: the Welch segments they reach ({share:.2g} % of "
+                "the record)")
+    return caveat.text(what)
+
+
+def clip_margin(fs: float, kind: str, highpass: float) -> int:
+    """Samples on each side of a clipped sample that its error reaches in the motion: an
+    integrated record's error spreads over about one period of the integration's high-pass
+    (a clipped acceleration sample is a velocity step there); a displacement's stays put."""
+    return 0 if kind == "displacement" or highpass <= 0 else int(np.ceil(CLIP_REACH * fs / highpass))
+
+
+def _reach(n: int, samples: np.ndarray, margin: int) -> np.ndarray:
+    """Mask of the ``n`` samples within ``margin`` of any of ``samples``."""
+    hit = np.zeros(n + 1, dtype=int)
+    np.add.at(hit, np.clip(samples - margin, 0, n), 1)
+    np.add.at(hit, np.clip(samples + margin + 1, 0, n), -1)
+    return np.cumsum(hit[:n]) > 0
+
+
+def _prepare_periodic(rec: Recording, force: np.ndarray, resp: np.ndarray, label: str,
+                      period: int, transient_periods: int, band: tuple[float, float],
+                      hit: np.ndarray | None) -> Prepared:
+    """`prepare_random` of a periodic record: steady whole periods, those holding a clipped
+    sample (``hit``) left out while two or more periods stay."""
+    lay = rec.layout
+    rows = np.arange(force.shape[0])
+    if lay is not None and lay.period == period:
+        rows = (np.arange(lay.realizations)[:, None] * lay.realization_samples
+                + lay.transient_periods * period + np.arange(lay.periods * period)).ravel()
+        transient_periods = 0
+    n_per = rows.size // period - transient_periods
+    if n_per < 2:
+        raise DiagnoseInputError(
+            f"{label}: {rows.size} samples hold fewer than {transient_periods + 2} "
+            f"periods of {period} samples; give the right --period or a longer record")
+    rows = rows[transient_periods * period: (transient_periods + n_per) * period]
+    dropped, kept = 0, None
+    if hit is not None:
+        bad = hit[rows].reshape(n_per, period).any(axis=1)
+        if bad.any() and n_per - bad.sum() >= 2:
+            rows, dropped = rows.reshape(n_per, period)[~bad].ravel(), int(bad.sum())
+        elif bad.any():
+            kept = hit[rows]
+    force, resp = remove_dc(force[rows]), remove_dc(resp[rows])
+    # whole periods: exact DFT lines, no extension or end effect
+    x, v = (a.reshape(resp.shape) for a in periodic_kinematics(
+        resp.reshape(-1, period, resp.shape[1]), rec.fs, rec.response_kind,
+        highpass=band[0], lowpass=band[1]))
+    return Prepared(x, v, force, rec.force_dofs, rec.fs, record_level(rec), period, label,
+                    rec.force_hold, rec.response_kind, clipped=kept, clipped_periods=dropped)
 
 
 def kinematic_band(fs: float, kind: str, band: tuple[float, float],
@@ -185,6 +254,7 @@ def split_segment(p: Prepared, fraction: float = 0.7) -> tuple[Prepared, Prepare
     n = p.x.shape[0]
     cut = int(fraction * n) if p.period is None else int(fraction * n / p.period) * p.period
     def part(s: slice, tag: str) -> Prepared:
+        hit = None if p.clipped is None or not p.clipped[s].any() else p.clipped[s]
         return Prepared(p.x[s], p.v[s], p.force[s], p.force_dofs, p.fs, p.level, p.period,
-                        f"{p.label} ({tag})", p.force_hold, p.response_kind)
+                        f"{p.label} ({tag})", p.force_hold, p.response_kind, clipped=hit)
     return part(slice(0, cut), "fit segment"), part(slice(cut, n), "held-back segment")

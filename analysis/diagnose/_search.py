@@ -9,15 +9,15 @@ from typing import Sequence
 
 from ..models import Model
 from ..plant import PlantError
-from ..recordings import Recording
+from ..recordings import Recording, recording_clipping
 from ._compare import (FLOOR, choose_nperseg, element_force, error_by_dof, level_frf, model_frf,
                       stuck_linear, weighted_error)
 from ._compare import LevelFRF
 from ._engine import Flow, Progress, Tick, run
 from ._alignment import aligned
 from ._leakage import Floor, leakage_bias, level_floor
-from ._prepare import (DiagnoseInputError, Prepared, analysis_band, cleaned_exports, level_name,
-                       prepare_random, prepared_band, record_level, split_segment)
+from ._prepare import (DiagnoseInputError, Prepared, analysis_band, cleaned_exports, clipped_note,
+                       level_name, prepare_random, prepared_band, record_level, split_segment)
 from ._replay import Replay, horizon_samples, replay, steady_replay
 from ._report import LevelCurves
 from ._evidence import Evidence
@@ -109,8 +109,10 @@ class RandomFlow(Flow):
         if band is None:
             band = analysis_band(recs[0], per[0] or nps)
         band = (float(band[0]), float(band[1]))
-        preps = [prepare_random(r, band, level_name(r),
-                                period=int(p) if p else None) for r, p in zip(recs, per)]
+        clips = [recording_clipping(r, level_name(r)) for r in recs]
+        preps = [prepare_random(r, band, level_name(r), period=int(p) if p else None,
+                                clipped=c) for r, p, c in zip(recs, per, clips)]
+        self.warnings += [clipped_note(c, q) for c, q in zip(clips, preps) if c is not None]
         preps, self.delay = aligned(preps, lambda p: _misfit(model, p, band, nps, floor))
         if self.delay is not None:
             self.warnings.append(self.delay.note())

@@ -86,8 +86,10 @@ class DaqArtifacts:
     clipped : int
         Samples clipped in the response channel with the largest crest factor (its largest
         ``clipped`` |samples| cut to the next one).
-    delay : int
-        Samples the response channels lag the force (anti-alias filter group delay).
+    delay : float
+        Samples the response channels lag the force (anti-alias filter group delay): whole
+        samples by repeating the first, a fraction by a phase ramp over the record (a
+        band-limited delay, circular: the record's first samples hold its last ones').
     dead_channel, noisy_channel : int, optional
         Response channel that records only converter noise (a broken cable), and one with
         `noisy_level` times its rms of white noise added (a loose sensor).
@@ -107,7 +109,7 @@ class DaqArtifacts:
     bits: int | None = None
     full_scale: float = 2.0
     clipped: int = 0
-    delay: int = 0
+    delay: float = 0
     dead_channel: int | None = None
     noisy_channel: int | None = None
     noisy_level: float = 0.3
@@ -176,15 +178,28 @@ def apply_daq_artifacts(recording: Recording, spec: DaqArtifacts,
     data = _sensors(data, n_in, spec, rms, rng)
     data = data + _pickup(t, spec, rms, data.shape[-1], rng)
     if spec.delay:
-        lag = data[..., :-spec.delay, n_in:]
-        data[..., n_in:] = np.concatenate([np.repeat(lag[..., :1, :], spec.delay, axis=-2), lag],
-                                          axis=-2)
+        data[..., n_in:] = _delayed(data[..., n_in:], spec.delay)
     data = _converter(data, n_in, spec, rms)
     layout = recording.layout
     if recording.force.ndim == 2:
         data, layout = _framed(data, spec, layout)
     return replace(recording, force=data[..., :n_in], response=data[..., n_in:], layout=layout,
                    meta={**recording.meta, "daq_artifacts": spec})
+
+
+def _delayed(resp: np.ndarray, delay: float) -> np.ndarray:
+    """``resp`` (samples on axis -2) ``delay`` samples later: whole samples by repeating the
+    first, the fraction by the phase ramp ``exp(-i 2 pi f frac / fs)``."""
+    whole = int(np.floor(delay))
+    frac = delay - whole
+    if frac:
+        n = resp.shape[-2]
+        ramp = np.exp(-2j * np.pi * np.fft.rfftfreq(n) * frac)[:, None]
+        resp = np.fft.irfft(np.fft.rfft(resp, axis=-2) * ramp, n, axis=-2)
+    if whole:
+        lag = resp[..., :-whole, :]
+        resp = np.concatenate([np.repeat(lag[..., :1, :], whole, axis=-2), lag], axis=-2)
+    return resp
 
 
 def _sensors(data: np.ndarray, n_in: int, spec: DaqArtifacts, rms: np.ndarray,

@@ -11,8 +11,8 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (RESPONSE_KINDS, Excitation, PeriodicLayout, StepTable, find_period,
-                                 flat_ends, whole_periods)
-from analysis.spectral import HELD_UNITS
+                                 flat_ends, recording_clipping, whole_periods)
+from analysis.spectral import HELD_UNITS, level_name
 
 from .. import formats
 from ..formats import describe, parse_sweep_option
@@ -251,6 +251,13 @@ def run(args: argparse.Namespace) -> int:
     if args.trimmed:
         result["trimmed"] = {str(src): {"lead_in": lead, "trailing": tail}
                              for src, (lead, tail) in args.trimmed.items()}
+    clipped = {src: c for src, r in zip(sources, recs)
+               if (c := recording_clipping(r, level_name(r))) is not None}
+    if clipped:
+        result["clipped"] = {str(src): [{"kind": ch.kind, "channel": ch.channel,
+                                         "samples": int(ch.samples.size), "low": ch.low,
+                                         "high": ch.high} for ch in c.channels]
+                             for src, c in clipped.items()}
     if found:
         result["period_found"] = {str(src): None if p is None else {
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
@@ -270,6 +277,8 @@ def run(args: argparse.Namespace) -> int:
                   "channel moves (export padding) dropped")
         for line in _period_lines(found, given):
             print(f"  {line}")
+        for src, c in clipped.items():
+            print(f"  {src.name}: {c.text('stored as recorded; diagnose leaves them out')}")
         if rec.monitors:
             named = args.map and any(item.startswith("monitor=") for item in args.map)
             chans = ", ".join(f"{k} [{rec.monitor_units[k]}]" if k in rec.monitor_units else k

@@ -52,12 +52,12 @@ SLOW = {"report", "diagnose"}
 #: cells where stopping (exit 2, one line) is the right answer: no default could serve
 STOPS = {("dead-channel", "reverse-path"), ("force-dips", "hbm")}
 #: cells that do not give the clean result yet, with the measured reason
-KNOWN: dict[tuple[str, str], str] = {
-    ("force-dips", "diagnose"): "the dips cut the force near the modes (the cell reads ~0.16x "
-                                "the coil force): the cubic is exercised far less and the "
-                                "diagnosis says adequate (detect: nonlinear); physics of the "
-                                "test, not a DAQ error",
-}
+KNOWN: dict[tuple[str, str], str] = {}
+# ("force-dips", "diagnose") left KNOWN in session 32: the dips cut the force near the modes
+# (the cell reads ~0.16x the coil force), the cubic acts below every level's floor (3.22 N rms:
+# 0.0332 against 0.0441) and the diagnosis says adequate where the clean twin says
+# unexplained; it now says so beside the verdict (a gap lowers the misfit by 58 % in sample,
+# BIC +320, too small at these levels to be named): `warned`, as detect's NONLINEAR asks.
 
 
 def _cli(argv: list[str]) -> tuple[int, str]:
@@ -227,6 +227,10 @@ def test_artifact_gives_the_clean_result_or_one_line(folder, artifact, path):
         assert got["err"] and "\n" not in got["err"], text
     else:
         assert text == "same" or text.startswith("warned: "), text
+    if path in ("import", "detect"):      # clipped samples named where they are, only there
+        said = (got["result"].get("clipped") if path == "import" else
+                [n for n in got["result"]["notes"] if "clipped sample" in n])
+        assert bool(said) == (artifact == "clipping"), said
 
 
 def test_clean_twin_runs_every_path(folder):

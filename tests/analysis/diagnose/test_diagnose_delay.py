@@ -1,7 +1,8 @@
 """The responses' delay behind the force, read and taken out before the diagnosis
-(`analysis.diagnose._alignment`): found on a zoo row that carries it, in either direction;
-never on the same data aligned, on a start model that holds, or on a slider acting at the
-lowest level (where a shift does lower the start model's misfit at every level)."""
+(`analysis.diagnose._alignment`): found on a zoo row that carries it, in either direction,
+a fraction of a sample with its resolution; never on the same data aligned, on a start model
+that holds, or on a slider acting at the lowest level (where a shift does lower the start
+model's misfit at every level)."""
 
 from dataclasses import replace
 
@@ -14,14 +15,27 @@ from analysis.diagnose._alignment import shifted
 from analysis.diagnose._compare import FLOOR
 from analysis.diagnose._prepare import Prepared
 from analysis.diagnose._search import RandomFlow, _misfit
-from analysis.recordings import model_at_sensors, one_kind
+from analysis.recordings import DaqArtifacts, apply_daq_artifacts, model_at_sensors, one_kind
 
 
-def _flow(name: str, move: int = 0, levels: slice = slice(None)) -> RandomFlow:
+def _fraction_twin(delay: float) -> list:
+    """``chain-cubic01-disp-random-delay`` with its responses ``delay`` samples late (a
+    fraction: a band-limited phase ramp, `DaqArtifacts.delay`)."""
+    def add(recs, artifacts, seed):
+        return [apply_daq_artifacts(r, DaqArtifacts(delay=delay),
+                                    np.random.default_rng(seed + 200 + i))
+                for i, r in enumerate(recs)]
+    return Z._lumped(Z.chain3, 0, Z.RANDOM, "displacement", ("cubic_spring", ("0", "1")), (),
+                     3, add)
+
+
+def _flow(name: str, move: int = 0, levels: slice = slice(None),
+          delay: float | None = None) -> RandomFlow:
     """The diagnosis' random flow (preparation only) on zoo row ``name`` (its ``levels``),
-    its responses moved ``move`` samples earlier first."""
+    its responses moved ``move`` samples earlier first (or ``delay`` samples late: the row's
+    twin, `_fraction_twin`)."""
     (case,) = [c for c in Z.zoo(name) if c.name == name]
-    built = case.build()
+    built = case.build() if delay is None else _fraction_twin(delay)
     recs = [one_kind(r) for r in built.recordings][levels]
     if move:
         recs = [replace(r, force=r.force[:-move], response=r.response[move:]) for r in recs]
@@ -54,6 +68,42 @@ def test_delay_of_one_level_confirmed_on_its_held_back_segment():
     flow = _flow("chain-cubic01-disp-random-delay", levels=slice(0, 1))
     assert flow.delay is not None and flow.delay.samples == 1
     assert flow.delay.confirmed_on.endswith("(held-back segment)")
+
+
+@pytest.mark.slow
+def test_half_sample_delay_read_to_its_resolution():
+    """A 0.5-sample delay: no whole-sample shift brings the lowest level within its floor
+    (0 and 1 sample leave it 1.5x and 1.9x), a fraction does. Read on the level's first 70 %
+    to the shifts that keep it within its floor, confirmed on its last 30 %, said with its
+    resolution. The twin's data and model differ by -0.05 sample without any delay (the
+    least misfit of the delay-free row), within that resolution."""
+    flow = _flow("chain-cubic01-disp-random-delay", delay=0.5)
+    d = flow.delay
+    assert d is not None and 0 < d.resolution < 0.5
+    assert abs(d.samples - 0.5) <= d.resolution
+    assert d.decided_on.endswith("(fit segment)") and d.confirmed_on.endswith("(held-back "
+                                                                               "segment)")
+    assert d.misfit_before[0] > d.limit >= d.misfit_after[0]
+    note = next(w for w in flow.warnings if "lag the force" in w)
+    assert f"by {d.samples:.2f} samples (+-{d.resolution:.2g}" in note
+    assert f"response_delay={d.samples:.3g}`" in note
+
+
+def test_fractional_shift_of_a_periodic_record_is_exact():
+    """Band-limited motion moved by a fraction of a sample, period by period: the same
+    waves a fraction later, to rounding."""
+    period, n_per = 64, 3
+    t = np.arange(period * n_per)
+    wave = lambda s: np.column_stack([np.sin(2 * np.pi * 3 * s / period),
+                                      np.cos(2 * np.pi * 5 * s / period)])
+    p = Prepared(wave(t), wave(t), np.ones((t.size, 1)), np.array([0]), 64.0, 1.0, period,
+                 "level 1")
+    np.testing.assert_allclose(shifted(p, 0.4).x, wave(t + 0.4), atol=1e-12)
+    r = shifted(replace(p, period=None, x=np.tile(wave(t[:period]), (8, 1)),
+                        v=np.tile(wave(t[:period]), (8, 1)),
+                        force=np.ones((8 * period, 1))), 0.4)
+    edge = 33                                     # `FRACTION_EDGE` + the whole sample
+    np.testing.assert_allclose(r.x, wave(np.arange(edge, 8 * period - edge) + 0.4), atol=1e-9)
 
 
 def test_no_delay_where_the_start_model_holds():

@@ -22,14 +22,6 @@ WRONG_TODAY: dict[str, str] = {
                                       "model 0.0745) and the residuals' level dependence is "
                                       "p = 3.3e-4, not 1e-4: these recordings cannot show "
                                       "the cubic (the row's judging, docs/diagnose.md)",
-    # the rows of the real-DAQ catalogue and the circuit (zooart), measured per row with
-    # ``python benchmarks/bench_diagnose.py --zoo --only NAME``
-    "sdof-cubic-acc-random-clipping": "the gap named, the cubic stated as tied with it (an "
-                                      "honest kind ambiguity: family counted right since "
-                                      "session 32), but the cubic's p -5.0 % [-6.6, -3.5 %] "
-                                      "misses 5 %: 5 clipped acceleration samples (held-back "
-                                      "0.394 -> 0.284, not confirmed); unclipped "
-                                      "(sdof-cubic-acc-random) the cubic, p -2.5 %",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -46,7 +38,8 @@ docs/diagnose.md, "The start model's own misfit as the scale"); the whole zoo in
 with the second parameters' cluster jackknife: ``twin-gvt-hysteresis_joint-acc-multisine-mains``
 left (fd +5.3 %, 95 % -0.3 .. +10.8 %: not identifiable to 5 %, as its realizations say,
 -3.1 .. +9.6 %; docs/diagnose.md, "Session 32: intervals that cover"); the circuit rows right since
-session 32 (the whole zoo, docs/diagnose.md, "Session 32: the circuit")."""
+session 32 (the whole zoo, docs/diagnose.md, "Session 32: the circuit"), the clipping row right
+since session 32 (clipped samples left out, "Session 32: clipped samples and fractional delays")."""
 
 
 def _param(case: Z.ZooCase):
