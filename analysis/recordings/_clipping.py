@@ -7,8 +7,8 @@ accelerometer looks like a hard nonlinearity (the zoo row ``sdof-cubic-acc-rando
 samples are found on import and detect and kept out of the diagnosis.
 
 The rule reads the histogram's edge (the classic clipping test): an extreme value held by
-two or more samples, and by more samples than the next value inward (values within `TIE`
-of each other are one value). A continuous signal
+two or more samples, and by more than twice as many as any of the next values inward
+(`PILE_UP`; values within `TIE` of each other are one value). A continuous signal
 holds each value once; a quantised one thins towards its extremes; a noise-free periodic one
 holds every value once per period, its extreme included. A pile-up at the edge is none of
 these.
@@ -87,6 +87,15 @@ class ClippingCaveat:
                 + "; raise the channel's range and record again")
 
 
+INWARD = 5
+PILE_UP = 2
+"""A pile-up: the extreme value held by more than `PILE_UP` times as many samples as any of
+the `INWARD` values next inward. A quantised random record's tail holds a few samples per
+step, and its extreme step by chance more than the next one (measured, Gaussian noise of
+32768 samples, 300 records each: with "more than the next value" alone 0.7-9 % of
+unclipped channels read as clipped at 16 and 12 bits using 1/8-1/64 of the range; with this
+rule 0-0.3 %, and 5 clipped samples still found in every record)."""
+
 TIE = 1e-9
 """Relative tolerance within which two samples hold the same value (a periodic record's
 periods repeat each value to its last few digits, not bit for bit)."""
@@ -104,9 +113,17 @@ def _side(a: np.ndarray, sign: float, period: int | None) -> tuple[np.ndarray, f
     inner = b[b < top - tol]
     if inner.size == 0:                     # a constant channel: nothing to clip
         return None
-    if at.size <= np.count_nonzero(inner >= inner.max() - tol):
+    if at.size <= PILE_UP * _inward_counts(inner, tol).max():
         return None
     return at, float(sign * top)
+
+
+def _inward_counts(inner: np.ndarray, tol: float) -> np.ndarray:
+    """Samples holding each of the `INWARD` largest values of ``inner`` (values within
+    ``tol`` of each other counted as one)."""
+    top = np.sort(inner)[::-1][:INWARD * 64]
+    groups = np.concatenate([[0], np.cumsum(np.diff(top) < -tol)])
+    return np.bincount(groups)[:INWARD]
 
 
 def _repeats(b: np.ndarray, at: np.ndarray, period: int | None, tol: float) -> bool:
