@@ -30,6 +30,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.optimize import brentq, least_squares, minimize_scalar
+from scipy.stats import chi2 as chi2_dist
 
 from ..errors import ModelError
 from ..models import KINDS, LINEAR_PARAM, Model
@@ -304,6 +305,27 @@ def misfit_intervals(start: Model, search: Search, fits: list[Fit]) -> list[Fit]
         out.append(Fit(f.cand, f.params, dict(f.ci95, **wider), f.chi2, f.delta_bic, ev,
                        extra=f.extra))
     return out
+
+
+def jointly_distinct(start: Model, search: Search, fits: list[Fit], subset: list[int]
+                     ) -> bool:
+    """Whether the coefficients of ``fits[subset]`` are together distinguishable from zero
+    on the covariances `misfit_intervals` reports from (`_sandwich`: cluster-robust and
+    noise-only, the second parameters free and fixed): the smallest of their Wald
+    statistics beyond the 95 % quantile of chi-square with ``len(subset)`` degrees of
+    freedom. Effects acting on nearly the same motion each hold zero alone while their
+    sum is pinned. False where those covariances are not computed (stepped sine, a memory
+    law fitted in all its parameters): each effect is judged alone."""
+    if not search.continuous_grid or any(f.cand.memory and f.extra is None for f in fits):
+        return False
+    theta = _coefficients_of(search, fits)[1]
+    try:
+        covs, _ = _sandwich(start, search, fits, theta)
+    except ModelError:
+        return False
+    t, cell = theta[subset], np.ix_(subset, subset)
+    wald = min(float(t @ np.linalg.pinv(c[cell]) @ t) for c in covs)
+    return wald > chi2_dist.ppf(0.95, len(subset))
 
 
 LOG_STEP = 2e-3

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import ModelError
 from ..models import Candidate, Model
 from ._compare import weighted_error
-from ._joint import joint_refit
+from ._joint import joint_refit, jointly_distinct, misfit_intervals
 from ._leakage import Floor
 from ._locate import level_dependence
 from ._prepare import DiagnoseInputError
@@ -85,14 +85,21 @@ def distinct(fit: Fit) -> bool:
 
 
 def pruned(model: Model, search: Search, fits: list[Fit]) -> list[Fit]:
-    """Joint refit, then drop the latest effect whose jointly refitted parameter is not
-    distinguishable from zero (it only stood in for the sequential error of an earlier
-    estimate) and refit the rest."""
+    """Joint refit, then drop the latest effect not distinguishable from zero on the
+    intervals the diagnosis reports (`._joint.misfit_intervals`: the misfit left, not the
+    noise alone; such an effect only stands in for the sequential or model-form error of
+    another estimate) and refit the rest, unless all such effects together are
+    distinguishable from zero (`._joint.jointly_distinct`: two effects acting on nearly
+    the same motion each hold zero alone). Returns the joint refit's own intervals (the
+    reported ones are computed once, on the final set)."""
     chosen = joint_refit(model, search, fits)
-    for k in range(len(chosen) - 1, -1, -1):
-        if len(chosen) > 1 and not distinct(chosen[k]):
-            return pruned(model, search, [f for f in fits if f.cand != chosen[k].cand])
-    return chosen
+    if len(chosen) < 2:
+        return chosen
+    loose = [i for i, r in enumerate(misfit_intervals(model, search, chosen))
+             if not distinct(r)]
+    if not loose or jointly_distinct(model, search, chosen, loose):
+        return chosen
+    return pruned(model, search, [f for f in fits if f.cand != chosen[loose[-1]].cand])
 
 
 def apply_fits(model: Model, fits: Sequence[Fit]) -> Model:
