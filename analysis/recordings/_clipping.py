@@ -7,8 +7,8 @@ accelerometer looks like a hard nonlinearity (the zoo row ``sdof-cubic-acc-rando
 samples are found on import and detect and kept out of the diagnosis.
 
 The rule reads the histogram's edge (the classic clipping test): an extreme value held by
-two or more samples, and by more than twice as many as any of the next values inward
-(`PILE_UP`; values within `TIE` of each other are one value). A continuous signal
+two or more samples (bit for bit: one converter code), and by more than twice as many as any
+of the next values inward (`PILE_UP`). A continuous signal
 holds each value once; a quantised one thins towards its extremes; a noise-free periodic one
 holds every value once per period, its extreme included. A pile-up at the edge is none of
 these.
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._recording import Recording
+from ._recording import Excitation, Recording
 
 UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
 """Unit of each channel kind on the summary lines."""
@@ -97,8 +97,11 @@ unclipped channels read as clipped at 16 and 12 bits using 1/8-1/64 of the range
 rule 0-0.3 %, and 5 clipped samples still found in every record)."""
 
 TIE = 1e-9
-"""Relative tolerance within which two samples hold the same value (a periodic record's
-periods repeat each value to its last few digits, not bit for bit)."""
+"""Relative tolerance within which a noise-free periodic record's periods repeat a value (to
+its last few digits, not bit for bit). Clipped samples themselves hold one converter code,
+the same value bit for bit: within this tolerance instead, a noise-free sweep computed in
+floating point comes that close to its crest at many samples (11 at 8 N in the
+``detect-sweep`` golden) and would read as clipped."""
 
 
 def _side(a: np.ndarray, sign: float, period: int | None) -> tuple[np.ndarray, float] | None:
@@ -106,24 +109,21 @@ def _side(a: np.ndarray, sign: float, period: int | None) -> tuple[np.ndarray, f
     they pile up at the edge (module docstring); else None."""
     b = sign * a
     top = b.max()
-    tol = TIE * max(float(np.abs(a).max()), 1e-300)
-    at = np.flatnonzero(b >= top - tol)
-    if at.size < 2 or _repeats(b, at, period, tol):
+    at = np.flatnonzero(b == top)
+    if at.size < 2 or _repeats(b, at, period, TIE * max(float(np.abs(a).max()), 1e-300)):
         return None
-    inner = b[b < top - tol]
+    inner = b[b < top]
     if inner.size == 0:                     # a constant channel: nothing to clip
         return None
-    if at.size <= PILE_UP * _inward_counts(inner, tol).max():
+    if at.size <= PILE_UP * _inward_counts(inner).max():
         return None
     return at, float(sign * top)
 
 
-def _inward_counts(inner: np.ndarray, tol: float) -> np.ndarray:
-    """Samples holding each of the `INWARD` largest values of ``inner`` (values within
-    ``tol`` of each other counted as one)."""
+def _inward_counts(inner: np.ndarray) -> np.ndarray:
+    """Samples holding each of the `INWARD` largest values of ``inner``."""
     top = np.sort(inner)[::-1][:INWARD * 64]
-    groups = np.concatenate([[0], np.cumsum(np.diff(top) < -tol)])
-    return np.bincount(groups)[:INWARD]
+    return np.bincount(np.concatenate([[0], np.cumsum(np.diff(top) < 0)]))[:INWARD]
 
 
 def _repeats(b: np.ndarray, at: np.ndarray, period: int | None, tol: float) -> bool:
@@ -182,10 +182,13 @@ def recording_clipping(rec: Recording, level: str) -> ClippingCaveat | None:
     stepped sine, whose steps are not read: a sine sampled at a multiple of its frequency
     holds its amplitude exactly at every peak it samples (measured on the zoo's noise-free
     stepped rows: 185-376 force samples at the amplitude), and its steps are fitted as sines,
-    not read sample by sample."""
+    not read sample by sample. A swept sine's force is not read either: a drive generated
+    at its amplitude holds it bit for bit at the crests it samples (10 of each sign in the
+    ``detect-sweep`` golden's 8 N sweep), and a sweep's force dips rather than peaks."""
     if rec.force.ndim != 2:
         return None
     kinds = (rec.sensors.response_kinds if rec.sensors is not None
              else (rec.response_kind,) * rec.n_dof)
-    return clipping(rec.force, rec.response, kinds, level,
+    force = rec.force[:, :0] if rec.excitation == Excitation.SWEPT_SINE else rec.force
+    return clipping(force, rec.response, kinds, level,
                     None if rec.layout is None else rec.layout.period)
