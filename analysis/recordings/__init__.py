@@ -11,7 +11,7 @@ level), ``_table``, ``_daq_artifacts`` (what a real DAQ export adds, for simulat
 Code inside this package imports its siblings by their private module path.
 """
 
-from ._recording import (DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
+from ._recording import (CHANNEL_UNITS, DEFAULT_TRANSIENT_PERIODS, EXCITATIONS, FORCE_HOLDS, MAX_FS, MAX_SAMPLE,
                          MIN_FS, Excitation, PeriodicLayout, RESPONSE_KINDS, Recording,
                          ResponseKind)
 from ._keys import RecordingKeys
@@ -31,7 +31,7 @@ from ._table import STEP_TABLE_KEYS, Control, StepTable
 from ._daq_artifacts import (ARTIFACTS, Artifact, DaqArtifacts, Shaker, apply_daq_artifacts,
                              shaker_force)
 
-__all__ = ["active_span", "apply_daq_artifacts", "Artifact", "ARTIFACTS", "at_points",
+__all__ = ["active_span", "CHANNEL_UNITS", "apply_daq_artifacts", "Artifact", "ARTIFACTS", "at_points",
            "change_kind", "channel_labels", "clean_export", "CleanedExport", "ClippedChannel", "ClippingCaveat", "clipping", "Control", "DaqArtifacts", "DEFAULT_TRANSIENT_PERIODS",
            "estimate_sweep", "Excitation", "excitation_band", "EXCITATIONS", "find_period", "flat_ends",
            "FORCE_HOLDS", "hold_image_gain", "HOLD_IMAGE_LOOKAHEAD", "hold_image_response",

@@ -20,10 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._recording import Excitation, Recording
-
-UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
-"""Unit of each channel kind on the summary lines."""
+from ._recording import CHANNEL_UNITS, Excitation, Recording
 
 
 @dataclass(frozen=True)
@@ -49,8 +46,8 @@ class ClippedChannel:
     high: float | None
 
     def limits(self) -> str:
-        """``+-8.1 m/s^2`` for a symmetric range, else the held limits."""
-        unit = UNITS.get(self.kind, "")
+        """``+-8.1 m/s²`` for a symmetric range, else the held limits."""
+        unit = CHANNEL_UNITS.get(self.kind, "")
         if self.low is not None and self.high is not None and np.isclose(-self.low, self.high):
             return f"+-{self.high:.3g} {unit}"
         return " and ".join(f"{v:+.3g} {unit}" for v in (self.low, self.high) if v is not None)

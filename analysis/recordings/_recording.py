@@ -30,6 +30,9 @@ class ResponseKind(StrEnum):
     ACCELERATION = "acceleration"
 
 
+#: Unit of each channel kind (a force, a response kind) on summary lines and table levels.
+CHANNEL_UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+
 #: The enums' members as tuples, for ``in`` checks, ``choices`` and messages.
 EXCITATIONS = tuple(Excitation)
 RESPONSE_KINDS = tuple(ResponseKind)

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import _spectral as spectral
 from ._bla import BLA, best_linear_approximation
-from ..recordings import (KIND_ORDER, Excitation, Recording, StepTable, excitation_band,
+from ..recordings import (CHANNEL_UNITS, KIND_ORDER, Excitation, Recording, StepTable, excitation_band,
                           measured_level)
 from ._sine_fit import hold_gain, sine_fit
 from ._sweep import recording_sweep_frf
@@ -23,7 +23,7 @@ from ._sweep import recording_sweep_frf
 FRF_UNITS = {"displacement": "m/N", "velocity": "(m/s)/N", "acceleration": "(m/s²)/N"}
 
 #: Units of a held amplitude by what was held (a table's `StepTable.control_kind`).
-HELD_UNITS = {"force": "N", "displacement": "m", "velocity": "m/s", "acceleration": "m/s²"}
+HELD_UNITS = CHANNEL_UNITS
 
 #: Shortest and longest default Welch segment, samples.
 MIN_NPERSEG, MAX_NPERSEG = 64, 8192
