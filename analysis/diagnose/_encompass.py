@@ -41,7 +41,7 @@ def adds_to(search: Search, b: Held, a: Held) -> bool:
     predict = _predict(search, a, b, joint)
     theta = np.array([pb, 0.0] + ([sa.joint or 0.0] if joint else []))
     scale = np.array([abs(pb) or 1.0, 1.0]
-                     + ([search._linear_size("stiffness_error", fa.cand.w)] if joint else []))
+                     + ([search.linear_size("stiffness_error", fa.cand.w)] if joint else []))
     base = predict(np.array([0.0, 0.0] + ([sa.joint or 0.0] if joint else [])))
     pred = Predictor(predict, theta, 1, scale, joint_at=2 if joint else None)
     return score(search.levels, base, pred, sa.ref).wins

@@ -248,7 +248,7 @@ class Search:
         theta = np.zeros(1 + k_lin + len(scaled))
         theta[0] = fit.params[name]
         scale = np.array([_size(theta[0], fit.ci95.get(name))]
-                         + [self._linear_size(kind, w) for kind, w in lin[len(own):]]
+                         + [self.linear_size(kind, w) for kind, w in lin[len(own):]]
                          + [1.0] * len(scaled))
         return Predictor(predict, theta, 1, scale,
                          joint_at=1 if joint and not c.linear else None)
@@ -261,7 +261,7 @@ class Search:
                 return i
         raise ValueError(f"{f.cand.label} is not in the model")
 
-    def _linear_size(self, kind: str, w: np.ndarray) -> float:
+    def linear_size(self, kind: str, w: np.ndarray) -> float:
         """A small linear error of ``kind`` at ``w`` (1e-3 of the model's own along it)."""
         wq = correction_q(self.model, w)
         mat = {"mass_error": self.model.mass, "damping_error": self.model.damping,
