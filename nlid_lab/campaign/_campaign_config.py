@@ -6,27 +6,22 @@ the fix. Relative paths are resolved against the campaign file's folder.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-from analysis.documents import JsonObject, TomlTable
-from analysis.errors import RecordingError
+from analysis.documents import TomlTable
 from analysis.models import Model, parse_toml, read_text
-from analysis.recordings import (KIND_ORDER, MIXED, Control, Excitation, PeriodicLayout,
-                                 ResponseKind, SensorMap, SweepLaw)
+from analysis.recordings import KIND_ORDER, MIXED, ResponseKind, SensorMap
 from drivers import DEFAULT_RAMP_TIME, Channel
 from drivers.faults import FaultSpec
 
 from ..sim_budget import excess
 from ._campaign_devices import (SIMULATED, Role, _channels, _check_channel_set, _emulator,
                                _limits, _sensor_channels, _sensors, _url, _watchdog, scheme)
-from ._campaign_fields import (CampaignError, _choice, _levels, _num, _opt, _table,
-                              _unknown)
-from ._plans import PLANS, LevelPlan, plan_of, register_plan
+from ._campaign_fields import CampaignError, _choice, _num, _opt, _table, _unknown
+from ._plans import PLANS, LevelPlan, plan_of
+from . import _kinds  # noqa: F401  (registers the built-in kinds in PLANS)
 
-DIRECTIONS = ("up", "down", "up-down")
 #: the campaign file's tables and keys besides its kind's table (`LevelPlan.table`)
 TOP_KEYS = {"name", "kind", "plant", "shaker", "daq", "channel", "safety", "emulator",
             "sensors"}
@@ -41,243 +36,6 @@ class PlantSpec:
     shaker_gain: float = 1.0
     noise_std: float = 0.0
     oversample: int | None = None
-
-
-@register_plan
-@dataclass
-class RandomSpec(LevelPlan):
-    """Random plan ([random]): per level, hold the force rms, then record ``averages`` blocks
-    (periodic: ``averages`` realizations of a multisine of period ``block_size``)."""
-
-    levels: list[float]
-    averages: int
-    block_size: int
-    band: tuple[float, float]
-    settle_blocks: int = 1
-    tolerance: float = 0.05
-    max_control_iterations: int = 6
-    periodic: bool = False       # periodic random: block_size = period, averages = realizations
-    periods: int = 8             # steady periods per realization (periodic only)
-    transient_periods: int = 1   # leading periods per realization, dropped (periodic only)
-
-    kind = excitation = Excitation.RANDOM
-    table = "random"
-
-    @classmethod
-    def from_table(cls, data: TomlTable, fs: float) -> "RandomSpec":
-        """The [random] table."""
-        t = _table(data, "random")
-        _unknown(t, {"levels", "averages", "block_size", "band", "settle_blocks",
-                     "tolerance", "max_control_iterations", "periodic", "periods",
-                     "transient_periods"}, "random")
-        band = t.get("band")
-        if not (isinstance(band, list) and len(band) == 2 and all(
-                isinstance(b, (int, float)) and not isinstance(b, bool) for b in band)
-                and 0 <= band[0] < band[1] <= fs / 2):
-            raise CampaignError(f"[random] band must be [lo, hi] Hz with 0 <= lo < hi <= fs/2 "
-                                f"= {fs / 2:g}, got {band!r}")
-        spec = cls(_levels(t, "random"), _num(t, "averages", "random", lo=1, integer=True,
-                                              hi=100000),
-                   _num(t, "block_size", "random", lo=16, hi=2**22, integer=True),
-                   (float(band[0]), float(band[1])),
-                   _opt(t, "settle_blocks", "random", cls, lo=0, integer=True),
-                   _opt(t, "tolerance", "random", cls, lo=0, open_lo=True, hi=1),
-                   _opt(t, "max_control_iterations", "random", cls, lo=1, integer=True,
-                        hi=100))
-        return _periodic(t, spec, fs)
-
-    @property
-    def title(self) -> str:
-        return "periodic-random" if self.periodic else str(self.kind)
-
-    @property
-    def unit(self) -> str:
-        return "realization" if self.periodic else "block"
-
-    @property
-    def per_level(self) -> int:
-        return self.averages
-
-    @property
-    def skip(self) -> int:
-        return self.transient_periods * self.block_size if self.periodic else 0
-
-    @property
-    def block_len(self) -> int:
-        return self.block_size * ((self.transient_periods + self.periods) if self.periodic
-                                  else 1)
-
-    def blocks_per_level(self, fs: float) -> tuple[int, int]:
-        control = self.settle_blocks + 1
-        if self.periodic:                   # a block is one period here
-            record = self.averages * (self.transient_periods + self.periods)
-            return control + record, self.max_control_iterations * control + record
-        return control + self.averages - 1, self.max_control_iterations * control + \
-            self.averages
-
-    def layout(self) -> PeriodicLayout | None:
-        """Periodic-random runs: a block is one realization of the multisine."""
-        if not self.periodic:
-            return None
-        return PeriodicLayout(self.block_size, self.transient_periods, self.periods,
-                              self.averages)
-
-    def start_info(self) -> dict[str, Any]:
-        return {"averages": self.averages,
-                "period": self.block_size if self.periodic else None,
-                "transient_periods": self.transient_periods if self.periodic else 1}
-
-    def run(self, runner: Any) -> None:
-        runner.random(self)
-
-
-@register_plan
-@dataclass
-class SteppedSpec(LevelPlan):
-    """Stepped-sine plan ([stepped]): per level and frequency, hold the force (or response)
-    amplitude until the response settles, then record one block with its harmonics."""
-
-    levels: list[float]
-    freqs: list[float]
-    block_size: int
-    harmonics: int = 7
-    tolerance: float = 0.02
-    settle_tolerance: float = 0.01
-    max_settle_blocks: int = 20
-    max_control_iterations: int = 8
-    control: Control = Control.FORCE   # held per step: the force or the response amplitude
-    control_dof: int | None = None     # response control: the held channel's DOF
-
-    kind = excitation = Excitation.STEPPED_SINE
-    table = "stepped"
-    measure = "amplitude"
-
-    @classmethod
-    def from_table(cls, data: TomlTable, fs: float) -> "SteppedSpec":
-        """The [stepped] table."""
-        t = _table(data, "stepped")
-        _unknown(t, {"levels", "freqs", "start", "stop", "step", "direction", "block_size",
-                     "harmonics", "tolerance", "settle_tolerance", "max_settle_blocks",
-                     "max_control_iterations", "control", "control_dof"}, "stepped")
-        freqs = _freqs(t)
-        if max(freqs) >= fs / 2:
-            raise CampaignError(f"[stepped] frequencies must stay below fs/2 = {fs / 2:g} Hz")
-        control = t.get("control", str(Control.FORCE))
-        if control not in list(Control):
-            raise CampaignError(f"[stepped] control must be one of {', '.join(Control)}, got "
-                                f"{control!r}")
-        if "control_dof" in t and control != Control.RESPONSE:
-            raise CampaignError("[stepped] control_dof names the held response channel; give "
-                                "it with control = \"response\" or leave it out")
-        cdof = _num(t, "control_dof", "stepped", default=None, lo=0, integer=True, hi=10**6)
-        return cls(_levels(t, "stepped"), freqs,
-                   _num(t, "block_size", "stepped", lo=16, hi=2**22, integer=True),
-                   _opt(t, "harmonics", "stepped", cls, lo=1, hi=50, integer=True),
-                   _opt(t, "tolerance", "stepped", cls, lo=0, open_lo=True, hi=1),
-                   _opt(t, "settle_tolerance", "stepped", cls, lo=0, open_lo=True, hi=1),
-                   _opt(t, "max_settle_blocks", "stepped", cls, lo=2, integer=True, hi=10000),
-                   _opt(t, "max_control_iterations", "stepped", cls, lo=1, integer=True,
-                        hi=100), Control(control), cdof)
-
-    @property
-    def unit(self) -> str:
-        return "step"
-
-    @property
-    def per_level(self) -> int:
-        return len(self.freqs)
-
-    def blocks_per_level(self, fs: float) -> tuple[int, int]:
-        """Per step: skip, two to compare, the recorded one (at least); every settling
-        allowance of every control try (at most)."""
-        tries = self.max_control_iterations + 1 if self.control == Control.RESPONSE else 1
-        return 4 * len(self.freqs), (tries * self.max_settle_blocks + 1) * len(self.freqs)
-
-    def stored_bytes(self, n_channels: int, fs: float) -> int:
-        """Each step's block and its harmonics (JSON text)."""
-        text = len(self.freqs) * 48 * n_channels * (self.harmonics + 1)
-        return len(self.freqs) * self.block_size * n_channels * 8 + text
-
-    def check(self, channels: list[Channel]) -> None:
-        """A response-controlled plan holds a response channel (default: the one at the
-        force)."""
-        dofs = sorted(c.dof for c in channels if c.quantity != "force")
-        if self.control != Control.RESPONSE:
-            return
-        if self.control_dof is None:
-            self.control_dof = next(c.dof for c in channels if c.quantity == "force")
-        if self.control_dof not in dofs:
-            raise CampaignError(f"[stepped] control_dof = {self.control_dof} has no response "
-                                f"channel; use one of the response channels' dof {dofs}")
-
-    def settings(self, channels: list[Channel]) -> JsonObject:
-        plan = dict(self.__dict__)
-        if self.control_dof is not None:
-            dofs = sorted(ch.dof for ch in channels if ch.quantity != "force")
-            plan["control_dof"] = dofs.index(self.control_dof)   # the run's response channel
-        return plan
-
-    def start_info(self) -> dict[str, Any]:
-        return {"averages": None, "n_steps": len(self.freqs),
-                "harmonics": tuple(range(self.harmonics + 1))}
-
-    def held(self, channels: list[Channel]) -> tuple[str, str]:
-        if self.control != Control.RESPONSE:
-            return ("force", "N")
-        ch = next(ch for ch in channels if ch.quantity != "force" and ch.dof == self.control_dof)
-        return (f"response ({ch.name})", ch.unit)
-
-    def run(self, runner: Any) -> None:
-        runner.stepped(self)
-
-
-@register_plan
-@dataclass
-class SweepSpec(LevelPlan):
-    """Swept-sine plan: one level per (force amplitude, direction), amplitudes in order."""
-
-    levels: list[float]           # force amplitude of each level, N
-    laws: list                    # analysis.sweep_law.SweepLaw of each level
-    block_size: int = 1024        # samples per level-control block (a sine at the start)
-    tolerance: float = 0.02
-    max_control_iterations: int = 8
-    lead_s: float = 0.5           # recorded before the sweep starts (trimmed when stored)
-
-    kind = excitation = Excitation.SWEPT_SINE
-    table = "sweep"
-    measure = "amplitude"
-
-    @classmethod
-    def from_table(cls, data: TomlTable, fs: float) -> "SweepSpec":
-        return _sweep(data, fs)
-
-    @property
-    def unit(self) -> str:
-        return "sweep"
-
-    @property
-    def per_level(self) -> int:
-        return 1
-
-    def blocks_per_level(self, fs: float) -> tuple[int, int]:
-        """Control: skip + measure per try; the sweep itself with its lead."""
-        sweep = math.ceil((max(lw.duration for lw in self.laws) + 2 * self.lead_s) * fs
-                          / self.block_size)
-        return 2 + sweep, 2 * self.max_control_iterations + sweep
-
-    def stored_bytes(self, n_channels: int, fs: float) -> int:
-        return (self.blocks_per_level(fs)[0] - 2) * self.block_size * n_channels * 8
-
-    def settings(self, channels: list[Channel]) -> JsonObject:
-        plan = dict(self.__dict__)
-        plan["laws"] = [dict(law.__dict__) for law in self.laws]
-        return plan
-
-    def start_info(self) -> dict[str, Any]:
-        return {"averages": 1}   # sweep: H1 live
-
-    def run(self, runner: Any) -> None:
-        runner.swept(self)
 
 
 @dataclass
@@ -395,92 +153,6 @@ def duration(seconds: float) -> str:
     if seconds < 120:
         return f"{seconds:.0f} s"
     return f"{seconds / 60:.1f} min" if seconds < 7200 else f"{seconds / 3600:.1f} h"
-
-
-def _freqs(t: dict) -> list[float]:
-    if "freqs" in t:
-        freqs = t["freqs"]
-        if not isinstance(freqs, list) or not freqs or not all(
-                isinstance(f, (int, float)) and not isinstance(f, bool)
-                and math.isfinite(f) and f > 0 for f in freqs):
-            raise CampaignError(f"[stepped] freqs must be a non-empty list of frequencies > 0 "
-                                f"Hz, got {freqs!r}")
-        base = [float(f) for f in freqs]
-    else:
-        start = _num(t, "start", "stepped", lo=0.0, open_lo=True)
-        stop = _num(t, "stop", "stepped", lo=0.0, open_lo=True)
-        step = _num(t, "step", "stepped", lo=0.0, open_lo=True)
-        if stop < start:
-            raise CampaignError("[stepped] stop must be >= start (use direction = \"down\" to "
-                                "sweep downwards)")
-        n = int(math.floor((stop - start) / step + 1e-9)) + 1
-        if n > 100000:
-            raise CampaignError(f"[stepped] start/stop/step give {n} steps; at most 100000")
-        base = [start + i * step for i in range(n)]
-    direction = t.get("direction", "up")
-    if direction not in DIRECTIONS:
-        raise CampaignError(f"[stepped] direction must be one of {', '.join(DIRECTIONS)}, "
-                            f"got {direction!r}")
-    up = sorted(base)
-    if direction == "up":
-        return up
-    if direction == "down":
-        return up[::-1]
-    return up + up[::-1][1:]
-
-
-def _periodic(t: dict, spec: RandomSpec, fs: float) -> RandomSpec:
-    """The periodic-random keys of [random]: a multisine of period block_size, ``averages``
-    realizations of transient_periods + periods periods each."""
-    periodic = t.get("periodic", False)
-    if not isinstance(periodic, bool):
-        raise CampaignError(f"[random] periodic must be true or false, got {periodic!r}")
-    if not periodic:
-        extra = sorted({"periods", "transient_periods"} & set(t))
-        if extra:
-            raise CampaignError(f"[random] {', '.join(extra)} needs periodic = true")
-        return spec
-    lo, hi = spec.band
-    df = fs / spec.block_size
-    if math.floor(hi / df) < max(math.ceil(lo / df), 1):
-        raise CampaignError(f"[random] band {lo:g}-{hi:g} Hz holds no line of a "
-                            f"{spec.block_size}-sample period (lines every {df:g} Hz); widen "
-                            "the band or lengthen block_size")
-    spec.periodic = True
-    spec.periods = _opt(t, "periods", "random", RandomSpec, lo=1, integer=True, hi=10000)
-    spec.transient_periods = _opt(t, "transient_periods", "random", RandomSpec, lo=1,
-                                  integer=True, hi=1000)
-    return spec
-
-
-def _sweep(data: dict, fs: float) -> SweepSpec:
-    """The [sweep] table: levels (force amplitudes), start, stop, law, rate, direction."""
-    t = _table(data, "sweep")
-    _unknown(t, {"levels", "start", "stop", "law", "rate", "direction", "block_size",
-                 "tolerance", "max_control_iterations", "lead"}, "sweep")
-    start = _num(t, "start", "sweep", lo=0.0, open_lo=True)
-    stop = _num(t, "stop", "sweep", lo=0.0, open_lo=True)
-    if not start < stop < fs / 2:
-        raise CampaignError(f"[sweep] need 0 < start < stop < fs/2 = {fs / 2:g} Hz (direction "
-                            f"says which way), got {start:g}, {stop:g}")
-    law = t.get("law", "linear")
-    direction = t.get("direction", "up")
-    if direction not in DIRECTIONS:
-        raise CampaignError(f"[sweep] direction must be one of {', '.join(DIRECTIONS)}, "
-                            f"got {direction!r}")
-    try:
-        up = SweepLaw(start, stop, law, _num(t, "rate", "sweep", lo=0.0, open_lo=True))
-    except RecordingError as exc:
-        raise CampaignError(f"[sweep] {exc}") from None
-    down = SweepLaw(stop, start, up.law, up.rate)
-    ways = {"up": [up], "down": [down], "up-down": [up, down]}[direction]
-    amps = _levels(t, "sweep")
-    return SweepSpec([a for a in amps for _ in ways], [w for _ in amps for w in ways],
-                     _opt(t, "block_size", "sweep", SweepSpec, lo=16, hi=2**22, integer=True),
-                     _opt(t, "tolerance", "sweep", SweepSpec, lo=0, open_lo=True, hi=1),
-                     _opt(t, "max_control_iterations", "sweep", SweepSpec, lo=1, integer=True,
-                          hi=100),
-                     _opt(t, "lead", "sweep", SweepSpec, "lead_s", lo=0.0, hi=60))
 
 
 def _plant(data: TomlTable, base: Path | None, shaker_url: str, daq_url: str

@@ -16,6 +16,10 @@ class CampaignError(InputError):
     """A campaign file is invalid."""
 
 
+#: the ``direction`` of a stepped-sine or swept-sine plan
+DIRECTIONS = ("up", "down", "up-down")
+
+
 def _table(data: dict, key: str, where: str = "", required: bool = True) -> dict:
     value = data.get(key)
     name = f"{where}{key}"

@@ -16,6 +16,19 @@ from analysis.recordings import SensorMap
 
 
 @dataclass(frozen=True)
+class PlanInfo:
+    """The kind's fields of `CampaignStart` (`LevelPlan.start_info`): random ``averages``
+    (periodic random: its ``period`` and ``transient_periods``), stepped sine ``n_steps``
+    and the harmonic orders of a step's rows, swept sine one average (its H1 live)."""
+
+    averages: int | None = None
+    period: int | None = None
+    transient_periods: int = 1
+    n_steps: int | None = None
+    harmonics: tuple[int, ...] | None = None
+
+
+@dataclass(frozen=True)
 class CampaignStart:
     """What a campaign tells its watchers as it starts.
 

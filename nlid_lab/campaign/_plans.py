@@ -4,20 +4,92 @@
 A plan class is the kind's one place in the campaign: it reads its table of the campaign file
 (`LevelPlan.from_table`), is the plan record (levels, block size and the kind's settings), says
 what a level stores (`unit`, `per_level`, `blocks_per_level`, `stored_bytes`, `layout`) and
-what the watchers are told, and runs its levels (`run`, on the campaign's runner). The shaker
-plays its `drivers.outputs` records; the run stores its levels as recordings of `excitation`.
+what the watchers are told (`start_info`), and runs its levels (`run`: the kind's level loop,
+on the primitives the campaign's runner offers, `Runner`). The shaker plays its
+`drivers.outputs` records; the run stores its levels as recordings of `excitation` and the
+plan's count of segments (`per_level` per level) beside them. The built-in kinds are the
+modules of ``_kinds``, one per kind.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
+
+import numpy as np
 
 from analysis.documents import JsonObject, TomlTable
 from analysis.recordings import Excitation, PeriodicLayout
 from drivers import Channel
+from drivers.outputs import Output
 
 from ._campaign_fields import CampaignError
+from ._observer import PlanInfo
+
+if TYPE_CHECKING:
+    from ..store import LevelWriter
+    from ._campaign_bench import Bench
+    from ._campaign_config import Campaign
+    from ._observer import Watchers
+
+
+class Runner(Protocol):
+    """What a kind's level loop (`LevelPlan.run`) uses of the campaign's runner.
+
+    Attributes
+    ----------
+    c : Campaign
+        The campaign (``fs``, ``max_drive``, ``channels``, ``limits``, ``plant``).
+    bench : Bench
+        The open devices (``bench.shaker.set_level`` / ``set_frequency`` between blocks).
+    gain : float
+        Force per drive volt, as last measured (the level control updates it).
+    force_col, resp_cols : int, list of int
+        DAQ columns of the force and of the responses (by DOF).
+    observer : Watchers
+        The watchers, told of each stored block (``block``) or step (``step``).
+    warnings : list of str
+        What the campaign result and the run's log say at the end.
+    """
+
+    c: "Campaign"
+    bench: "Bench"
+    gain: float
+    force_col: int
+    resp_cols: list[int]
+    observer: "Watchers"
+    warnings: list[str]
+
+    def level_start(self, index: int, target: float, planned: int) -> "LevelWriter":
+        """Open level ``index`` (its writer) and tell the watchers it starts."""
+
+    def level_end(self, lw: "LevelWriter", target: float, planned: int) -> None:
+        """Mark the level complete and tell its summary."""
+
+    def start(self, output: Output, drive: float) -> None:
+        """Configure the shaker with ``output`` at ``drive`` V, start the DAQ and the shaker."""
+
+    def stop(self) -> None:
+        """Stop the shaker and the DAQ."""
+
+    def take(self, n: int) -> tuple[np.ndarray, float]:
+        """``n`` contiguous, safety-checked samples and the first one's time."""
+
+    def split(self, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The force and response columns of ``data``."""
+
+    def control(self, target: float, drive: float, measure: Callable[[np.ndarray], float],
+                what: str, block_size: int, settle_blocks: int, tolerance: float,
+                max_iterations: int, where: str = "") -> tuple[float, np.ndarray | None, float]:
+        """The level control on ``measure`` of a block: the drive, the last block measured
+        at it (None if the drive changed after it) and its time."""
+
+    def new_drive(self, drive: float, wanted: float) -> float:
+        """``wanted``, limited to a factor of 4 from ``drive`` and to ``max_drive``."""
+
+    def stored(self, lw: "LevelWriter", target: float, planned: int, measured: float,
+               drive: float) -> None:
+        """Tell the watchers where the level stands after a stored segment."""
 
 
 class LevelPlan(ABC):
@@ -100,24 +172,24 @@ class LevelPlan(ABC):
         """The plan as the run's ``excitation_settings`` store it (after ``kind``)."""
         return dict(self.__dict__)
 
-    def start_info(self) -> dict[str, Any]:
+    def start_info(self) -> PlanInfo:
         """The kind's fields of `CampaignStart` (averages, period, steps, harmonics)."""
-        return {"averages": None}
+        return PlanInfo()
 
     def held(self, channels: list[Channel]) -> tuple[str, str]:
         """What a level holds and its unit, for the level summary."""
         return ("force", "N")
 
     @abstractmethod
-    def run(self, runner: Any) -> None:
-        """Measure every level not stored yet.
+    def run(self, runner: Runner) -> None:
+        """Measure every level not stored yet: the kind's level loop.
 
-        ``runner`` is the campaign's runner (`_campaign._Runner`); a level loop uses its
-        ``_level_start`` / ``_level_end`` (the level's writer and summary), ``_start`` /
-        ``_stop`` (an output record on the shaker, the DAQ streaming), ``control`` (the
-        level control on a measure of a block), ``take`` and ``split`` (contiguous samples,
-        force and response columns), ``_stored`` and ``observer`` (what the watchers are
-        told), as `RandomSpec`, `SteppedSpec` and `SweepSpec` (``_campaign_sweep``) do.
+        A loop uses the runner's primitives (`Runner`): ``level_start`` / ``level_end`` (the
+        level's writer and summary), ``start`` / ``stop`` (an output record on the shaker,
+        the DAQ streaming), ``control`` (the level control on a measure of a block),
+        ``take`` and ``split`` (contiguous samples, force and response columns), ``stored``
+        and ``observer`` (what the watchers are told), as the kinds of ``_kinds`` do. A
+        resumed run holds some levels complete already: the loop skips what is stored.
         """
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from analysis.recordings import Excitation
+from analysis.documents import JsonObject
 
 
 class LeftOutReason(StrEnum):
@@ -96,15 +96,27 @@ class Repaired:
         return "; ".join(parts)
 
 
-def planned_blocks_json(excitation_settings: dict[str, Any]) -> int | None:
-    """Blocks (random), sweeps or steps a campaign's plan stores, from the run's
-    ``excitation_settings``; None when the run does not say (imported runs)."""
-    levels = excitation_settings.get("levels")
+def planned_blocks(stored: int | None, excitation_settings: JsonObject) -> int | None:
+    """Blocks, steps or sweeps a campaign's plan stores: the run's ``planned_blocks``
+    attribute (``stored``, written by the campaign from its plan); for runs written before
+    it, counted from the plan in ``excitation_settings`` (`_planned_before_attribute`); None
+    when the run does not say (imported runs)."""
+    if stored is not None:
+        return int(stored)
+    return _planned_before_attribute(excitation_settings)
+
+
+def _planned_before_attribute(settings: JsonObject) -> int | None:
+    """The planned count of a campaign run written before ``planned_blocks``, from its
+    plan's settings: the ``levels`` times the segments a level stores, the plan's
+    ``averages`` (random, periodic random), one sweep (a ``laws`` entry per level) or one
+    step per ``freqs`` entry (stepped sine). The plans of that time only: a kind added
+    since writes ``planned_blocks``."""
+    levels = settings.get("levels")
     if not isinstance(levels, list):
         return None
-    kind = excitation_settings.get("kind")
-    per_level = excitation_settings.get("averages") if kind == Excitation.RANDOM else \
-        1 if kind == Excitation.SWEPT_SINE else len(excitation_settings.get("freqs") or []) or None
+    per_level = settings["averages"] if "averages" in settings else \
+        1 if "laws" in settings else len(settings.get("freqs") or []) or None
     return len(levels) * per_level if isinstance(per_level, int) else None
 
 

@@ -17,7 +17,7 @@ from ._common import (FORMAT, StoreError, _append_log, _crc,
                       _json_at, _json_default, _open, _open_swmr_write, _read_extra,
                       _read_status, _valid_segments, writer_left_open)
 from ._integrity import (Damage, LeftOut, LeftOutReason, Repaired, RunCheck, json_text,
-                         planned_blocks_json)
+                         planned_blocks)
 from ._rebuild import REBUILT_ATTRS, _repair
 from ._space import BLOCK_OVERHEAD, DiskFullError, is_disk_full, require
 from ._verified import VerifiedLevel, identity, keep, take
@@ -95,7 +95,8 @@ class Run:
     @property
     def planned(self) -> int | None:
         """Blocks, steps or sweeps the campaign planned (None when the run does not say)."""
-        return planned_blocks_json(self.meta.get("excitation_settings") or {})
+        return planned_blocks(self.meta.get("planned_blocks"),
+                              self.meta.get("excitation_settings") or {})
 
     @property
     def incomplete(self) -> str:

@@ -166,6 +166,9 @@ class RunWriter:
         Monitor channels (`analysis.recordings.Recording.monitors`): name -> unit, in column
         order of ``/data/monitor`` (the ``monitors`` JSON attribute); every block then
         carries their samples.
+    planned_blocks : int, optional
+        Blocks, steps or sweeps the campaign's plan stores over all its levels (the
+        ``planned_blocks`` attribute, `Run.planned`); a resumed file keeps its own.
     mode : {"create", "overwrite", "resume"}
         ``create`` refuses an existing file; ``resume`` continues one (a crashed file is
         rebuilt first) after checking it matches fs, excitation, force_dofs and n_dof.
@@ -177,8 +180,8 @@ class RunWriter:
                  model_toml: str | None = None, source: str = "sim",
                  force_hold: str = "none", layout: PeriodicLayout | None = None,
                  extra: dict[str, np.ndarray] | None = None, mode: str = "create",
-                 sensors: SensorMap | None = None, monitors: dict[str, str] | None = None
-                 ) -> None:
+                 sensors: SensorMap | None = None, monitors: dict[str, str] | None = None,
+                 planned_blocks: int | None = None) -> None:
         self.path = Path(path)
         exc_settings = dict(excitation) if isinstance(excitation, dict) else {"kind": excitation}
         kind = exc_settings.get("kind")
@@ -207,6 +210,8 @@ class RunWriter:
         if self.monitors:
             attrs["monitors"] = json.dumps([[k, v] for k, v in self.monitors.items()])
             attrs["schema_version"] = MONITORS_SCHEMA_VERSION
+        if planned_blocks is not None:
+            attrs["planned_blocks"] = int(planned_blocks)
         if layout is not None:
             attrs.update(period=layout.period, transient_periods=layout.transient_periods,
                          periods=layout.periods)

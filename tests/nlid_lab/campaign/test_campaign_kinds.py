@@ -23,8 +23,8 @@ import pytest
 from analysis.plant import burst_random
 from analysis.recordings import Excitation
 from drivers import DriverConfigError
-from nlid_lab.campaign import (PLANS, CampaignError, LevelPlan, parse_campaign, register_plan,
-                               run_campaign, unregister_plan)
+from nlid_lab.campaign import (PLANS, CampaignError, LevelPlan, Runner, parse_campaign,
+                               register_plan, run_campaign, unregister_plan)
 from nlid_lab.cli import main
 from nlid_lab.store import open_run
 
@@ -104,14 +104,13 @@ class BurstSpec(LevelPlan):
     def blocks_per_level(self, fs):
         return 2 + self.averages, 2 * self.max_control_iterations + self.averages
 
-    def run(self, runner) -> None:
+    def run(self, runner: Runner) -> None:
+        """The kind's level loop, on the runner's public primitives only."""
         n_burst = round(self.fraction * self.block_size)
         for i, level in enumerate(self.levels):
-            runner.level = i
-            lw = runner._level_start(i, level, self.averages)
+            lw = runner.level_start(i, level, self.averages)
             drive = min(level / runner.gain, runner.c.max_drive)
-            runner._start(BurstOutput(self.band, self.block_size, self.fraction, 100 * i),
-                          drive)
+            runner.start(BurstOutput(self.band, self.block_size, self.fraction, 100 * i), drive)
             drive = runner.control(level, drive,
                                    lambda data: float(np.std(data[:n_burst, runner.force_col])),
                                    "burst force rms", self.block_size, 1, self.tolerance,
@@ -121,9 +120,9 @@ class BurstSpec(LevelPlan):
                 force, resp = runner.split(data)
                 seq = lw.append_block(force, resp, t=t0)
                 runner.observer.block(i, seq, force, resp)
-                runner._stored(lw, level, self.averages, float(np.std(force[:n_burst])), drive)
-            runner._stop()
-            runner._level_end(lw, level, self.averages)
+                runner.stored(lw, level, self.averages, float(np.std(force[:n_burst])), drive)
+            runner.stop()
+            runner.level_end(lw, level, self.averages)
 
 
 @pytest.fixture

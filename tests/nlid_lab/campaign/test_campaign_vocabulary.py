@@ -12,8 +12,9 @@ from analysis.recordings import EXCITATIONS, Excitation, ResponseKind
 from drivers import DeviceState, StateError
 from drivers.rig import SimRig
 from drivers.sim import SimDaq
-from nlid_lab.campaign import CampaignError, parse_campaign
-from nlid_lab.campaign._campaign_config import RandomSpec, SweepSpec
+from nlid_lab.campaign import PLANS, CampaignError, parse_campaign
+
+RandomSpec, SweepSpec = PLANS[Excitation.RANDOM], PLANS[Excitation.SWEPT_SINE]
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
 BASE = tomllib.loads((EXAMPLES / "campaign-sim-random.toml").read_text())
