@@ -11,10 +11,11 @@ from ._campaign import CampaignAborted, run_campaign
 from ._campaign_config import CampaignError, load_campaign, load_plant_model, parse_campaign
 from ._kinds._stepped import harmonics
 from ._observer import CampaignStart, LevelStatus, LevelSummary, NullObserver, PlanInfo
-from ._plans import PLANS, LevelPlan, Runner, register_plan, unregister_plan
+from ._plans import PLANS, LevelPlan, Runner, discover_kinds, register_plan, unregister_plan
 
 __all__ = ["CampaignAborted", "CampaignError", "CampaignStart", "LevelStatus", "LevelSummary",
            "NullObserver",
            "harmonics", "load_campaign", "load_plant_model", "parse_campaign", "run_campaign",
            # the excitation kinds campaigns run
-           "PLANS", "LevelPlan", "PlanInfo", "Runner", "register_plan", "unregister_plan"]
+           "PLANS", "LevelPlan", "PlanInfo", "Runner", "discover_kinds", "register_plan",
+           "unregister_plan"]

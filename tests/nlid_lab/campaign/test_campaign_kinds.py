@@ -3,15 +3,20 @@
 A toy kind, burst random, is written here whole and registered, with no edit elsewhere: the
 shaker record (`drivers.outputs`: its check and its player, which the simulated rig plays) and
 the campaign's plan (`campaign.LevelPlan`: its table, plan record, unit and blocks per level,
-level loop). ``campaign check`` names it, a campaign of it runs on ``sim://`` and stores
-levels recorded as random (each block a burst and a silent tail, the burst at the level).
-A kind nobody registered is refused naming the registered ones.
+and its level loop on the runner's public primitives, `campaign.Runner`). In the tree that is
+two files: a module of ``nlid_lab/campaign/_kinds/`` (found by import, as the built-in kinds'
+are, their loops beside their plans) and `drivers/outputs.py`. ``campaign check`` names it, a
+campaign of it runs on ``sim://`` and stores levels recorded as random (each block a burst
+and a silent tail, the burst at the level) with its planned count, which readers take from
+the run (the store names no kind). A kind nobody registered is refused naming the registered
+ones.
 """
 
 from __future__ import annotations
 
 import copy
 import re
+import sys
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,8 +28,8 @@ import pytest
 from analysis.plant import burst_random
 from analysis.recordings import Excitation
 from drivers import DriverConfigError
-from nlid_lab.campaign import (PLANS, CampaignError, LevelPlan, Runner, parse_campaign,
-                               register_plan, run_campaign, unregister_plan)
+from nlid_lab.campaign import (PLANS, CampaignError, LevelPlan, Runner, discover_kinds,
+                               parse_campaign, register_plan, run_campaign, unregister_plan)
 from nlid_lab.cli import main
 from nlid_lab.store import open_run
 
@@ -180,6 +185,8 @@ def test_a_registered_kind_is_checked_run_and_stored_with_no_other_edit(burst_ki
         assert np.all(np.abs(rms / level - 1) <= BurstSpec.tolerance)  # level control held
     settings = run.meta["excitation_settings"]
     assert settings["kind"] == "random" and settings["fraction"] == 0.5
+    assert run.meta["planned_blocks"] == 6 and run.check().planned == 6
+    assert run.incomplete == ""
 
 
 def test_an_unregistered_kind_is_refused_naming_the_registered_ones(tmp_path):
@@ -203,7 +210,33 @@ def test_the_campaign_and_the_rig_test_no_kind_but_in_its_plan_class():
         root / "drivers" / "sim.py", root / "drivers" / "outputs.py"]
     kind_test = re.compile(r"isinstance\([^)]*(Spec|Output)\b|[=!]= *Excitation\.|"
                            r"Excitation\.\w+ *[=!]=|\.kind *[=!]=")
+    files += sorted((root / "nlid_lab" / "campaign" / "_kinds").glob("*.py"))
     found = [f"{path.name}:{i}" for path in files
              for i, line in enumerate(path.read_text().splitlines(), 1) if kind_test.search(line)]
     assert found == []
     assert set(PLANS) == set(Excitation)       # every recorded excitation has its plan class
+
+
+def test_a_new_kind_module_is_found_with_no_other_edit(tmp_path, monkeypatch):
+    """`discover_kinds` (what ``nlid_lab/campaign/_kinds`` runs on import): a package's modules
+    not imported yet are imported in name order, so a module holding a registered plan class
+    and its loop is the whole addition to the campaign."""
+    pkg = tmp_path / "toy_kinds"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "_burst.py").write_text(
+        "from test_campaign_kinds import BurstSpec\n"
+        "from nlid_lab.campaign import register_plan\n"
+        "register_plan(BurstSpec)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    try:
+        assert "burst-random" not in PLANS
+        assert discover_kinds("toy_kinds", [str(pkg)]) == ["toy_kinds._burst"]
+        assert PLANS["burst-random"].__name__ == "BurstSpec"
+        assert discover_kinds("toy_kinds", [str(pkg)]) == []           # once only
+    finally:
+        PLANS.pop("burst-random", None)
+        for name in ("toy_kinds._burst", "toy_kinds"):
+            sys.modules.pop(name, None)
+    assert list(PLANS)[:3] == ["random", "stepped-sine", "swept-sine"]  # built-ins in order
