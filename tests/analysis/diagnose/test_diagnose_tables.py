@@ -84,15 +84,15 @@ def test_the_backbone_chooses_the_kind_that_fits_frequency_and_damping():
     ev = {}
     for c in library(1, start.points, start.support):
         if c.kind in ("stick_slip", "cubic_damping") and c.compensated == (c.kind == "stick_slip"):
-            ev[c.kind] = backbone_estimate(start, c, tables)[2]
+            ev[c.kind] = backbone_estimate(start, c, tables).score
     jenkins, cubic = ev["stick_slip"], ev["cubic_damping"]
     # a cubic spring beside the Jenkins joint gains less than a pair must (`PAIR_MIN`)
     from analysis.diagnose._stepped import PAIR_MIN
     slider = next(c for c in library(1, start.points, start.support)
                   if c.kind == "stick_slip" and c.compensated)
     spring = next(c for c in library(1, start.points, start.support) if c.kind == "cubic_spring")
-    pair = backbone_estimate(start, slider, tables, beside=spring)[2]
-    assert pair["backbone_oos_gain"] <= jenkins["backbone_oos_gain"] + PAIR_MIN
-    assert jenkins["backbone_oos_gain"] > cubic["backbone_oos_gain"]
-    assert jenkins["frequency_rms_oos"] < 0.1 * cubic["frequency_rms_oos"]
-    assert jenkins["damping_rms_oos"] < cubic["damping_rms_oos"]
+    pair = backbone_estimate(start, slider, tables, beside=spring).score
+    assert pair.gain <= jenkins.gain + PAIR_MIN
+    assert jenkins.gain > cubic.gain
+    assert jenkins.frequency_rms < 0.1 * cubic.frequency_rms
+    assert jenkins.damping_rms < cubic.damping_rms
