@@ -96,3 +96,23 @@ def test_the_backbone_chooses_the_kind_that_fits_frequency_and_damping():
     assert jenkins.gain > cubic.gain
     assert jenkins.frequency_rms < 0.1 * cubic.frequency_rms
     assert jenkins.damping_rms < cubic.damping_rms
+
+
+def test_a_backbone_estimate_writes_its_evidence_in_the_documented_order():
+    """`BackboneEstimate.evidence`: the keys of `BackboneEvidence` in its order (the
+    diagnosis JSON's ``evidence`` of a backbone fit), the correction and the pair partner
+    only when there are some."""
+    from analysis.diagnose._stepped_memory import (BackboneEstimate, BackboneEvidence,
+                                                   BackboneScore)
+    score = BackboneScore(40.1, 2e-5, 0.0097)
+    alone = BackboneEstimate({"kd": 5e3, "fd": 0.3}, {"kd": [4e3, 6e3]}, 1e-4, 0.02, score)
+    assert alone.evidence() == {"frequency_rms": 1e-4, "damping_rms": 0.02,
+                                "backbone_oos_gain": 40.1, "frequency_rms_oos": 2e-5,
+                                "damping_rms_oos": 0.0097}
+    assert not alone.anchored
+    pair = BackboneEstimate({"kd": 5e3}, {}, 1e-4, 0.02, score, (12.0, -0.5), "cubic_spring",
+                            {"p": 1e9}, {"p": (0.9e9, 1.1e9)})
+    ev = pair.evidence()
+    assert list(ev) == list(BackboneEvidence.__annotations__)
+    assert ev["linear_correction"] == {"delta_stiffness": 12.0, "delta_damping": -0.5}
+    assert ev["beside_ci95"] == {"p": [0.9e9, 1.1e9]} and pair.anchored
