@@ -25,6 +25,7 @@ from analysis.plant import random_gaussian  # noqa: E402
 from analysis.models import Element, Model  # noqa: E402
 from analysis.plant import simulate  # noqa: E402
 from analysis.recordings import Recording  # noqa: E402
+from nlid_lab.methods import BatchOptions  # noqa: E402
 from nlid_lab.reanalyze import analyse_run, dask_client, reanalyze  # noqa: E402
 from nlid_lab.store import save_recording  # noqa: E402
 
@@ -49,7 +50,7 @@ def timed_cluster(paths: list[str], candidate: Model, workers: int) -> tuple[flo
     """(start-up + warm-up s, reanalysis s, failed rows) on a fresh local cluster."""
     t0 = time.perf_counter()
     with dask_client(workers=workers) as client:
-        client.run(analyse_run, paths[0], candidate, "reverse-path", {})  # warm every worker
+        client.run(analyse_run, paths[0], candidate, "reverse-path", BatchOptions())  # warm all
         startup = time.perf_counter() - t0
         result = reanalyze(paths, candidate, client, progress=False)
     return startup, result.elapsed_s, result.n_failed
@@ -70,10 +71,10 @@ def main() -> None:
         paths = generate(Path(tmp), args.runs, args.samples)
         print(f"generated {len(paths)} runs of {args.samples} samples in "
               f"{time.perf_counter() - t:.1f} s")
-        analyse_run(paths[0], candidate, "reverse-path", {})  # warm-up (numba, imports)
+        analyse_run(paths[0], candidate, "reverse-path", BatchOptions())  # warm-up (numba)
         t = time.perf_counter()
         for path in paths:
-            analyse_run(path, candidate, "reverse-path", {})
+            analyse_run(path, candidate, "reverse-path", BatchOptions())
         serial = time.perf_counter() - t
         print(f"baseline: plain loop in this process  {serial:7.2f} s")
         for _ in range(args.repeat):   # alternate, so that changing load hits both alike

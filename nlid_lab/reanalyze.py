@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from analysis.documents import JsonObject
 from analysis.errors import InputError
 from analysis.models import Model
 from analysis.recordings import Recording
@@ -189,7 +188,7 @@ def check_request(model: Model, method: str, run_timeout_s: float | None = None)
 
 
 # --- the task ------------------------------------------------------------------------------
-def analyse_run(path: str, model: Model, method: str, options: Mapping[str, Any],
+def analyse_run(path: str, model: Model, method: str, options: methods.BatchOptions,
                 timeout_s: float | None = None) -> list[LevelRow]:
     """Rows of one run: open ``path`` here (on the worker), estimate every level.
 
@@ -209,7 +208,7 @@ def analyse_run(path: str, model: Model, method: str, options: Mapping[str, Any]
 
 
 def _analyse_levels(path: str, model: Model, method: str,
-                    options: Mapping[str, Any]) -> list[LevelRow]:
+                    options: methods.BatchOptions) -> list[LevelRow]:
     from nlid_lab.formats import load_recordings  # the worker opens the file itself
     try:
         recordings = load_recordings(path)
@@ -223,34 +222,33 @@ def _analyse_levels(path: str, model: Model, method: str,
             rows.append(_failed_row(path, index, rec.level, rec.excitation, method, exc))
             continue
         try:
-            result = estimate_json(rec, model, chosen, options)
+            row = _estimate_row(path, index, rec, model, chosen, options)
         except Exception as exc:  # noqa: BLE001 - one bad level must not stop the others
             rows.append(_failed_row(path, index, rec.level, rec.excitation, chosen, exc))
         else:
-            rows.append(_row_from_json(path, index, rec, chosen, result))
+            rows.append(row)
     return rows
 
 
-def estimate_json(rec: Recording, model: Model, method: str,
-                  options: Mapping[str, Any]) -> JsonObject:
-    """The estimator's JSON (contracts section 4) for one level.
-
-    ``options`` maps option names to values (None: the method's default); names of other
-    methods' options are ignored.
-    """
+def _estimate_row(path: str, index: int, rec: Recording, model: Model, method: str,
+                 options: methods.BatchOptions) -> LevelRow:
+    """The row of level ``index`` of run ``path``, estimated by ``method`` (its options
+    from the batch ``options``; the method's defaults where not given)."""
     chosen = methods.get(method)
-    return chosen.level_json(rec, model, chosen.make_options(options))
+    estimate = chosen.estimate_one(rec, model, chosen.make_options(options))
+    return level_row(path, index, rec, method, estimate)
 
 
 def _method_for(rec: Recording, method: str) -> str:
     return methods.for_excitation(rec.excitation).name if method == AUTO else method
 
 
-def _row_from_json(path: str, index: int, rec: Recording, method: str,
-                   result: JsonObject) -> LevelRow:
-    """The row of a level the estimator's JSON (`estimate_json`) describes, read back through
-    the method's result type (`nlid_lab.methods.Method.read`)."""
-    stored = methods.get(method).read(result)
+def level_row(path: str, index: int, rec: Recording, method: str,
+              estimate: methods.LevelEstimate) -> LevelRow:
+    """The row of a level's ``estimate``: what the method's result type reads from it
+    (`nlid_lab.methods.Method.result`), the reader a stored result of the method goes
+    through too, so a row says what ``report`` would show of the same estimate."""
+    stored = methods.get(method).result.from_json(estimate.to_json())
     estimates: dict[str, float | None] = {}
     for i, el in enumerate(stored.elements):
         for name, value in el.params.items():
@@ -333,7 +331,7 @@ def worker_environ() -> dict[str, str | int]:
 
 
 def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
-              method: str = "reverse-path", options: Mapping[str, Any] | None = None,
+              method: str = "reverse-path", options: methods.BatchOptions | None = None,
               progress: bool = True, run_timeout_s: float | None = None) -> Reanalysis:
     """Map `analyse_run` over ``runs`` on ``client`` and gather one table.
 
@@ -348,8 +346,8 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     method : str
         A registered method (`nlid_lab.methods`: "reverse-path", "hbm") or "auto": each
         level's method from its excitation (reverse path for random, HBM for stepped sine).
-    options : dict, optional
-        Batch options of the methods by name (`nlid_lab.methods.batch_values`): ``band``,
+    options : nlid_lab.methods.BatchOptions, optional
+        Batch options of the methods (`nlid_lab.methods.batch_values`): ``band``,
         ``nperseg``, ``refine`` (reverse path), ``harmonics`` (hbm).
     progress : bool
         Show a tqdm bar on stderr while results come in.
@@ -370,7 +368,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     paths = [os.path.abspath(p) for p in runs]  # workers may run in another directory
     if not paths:
         raise ReanalysisError("no runs given; name run files or a campaign directory")
-    options = dict(options or {})
+    options = options or methods.BatchOptions()
     n_workers = len(client.scheduler_info(n_workers=-1).get("workers", {}))
     start = time.perf_counter()
     futures = client.map(analyse_run, paths, model=model, method=method, options=options,
@@ -393,7 +391,7 @@ def reanalyze(runs: Sequence[str | Path], model: Model, client: Any,
     rows = [row for rows in gathered for row in rows]
     return Reanalysis(rows, method, len(paths), n_workers, client.scheduler.address, elapsed,
                       {"model_name": model.name, "model_toml": model.dumps(),
-                       "options": options})
+                       "options": options.to_json()})
 
 
 def _lost(exc: BaseException, run_timeout_s: float | None) -> BaseException | str:

@@ -1,6 +1,7 @@
 """The tree's structure: imports run one way, no module or room cycles, rooms entered only
 through their ``__init__``, h5py only in the store, no function over 80 lines but the listed
-numeric kernels and functions being split (``LONG_FUNCTIONS``).
+numeric kernels and functions being split (``LONG_FUNCTIONS``), no public signature taking or
+returning a dict of anything outside the JSON edge (``JSON_EDGE``).
 
 The import graph is read from the source (every ``import``, local ones inside functions
 included; ``if TYPE_CHECKING:`` blocks excluded because they never run). A room is a package
@@ -12,6 +13,7 @@ nor an underscore name (docs/architecture.md).
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -292,3 +294,98 @@ def test_function_length_check_sees_a_long_one():
               f"\n\ndef g():\n    pass\n")
     lengths = _function_lengths(source)
     assert lengths == {"C.m": MAX_FUNCTION_LINES + 1, "f": MAX_FUNCTION_LINES + 1, "g": 2}
+
+
+#: What a public signature may not take or return outside the JSON edge (issue 22 item 1:
+#: results are typed; JSON only at the CLI and store edge): a string-keyed dict of anything,
+#: spelled out or by the aliases that name it (`analysis.documents.JsonObject`,
+#: `analysis.diagnose._json_fields.Json`).
+UNTYPED = ("dict[str, Any]", "Mapping[str, Any]", "MutableMapping[str, Any]", "JsonObject",
+           "Json")
+#: The serialisers of a type, allowed by name.
+SERIALISERS = ("to_json", "from_json")
+#: The edge itself: functions that read or write a JSON document, each with its reason.
+JSON_EDGE: dict[str, str] = {
+    "nlid_lab/outputs.py::write_json": "CLI JSON output: writes a command's document",
+    "nlid_lab/outputs.py::with_checks": "CLI JSON output: a document with its data checks",
+    "nlid_lab/store/_estimates.py::elements_from_json":
+        "store codec: the `elements` list of any stored estimate, old layouts too",
+    "nlid_lab/store/_tables.py::write_table": "store codec: a results table's attributes",
+    "nlid_lab/store/_tables.py::read_table": "store codec: a results table's attributes",
+    "nlid_lab/store/_steptables.py::read_table": "store codec: a stored table's attributes",
+    "nlid_lab/store/_steptables.py::is_table_run": "store codec: a run's attributes",
+    "analysis/diagnose/_result.py::CandidateFit.physics_json":
+        "serialiser: a chosen effect's `missing_physics` entry of `Diagnosis.to_json`",
+    "analysis/diagnose/_json_fields.py::opt": "serialiser helper: an optional JSON field",
+}
+#: Being typed by engineer house8 (campaign start info, planned blocks): not checked for
+#: staleness here, delete each when its signature is typed.
+JSON_EDGE_PENDING = (
+    "nlid_lab/campaign/_campaign_config.py::RandomSpec.start_info",       # house8
+    "nlid_lab/campaign/_campaign_config.py::SteppedSpec.start_info",      # house8
+    "nlid_lab/campaign/_campaign_config.py::SweepSpec.start_info",        # house8
+    "nlid_lab/campaign/_campaign_config.py::SteppedSpec.settings",        # house8
+    "nlid_lab/campaign/_campaign_config.py::SweepSpec.settings",          # house8
+    "nlid_lab/campaign/_plans.py::LevelPlan.start_info",                  # house8
+    "nlid_lab/campaign/_plans.py::LevelPlan.settings",                    # house8
+    "nlid_lab/store/_integrity.py::planned_blocks_json",                  # house8
+)
+
+
+def _untyped_signatures(source: str) -> list[str]:
+    """Public functions and methods (``Class.name``) of ``source`` whose annotations hold an
+    `UNTYPED` dict, serialisers (`SERIALISERS`) left out."""
+    pattern = re.compile(r"(?<![\w.])(" + "|".join(re.escape(u) for u in UNTYPED) + r")(?!\w)")
+    out = []
+
+    def visit(body: list[ast.stmt], prefix: str) -> None:
+        for node in body:
+            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                visit(node.body, f"{prefix}{node.name}.")
+            elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                if node.name in SERIALISERS or (node.name.startswith("_")
+                                                and not node.name.endswith("__")):
+                    continue
+                a = node.args
+                args = [*a.posonlyargs, *a.args, *a.kwonlyargs, a.vararg, a.kwarg]
+                notes = [x.annotation for x in args if x is not None and x.annotation]
+                if any(pattern.search(ast.unparse(n)) for n in notes + [node.returns] if n):
+                    out.append(f"{prefix}{node.name}")
+            elif isinstance(node, (ast.If, ast.Try)):   # definitions under if/try blocks
+                for field in ("body", "orelse", "finalbody"):
+                    visit(getattr(node, field, []), prefix)
+    visit(ast.parse(source).body, "")
+    return out
+
+
+def _untyped() -> list[str]:
+    return [f"{path.relative_to(ROOT).as_posix()}::{name}" for path in _modules().values()
+            for name in _untyped_signatures(path.read_text())]
+
+
+def test_results_are_typed_outside_the_json_edge():
+    allowed = set(JSON_EDGE) | set(JSON_EDGE_PENDING)
+    assert sorted(set(_untyped()) - allowed) == [], (
+        "a public signature takes or returns a dict of anything: type it (a frozen "
+        "dataclass, typed fields, a TypedDict of a document) or, if it is the JSON edge "
+        "itself, add it to JSON_EDGE with its reason")
+
+
+def test_json_edge_allow_list_is_current():
+    stale = sorted(set(JSON_EDGE) - set(_untyped()))
+    assert stale == [], "typed now (or gone): delete its JSON_EDGE entry"
+
+
+def test_untyped_signature_check_sees_one():
+    source = ("from typing import Any, Mapping\n"
+              "def f(x: dict[str, Any]) -> int: ...\n"
+              "def h(*, y: tuple[str, Mapping[str, Any]] | None) -> None: ...\n"
+              "def _private(x: dict[str, Any]) -> None: ...\n"
+              "def typed(x: dict[str, float], j: JsonObjects) -> Mapping[str, int]: ...\n"
+              "if True:\n    def g() -> JsonObject: ...\n"
+              "class C:\n"
+              "    def to_json(self) -> dict[str, Any]: ...\n"
+              "    def m(self, **kw: Json) -> None: ...\n"
+              "    def __init__(self, data: Mapping[str, Any]) -> None: ...\n"
+              "class _Hidden:\n    def m(self) -> dict[str, Any]: ...\n")
+    assert _untyped_signatures(source) == ["f", "h", "g", "C.m", "C.__init__"]

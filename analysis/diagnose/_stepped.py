@@ -40,9 +40,9 @@ from ._evidence import Evidence
 from ._outofsample import Predictor
 from ._select import (SHORTLIST, Fit, Search, candidate_extras, coef_name,
                      scaled_params, screened, unit_params)
-from ._stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, backbone_applies,
-                             backbone_estimate, correction_fits, hbm_refit, hbm_sweep,
-                             held_elements, held_mode, motion_chi2, refine, simulated_chi2,
+from ._stepped_memory import (BACKBONE_ESTIMATOR, HARMONICS, N_TIME, BackboneEstimate,
+                             backbone_applies, backbone_estimate, correction_fits, hbm_refit,
+                             hbm_sweep, held_elements, held_mode, motion_chi2, refine, simulated_chi2,
                              slip_grid, stuck_limit, transfer, with_candidate)
 
 PAIR_MIN = 2.0
@@ -170,7 +170,7 @@ class SteppedSearch(Search):
         p = self.partner.get(fit.cand)
         out = [] if p is None else [p]
         corr = self._correction(fit.cand, fit.params, self._beside(fit.cand))
-        return out + ([] if corr is None else correction_fits(fit.cand, corr, fit.evidence))
+        return out + ([] if corr is None else correction_fits(fit, corr))
 
     def _correction(self, c: Candidate, params: dict[str, float], beside: Element | None
                     ) -> tuple[float, float] | None:
@@ -184,23 +184,22 @@ class SteppedSearch(Search):
         return self.anchor.correction(terms)
 
     def _estimate(self, c: Candidate, beside: Candidate | None = None
-                  ) -> tuple[dict[str, float], dict[str, list[float]], dict] | None:
+                  ) -> BackboneEstimate | None:
         """``c`` (and ``beside``) fitted to the backbone (`.stepped_memory.backbone_estimate`);
         when the model with that estimate misfits the lowest fitting level beyond its floor,
         fitted again with the linear part corrected with it (``anchored``: its frequency and
         damping at the held point such that the lowest level is reproduced with the element,
-        the correction in the evidence as ``linear_correction``): the linear part, fitted at
+        the correction in the estimate, ``correction``): the linear part, fitted at
         that level, holds the element's share of it there (issue 24 item 1: a correction of
         the linear part jointly where the start model misfits). Where the element leaves the
         lowest level within its floor (it sticks there) nothing changes."""
         est = backbone_estimate(self.model, c, self.recs, beside=beside)
         if est is None or self.anchor is None:
             return est
-        b = None if beside is None else Element(beside.kind, beside.w,
-                                                dict(est[2]["beside_params"]))
+        b = None if beside is None else Element(beside.kind, beside.w, dict(est.beside_params))
         low, limit = self.low
         try:
-            m = with_candidate(self.model, c, est[0], b)
+            m = with_candidate(self.model, c, est.params, b)
             h = hbm_sweep(m, self.frfs[low])[:, HARMONICS.index(1)]
         except (ModelError, HBMError):
             return est
@@ -208,10 +207,9 @@ class SteppedSearch(Search):
             return est
         return backbone_estimate(self.model, c, self.recs, beside=beside, anchored=True) or est
 
-    def _adopt(self, c: Candidate, evidence: dict) -> None:
-        """``c`` is corrected (`_correction`) when the estimate it takes (its ``evidence``)
-        was anchored."""
-        if "linear_correction" in evidence:
+    def _adopt(self, c: Candidate, anchored: bool) -> None:
+        """``c`` is corrected (`_correction`) when the estimate it takes was ``anchored``."""
+        if anchored:
             self.corrected.add(c)
         else:
             self.corrected.discard(c)
@@ -298,13 +296,13 @@ class SteppedSearch(Search):
         est = self._estimate(c)
         if est is None:
             return None
-        params, ci, rms = est
-        self._adopt(c, rms)
+        params, ci = est.params, est.ci95
+        self._adopt(c, est.anchored)
         x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs,
                             correction=self._correction(c, params, None))
         if x2 is None:
             return None
-        ev = dict(estimator=BACKBONE_ESTIMATOR, **rms)
+        ev = dict(estimator=BACKBONE_ESTIMATOR, **est.evidence())
         return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
@@ -342,9 +340,9 @@ class SteppedSearch(Search):
                 est = self._estimate(f.cand)
                 if est is None:
                     continue
-                f.evidence.update(est[2])
+                f.evidence.update(est.evidence())
                 if self.model.elements:
-                    f = self._on_backbone(f, *est)
+                    f = self._on_backbone(f, est)
                     if f is None:
                         continue
             if not self.model.elements:
@@ -359,14 +357,14 @@ class SteppedSearch(Search):
                 or ((f.cand.kind, f.cand.compensated) == best
                     and "backbone_oos_gain" in f.evidence)]
 
-    def _on_backbone(self, fit: Fit, params: dict[str, float], ci: dict[str, list[float]],
-                     evidence: dict) -> Fit | None:
-        """A memoryless law's pool entry with its backbone estimate (``params``, ``ci``)
+    def _on_backbone(self, fit: Fit, est: BackboneEstimate) -> Fit | None:
+        """A memoryless law's pool entry with its backbone estimate ``est`` (`_estimate`)
         beside the elements the model holds (a later pass: the FRF screening along the
-        measured motion cannot tell its share from theirs; ``evidence``: the estimate's,
-        `_estimate`); None when the model with it cannot be simulated."""
+        measured motion cannot tell its share from theirs); None when the model with it
+        cannot be simulated."""
         c, grid = fit.cand, KINDS[fit.cand.kind].search.grid
-        self._adopt(c, evidence)
+        params, ci = est.params, est.ci95
+        self._adopt(c, est.anchored)
         x2 = simulated_chi2(self.model, c, params, self.levels, self.frfs,
                             correction=self._correction(c, params, None))
         if x2 is None:
@@ -389,30 +387,29 @@ class SteppedSearch(Search):
         best = None
         for p in partners:
             est = self._estimate(fit.cand, beside=p)
-            if est is not None and (best is None or est[2]["backbone_oos_gain"]
-                                    > best[2]["backbone_oos_gain"]):
+            if est is not None and (best is None or est.score.gain > best.score.gain):
                 best = est
         alone = fit.evidence["backbone_oos_gain"]
-        if best is None or best[2]["backbone_oos_gain"] <= alone + PAIR_MIN:
+        if best is None or best.score.gain <= alone + PAIR_MIN:
             return fit
-        ev = dict(fit.evidence, **best[2], backbone_oos_gain_alone=alone)
-        if "linear_correction" not in best[2]:        # the pair's own estimate, not alone's
+        ev = dict(fit.evidence, **best.evidence(), backbone_oos_gain_alone=alone)
+        if not best.anchored:                          # the pair's own estimate, not alone's
             ev.pop("linear_correction", None)
         if fit.evidence.get("estimator") != BACKBONE_ESTIMATOR:
             return replace(fit, evidence=ev)
-        other = next(p for p in partners if p.kind == ev["beside_kind"])
-        beside = Element(other.kind, other.w, dict(ev["beside_params"]))
-        self._adopt(fit.cand, best[2])
-        x2 = simulated_chi2(self.model, fit.cand, best[0], self.levels, self.frfs, beside,
-                            self._correction(fit.cand, best[0], beside))
+        other = next(p for p in partners if p.kind == best.beside_kind)
+        beside = Element(other.kind, other.w, dict(best.beside_params))
+        self._adopt(fit.cand, best.anchored)
+        x2 = simulated_chi2(self.model, fit.cand, best.params, self.levels, self.frfs, beside,
+                            self._correction(fit.cand, best.params, beside))
         if x2 is None:
-            self._adopt(fit.cand, fit.evidence)
+            self._adopt(fit.cand, "linear_correction" in fit.evidence)
             return fit
         bic = self.bic_gain(x2, fit.cand.n_params + other.n_params)
-        self.partner[fit.cand] = Fit(other, dict(beside.params), dict(ev["beside_ci95"]), x2,
+        self.partner[fit.cand] = Fit(other, dict(beside.params), dict(best.beside_ci95), x2,
                                      bic, dict(ev, estimator=f"{BACKBONE_ESTIMATOR}, beside "
                                                f"{fit.cand.kind}"))
-        return Fit(fit.cand, best[0], best[1], x2, bic, ev)
+        return Fit(fit.cand, best.params, best.ci95, x2, bic, ev)
 
 
 def _scaled_force(kind: str, params: dict[str, float], scale: float) -> dict[str, float]:

@@ -16,8 +16,8 @@ holds it) is fitted the same way: its transfer carries the element's force less 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -211,31 +211,113 @@ def held_mode(model: Model, tables: list[StepTable]) -> HeldMode | None:
                                float(mf.modal_constant.real)), points, fixed)
 
 
-def correction_fits(c: Candidate, correction: tuple[float, float], evidence: dict[str, Any]
-                    ) -> list[Fit]:
-    """The linear part's correction at ``c``'s location (`HeldMode.correction`) as the
-    stiffness and damping errors that carry it into a model (`._select.corrected_model`);
-    no interval: it is no free parameter, it follows from the elements and the lowest
-    level."""
-    ev = dict(evidence, estimator=f"linear part corrected with {c.kind} at the lowest level")
+def correction_fits(fit: Fit, correction: tuple[float, float]) -> list[Fit]:
+    """The linear part's correction at ``fit``'s location (`HeldMode.correction`) as the
+    stiffness and damping errors that carry it into a model (`._select.corrected_model`),
+    with ``fit``'s evidence; no interval: it is no free parameter, it follows from the
+    elements and the lowest level."""
+    c = fit.cand
+    ev = dict(fit.evidence, estimator=f"linear part corrected with {c.kind} at the lowest level")
     return [Fit(Candidate(kind, c.dofs, c.n_dof, names=c.names), {name: float(v)}, {},
                 0.0, 0.0, ev)
             for kind, name, v in (("stiffness_error", "delta_stiffness", correction[0]),
                                   ("damping_error", "delta_damping", correction[1]))]
 
 
+class BackboneEvidence(TypedDict, total=False):
+    """What a backbone estimate adds to its fit's evidence (`BackboneEstimate.evidence`),
+    in this order; the keys of the diagnosis JSON's ``evidence`` of such a fit."""
+
+    frequency_rms: float
+    damping_rms: float
+    backbone_oos_gain: float
+    frequency_rms_oos: float
+    damping_rms_oos: float
+    linear_correction: dict[str, float]
+    beside_kind: str
+    beside_params: dict[str, float]
+    beside_ci95: dict[str, list[float]]
+
+
+@dataclass(frozen=True)
+class BackboneScore:
+    """Out-of-sample backbone score of an element (`backbone_gain`).
+
+    Attributes
+    ----------
+    gain : float
+        Log-likelihood gain over the reference mode, held out.
+    frequency_rms, damping_rms : float
+        Relative rms of the held-out frequency and damping residuals.
+    """
+
+    gain: float
+    frequency_rms: float
+    damping_rms: float
+
+
+@dataclass(frozen=True)
+class BackboneEstimate:
+    """An element fitted to the backbone (`backbone_estimate`).
+
+    Attributes
+    ----------
+    params : dict
+        The element's parameters.
+    ci95 : dict
+        Their 95 % intervals, ``[lo, hi]``.
+    frequency_rms, damping_rms : float
+        Relative rms residuals of the fit.
+    score : BackboneScore
+        Its out-of-sample backbone score.
+    correction : tuple of float or None
+        Stiffness and damping correction of the linear part (an ``anchored`` fit).
+    beside_kind : str or None
+        Kind of a pair's second element fitted jointly, with its ``beside_params`` and
+        ``beside_ci95``.
+    """
+
+    params: dict[str, float]
+    ci95: dict[str, list[float]]
+    frequency_rms: float
+    damping_rms: float
+    score: BackboneScore
+    correction: tuple[float, float] | None = None
+    beside_kind: str | None = None
+    beside_params: dict[str, float] = field(default_factory=dict)
+    beside_ci95: dict[str, list[float]] = field(default_factory=dict)
+
+    @property
+    def anchored(self) -> bool:
+        """Whether the linear part was corrected with the element (`correction`)."""
+        return self.correction is not None
+
+    def evidence(self) -> BackboneEvidence:
+        """The estimate as its fit's evidence (`BackboneEvidence`)."""
+        ev = BackboneEvidence(frequency_rms=self.frequency_rms, damping_rms=self.damping_rms,
+                              backbone_oos_gain=self.score.gain,
+                              frequency_rms_oos=self.score.frequency_rms,
+                              damping_rms_oos=self.score.damping_rms)
+        if self.correction is not None:
+            ev["linear_correction"] = dict(zip(("delta_stiffness", "delta_damping"),
+                                               self.correction))
+        if self.beside_kind is not None:
+            ev.update(beside_kind=self.beside_kind, beside_params=dict(self.beside_params),
+                      beside_ci95={n: list(v) for n, v in self.beside_ci95.items()})
+        return ev
+
+
 def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
                       beside: Candidate | None = None, anchored: bool = False
-                      ) -> tuple[dict[str, float], dict[str, list[float]],
-                                 dict[str, Any]] | None:
+                      ) -> BackboneEstimate | None:
     """An element fitted to the backbone of response-controlled levels
     (`analysis.backbone.fit_joint`) on the model's own mode at the held point (the stuck
     linear part, `.compare.stuck_linear`, with the elements the model holds there kept
     beside it); with ``beside``, a second element at the point fitted jointly. None when
     that mode cannot be found or the model holds elements elsewhere. Returns the
-    parameters, their 95 % intervals and the evidence: the fit's relative rms residuals and
-    its out-of-sample backbone score (`backbone_gain`; a pair's partner and its parameters
-    under ``beside_kind``, ``beside_params``, ``beside_ci95``).
+    parameters, their 95 % intervals, the fit's relative rms residuals and its
+    out-of-sample backbone score (`backbone_gain`), with a pair's partner and its
+    parameters.
 
     A response-controlled level is one quasi-linear mode at its amplitude, so its natural
     frequency and damping are what a joint law must reproduce; levels measured at different
@@ -244,8 +326,8 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
     wide, decide the damping law (docs/backbone.md).
 
     ``anchored``: the linear mode is corrected with the element so that the lowest level is
-    reproduced exactly (`analysis.backbone.fit_joint`), the correction in the evidence
-    (``linear_correction``)."""
+    reproduced exactly (`analysis.backbone.fit_joint`), the correction in the estimate
+    (``correction``)."""
     held = held_mode(model, tables)
     if held is None:
         return None
@@ -260,20 +342,16 @@ def backbone_estimate(model: Model, c: Candidate, tables: list[StepTable],
                           beside=other, fixed=fixed, anchored=anchored)
     except ValueError:
         return None
-    ev: dict[str, Any] = {"frequency_rms": jf.frequency_rms, "damping_rms": jf.damping_rms,
-                          **backbone_gain(reference_residuals(points, mode, fixed, anchored),
-                                          rf, rz)}
-    if anchored:
-        ev["linear_correction"] = dict(zip(("delta_stiffness", "delta_damping"),
-                                           jf.correction))
-    if other is not None:
-        ev.update(beside_kind=other, beside_params=dict(jf.beside),
-                  beside_ci95={n: list(v) for n, v in jf.beside_ci95.items()})
-    return jf.params, {n: list(v) for n, v in jf.ci95.items()}, ev
+    score = backbone_gain(reference_residuals(points, mode, fixed, anchored), rf, rz)
+    return BackboneEstimate(
+        jf.params, {n: list(v) for n, v in jf.ci95.items()}, jf.frequency_rms, jf.damping_rms,
+        score, tuple(jf.correction) if anchored else None, other,
+        dict(jf.beside) if other is not None else {},
+        {n: list(v) for n, v in jf.beside_ci95.items()} if other is not None else {})
 
 
 def backbone_gain(reference: tuple[np.ndarray, np.ndarray], rf: np.ndarray,
-                  rz: np.ndarray) -> dict[str, float]:
+                  rz: np.ndarray) -> BackboneScore:
     """Out-of-sample backbone score of an element from its held-out relative residuals
     ``rf``, ``rz`` (`analysis.backbone.held_out`: each level but the lowest predicted by the
     element fitted to the others) against the ``reference`` ones (the linear mode's, with
@@ -285,8 +363,8 @@ def backbone_gain(reference: tuple[np.ndarray, np.ndarray], rf: np.ndarray,
 
     def ms(r: np.ndarray) -> float:
         return float(np.mean(r**2)) + 1e-18
-    return {"backbone_oos_gain": rf.size / 2 * (np.log(ms(f0) / ms(rf)) + np.log(ms(z0) / ms(rz))),
-            "frequency_rms_oos": float(np.sqrt(ms(rf))), "damping_rms_oos": float(np.sqrt(ms(rz)))}
+    return BackboneScore(rf.size / 2 * (np.log(ms(f0) / ms(rf)) + np.log(ms(z0) / ms(rz))),
+                         float(np.sqrt(ms(rf))), float(np.sqrt(ms(rz))))
 
 
 def with_candidate(model: Model, c: Candidate, params: dict[str, float],
@@ -295,10 +373,11 @@ def with_candidate(model: Model, c: Candidate, params: dict[str, float],
     """The model with ``c`` at ``params`` added (`._select.corrected_model`), ``beside``,
     the second element of a pair, with it, and the linear part's ``correction`` at ``c``'s
     location (`correction_fits`); raises `ModelError` as that does."""
-    m = corrected_model(model, Fit(c, params, {}, 0.0, 0.0))
+    fit = Fit(c, params, {}, 0.0, 0.0)
+    m = corrected_model(model, fit)
     if beside is not None:
         m = m.with_elements(m.elements + [beside])
-    for f in correction_fits(c, correction, {}) if correction is not None else ():
+    for f in correction_fits(fit, correction) if correction is not None else ():
         m = corrected_model(m, f)
     return m
 

@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     from ..store import check_result_target, save_result
 
     method = methods.get(args.method)
-    options = method.make_options(vars(args))
+    options = method.make_options(args)
     files = method.output_files(options) if method.output_files else []
     refuse_overwrite(args.force, args.json, *files)
     if args.store:

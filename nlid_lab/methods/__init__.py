@@ -8,17 +8,18 @@ method of a level's excitation), then `discover` imports every other module of t
 
 from __future__ import annotations
 
-from ._registry import (ESTIMATOR_KEY, Estimate, LevelEstimate, Method, StoredEstimate,
-                       add_batch_options, add_options, batch_values, discover, find_stored,
-                       for_excitation, get, methods, option, register, stored_estimates,
-                       unregister)
+from ._registry import (ESTIMATOR_KEY, BatchOptions, Estimate, LevelEstimate, Method,
+                       StoredEstimate, StoredResult, add_batch_options, add_options,
+                       batch_values, discover, find_stored, for_excitation, get, methods,
+                       option, register, stored_estimates, unregister)
 from . import _reverse_path, _hbm  # noqa: E402,F401 - register the built-in methods, in order
 from ._reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
                            format_table as reverse_path_table)
 
 discover(__name__, __path__)       # every further method module registers itself
 
-__all__ = ["ESTIMATOR_KEY", "Estimate", "LevelEstimate", "Method", "StoredEstimate",
+__all__ = ["ESTIMATOR_KEY", "BatchOptions", "Estimate", "LevelEstimate", "Method",
+           "StoredEstimate", "StoredResult",
            "add_batch_options", "add_options", "batch_values", "discover", "find_stored",
            "for_excitation", "get", "methods", "option", "register", "stored_estimates",
            "unregister",

@@ -6,17 +6,18 @@ optimizer, as documented).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
+from analysis.documents import JsonObject
 from analysis.errors import InputError
 from analysis.recordings import Excitation, StepTable
 
 from ..outputs import atomic_path
-from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
+from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, StoredResult, option, register
 
 if TYPE_CHECKING:
     from analysis.spectral import LevelFRF
@@ -109,7 +110,7 @@ def linear_from_run(path: str, model: Model, harmonics: np.ndarray,
     return MeasuredReceptance(top.freqs[order], top.frf[order, 0])
 
 
-def element_json(model: Model, result: FitResult) -> list[dict]:
+def _element_json(model: Model, result: FitResult) -> list[JsonObject]:
     """The fitted elements of ``result`` as JSON (kind, w, params, ci95), those of ``model``
     without unknowns included."""
     out = []
@@ -135,7 +136,7 @@ class HbmEstimate:
     def to_json(self) -> dict[str, Any]:
         """The stored and printed JSON of the fit."""
         fit = self.fit
-        return {ESTIMATOR_KEY: NAME, "elements": element_json(self.model, fit),
+        return {ESTIMATOR_KEY: NAME, "elements": _element_json(self.model, fit),
                 "warnings": fit.warnings, "cost": fit.cost, "method": fit.method,
                 "harmonics": self.harmonics.tolist(),
                 "levels": [lv.level for lv in self.levels],
@@ -257,13 +258,13 @@ def model_curve(system, freqs: np.ndarray, amp: float, response_kind: str):
 
 
 # --- report --------------------------------------------------------------------------------
-def _estimated_elements(res: dict) -> list:
+def _estimated_elements(found: StoredResult) -> list:
     from analysis.models import Element
     return [Element(e.kind, np.asarray(e.w, float), dict(e.params))
-            for e in HbmStored.from_json(res).elements if e.params]
+            for e in found.elements if e.params]
 
 
-def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] | None,
+def report_sections(run: RunData, frfs: list[LevelFRF], found: StoredResult | None,
                     candidate: Model | None = None) -> list[Section]:
     """Hysteresis loops (fig 4.7) and measured vs estimated-model FRFs (fig 4.8) from the
     stored harmonic-balance result ``found``; the reference model of a simulated run is drawn
@@ -276,8 +277,8 @@ def report_sections(run: RunData, frfs: list[LevelFRF], found: tuple[str, dict] 
 
     if found is None:
         return []
-    name, res = found
-    est = _estimated_elements(res)
+    name = found.name
+    est = _estimated_elements(found)
     ref = reference_model(run)
     out = []
     loops = {}
@@ -352,8 +353,8 @@ class HbmStored(StoredEstimate):
     def from_json(cls, data: Mapping[str, Any]) -> HbmStored:
         """Read ``data`` (`HbmEstimate.to_json`, or a result stored before ``"estimator"``)."""
         cost = data.get("cost")
-        return cls(**cls.common_fields(data), cost=None if cost is None else float(cost),
-                   harmonics=tuple(int(k) for k in data.get("harmonics") or ()))
+        return replace(super().from_json(data), cost=None if cost is None else float(cost),
+                       harmonics=tuple(int(k) for k in data.get("harmonics") or ()))
 
 
 def output_files(options: HbmOptions) -> list[str]:

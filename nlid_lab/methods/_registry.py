@@ -5,6 +5,9 @@ their command-line flags), its estimate function on recordings, how one level is
 batch reanalysis, and its report sections. `register` adds one; nothing else in the
 application names an estimator. Stored and JSON results carry ``"estimator": <name>``;
 results stored before that key existed are recognised by their keys (`Method.legacy_keys`).
+What leaves the registry is typed: a run's stored results come back as `StoredResult`s (the
+method's `StoredEstimate` inside), `reanalyze`'s options as `BatchOptions`; the JSON is read
+only by the `from_json` of a method's result type.
 
 Every command line builds all parsers, so a method module imports only this registry at the
 top; numerics, figures and the store are imported inside its functions.
@@ -68,15 +71,57 @@ class StoredEstimate:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> StoredEstimate:
-        """The fields every estimator's JSON has (``elements``, ``warnings``)."""
-        return cls(**cls.common_fields(data))
-
-    @staticmethod
-    def common_fields(data: Mapping[str, Any]) -> JsonObject:
-        """``elements`` and ``warnings`` of ``data`` as this type's keyword arguments."""
+        """The fields every estimator's JSON has (``elements``, ``warnings``); a subclass
+        reads its own fields into ``super().from_json(data)`` (`dataclasses.replace`)."""
         from ..store import elements_from_json   # h5py: the store loads on use (module doc)
-        return {"elements": elements_from_json(data),
-                "warnings": tuple(str(w) for w in data.get("warnings") or ())}
+        return cls(elements_from_json(data), tuple(str(w) for w in data.get("warnings") or ()))
+
+
+@dataclass(frozen=True)
+class StoredResult:
+    """A method's result as a run stores it, found and read back typed (`find_stored`).
+
+    Attributes
+    ----------
+    name : str
+        Name the run stores it under (``analyze-<method>``, or an older name).
+    method : str
+        The method whose result it is (`Method.name`).
+    estimate : StoredEstimate
+        The result read by the method's `Method.result` type.
+    """
+
+    name: str
+    method: str
+    estimate: StoredEstimate
+
+    @property
+    def elements(self) -> tuple[EstimatedElement, ...]:
+        """The estimate's elements (what the report's table of stored estimates lists)."""
+        return self.estimate.elements
+
+
+@dataclass(frozen=True)
+class BatchOptions:
+    """The batch options `reanalyze` was given (`batch_values`): option field name -> value,
+    None where not given (the method's default then applies). Each method builds its typed
+    options from them (`Method.make_options`); names of other methods' options are ignored.
+    """
+
+    values: tuple[tuple[str, object], ...] = ()
+
+    @classmethod
+    def of(cls, **values: object) -> BatchOptions:
+        """Options by keyword (a script's or test's `reanalyze`)."""
+        return cls(tuple(values.items()))
+
+    def get(self, name: str) -> object:
+        """The value given for option ``name`` (None when not given)."""
+        return dict(self.values).get(name)
+
+    def to_json(self) -> JsonObject:
+        """The options as stored with a reanalysis table (its ``options`` attribute)."""
+        return dict(self.values)
 
 
 class Estimate(LevelEstimate, Protocol):
@@ -133,7 +178,7 @@ class Method:
     sections : callable, optional
         ``sections(run, frfs, stored, candidate) -> list[Section]``: report sections, given the
         run (`nlid_lab.reports.RunData`), its level FRFs, the method's latest stored result
-        (or None) and the candidate model asked for (or None).
+        (`StoredResult`, or None) and the candidate model asked for (or None).
     legacy_keys : tuple of str
         A stored result without ``"estimator"`` holding all these keys is this method's.
     output_files : callable, optional
@@ -141,7 +186,8 @@ class Method:
         checked against overwriting before any work.
     result : type
         `StoredEstimate` or the method's subclass of it: its ``from_json`` reads the method's
-        JSON and stored results (old layouts too) back typed (`Method.read`).
+        JSON and stored results (old layouts too) back typed (`find_stored`, the reanalysis
+        rows).
     """
 
     name: str
@@ -166,22 +212,21 @@ class Method:
         return [f for f in dataclasses.fields(self.options)
                 if "flags" in f.metadata and (f.metadata["batch"] or not batch_only)]
 
-    def make_options(self, values: Mapping[str, Any]) -> Any:
-        """The options dataclass from ``values`` (field name -> value; None or missing keys
-        take the default). Lists become tuples (argparse ``nargs``)."""
+    def make_options(self, given: argparse.Namespace | BatchOptions) -> Any:
+        """The options dataclass from the parsed ``analyze`` arguments or `reanalyze`'s
+        `BatchOptions` (None or missing names take the default). Lists become tuples
+        (argparse ``nargs``)."""
+        values = dict(given.values) if isinstance(given, BatchOptions) else vars(given)
         names = {f.name for f in dataclasses.fields(self.options)}
-        given = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()
-                 if k in names and v is not None}
-        return self.options(**given)
+        kept = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()
+                if k in names and v is not None}
+        return self.options(**kept)
 
-    def level_json(self, rec: Recording, model: Model, options: Any) -> dict[str, Any]:
-        """One level's result JSON (reanalysis)."""
-        one = self.estimate_level or (lambda r, m, o: self.estimate([r], m, o))
-        return one(rec, model, options).to_json()
-
-    def read(self, data: Mapping[str, Any]) -> StoredEstimate:
-        """One of this method's JSON or stored results, typed (`Method.result`)."""
-        return self.result.from_json(data)
+    def estimate_one(self, rec: Recording, model: Model, options: Any) -> LevelEstimate:
+        """One level's estimate (reanalysis): `estimate_level`, else `estimate` of it alone."""
+        if self.estimate_level is not None:
+            return self.estimate_level(rec, model, options)
+        return self.estimate([rec], model, options)
 
     def owns(self, result: Any) -> bool:
         """Whether a stored result is this method's (by ``"estimator"``, else its keys)."""
@@ -241,19 +286,29 @@ def for_excitation(excitation: str | None) -> Method:
     raise InputError(f"no estimator takes {excitation} levels; choose --method explicitly")
 
 
-def find_stored(results: Mapping[str, Any], method: Method) -> tuple[str, dict] | None:
-    """The last stored result of ``method`` as (stored name, result), or None."""
+def find_stored(results: Mapping[str, object], method: Method) -> StoredResult | None:
+    """The last of a run's stored ``results`` (name -> what the store read) that is
+    ``method``'s, read back typed; None when there is none."""
     found = None
     for name, res in results.items():
         if method.owns(res):
-            found = (name, res)
-    return found
+            found = name, res
+    return None if found is None else _stored(found[0], found[1], method)
 
 
-def stored_estimates(results: Mapping[str, Any]) -> list[tuple[str, dict]]:
-    """Stored results of any registered method, in stored order."""
-    return [(name, res) for name, res in results.items()
-            if any(m.owns(res) for m in _METHODS.values())]
+def stored_estimates(results: Mapping[str, object]) -> list[StoredResult]:
+    """The stored results of any registered method, in stored order, read back typed."""
+    out = []
+    for name, res in results.items():
+        method = next((m for m in _METHODS.values() if m.owns(res)), None)
+        if method is not None:
+            out.append(_stored(name, res, method))
+    return out
+
+
+def _stored(name: str, result: object, method: Method) -> StoredResult:
+    """A stored result `Method.owns` found (a JSON object), read by the method's type."""
+    return StoredResult(name, method.name, method.result.from_json(result))
 
 
 # --- command-line options ------------------------------------------------------------------
@@ -282,12 +337,11 @@ def add_batch_options(parser: argparse.ArgumentParser) -> None:
             parser.add_argument(*f.metadata["flags"], dest=f.name, **kwargs)
 
 
-def batch_values(args: argparse.Namespace) -> dict[str, object]:
-    """The batch options given to ``reanalyze`` (field name -> value or None; each value is
-    opaque here: the method's `Method.make_options` builds its typed options from them)."""
+def batch_values(args: argparse.Namespace) -> BatchOptions:
+    """The batch options given to ``reanalyze``, every method's (None where not given)."""
     out: dict[str, object] = {}
     for method in _METHODS.values():
         for f in method.option_fields(batch_only=True):
             value = getattr(args, f.name, None)
             out[f.name] = tuple(value) if isinstance(value, list) else value
-    return out
+    return BatchOptions(tuple(out.items()))

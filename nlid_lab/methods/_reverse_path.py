@@ -13,14 +13,14 @@ is empty and there is no ``"modal"``/``"multiple_coherence"``.
 from __future__ import annotations
 
 import html
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from analysis.errors import EstimationError, InputError
 from analysis.recordings import Excitation
 
 from ..outputs import atomic_path
-from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, option, register
+from ._registry import ESTIMATOR_KEY, Method, StoredEstimate, StoredResult, option, register
 
 if TYPE_CHECKING:
     from analysis.modal import ModalSummary
@@ -240,7 +240,7 @@ def estimate_level(rec: Recording, model: Model, options: ReversePathOptions
 
 
 # --- report --------------------------------------------------------------------------------
-def report_sections(run: RunData, frfs: list, stored: tuple[str, dict] | None,
+def report_sections(run: RunData, frfs: list, stored: StoredResult | None,
                     candidate: Model | None = None) -> list[Section]:
     """Underlying linear FRF, coefficients vs frequency and multiple coherence linear vs
     nonlinear (figs 3.6, 3.8, 3.9), computed from the random levels (pooled) when a
@@ -307,9 +307,9 @@ class ReversePathStored(StoredEstimate):
         coherence = data.get("multiple_coherence") or {}
         lowest = coherence.get("min")
         hold = data.get("force_hold")
-        return cls(**cls.common_fields(data),
-                   coherence_min=None if lowest is None else float(lowest),
-                   force_hold=None if hold is None else str(hold))
+        return replace(super().from_json(data),
+                       coherence_min=None if lowest is None else float(lowest),
+                       force_hold=None if hold is None else str(hold))
 
 
 def output_files(options: ReversePathOptions) -> list[str]:

@@ -16,14 +16,12 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 import numpy as np
 
 from analysis.detection import bla_summary, level_change
-from analysis.documents import JsonObject
 from analysis.errors import EstimationError, InputError
 from analysis.modal import fit_linear
 from analysis.recordings import Excitation, channel_labels, one_kind, record_level
 from analysis.spectral import LevelFRF, level_label
 
 from ..formats import describe
-from ..store import elements_from_json
 from . import _figures as figures
 from ._figures import LevelBars
 from ._backbone_figure import backbone_section
@@ -31,6 +29,21 @@ from ._rundata import RunData, Section, all_level_frfs
 
 if TYPE_CHECKING:
     from analysis.diagnose import Diagnosis
+
+    from ..store import EstimatedElement
+
+
+class FoundEstimate(Protocol):
+    """A stored estimate as the registry finds it (`nlid_lab.methods.StoredResult`): the
+    name it is stored under and its elements, read back typed."""
+
+    @property
+    def name(self) -> str:
+        """Name of the stored result."""
+
+    @property
+    def elements(self) -> tuple[EstimatedElement, ...]:
+        """The estimated elements."""
 
 
 class Estimators(Protocol):
@@ -40,11 +53,11 @@ class Estimators(Protocol):
     def methods(self) -> Sequence[Any]:
         """Registered methods (each with ``sections``), in order."""
 
-    def find_stored(self, results: Mapping[str, Any], method: Any) -> tuple[str, dict] | None:
-        """The last stored result of ``method``."""
+    def find_stored(self, results: Mapping[str, object], method: Any) -> FoundEstimate | None:
+        """The last stored result of ``method``, read back typed."""
 
-    def stored_estimates(self, results: Mapping[str, Any]) -> list[tuple[str, dict]]:
-        """Stored results of any registered method."""
+    def stored_estimates(self, results: Mapping[str, object]) -> Sequence[FoundEstimate]:
+        """Stored results of any registered method, read back typed."""
 
 
 # --- report sections ----------------------------------------------------------------------
@@ -345,21 +358,21 @@ def render_html(run: RunData, frfs: list[LevelFRF], secs: list[Section],
             f"<style>{style}</style></head><body>{''.join(body)}</body></html>\n")
 
 
-def estimate_rows(results: Mapping[str, JsonObject], estimators: Estimators
+def estimate_rows(results: Mapping[str, object], estimators: Estimators
                   ) -> list[tuple[str, str, str, str, str]]:
     """(result, element, parameter, value, 95 % interval) of every stored estimate of a
-    method in the registry ``estimators`` (`nlid_lab.methods`)."""
+    method in the registry ``estimators`` (`nlid_lab.methods`), among a run's ``results``."""
     rows = []
-    for name, res in estimators.stored_estimates(results):
-        for i, el in enumerate(elements_from_json(res)):
+    for found in estimators.stored_estimates(results):
+        for i, el in enumerate(found.elements):
             for par, value in el.params.items():
                 lo_hi = el.ci95.get(par)
-                rows.append((name, f"{i}: {el.kind}", par, f"{value:.5g}",
+                rows.append((found.name, f"{i}: {el.kind}", par, f"{value:.5g}",
                              f"[{lo_hi[0]:.5g}, {lo_hi[1]:.5g}]" if lo_hi else "-"))
     return rows
 
 
-def _estimates_table(results: Mapping[str, JsonObject], estimators: Estimators) -> str:
+def _estimates_table(results: Mapping[str, object], estimators: Estimators) -> str:
     rows = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
                    for row in estimate_rows(results, estimators))
     if not rows:

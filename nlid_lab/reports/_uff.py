@@ -84,7 +84,7 @@ def coherence_dataset(frf: LevelFRF, level_no: int, out: int, inp: int, run_name
     return d
 
 
-def datasets(frfs: Iterable[LevelFRF], run_name: str) -> list[dict]:
+def datasets(frfs: Iterable[LevelFRF], run_name: str) -> list[UffDataset]:
     """All dataset-58 dicts of a run: FRFs, then coherences where they exist, per level."""
     out = []
     for no, frf in enumerate(frfs, start=1):
@@ -96,7 +96,7 @@ def datasets(frfs: Iterable[LevelFRF], run_name: str) -> list[dict]:
     return out
 
 
-def write_uff(path: str | Path, sets: list[dict], progress=None) -> None:
+def write_uff(path: str | Path, sets: list[UffDataset], progress=None) -> None:
     """Write dataset dicts to ``path`` (replacing it); ``progress(n)`` called per dataset."""
     path = Path(path)
     path.unlink(missing_ok=True)
@@ -107,7 +107,7 @@ def write_uff(path: str | Path, sets: list[dict], progress=None) -> None:
             progress(1)
 
 
-def read_uff(path: str | Path) -> list[dict]:
+def read_uff(path: str | Path) -> list[UffDataset]:
     """Every dataset 58 in a UFF file, as pyuff reads it."""
     sets = pyuff.UFF(str(path)).read_sets()
     sets = sets if isinstance(sets, list) else [sets]

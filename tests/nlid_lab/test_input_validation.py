@@ -117,6 +117,7 @@ def npz_mutations(draw, recs: dict) -> tuple[str, dict, str, bool]:
 @FUZZ
 @given(data=st.data())
 def test_mutated_npz_recordings_through_the_commands(data, recordings, tmp_path):
+    from nlid_lab.methods import BatchOptions
     from nlid_lab.reanalyze import analyse_run
     folder, recs = recordings
     kind, arrays, what, invalid = data.draw(npz_mutations(recs))
@@ -135,7 +136,7 @@ def test_mutated_npz_recordings_through_the_commands(data, recordings, tmp_path)
         code, err, _ = run_cli(["export-uff", str(run), "--out", str(uff)], seconds=60)
         check_outcome(code, err, False, f"export-uff {what}")
     model = Model.loads(SDOF)
-    for row in analyse_run(str(path), model, method, {}):
+    for row in analyse_run(str(path), model, method, BatchOptions()):
         if not row.ok:  # a reanalysis row names an input problem, not a raw error
             assert "Error:" not in row.error, f"reanalyze {what}: {row.error}"
             assert not invalid or row.level_index == -1 or "level" in row.error

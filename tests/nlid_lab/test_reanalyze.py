@@ -21,7 +21,10 @@ from analysis.recordings import Recording
 from analysis.reverse_path import ReversePathOptions, reverse_path
 from nlid_lab import cli, reanalyze as rea
 from nlid_lab.formats import load_recordings
+from nlid_lab.methods import BatchOptions
 from nlid_lab.store import RunWriter, TableError, read_table, save_recording, write_table
+
+DEFAULTS = BatchOptions()   # every method's defaults
 
 pytest.importorskip("distributed")
 
@@ -143,7 +146,7 @@ def test_rows_flatten_into_one_table_with_every_column():
 def test_task_matches_direct_reverse_path(campaign):
     """A worker row carries exactly what reverse path reports for that level."""
     model = Model.load(campaign["candidate"])
-    rows = rea.analyse_run(campaign["good"][0], model, "reverse-path", {})
+    rows = rea.analyse_run(campaign["good"][0], model, "reverse-path", DEFAULTS)
     assert [r.level_index for r in rows] == [0, 1]
     assert [r.level for r in rows] == [20.0, 40.0]
     for row, rec in zip(rows, load_recordings(campaign["good"][0])):
@@ -155,7 +158,8 @@ def test_task_matches_direct_reverse_path(campaign):
                 row.estimates[P_COL + ".ci95_hi"]] == el["ci95"]["p"]
         assert row.coherence_min == direct["multiple_coherence"]["min"]
         assert row.warnings == " | ".join(direct["warnings"])
-    seq = rea.analyse_run(campaign["good"][1], model, "reverse-path", {"refine": "sequential"})
+    seq = rea.analyse_run(campaign["good"][1], model, "reverse-path",
+                          BatchOptions.of(refine="sequential"))
     direct = reverse_path(load_recordings(campaign["good"][1])[0], model,
                           ReversePathOptions(refine="sequential"))
     assert seq[0].estimates[P_COL] == direct.to_json()["elements"][0]["params"]["p"]
@@ -163,10 +167,10 @@ def test_task_matches_direct_reverse_path(campaign):
 
 def test_task_turns_failures_into_rows(campaign):
     model = Model.load(campaign["candidate"])
-    (bad,) = rea.analyse_run(campaign["corrupt"], model, "reverse-path", {})
+    (bad,) = rea.analyse_run(campaign["corrupt"], model, "reverse-path", DEFAULTS)
     assert bad.status == "failed" and bad.level_index == -1
     assert bad.error and "\n" not in bad.error
-    (wrong,) = rea.analyse_run(campaign["wrong"], model, "reverse-path", {})
+    (wrong,) = rea.analyse_run(campaign["wrong"], model, "reverse-path", DEFAULTS)
     assert wrong.status == "failed" and wrong.level_index == 0
     assert "DOF" in wrong.error
 
@@ -193,12 +197,12 @@ def test_task_hbm_on_stepped_sine(stepped_run):
     true = _true_model()
     cand = true.with_elements([Element("cubic_spring", true.elements[0].w, {}),
                                true.elements[1]])
-    (row,) = rea.analyse_run(stepped_run, cand, "auto", {"harmonics": "1,3,5"})
+    (row,) = rea.analyse_run(stepped_run, cand, "auto", BatchOptions.of(harmonics="1,3,5"))
     assert row.status == "ok" and row.method == "hbm", row.error
     assert row.cost >= 0 and "e1.quadratic_damping.p" not in row.estimates
     half = (row.estimates[P_COL + ".ci95_hi"] - row.estimates[P_COL + ".ci95_lo"]) / 2
     assert abs(row.estimates[P_COL] - true.elements[0].params["p"]) <= 2 * half
-    (bad,) = rea.analyse_run(stepped_run, cand, "reverse-path", {})
+    (bad,) = rea.analyse_run(stepped_run, cand, "reverse-path", DEFAULTS)
     assert bad.status == "failed" and bad.error and "\n" not in bad.error
 
 
@@ -207,7 +211,7 @@ def test_task_reports_a_truncated_run(campaign, tmp_path):
     truncated = tmp_path / "truncated.h5"
     truncated.write_bytes(Path(campaign["good"][1]).read_bytes()[:3000])
     (row,) = rea.analyse_run(str(truncated), Model.load(campaign["candidate"]),
-                             "reverse-path", {})
+                             "reverse-path", DEFAULTS)
     assert row.status == "failed" and "truncated" in row.error
 
 
@@ -302,7 +306,7 @@ def test_run_time_limit_frees_a_stuck_worker(campaign, tmp_path):
     # cannot take the good run (queued behind it on one worker) down with it
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
             rea.dask_client(workers=2) as client:
-        client.run(rea.analyse_run, good, model, "reverse-path", {})   # imports, numba
+        client.run(rea.analyse_run, good, model, "reverse-path", DEFAULTS)   # imports, numba
         result = rea.reanalyze([good, str(stuck)], model, client, progress=False,
                                run_timeout_s=3.0)
     ok, lost = result.rows

@@ -84,15 +84,35 @@ def test_the_backbone_chooses_the_kind_that_fits_frequency_and_damping():
     ev = {}
     for c in library(1, start.points, start.support):
         if c.kind in ("stick_slip", "cubic_damping") and c.compensated == (c.kind == "stick_slip"):
-            ev[c.kind] = backbone_estimate(start, c, tables)[2]
+            ev[c.kind] = backbone_estimate(start, c, tables).score
     jenkins, cubic = ev["stick_slip"], ev["cubic_damping"]
     # a cubic spring beside the Jenkins joint gains less than a pair must (`PAIR_MIN`)
     from analysis.diagnose._stepped import PAIR_MIN
     slider = next(c for c in library(1, start.points, start.support)
                   if c.kind == "stick_slip" and c.compensated)
     spring = next(c for c in library(1, start.points, start.support) if c.kind == "cubic_spring")
-    pair = backbone_estimate(start, slider, tables, beside=spring)[2]
-    assert pair["backbone_oos_gain"] <= jenkins["backbone_oos_gain"] + PAIR_MIN
-    assert jenkins["backbone_oos_gain"] > cubic["backbone_oos_gain"]
-    assert jenkins["frequency_rms_oos"] < 0.1 * cubic["frequency_rms_oos"]
-    assert jenkins["damping_rms_oos"] < cubic["damping_rms_oos"]
+    pair = backbone_estimate(start, slider, tables, beside=spring).score
+    assert pair.gain <= jenkins.gain + PAIR_MIN
+    assert jenkins.gain > cubic.gain
+    assert jenkins.frequency_rms < 0.1 * cubic.frequency_rms
+    assert jenkins.damping_rms < cubic.damping_rms
+
+
+def test_a_backbone_estimate_writes_its_evidence_in_the_documented_order():
+    """`BackboneEstimate.evidence`: the keys of `BackboneEvidence` in its order (the
+    diagnosis JSON's ``evidence`` of a backbone fit), the correction and the pair partner
+    only when there are some."""
+    from analysis.diagnose._stepped_memory import (BackboneEstimate, BackboneEvidence,
+                                                   BackboneScore)
+    score = BackboneScore(40.1, 2e-5, 0.0097)
+    alone = BackboneEstimate({"kd": 5e3, "fd": 0.3}, {"kd": [4e3, 6e3]}, 1e-4, 0.02, score)
+    assert alone.evidence() == {"frequency_rms": 1e-4, "damping_rms": 0.02,
+                                "backbone_oos_gain": 40.1, "frequency_rms_oos": 2e-5,
+                                "damping_rms_oos": 0.0097}
+    assert not alone.anchored
+    pair = BackboneEstimate({"kd": 5e3}, {}, 1e-4, 0.02, score, (12.0, -0.5), "cubic_spring",
+                            {"p": 1e9}, {"p": (0.9e9, 1.1e9)})
+    ev = pair.evidence()
+    assert list(ev) == list(BackboneEvidence.__annotations__)
+    assert ev["linear_correction"] == {"delta_stiffness": 12.0, "delta_damping": -0.5}
+    assert ev["beside_ci95"] == {"p": [0.9e9, 1.1e9]} and pair.anchored

@@ -62,8 +62,8 @@ def toy_estimate(recs, model, options: ToyOptions) -> ToyEstimate:
 def toy_sections(run, frfs, stored, candidate) -> list[Section]:
     if stored is None:
         return []
-    name, res = stored
-    return [Section("Toy gain", f"stored as {name}: {res['elements'][0]['params']['p']:.6g}")]
+    return [Section("Toy gain", f"stored as {stored.name}: "
+                                f"{stored.elements[0].params['p']:.6g}")]
 
 
 @pytest.fixture
@@ -110,12 +110,13 @@ def test_toy_method_reaches_analyze_reanalyze_report_and_view(toy, run, candidat
     # reanalyze: the method and its batch option (not the analyze-only one) on the parser ...
     args = build_parser().parse_args(["reanalyze", str(run), "--model", str(candidate),
                                       "--method", "toy", "--scale", "3"])
-    assert methods.batch_values(args)["scale"] == 3.0
+    assert methods.batch_values(args).get("scale") == 3.0
     with pytest.raises(SystemExit):
         build_parser().parse_args(["reanalyze", str(run), "--model", str(candidate),
                                    "--note", "x"])
     # ... and per level through the registry
-    rows = rea.analyse_run(str(run), Model.load(candidate), "toy", {"scale": 3.0})
+    rows = rea.analyse_run(str(run), Model.load(candidate), "toy",
+                           methods.BatchOptions.of(scale=3.0))
     assert [r.status for r in rows] == ["ok", "ok"] and rows[0].method == "toy"
     for row, rec in zip(rows, recs):
         assert row.estimates["e0.cubic_spring.p"] == pytest.approx(toy_gain([rec], 3.0))
@@ -138,38 +139,44 @@ def test_stored_results_found_by_estimator_else_by_legacy_keys():
     new_rp = {"estimator": "reverse-path", "elements": [], "cost": 1.0,
               "multiple_coherence": {"min": 0.9}}
     results = {"a": old_hbm, "b": old_rp, "c": new_rp, "d": {"verdict": "adequate"}}
-    assert methods.find_stored(results, hbm) == ("a", old_hbm)
-    assert methods.find_stored(results, rp) == ("c", new_rp)               # the last one
-    assert [n for n, _ in methods.stored_estimates(results)] == ["a", "b", "c"]
+    found = methods.find_stored(results, hbm)
+    assert (found.name, found.method, found.estimate.cost) == ("a", "hbm", 0.1)
+    found = methods.find_stored(results, rp)                              # the last one
+    assert (found.name, found.method, found.estimate.coherence_min) == ("c", "reverse-path", 0.9)
+    assert [(f.name, f.method) for f in methods.stored_estimates(results)] == [
+        ("a", "hbm"), ("b", "reverse-path"), ("c", "reverse-path")]
     assert methods.find_stored({"x": {"estimator": "hbm"}}, rp) is None
 
 
 def test_each_method_reads_its_results_back_typed_old_layouts_too():
-    """`Method.read`: the reanalysis rows come from the typed result, not from JSON keys."""
+    """`Method.result`: the reanalysis rows come from the typed result, not from JSON keys."""
     rp, hbm = methods.get("reverse-path"), methods.get("hbm")
     el = {"kind": "cubic_spring", "w": [1.0, 0.0], "params": {"p": 2.0e11},
           "ci95": {"p": [1.9e11, 2.1e11]}}
     # stored before "estimator", "force_hold" and "estimated" existed
-    old = rp.read({"elements": [el], "multiple_coherence": {"min": 0.97}, "warnings": ["w1"]})
+    old = rp.result.from_json({"elements": [el], "multiple_coherence": {"min": 0.97},
+                               "warnings": ["w1"]})
     assert isinstance(old, methods.StoredEstimate) and type(old).__name__ == "ReversePathStored"
     assert old.coherence_min == 0.97 and old.cost is None and old.force_hold is None
     assert old.warnings == ("w1",) and old.elements[0].estimated == ("p",)
     assert old.elements[0].ci95["p"] == (1.9e11, 2.1e11)
     # screening only: no coherence
-    assert rp.read({"estimator": "reverse-path", "elements": [], "warnings": [],
-                    "force_hold": "linear"}).coherence_min is None
-    fit = hbm.read({"estimator": "hbm", "cost": 0.25, "harmonics": [1, 3], "warnings": [],
-                    "elements": [dict(el, params={"p": 2.0e11, "c": 3.0}, estimated=["p"])]})
+    assert rp.result.from_json({"estimator": "reverse-path", "elements": [], "warnings": [],
+                                "force_hold": "linear"}).coherence_min is None
+    fit = hbm.result.from_json({"estimator": "hbm", "cost": 0.25, "harmonics": [1, 3],
+                                "warnings": [], "elements": [dict(el, params={"p": 2.0e11,
+                                                                              "c": 3.0},
+                                                                  estimated=["p"])]})
     assert (fit.cost, fit.coherence_min, fit.harmonics) == (0.25, None, (1, 3))
     assert fit.elements[0].estimated == ("p",)
-    assert hbm.read({"elements": [], "cost": 1}).harmonics == ()          # before harmonics
+    assert hbm.result.from_json({"elements": [], "cost": 1}).harmonics == ()   # before them
 
 
 def test_reanalysis_row_from_the_typed_result(toy):
     """A method without a result type of its own is read by the base `StoredEstimate`."""
     from analysis.recordings import Recording
     rec = Recording(FS, "random", np.array([0]), np.ones((8, 1)), np.ones((8, 1)), level=1.0)
-    row = rea._row_from_json("r.h5", 0, rec, "toy", ToyEstimate(3.0, None).to_json())
+    row = rea.level_row("r.h5", 0, rec, "toy", ToyEstimate(3.0, None))
     assert row.estimates == {"e0.cubic_spring.p": 3.0, "e0.cubic_spring.p.ci95_lo": 2.0,
                              "e0.cubic_spring.p.ci95_hi": 4.0}
     assert row.coherence_min is None and row.cost is None and row.ok
@@ -206,8 +213,8 @@ def test_analyze_and_reanalyze_share_each_methods_options(run, candidate, capsys
     a = build_parser().parse_args(["analyze", "reverse-path", "r.h5", "--model", "m", *flags])
     r = build_parser().parse_args(["reanalyze", "r.h5", "--model", "m", *flags,
                                    "--harmonics", "1,3"])
-    assert rp.make_options(vars(a)) == rp.make_options(methods.batch_values(r))
-    assert rp.make_options(vars(a)).band == (5.0, 100.0)
+    assert rp.make_options(a) == rp.make_options(methods.batch_values(r))
+    assert rp.make_options(a).band == (5.0, 100.0)
     assert methods.get("hbm").make_options(methods.batch_values(r)).harmonics == "1,3"
     # defaults come from the method when reanalyze is not given the option
     bare = build_parser().parse_args(["reanalyze", "r.h5", "--model", "m"])
