@@ -316,20 +316,16 @@ JSON_EDGE: dict[str, str] = {
     "nlid_lab/store/_steptables.py::is_table_run": "store codec: a run's attributes",
     "analysis/diagnose/_result.py::CandidateFit.physics_json":
         "serialiser: a chosen effect's `missing_physics` entry of `Diagnosis.to_json`",
+    "nlid_lab/campaign/_plans.py::LevelPlan.settings":
+        "store codec: the plan as the run's `excitation_settings` attribute",
+    "nlid_lab/campaign/_kinds/_stepped.py::SteppedSpec.settings":
+        "store codec: the plan as the run's `excitation_settings` attribute",
+    "nlid_lab/campaign/_kinds/_sweep.py::SweepSpec.settings":
+        "store codec: the plan as the run's `excitation_settings` attribute",
+    "nlid_lab/store/_integrity.py::planned_blocks":
+        "store codec: a run's planned count from its stored `excitation_settings` (old runs)",
     "analysis/diagnose/_json_fields.py::opt": "serialiser helper: an optional JSON field",
 }
-#: Being typed by engineer house8 (campaign start info, planned blocks): not checked for
-#: staleness here, delete each when its signature is typed.
-JSON_EDGE_PENDING = (
-    "nlid_lab/campaign/_campaign_config.py::RandomSpec.start_info",       # house8
-    "nlid_lab/campaign/_campaign_config.py::SteppedSpec.start_info",      # house8
-    "nlid_lab/campaign/_campaign_config.py::SweepSpec.start_info",        # house8
-    "nlid_lab/campaign/_campaign_config.py::SteppedSpec.settings",        # house8
-    "nlid_lab/campaign/_campaign_config.py::SweepSpec.settings",          # house8
-    "nlid_lab/campaign/_plans.py::LevelPlan.start_info",                  # house8
-    "nlid_lab/campaign/_plans.py::LevelPlan.settings",                    # house8
-    "nlid_lab/store/_integrity.py::planned_blocks_json",                  # house8
-)
 
 
 def _untyped_signatures(source: str) -> list[str]:
@@ -364,7 +360,7 @@ def _untyped() -> list[str]:
 
 
 def test_results_are_typed_outside_the_json_edge():
-    allowed = set(JSON_EDGE) | set(JSON_EDGE_PENDING)
+    allowed = set(JSON_EDGE)
     assert sorted(set(_untyped()) - allowed) == [], (
         "a public signature takes or returns a dict of anything: type it (a frozen "
         "dataclass, typed fields, a TypedDict of a document) or, if it is the JSON edge "
