@@ -12,10 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.detection import detect
+from analysis.detection import Detection, detect
 from analysis.errors import InputError
 from analysis.models import Element, Model
 from analysis.spectral import level_frf
@@ -26,6 +27,11 @@ from .methods import ReversePathOptions, reverse_path_estimate, reverse_path_tab
 from .progress import CampaignProgress
 from .reports import load_run, write_report
 from .outputs import atomic_dir, atomic_path, write_json
+
+if TYPE_CHECKING:
+    from analysis.documents import JsonObject
+
+    from .methods import ReversePathEstimate
 
 MODEL_FILE = Path(__file__).resolve().parents[1] / "examples" / "models" \
     / "sdof-cubic-quaddamp.toml"
@@ -66,8 +72,9 @@ def step_model(cfg: DemoConfig) -> Model:
     return Model.load(cfg.model_file)
 
 
-def campaign_dict(cfg: DemoConfig) -> dict:
-    """The demo's random campaign on the in-process simulated rig (`sim://`)."""
+def _campaign_document(cfg: DemoConfig) -> JsonObject:
+    """The demo's random campaign on the in-process simulated rig (`sim://`), as a campaign
+    file holds it (`parse_campaign` reads it: the campaign file's own edge)."""
     block = 4096
     return {
         "name": "demo", "kind": "random",
@@ -88,12 +95,63 @@ def step_simulate(cfg: DemoConfig, model: Model) -> Path:
     cfg.out.mkdir(parents=True, exist_ok=True)
     path = cfg.out / "sdof-random.h5"
     path.unlink(missing_ok=True)
-    run_campaign(parse_campaign(campaign_dict(cfg), cfg.model_file.parent), path,
+    run_campaign(parse_campaign(_campaign_document(cfg), cfg.model_file.parent), path,
                  observer=CampaignProgress())
     return path
 
 
-def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[dict]]:
+@dataclass(frozen=True)
+class LevelPeak:
+    """One level's resonance as the FRF overlay shows it: the largest |H1| in the band."""
+
+    level_rms: float
+    peak_hz: float
+    peak_m_per_n: float
+
+    def to_json(self) -> JsonObject:
+        """``level_rms``, ``peak_hz``, ``peak_m_per_n``."""
+        return {"level_rms": self.level_rms, "peak_hz": self.peak_hz,
+                "peak_m_per_n": self.peak_m_per_n}
+
+
+@dataclass(frozen=True)
+class DemoSummary:
+    """What the demo did and where its files are (`run_demo`; ``demo --json``).
+
+    Attributes
+    ----------
+    model, run, frf_png, estimate_json, report_html : Path
+        The model file, the run file, the FRF overlay, the estimate's JSON and the report.
+    levels : tuple of LevelPeak
+        Resonance of each level.
+    detection : Detection
+        The model-free detection on the stored levels.
+    estimate : ReversePathEstimate
+        Reverse path on all levels pooled.
+    """
+
+    model: Path
+    run: Path
+    frf_png: Path
+    levels: tuple[LevelPeak, ...]
+    detection: Detection
+    estimate_json: Path
+    estimate: ReversePathEstimate
+    report_html: Path
+
+    def to_json(self) -> JsonObject:
+        """The ``demo --json`` summary: paths, levels, detection, and the estimate's
+        ``elements``, ``multiple_coherence`` and ``modal``."""
+        est = self.estimate.to_json()
+        return {"model": str(self.model), "run": str(self.run), "frf_png": str(self.frf_png),
+                "levels": [p.to_json() for p in self.levels],
+                "detection": self.detection.to_json(),
+                "estimate_json": str(self.estimate_json),
+                "estimate": {k: est[k] for k in ("elements", "multiple_coherence", "modal")},
+                "report_html": str(self.report_html)}
+
+
+def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[LevelPeak]]:
     """H1 FRF of each level, overlaid with the underlying linear FRF, as a PNG."""
     import matplotlib             # the figure backend is chosen here, on use
     matplotlib.use("Agg")
@@ -107,8 +165,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
         keep = (frf.freqs >= cfg.band[0]) & (frf.freqs <= cfg.band[1])
         freqs, h1 = frf.freqs[keep], np.abs(frf.H[keep, 0, 0])
         peak = freqs[np.argmax(h1)]
-        peaks.append({"level_rms": rec.level, "peak_hz": float(peak), "peak_m_per_n":
-                      float(h1.max())})
+        peaks.append(LevelPeak(rec.level, float(peak), float(h1.max())))
         ax.semilogy(freqs, h1, label=f"{rec.level:g} N rms (peak {peak:.1f} Hz)")
     lin = np.abs(model.linear_frf(freqs, [0])[:, 0, 0])
     ax.semilogy(freqs, lin, "k--", lw=1, label="underlying linear")
@@ -125,7 +182,7 @@ def step_frf(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, list[
     return png, peaks
 
 
-def step_detect(run_path: Path) -> dict:
+def step_detect(run_path: Path) -> Detection:
     """Is it nonlinear? The model-free test of ``nlid-lab detect`` on the stored levels."""
 
     result = detect(store.open_run(run_path).recordings())
@@ -133,10 +190,11 @@ def step_detect(run_path: Path) -> dict:
     print(f"demo: detection (model-free, `nlid-lab detect`): the FRF changes with level beyond "
           f"its noise on {100 * t.share_flagged:.0f} % of the lines (a linear structure: "
           f"~1 %) -> {result.verdict}")
-    return result.to_json()
+    return result
 
 
-def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, dict]:
+def step_estimate(cfg: DemoConfig, run_path: Path, model: Model
+                  ) -> tuple[Path, ReversePathEstimate]:
     """Reverse path on all levels pooled, as ``nlid-lab analyze reverse-path`` would do it.
 
     The candidate is the demo model with every element parameter omitted. The result is
@@ -153,7 +211,7 @@ def step_estimate(cfg: DemoConfig, run_path: Path, model: Model) -> tuple[Path, 
     path = cfg.out / "reverse-path.json"
     write_json(out, str(path))
     store.save_result(run_path, "analyze-reverse-path", out)
-    return path, out
+    return path, est
 
 
 def step_report(cfg: DemoConfig, run_path: Path) -> Path:
@@ -165,7 +223,7 @@ def step_report(cfg: DemoConfig, run_path: Path) -> Path:
     return cfg.out / "report" / "index.html"
 
 
-def run_demo(cfg: DemoConfig) -> dict:
+def run_demo(cfg: DemoConfig) -> DemoSummary:
     """Run every step, print what was done and where the files are; returns the summary."""
     model = step_model(cfg)
     print(f"demo: random test of '{model.name}' ({cfg.model_file.name}), force on DOF 0, "
@@ -175,8 +233,8 @@ def run_demo(cfg: DemoConfig) -> dict:
     print(f"demo: stored {len(cfg.levels)} levels in run {run_path}")
     png, peaks = step_frf(cfg, run_path, model)
     for p in peaks:
-        print(f"demo:   {p['level_rms']:g} N rms: resonance at {p['peak_hz']:.2f} Hz, "
-              f"|H1| peak {p['peak_m_per_n']:.3g} m/N")
+        print(f"demo:   {p.level_rms:g} N rms: resonance at {p.peak_hz:.2f} Hz, "
+              f"|H1| peak {p.peak_m_per_n:.3g} m/N")
     print(f"demo: FRF overlay per level -> {png}")
     detection = step_detect(run_path)
     print("demo: reverse path on all levels pooled (paper section 3.3.1)")
@@ -184,7 +242,5 @@ def run_demo(cfg: DemoConfig) -> dict:
     print(f"demo: estimate -> {est_path} (also stored in the run as 'analyze-reverse-path')")
     html = step_report(cfg, run_path)
     print(f"demo: report -> {html}")
-    return {"model": str(cfg.model_file), "run": run_path, "frf_png": png, "levels": peaks,
-            "detection": detection, "estimate_json": est_path,
-            "estimate": {k: est[k] for k in ("elements", "multiple_coherence", "modal")},
-            "report_html": html}
+    return DemoSummary(cfg.model_file, run_path, png, tuple(peaks), detection, est_path, est,
+                       html)

@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
         contextlib.nullcontext()
     with quiet:
         summary = run_demo(cfg)
-    write_json(summary, args.json)
+    write_json(summary.to_json(), args.json)
     return 0
 
 

@@ -23,14 +23,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--out {out}: export to a {suffix_list('write')} recording")
     refuse_overwrite(args.force, out, args.json)
     checks = check_runs([args.run])
-    rec = open_run(args.run).recording(args.level)
+    stored = open_run(args.run)
+    level = stored.level_index(args.level)      # --level, or the only level with data
+    rec = stored.recording(level)
     with atomic_path(out) as tmp:
         fmt.write(tmp, rec)
     if args.json != "-":
-        print(f"exported level {rec.meta['level_index']} of {args.run} ({rec.excitation}) "
-              f"-> {out}")
-    write_json(with_checks({"out": str(out), "run": str(args.run),
-                            "level": rec.meta["level_index"],
+        print(f"exported level {level} of {args.run} ({rec.excitation}) -> {out}")
+    write_json(with_checks({"out": str(out), "run": str(args.run), "level": level,
                             "keys": sorted(recording_keys(rec))}, checks),
                args.json)
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,9 +26,36 @@ if TYPE_CHECKING:
 OUT_SUFFIXES = (".npz", ".h5", ".hdf5")
 
 
+@dataclass(frozen=True)
+class Simulated:
+    """A drive run through the simulated plant (`simulate`).
+
+    Attributes
+    ----------
+    recording : Recording
+        What the sensors recorded.
+    oversample : int
+        Plant substeps per sample at the end of the drive.
+    oversample_raised : int
+        Times the plant's step doubling raised them to hold its accuracy.
+    """
+
+    recording: Recording
+    oversample: int
+    oversample_raised: int
+
+
 def simulate_drive(model: Model, drive: Drive, *, response_kind: str = "displacement",
                    noise_std: float = 0.0, seed: int | None = None,
                    oversample: int | None = None) -> Recording:
+    """The recording of `simulate` (its arguments the same)."""
+    return simulate(model, drive, response_kind=response_kind, noise_std=noise_std,
+                    seed=seed, oversample=oversample).recording
+
+
+def simulate(model: Model, drive: Drive, *, response_kind: str = "displacement",
+             noise_std: float = 0.0, seed: int | None = None,
+             oversample: int | None = None) -> Simulated:
     """Run a drive (see `nlid_lab.formats.read_drive`) through the simulated plant.
 
     Stepped-sine steps are run one after the other with the plant state carried over, as on
@@ -68,15 +96,14 @@ def simulate_drive(model: Model, drive: Drive, *, response_kind: str = "displace
     response = response.reshape(force.shape[:-1] + (-1,))
     if smap is not None:
         dofs = np.asarray(smap.force_channels)
-    return Recording(fs=drive.fs, excitation=drive.excitation, force_dofs=dofs,
-                     force=force, response=response, response_kind=response_kind,
-                     freqs=drive.freqs, level=drive.level,
-                     force_hold="linear",  # the plant's drive definition
-                     layout=drive.layout, sweep=drive.sweep, extra=drive.extra,
-                     meta={"model": model.name, "noise_std": noise_std, "seed": seed,
-                           # substeps per sample at the end, times step doubling raised them
-                           "oversample": plant.oversample, "oversample_raised": plant.raised},
-                     sensors=smap)
+    rec = Recording(fs=drive.fs, excitation=drive.excitation, force_dofs=dofs,
+                    force=force, response=response, response_kind=response_kind,
+                    freqs=drive.freqs, level=drive.level,
+                    force_hold="linear",  # the plant's drive definition
+                    layout=drive.layout, sweep=drive.sweep, extra=drive.extra,
+                    meta={"model": model.name, "noise_std": noise_std, "seed": seed},
+                    sensors=smap)
+    return Simulated(rec, int(plant.oversample), int(plant.raised))
 
 
 def _sensor_map(model: Model, drive: Drive, response_kind: str) -> SensorMap | None:
@@ -152,8 +179,9 @@ def run(args: argparse.Namespace) -> int:
     artifacts = _artifact_names(args.daq_artifacts)
     if "force-dips" in artifacts:
         drive = _with_force_dips(model, drive)
-    rec = simulate_drive(model, drive, response_kind=args.response_kind,
-                         noise_std=args.noise, seed=args.seed, oversample=args.oversample)
+    sim = simulate(model, drive, response_kind=args.response_kind, noise_std=args.noise,
+                   seed=args.seed, oversample=args.oversample)
+    rec = sim.recording
     if artifacts:
         rec = apply_daq_artifacts(rec, DaqArtifacts.of(artifacts, rec.fs),
                                   np.random.default_rng(args.seed))
@@ -164,18 +192,18 @@ def run(args: argparse.Namespace) -> int:
             store.save_recording(tmp, rec, source="sim", model_toml=model_path.read_text(),
                                  settings={"drive": str(args.drive), "noise_std": args.noise,
                                            "seed": args.seed,
-                                           "oversample": rec.meta["oversample"]})
+                                           "oversample": sim.oversample})
     result = {"out": str(out), "model": model.name, "excitation": rec.excitation,
               "fs": rec.fs, "n_samples": int(rec.force.shape[-2]),
               "n_steps": int(rec.force.shape[0]) if rec.excitation != Excitation.RANDOM else None,
               "response_kind": rec.response_kind,
-              "oversample": rec.meta["oversample"],
-              "oversample_raised": rec.meta["oversample_raised"],
+              "oversample": sim.oversample,
+              "oversample_raised": sim.oversample_raised,
               "response_rms": np.sqrt(np.mean(rec.response.reshape(-1, rec.n_dof) ** 2,
                                               axis=0))}
-    if rec.meta["oversample_raised"]:
+    if sim.oversample_raised:
         print(f"note: the drive stiffened the model's elements; the plant raised its substeps "
-              f"to {rec.meta['oversample']} per sample to hold its accuracy", file=sys.stderr)
+              f"to {sim.oversample} per sample to hold its accuracy", file=sys.stderr)
     if args.json != "-":
         print(f"simulated {model.name} ({rec.excitation}, {result['n_samples']} samples"
               f"{'' if rec.excitation == 'random' else ' per step'}) -> {out}")

@@ -13,8 +13,9 @@ from ._registry import (ESTIMATOR_KEY, BatchOptions, Estimate, LevelEstimate, Me
                        batch_values, discover, find_stored, for_excitation, get, methods,
                        option, register, stored_estimates, unregister)
 from . import _reverse_path, _hbm  # noqa: E402,F401 - register the built-in methods, in order
-from ._reverse_path import (ReversePathOptions, estimate as reverse_path_estimate,
-                           format_table as reverse_path_table)
+from ._reverse_path import (ReversePathEstimate, ReversePathOptions,
+                            estimate as reverse_path_estimate,
+                            format_table as reverse_path_table)
 
 discover(__name__, __path__)       # every further method module registers itself
 
@@ -24,4 +25,5 @@ __all__ = ["ESTIMATOR_KEY", "BatchOptions", "Estimate", "LevelEstimate", "Method
            "for_excitation", "get", "methods", "option", "register", "stored_estimates",
            "unregister",
            # the reverse path's own entry points (the demo)
-           "ReversePathOptions", "reverse_path_estimate", "reverse_path_table"]
+           "ReversePathEstimate", "ReversePathOptions", "reverse_path_estimate",
+           "reverse_path_table"]

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from types import MappingProxyType
+from typing import Any, Callable, Mapping
 
 from analysis.errors import InputError
 from analysis.spectral import LevelFRF, level_frf
@@ -24,12 +25,31 @@ class ReportError(InputError):
 
 @dataclass
 class RunData:
-    """Everything a view, report or export needs from one stored run."""
+    """Everything a view, report or export needs from one stored run.
+
+    Attributes
+    ----------
+    path : Path
+        The run file (or NPZ recording).
+    recordings : list of Recording
+        Its levels with data, in stored order.
+    model_toml : str
+        The model stored with the run (`nlid_lab.store.Run.model_toml`), ``""`` when none;
+        read by `reference_model`.
+    results : Mapping of str to object
+        The run's stored results, name -> the document saved (`nlid_lab.store.save_result`),
+        read-only. Nothing reads them by key: each result type has one typed reader, the
+        diagnosis's `Diagnosis.from_json` (`nlid_lab.reports.stored_diagnosis`), an
+        estimator's its `Method.result` (the registry's ``find_stored`` and
+        ``stored_estimates``).
+    status : str
+        The run's status as last written.
+    """
 
     path: Path
     recordings: list[Recording]
-    meta: dict[str, Any] = field(default_factory=dict)
-    results: dict[str, Any] = field(default_factory=dict)
+    model_toml: str = ""
+    results: Mapping[str, object] = field(default_factory=lambda: MappingProxyType({}))
     status: str = "complete"
 
     @property
@@ -49,7 +69,7 @@ def load_run(path: str | Path) -> RunData:
     recs = run.recordings()
     if not recs:
         raise ReportError(f"{path} holds no recorded level; run or resume the campaign first")
-    return RunData(path, recs, dict(run.meta), dict(run.results), run.status)
+    return RunData(path, recs, run.model_toml, MappingProxyType(dict(run.results)), run.status)
 
 
 def all_level_frfs(run: RunData, progress: Callable[[int], None] | None = None
@@ -73,10 +93,9 @@ class Section:
     figures: list[tuple[str, Any]] = field(default_factory=list)   # (file stem, Figure)
 
 
-def reference_model(run: RunData):
+def reference_model(run: RunData) -> Model | None:
     """The model stored with a simulated run (the reference system), or None."""
-    text = run.meta.get("model_toml") or ""
-    return Model.loads(text) if text.strip() else None
+    return Model.loads(run.model_toml) if run.model_toml.strip() else None
 
 
 #: Units of the coefficient of each element kind's basis function.

@@ -80,6 +80,12 @@ class Run:
         return SensorMap(**json.loads(text)) if text else None
 
     @property
+    def model_toml(self) -> str:
+        """The model stored with the run (a simulated run's reference system) as TOML text;
+        ``""`` when the run stores none."""
+        return self.meta.get("model_toml") or ""
+
+    @property
     def monitor_units(self) -> dict[str, str]:
         """The run's monitor channels, name -> unit (``""``: none), in column order of
         ``/data/monitor``; empty for runs without monitors."""
