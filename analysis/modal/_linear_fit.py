@@ -103,7 +103,8 @@ def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
         return table_receptance(rec)
     if rec.excitation != Excitation.RANDOM:
         raise InputError(f"fit-linear takes a random or multisine level, got "
-                         f"{rec.excitation}: the modal fit needs uniformly spaced lines")
+                         f"{rec.excitation}: the modal fit needs uniformly spaced lines; test a sweep with "
+                         "`nlid-lab detect` and fit a model to it with `nlid-lab analyze hbm`")
     if rec.n_in != 1:
         raise InputError(f"fit-linear takes one force channel, the level has {rec.n_in}; "
                          "fit each shaker's run separately")

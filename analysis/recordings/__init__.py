@@ -22,7 +22,7 @@ from ._signals import (HOLD_IMAGE_LOOKAHEAD, KIND_ORDER, change_kind, excitation
                        hold_images, period_spectra, periodic_kinematics, remove_dc,
                        remove_hold_images, signal_bandwidth, steady_periods, to_kinematics)
 from ._sweep_law import LAW_KEYS, SWEEP_KEYS, SWEEP_LAWS, Sweep, SweepLaw
-from ._sweep_estimate import active_span, estimate_sweep
+from ._sweep_estimate import active_span, estimate_sweep, looks_like_sweep
 from ._periodicity import SHARE_MIN, find_period, whole_periods
 from ._cleaning import CleanedExport, clean_export
 from ._clipping import ClippedChannel, ClippingCaveat, clipping, recording_clipping
@@ -35,7 +35,7 @@ __all__ = ["active_span", "CHANNEL_UNITS", "apply_daq_artifacts", "Artifact", "A
            "change_kind", "channel_labels", "clean_export", "CleanedExport", "ClippedChannel", "ClippingCaveat", "clipping", "Control", "DaqArtifacts", "DEFAULT_TRANSIENT_PERIODS",
            "estimate_sweep", "Excitation", "excitation_band", "EXCITATIONS", "find_period", "flat_ends",
            "FORCE_HOLDS", "hold_image_gain", "HOLD_IMAGE_LOOKAHEAD", "hold_image_response",
-           "hold_image_taps", "hold_images", "KEYS", "KIND_ORDER", "LAW_KEYS", "MAX_FS",
+           "hold_image_taps", "hold_images", "KEYS", "KIND_ORDER", "LAW_KEYS", "looks_like_sweep", "MAX_FS",
            "MAX_SAMPLE", "measured_level", "MIN_FS", "MIXED", "model_at_sensors", "names",
            "one_kind", "period_spectra", "periodic_kinematics", "PeriodicLayout", "record_level", "recording_clipping",
            "Recording", "RecordingKeys", "remove_dc", "remove_hold_images", "RESPONSE_KINDS",

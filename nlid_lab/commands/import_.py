@@ -11,7 +11,7 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (RESPONSE_KINDS, Excitation, PeriodicLayout, StepTable, find_period,
-                                 flat_ends, recording_clipping, whole_periods)
+                                 flat_ends, looks_like_sweep, recording_clipping, whole_periods)
 from analysis.spectral import HELD_UNITS, level_name
 
 from .. import formats
@@ -82,7 +82,10 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if random and not set(formats.LAYOUT_KEYS) & set(keys):
         p = find_period(keys["force"], settle=keys["response"])
         found[src] = p
-        if p is not None:
+        if p is None and "excitation" not in keys and _swept(keys):
+            keys["excitation"] = Excitation.SWEPT_SINE      # its law estimated from the force
+            found[src] = SWEPT
+        elif p is not None:
             if p.remainder or p.short:
                 _cut(keys, lambda x: whole_periods(x, p))
             keys.update(period=p.period, transient_periods=p.transient_periods,
@@ -100,6 +103,23 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if delay is not None:
         _advance(keys, delay, src)
     return formats.recording_from_keys(keys, src)
+
+
+#: ``found[src]`` of a record taken as a swept sine (no period; the force sweeps)
+SWEPT = "swept"
+
+
+def _swept(keys: dict) -> bool:
+    """Whether a mapped record that names no excitation holds a swept sine in its force (an
+    F-16 ``SineSw`` export: no period, the force's frequency rising or falling)."""
+    force = np.asarray(keys["force"], dtype=float)
+    fs = np.asarray(keys.get("fs", 0.0), dtype=float)
+    if force.ndim > 2 or fs.size != 1 or not float(fs.reshape(())) > 0:
+        return False                       # the recording's own checks name the problem
+    n = max(force.shape) if force.ndim == 2 and min(force.shape) == 1 else len(force)
+    return looks_like_sweep(force.reshape(n, -1)[:, 0] if force.ndim == 2 and
+                            force.shape[0] == n else force.reshape(-1, n)[0],
+                            float(fs.reshape(())))
 
 
 def _advance(keys: dict, delay, src: Path) -> None:
@@ -183,7 +203,10 @@ def _period_lines(found: dict, given: set) -> list[str]:
     (``given``: files whose map gave the period, where only the realizations were found)."""
     says: dict[str, list[Path]] = {}
     for src, p in found.items():
-        if p is None:
+        if p == SWEPT:
+            text = ("no period found; the force sweeps: imported as swept sine, its law "
+                    "estimated (above); give --excitation random to override")
+        elif p is None:
             text = ("no period found in the force: imported as plain random, nothing "
                     "assumed; give period= (samples) if it is periodic")
         else:
@@ -263,7 +286,7 @@ def run(args: argparse.Namespace) -> int:
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
             "realizations": p.realizations, "share": p.share, "remainder": p.remainder,
             "whole_periods": p.whole}
-            for src, p in found.items()}
+            for src, p in found.items() if p != SWEPT}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "
