@@ -46,7 +46,8 @@ class BLA:
         BLA from the force to each response.
     var_noise, var_total : ndarray, shape (n_f, n_out)
         Noise and total variance of ``G`` (total: NaN with one realization, where the
-        stochastic distortions cannot be told from the linear part).
+        stochastic distortions cannot be told from the linear part; noise: NaN with one
+        period per realization, where it cannot be told from the distortions).
     coherence : ndarray, shape (n_f, n_out)
         Coherence of the period averages across realizations (noise and distortion lower
         it; with few realizations it is biased high by about ``1 / M``); with one
@@ -67,6 +68,12 @@ class BLA:
     caveat: MainsCaveat | None = None
     """One realization with mains multiples on the drive lines (`analysis.spectral.
     MainsCaveat`), else None."""
+
+    @property
+    def var_weight(self) -> np.ndarray:
+        """Variance to weight a fit of ``G`` with: the noise's, or the total with one period
+        per realization (noise and distortions then together, the robust method's)."""
+        return self.var_noise if self.periods >= 2 else self.var_total
 
     @property
     def var_distortion(self) -> np.ndarray:
@@ -113,13 +120,14 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     per = steady_periods(np.concatenate([f, x], axis=1), period,
                          transient_periods=transient_periods, realizations=realizations)
     n_p = per.shape[1]
-    if n_p < 2:
-        raise InputError("the BLA's noise variance needs at least 2 steady periods")
+    if n_p < 2 and per.shape[0] < 2:
+        raise InputError("the BLA needs 2 or more steady periods or realizations; the record "
+                         "holds one period of one realization")
     spec = scipy.fft.rfft(per, axis=2)                      # (M, P, n_lines, 1 + n_out)
     mean = spec.mean(axis=1)
     dev = spec - mean[:, None]
     U, Y = mean[..., 0], mean[..., 1:]
-    scale = 1.0 / ((n_p - 1) * n_p)                         # variance of a period mean
+    scale = 1.0 / (max(n_p - 1, 1) * n_p)                   # variance of a period mean
     all_freqs = np.arange(U.shape[1]) * fs / period
     picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
                            (np.abs(dev[..., 0]) ** 2).sum(axis=1).mean(axis=0) * scale,
@@ -139,6 +147,8 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     m = Gm.shape[0]
     G = Gm.mean(axis=0)
     var_noise = np.maximum(var_m, 0.0).sum(axis=0) / m**2
+    if n_p < 2:     # one period per realization: no spread over periods, the noise unknown
+        var_noise = np.full_like(var_noise, np.nan)
     if m >= 2:
         var_total = (np.abs(Gm - G) ** 2).sum(axis=0) / (m * (m - 1))
         cross = np.abs((Y * U.conj()[..., None]).sum(axis=0)) ** 2

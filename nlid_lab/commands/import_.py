@@ -11,7 +11,7 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (RESPONSE_KINDS, Excitation, PeriodicLayout, StepTable, find_period,
-                                 flat_ends, looks_like_sweep, recording_clipping, whole_periods)
+                                 Bursts, find_bursts, flat_ends, looks_like_sweep, recording_clipping, whole_periods)
 from analysis.spectral import HELD_UNITS, level_name
 
 from .. import formats
@@ -85,6 +85,11 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
         if p is None and "excitation" not in keys and _swept(keys):
             keys["excitation"] = Excitation.SWEPT_SINE      # its law estimated from the force
             found[src] = SWEPT
+        elif p is None and (b := _bursts(keys)) is not None:
+            _cut(keys, b.cut)
+            keys.update(period=b.length, transient_periods=0, periods=1,
+                        realizations=len(b.starts))
+            found[src] = b
         elif p is not None:
             if p.remainder or p.short:
                 _cut(keys, lambda x: whole_periods(x, p))
@@ -120,6 +125,14 @@ def _swept(keys: dict) -> bool:
     return looks_like_sweep(force.reshape(n, -1)[:, 0] if force.ndim == 2 and
                             force.shape[0] == n else force.reshape(-1, n)[0],
                             float(fs.reshape(())))
+
+
+def _bursts(keys: dict) -> Bursts | None:
+    """The realizations a mapped record holds as bursts between quiet gaps (a Silverbox-like
+    export, `analysis.recordings.find_bursts`), or None."""
+    force = np.asarray(keys["force"], dtype=float)
+    n = len(force) if force.ndim < 2 or force.shape[0] >= force.shape[1] else force.shape[1]
+    return find_bursts(_samples_first(force, n))
 
 
 def _advance(keys: dict, delay, src: Path) -> None:
@@ -182,7 +195,7 @@ def _common_transient(recs: list, sources: list[Path], found: dict) -> list:
     the most any shows (levels of one run share their layout; a higher level often settles
     later); ``found`` is updated to say so."""
     lays = [r.layout for r in recs]
-    if len(recs) < 2 or any(found.get(s) is None or lay is None
+    if len(recs) < 2 or any(not hasattr(found.get(s), "whole") or lay is None
                             for s, lay in zip(sources, lays)):
         return recs
     shape = {(lay.period, lay.realizations, lay.transient_periods + lay.periods)
@@ -203,7 +216,13 @@ def _period_lines(found: dict, given: set) -> list[str]:
     (``given``: files whose map gave the period, where only the realizations were found)."""
     says: dict[str, list[Path]] = {}
     for src, p in found.items():
-        if p == SWEPT:
+        if isinstance(p, Bursts):
+            left = "".join(f"; the {n}-sample burst at sample {s} left out (not a realization)"
+                           for s, n in p.others)
+            text = (f"no period found; {len(p.starts)} bursts of {p.length} samples between "
+                    f"quiet gaps taken as realizations of one period each (the gaps "
+                    f"dropped){left}; give period= to override")
+        elif p == SWEPT:
             text = ("no period found; the force sweeps: imported as swept sine, its law "
                     "estimated (above); give --excitation random to override")
         elif p is None:
@@ -286,7 +305,7 @@ def run(args: argparse.Namespace) -> int:
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
             "realizations": p.realizations, "share": p.share, "remainder": p.remainder,
             "whole_periods": p.whole}
-            for src, p in found.items() if p != SWEPT}
+            for src, p in found.items() if p != SWEPT and not isinstance(p, Bursts)}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "

@@ -327,6 +327,10 @@ def apply_map(tree: MatTree, cmap: ChannelMap, source: str) -> RecordingKeys:
                                                                    "response", source)
     if isinstance(cmap.fs, float):
         fs = cmap.fs
+    elif not _known(tree, cmap.fs):
+        raise MatFileError(f"{source}: no sample rate variable '{cmap.fs}' (the file holds "
+                           f"{', '.join(sorted(tree)) or 'none'}); give the rate in the map: "
+                           "fs=RATE (Hz)")
     else:
         try:
             fs = float(np.asarray(_leaf(tree, cmap.fs, source), dtype=float).reshape(()))

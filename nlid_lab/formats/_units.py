@@ -24,6 +24,9 @@ UNITS: dict[str, tuple[float, str]] = {
     "g": (G0, "acceleration"), "mg": (1e-3 * G0, "acceleration"),
     "s": (1.0, "time"), "ms": (1e-3, "time"),
 }
+#: voltage units: a circuit's input and output (the Silverbox), or a sensor before its
+#: sensitivity; refused with the way to read such channels as they are
+VOLTS = ("v", "mv", "uv", "µv")
 _FOLD = {name.lower(): name for name in UNITS}
 _LABEL = re.compile(r"^\s*(?P<name>.*?)\s*[\(\[]\s*(?P<unit>[^\)\]]+?)\s*[\)\]]\s*$")
 
@@ -33,6 +36,10 @@ def lookup(unit: str, where: str) -> tuple[float, str]:
     key = unit.strip()
     if key not in UNITS:
         key = _FOLD.get(key.lower(), key)
+    if key.lower() in VOLTS:
+        raise InputError(f"{where}: '{unit}' is a voltage, not a force or a motion; map the "
+                         "channel without a unit (read in the file's own units: the force as "
+                         "N, a response as a displacement, e.g. force=V1 response=V2)")
     if key not in UNITS:
         raise InputError(f"{where}: unknown unit '{unit}'; use one of {', '.join(UNITS)}")
     return UNITS[key]
