@@ -57,7 +57,10 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
     if fmt.read is None:
         raise InputError(f"{src}: a {fmt.name} file needs --map (docs/recording-formats.md)")
     cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
-    return fmt.read(src, formats.ReadOptions(given, cols, args.response_kind, args.force_dofs))
+    rec = fmt.read(src, formats.ReadOptions(given, cols, args.response_kind, args.force_dofs))
+    if fmt.name == "CSV" and rec.excitation == Excitation.RANDOM and rec.layout is None:
+        return _mapped(formats.recording_keys(rec), src, args, found)   # a DAQ export: as mapped
+    return rec
 
 
 def _channel_map(items: list[str]):

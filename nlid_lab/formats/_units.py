@@ -49,3 +49,13 @@ def split_label(label: str) -> tuple[str, str | None]:
     """``"Acc1 [m/s^2]"`` -> ``("Acc1", "m/s^2")``; a label without a unit -> ``(label, None)``."""
     m = _LABEL.match(label)
     return (m["name"], m["unit"]) if m else (label.strip(), None)
+
+
+def kind_of_name(name: str) -> str | None:
+    """The response kind a variable's name states (``Acceleration``, ``acc2``, ``Vel``,
+    ``Disp``), or None: exports name channels so more often than they give a unit."""
+    last = name.rpartition(".")[2].lower()
+    for prefix, kind in (("acc", "acceleration"), ("vel", "velocity"), ("disp", "displacement")):
+        if last.startswith(prefix):
+            return kind
+    return None
