@@ -35,7 +35,8 @@ class Bursts:
     starts : tuple of int
         First sample of each realization, in record order.
     others : tuple of (int, int)
-        ``(start, length)`` of every other burst (not a realization), left out.
+        ``(start, length)`` of every other burst (not a realization) of `MIN_GAP` samples or
+        more, left out.
     """
 
     length: int
@@ -80,5 +81,6 @@ def find_bursts(force: np.ndarray) -> Bursts | None:
         return None
     length = int(lengths[same].max())
     ok = same & (starts + length <= len(f))
+    rest = ~ok & (lengths >= MIN_GAP)                  # shorter: a blip in a gap, not a record
     return Bursts(length, tuple(int(s) for s in starts[ok]),
-                  tuple((int(s), int(n)) for s, n in zip(starts[~ok], lengths[~ok])))
+                  tuple((int(s), int(n)) for s, n in zip(starts[rest], lengths[rest])))

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import hilbert
-from scipy.stats import theilslopes
+from scipy.stats import spearmanr, theilslopes
 
 from ..errors import RecordingError
 from ._sweep_law import SWEEP_LAWS, Sweep, SweepLaw
@@ -94,8 +94,6 @@ def looks_like_sweep(force: np.ndarray, fs: float) -> bool:
         Spearman's rank correlation with time beyond `SWEEP_MONOTONY` in size, every block
         frequency positive and the covered range over a quarter of the highest.
     """
-    from scipy.stats import spearmanr
-
     f = np.asarray(force, dtype=float).reshape(-1)
     if f.size < 512 or not np.any(f):
         return False
