@@ -19,7 +19,7 @@ nonlinearity (`analysis.detection.bla_summary`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft
@@ -29,6 +29,7 @@ from ..errors import InputError
 from ..recordings import steady_periods
 from ._lines import Interference, MainsCaveat, excited_lines
 from ._sine_fit import hold_gain
+from ._unlocked import remove_unlocked
 
 DETECT_QUANTILE = 0.99
 """Per-line quantile of the linear-system F distribution of total / noise variance."""
@@ -132,6 +133,16 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
                            (np.abs(dev[..., 0]) ** 2).sum(axis=1).mean(axis=0) * scale,
                            band=band, amplitudes=np.abs(U))
+    interference = picked.interference
+    if picked.drifting and n_p >= 2:     # an unlocked source: fitted and taken out of the periods
+        for hz in picked.drifting:
+            per, fitted = remove_unlocked(per, fs, hz)
+            interference = tuple(replace(i, unlocked_hz=fitted) if i.freq_hz == hz else i
+                                 for i in interference)
+        spec = scipy.fft.rfft(per, axis=2)
+        mean = spec.mean(axis=1)
+        dev = spec - mean[:, None]
+        U, Y = mean[..., 0], mean[..., 1:]
     lines = picked.lines
     if lines.size == 0:
         raise InputError("the force excites no DFT line of the period"
@@ -161,4 +172,4 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     freqs = lines * fs / period
     gain = hold_gain(freqs, fs, force_hold)[:, None]
     return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p,
-               picked.interference, picked.caveat())
+               interference, picked.caveat())

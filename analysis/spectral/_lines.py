@@ -104,12 +104,16 @@ class Interference:
     drift : bool
         On one of the period's `DRIFT_LINES` lowest lines: a slow drift or an offset's
         leakage, not a source at that frequency.
+    unlocked_hz : float, optional
+        The source's own frequency when it drifts off the line (rule 7) and was fitted and
+        taken out of the periods (`analysis.spectral._unlocked`).
     """
 
     freq_hz: float
     level_db: float
     on_drive_line: bool = False
     drift: bool = False
+    unlocked_hz: float | None = None
 
     def text(self) -> str:
         """``interference at 50.0 Hz, -40 dB``; on a drive line ``mains at 50.0 Hz on a drive
@@ -117,6 +121,9 @@ class Interference:
         ``slow drift at 0.1 Hz, -28 dB``."""
         if self.drift:
             return f"slow drift at {self.freq_hz:.2g} Hz, {self.level_db:.0f} dB"
+        if self.unlocked_hz is not None:
+            return (f"{self.source} at {self.unlocked_hz:.2f} Hz on a drive line, not locked to "
+                    f"the period (fitted and taken out), {self.level_db:.0f} dB")
         if not self.on_drive_line:
             return f"interference at {self.freq_hz:.1f} Hz, {self.level_db:.0f} dB"
         return f"{self.source} at {self.freq_hz:.1f} Hz on a drive line, {self.level_db:.0f} dB"
@@ -175,6 +182,8 @@ class ExcitedLines:
     interference: tuple[Interference, ...] = ()
     unchecked_mains: tuple[float, ...] = ()
     """Mains multiples (Hz) on kept drive lines of a single realization (rule 6)."""
+    drifting: tuple[float, ...] = ()
+    """Lines (Hz) left out whose source drifts in phase over the periods (rule 7)."""
 
     def caveat(self) -> MainsCaveat | None:
         """The caveat when mains multiples sit on kept drive lines of a single realization
@@ -253,10 +262,13 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     else:
         on, level = kept[:0], np.zeros(0)
     named += [Interference(float(f[i]), float(db), True) for i, db in zip(on, level)]
+    drifting: tuple[float, ...] = ()
     if noise is not None:
-        on = np.union1d(on, _leakage(on, kept, np.asarray(noise, dtype=float)))
+        leak, src = _leakage(on, kept, np.asarray(noise, dtype=float))
+        on, drifting = np.union1d(on, leak), tuple(float(f[i]) for i in src)
     kept = np.setdiff1d(kept, on)
-    return ExcitedLines(kept, tuple(sorted(named, key=lambda i: i.freq_hz)), unchecked)
+    return ExcitedLines(kept, tuple(sorted(named, key=lambda i: i.freq_hz)), unchecked,
+                        drifting)
 
 
 def _neighbours(values: np.ndarray, stat=np.median) -> np.ndarray:
@@ -301,15 +313,18 @@ def _on_drive_lines(kept: np.ndarray, amp: np.ndarray, noise: np.ndarray
     return kept[hit], level
 
 
-def _leakage(on: np.ndarray, kept: np.ndarray, noise: np.ndarray) -> np.ndarray:
+def _leakage(on: np.ndarray, kept: np.ndarray, noise: np.ndarray
+             ) -> tuple[np.ndarray, list[int]]:
     """The kept neighbours of the lines ``on`` (left out as interference) whose source drifts
-    in phase from period to period (rule 7: off the grid, it leaks into them)."""
-    out = []
+    in phase from period to period (rule 7: off the grid, it leaks into them), and those
+    lines."""
+    out, src = [], []
     for i in on:
         near = kept[(np.abs(kept - i) > 1) & (np.abs(kept - i) <= SPREAD_NEIGHBOURS + 1)]
         if near.size and noise[i] > SPREAD_RATIO * np.median(noise[near]):
             out += [j for j in (i - 1, i + 1) if j in kept]
-    return np.array(out, dtype=int)
+            src.append(int(i))
+    return np.array(out, dtype=int), src
 
 
 def _drift_head(runs: list[np.ndarray], power: np.ndarray) -> list[np.ndarray]:
