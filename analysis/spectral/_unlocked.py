@@ -34,6 +34,7 @@ def _drifting(basis: np.ndarray, periods: int) -> np.ndarray:
 
 
 def _basis(freqs: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Cosines then sines of ``freqs`` at times ``t``, shape (len(t), 2 len(freqs))."""
     ph = 2 * np.pi * np.outer(t, freqs)
     return np.concatenate([np.cos(ph), np.sin(ph)], axis=1)
 
