@@ -124,18 +124,14 @@ def _swept(keys: dict) -> bool:
     fs = np.asarray(keys.get("fs", 0.0), dtype=float)
     if force.ndim > 2 or fs.size != 1 or not float(fs.reshape(())) > 0:
         return False                       # the recording's own checks name the problem
-    n = max(force.shape) if force.ndim == 2 and min(force.shape) == 1 else len(force)
-    return looks_like_sweep(force.reshape(n, -1)[:, 0] if force.ndim == 2 and
-                            force.shape[0] == n else force.reshape(-1, n)[0],
-                            float(fs.reshape(())))
+    return looks_like_sweep(force.reshape(len(force), -1)[:, 0], float(fs.reshape(())))
 
 
 def _bursts(keys: dict) -> Bursts | None:
     """The realizations a mapped record holds as bursts between quiet gaps (a Silverbox-like
     export, `analysis.recordings.find_bursts`), or None."""
     force = np.asarray(keys["force"], dtype=float)
-    n = len(force) if force.ndim < 2 or force.shape[0] >= force.shape[1] else force.shape[1]
-    return find_bursts(_samples_first(force, n))
+    return find_bursts(force) if force.ndim <= 2 else None
 
 
 def _advance(keys: dict, delay, src: Path) -> None:
