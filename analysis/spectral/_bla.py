@@ -86,6 +86,26 @@ class BLA:
         m, p = self.realizations, self.periods
         return float(scipy.stats.f.ppf(DETECT_QUANTILE, 2 * (m - 1), 2 * m * (p - 1)))
 
+def _period_spectra(per: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Period-averaged force ``U`` (M, n_lines) and responses ``Y`` (M, n_lines, n_out) of
+    steady periods (M, P, N, 1 + n_out), and each period's deviation from the average."""
+    spec = scipy.fft.rfft(per, axis=2)
+    mean = spec.mean(axis=1)
+    return mean[..., 0], mean[..., 1:], spec - mean[:, None]
+
+
+def _without_unlocked(per: np.ndarray, fs: float, drifting: tuple[float, ...],
+                      interference: tuple[Interference, ...]
+                      ) -> tuple[np.ndarray, tuple[Interference, ...]]:
+    """The periods without the unlocked sources on the ``drifting`` lines
+    (`analysis.spectral._unlocked`), and the interference naming their fitted frequencies."""
+    for hz in drifting:
+        per, fitted = remove_unlocked(per, fs, hz)
+        interference = tuple(replace(i, unlocked_hz=fitted) if i.freq_hz == hz else i
+                             for i in interference)
+    return per, interference
+
+
 def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float,
                               period: int, *, transient_periods: int = 1,
                               realizations: int = 1, force_hold: str | None = None,
@@ -124,10 +144,7 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     if n_p < 2 and per.shape[0] < 2:
         raise InputError("the BLA needs 2 or more steady periods or realizations; the record "
                          "holds one period of one realization")
-    spec = scipy.fft.rfft(per, axis=2)                      # (M, P, n_lines, 1 + n_out)
-    mean = spec.mean(axis=1)
-    dev = spec - mean[:, None]
-    U, Y = mean[..., 0], mean[..., 1:]
+    U, Y, dev = _period_spectra(per)
     scale = 1.0 / (max(n_p - 1, 1) * n_p)                   # variance of a period mean
     all_freqs = np.arange(U.shape[1]) * fs / period
     picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
@@ -135,14 +152,8 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
                            band=band, amplitudes=np.abs(U))
     interference = picked.interference
     if picked.drifting and n_p >= 2:     # an unlocked source: fitted and taken out of the periods
-        for hz in picked.drifting:
-            per, fitted = remove_unlocked(per, fs, hz)
-            interference = tuple(replace(i, unlocked_hz=fitted) if i.freq_hz == hz else i
-                                 for i in interference)
-        spec = scipy.fft.rfft(per, axis=2)
-        mean = spec.mean(axis=1)
-        dev = spec - mean[:, None]
-        U, Y = mean[..., 0], mean[..., 1:]
+        per, interference = _without_unlocked(per, fs, picked.drifting, interference)
+        U, Y, dev = _period_spectra(per)
     lines = picked.lines
     if lines.size == 0:
         raise InputError("the force excites no DFT line of the period"

@@ -87,6 +87,10 @@ DRIFT_LINES = 2
 """Interference on the period's lowest lines (1 and 2) is named a drift (an offset or a slow
 drift of the sensor leaks there, docs/daq-artifacts.md)."""
 MAINS_HZ = (50.0, 60.0)
+#: rule 7 reads a line's period variance as a drifting source only above this share of its
+#: power (a drifting line some 70-80 dB under its drive line; noise-free records drift by
+#: rounding)
+DRIFT_FLOOR = 1e-8
 """Mains frequencies: interference on a multiple of one (within 0.05 Hz) is named mains."""
 
 
@@ -264,7 +268,7 @@ def excited_lines(freqs: np.ndarray, power: np.ndarray, noise: np.ndarray | None
     named += [Interference(float(f[i]), float(db), True) for i, db in zip(on, level)]
     drifting: tuple[float, ...] = ()
     if noise is not None:
-        leak, src = _leakage(on, kept, np.asarray(noise, dtype=float))
+        leak, src = _leakage(on, kept, np.asarray(noise, dtype=float), p)
         on, drifting = np.union1d(on, leak), tuple(float(f[i]) for i in src)
     kept = np.setdiff1d(kept, on)
     return ExcitedLines(kept, tuple(sorted(named, key=lambda i: i.freq_hz)), unchecked,
@@ -313,15 +317,16 @@ def _on_drive_lines(kept: np.ndarray, amp: np.ndarray, noise: np.ndarray
     return kept[hit], level
 
 
-def _leakage(on: np.ndarray, kept: np.ndarray, noise: np.ndarray
+def _leakage(on: np.ndarray, kept: np.ndarray, noise: np.ndarray, power: np.ndarray
              ) -> tuple[np.ndarray, list[int]]:
     """The kept neighbours of the lines ``on`` (left out as interference) whose source drifts
     in phase from period to period (rule 7: off the grid, it leaks into them), and those
-    lines."""
+    lines. A drift below `DRIFT_FLOOR` of the line's power is rounding, not a source."""
     out, src = [], []
     for i in on:
         near = kept[(np.abs(kept - i) > 1) & (np.abs(kept - i) <= SPREAD_NEIGHBOURS + 1)]
-        if near.size and noise[i] > SPREAD_RATIO * np.median(noise[near]):
+        if near.size and noise[i] > max(SPREAD_RATIO * np.median(noise[near]),
+                                        DRIFT_FLOOR * power[i]):
             out += [j for j in (i - 1, i + 1) if j in kept]
             src.append(int(i))
     return np.array(out, dtype=int), src
