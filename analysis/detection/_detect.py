@@ -64,7 +64,12 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> De
     swept = [r for r in recs if r.excitation == "swept-sine"]
     notes = []
     single = [r for r in periodic if r.layout.realizations == 1]
-    tests = [_bla_test(r, notes) for r in periodic if r.layout.realizations >= 2]
+    tests = [_bla_test(r, notes) for r in periodic
+             if r.layout.realizations >= 2 and r.layout.periods >= 2]
+    notes += [f"{level_name(r)}: {r.layout.realizations} realizations of one period each: the "
+              "BLA distortion test needs two or more periods per realization (the noise read "
+              "off their spread)" for r in periodic if r.layout.periods < 2
+              and r.layout.realizations >= 2]
     if len(single) >= 2:
         tests.append(periodic_level_dependence(single, notes))
     elif single:
@@ -81,8 +86,9 @@ def detect(recordings: Sequence[Recording], *, nperseg: int | None = None) -> De
         tests += more
         notes += said
     if not tests:
-        raise InputError("no level to test: give random or stepped-sine runs at two or more "
-                         "levels, or periodic-random or swept-sine runs")
+        raise InputError("no level to test: " + ("; ".join(notes) if notes else
+                         "give random or stepped-sine runs at two or more levels, or "
+                         "periodic-random or swept-sine runs"))
     notes += [c.text("a clipped channel looks like a hard nonlinearity to these tests")
               for r in recs if isinstance(r, Recording)
               and (c := recording_clipping(r, level_name(r))) is not None]

@@ -183,6 +183,7 @@ class LinearFitSummary:
             out["interference"] = [{"freq_hz": i.freq_hz, "level_db": i.level_db}
                                    | ({"on_drive_line": True} if i.on_drive_line else {})
                                    | ({"drift": True} if i.drift else {})
+                                   | ({"unlocked_hz": i.unlocked_hz} if i.unlocked_hz else {})
                                    for i in self.interference]
         if self.delay_samples:
             out["delay_samples"] = self.delay_samples
@@ -207,7 +208,7 @@ class LinearFitSummary:
                    tuple(data["residual_pseudo_modes_hz"]),
                    tuple(data["frf_error"][p] for p in points), data["level"],
                    tuple(Interference(i["freq_hz"], i["level_db"], i.get("on_drive_line", False),
-                                      i.get("drift", False))
+                                      i.get("drift", False), i.get("unlocked_hz"))
                          for i in data.get("interference", ())),
                    float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())),
                    MainsCaveat(tuple(data["mains_unchecked_hz"]))

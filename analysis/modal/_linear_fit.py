@@ -103,7 +103,8 @@ def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
         return table_receptance(rec)
     if rec.excitation != Excitation.RANDOM:
         raise InputError(f"fit-linear takes a random or multisine level, got "
-                         f"{rec.excitation}: the modal fit needs uniformly spaced lines")
+                         f"{rec.excitation}: the modal fit needs uniformly spaced lines; test a sweep with "
+                         "`nlid-lab detect` and fit a model to it with `nlid-lab analyze hbm`")
     if rec.n_in != 1:
         raise InputError(f"fit-linear takes one force channel, the level has {rec.n_in}; "
                          "fit each shaker's run separately")
@@ -118,11 +119,13 @@ def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
                                       realizations=lay.realizations, force_hold=rec.force_hold,
                                       band=band)
         H = convert_frf(b.G, b.freqs, rec.response_kind, "displacement")
-        std = np.abs(convert_frf(np.sqrt(b.var_noise), b.freqs, rec.response_kind,
+        std = np.abs(convert_frf(np.sqrt(b.var_weight), b.freqs, rec.response_kind,
                                  "displacement"))
         return MeasuredReceptance(b.freqs, H, std, None, d,
                                   f"period-averaged FRF ({b.realizations} x {b.periods} "
-                                  "periods), weighted by its noise from the period spread",
+                                  "periods), weighted by its noise from the period spread"
+                                  if b.periods >= 2 else f"BLA over {b.realizations} "
+                                  "realizations of one period, weighted by their spread",
                                   interference=b.interference, caveat=b.caveat)
     nseg = nperseg or default_nperseg(rec.force.shape[0])
     spec = spectral_matrix(np.concatenate([rec.force, rec.response], axis=1), rec.fs,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import hilbert
-from scipy.stats import theilslopes
+from scipy.stats import spearmanr, theilslopes
 
 from ..errors import RecordingError
 from ._sweep_law import SWEEP_LAWS, Sweep, SweepLaw
@@ -27,6 +27,9 @@ ACTIVE_FRACTION = 0.25
 LOG_PREFERENCE = 0.7
 #: samples of the phase used in the least-squares refinement (decimated beyond)
 FIT_SAMPLES = 20000
+#: a record is taken as a sweep when the rank correlation of its block frequencies with time
+#: is beyond this (a random or multisine force: near 0; a sweep: 1 up to noise)
+SWEEP_MONOTONY = 0.95
 
 
 def active_span(force: np.ndarray) -> tuple[int, int]:
@@ -71,6 +74,43 @@ def force_phase(force: np.ndarray) -> np.ndarray:
     """Unwrapped analytic-signal phase of a force record, rad."""
     f = np.asarray(force, dtype=float).reshape(-1)
     return np.unwrap(np.angle(hilbert(f - f.mean())))
+
+
+def looks_like_sweep(force: np.ndarray, fs: float) -> bool:
+    """Whether a record's force is a swept sine that names none (an export imported as random).
+
+    Parameters
+    ----------
+    force : ndarray, shape (n,)
+        The force channel.
+    fs : float
+        Sample rate, Hz.
+
+    Returns
+    -------
+    bool
+        True when the force's instantaneous frequency (block slopes of its Hilbert phase, as
+        `estimate_sweep` reads them) rises or falls monotonically over at least 16 blocks:
+        Spearman's rank correlation with time beyond `SWEEP_MONOTONY` in size, every block
+        frequency positive and the covered range over a quarter of the highest.
+    """
+    f = np.asarray(force, dtype=float).reshape(-1)
+    if f.size < 512 or not np.any(f):
+        return False
+    try:
+        start, stop = active_span(f)
+    except RecordingError:
+        return False
+    phase = force_phase(f[start:stop])
+    block = max(32, phase.size // 200)
+    starts = np.arange(0, phase.size - block, block)
+    if starts.size < 16:
+        return False
+    t = np.arange(block) / fs
+    fb = np.array([np.polyfit(t, phase[a:a + block], 1)[0] for a in starts]) / (2 * np.pi)
+    rho = spearmanr(np.arange(fb.size), fb)[0]
+    return bool(np.all(fb > 0) and abs(rho) > SWEEP_MONOTONY
+                and np.ptp(fb) > 0.25 * fb.max())
 
 
 def estimate_sweep(force: np.ndarray, fs: float, *, law: str | None = None

@@ -150,8 +150,8 @@ def _records(data: Any, fs: float | None, force_dofs: Sequence[int] | None,
                          "(force, response) tuple")
     for r in recs:
         if r.excitation != Excitation.RANDOM:
-            raise InputError("reverse path needs random excitation; for stepped-sine runs use "
-                             "`nlid-lab analyze hbm`")
+            raise InputError(f"reverse path needs random excitation, got {r.excitation}; "
+                             "fit stepped- or swept-sine runs with `nlid-lab analyze hbm`")
         _dead_channels(r)
     first = recs[0]
     for r in recs[1:]:

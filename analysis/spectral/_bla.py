@@ -19,7 +19,7 @@ nonlinearity (`analysis.detection.bla_summary`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft
@@ -29,6 +29,7 @@ from ..errors import InputError
 from ..recordings import steady_periods
 from ._lines import Interference, MainsCaveat, excited_lines
 from ._sine_fit import hold_gain
+from ._unlocked import remove_unlocked
 
 DETECT_QUANTILE = 0.99
 """Per-line quantile of the linear-system F distribution of total / noise variance."""
@@ -46,7 +47,8 @@ class BLA:
         BLA from the force to each response.
     var_noise, var_total : ndarray, shape (n_f, n_out)
         Noise and total variance of ``G`` (total: NaN with one realization, where the
-        stochastic distortions cannot be told from the linear part).
+        stochastic distortions cannot be told from the linear part; noise: NaN with one
+        period per realization, where it cannot be told from the distortions).
     coherence : ndarray, shape (n_f, n_out)
         Coherence of the period averages across realizations (noise and distortion lower
         it; with few realizations it is biased high by about ``1 / M``); with one
@@ -69,6 +71,12 @@ class BLA:
     MainsCaveat`), else None."""
 
     @property
+    def var_weight(self) -> np.ndarray:
+        """Variance to weight a fit of ``G`` with: the noise's, or the total with one period
+        per realization (noise and distortions then together, the robust method's)."""
+        return self.var_noise if self.periods >= 2 else self.var_total
+
+    @property
     def var_distortion(self) -> np.ndarray:
         """Variance of ``G`` due to stochastic nonlinear distortions (>= 0)."""
         return np.maximum(self.var_total - self.var_noise, 0.0)
@@ -77,6 +85,26 @@ class BLA:
         """99 % quantile of ``var_total / var_noise`` for a linear system."""
         m, p = self.realizations, self.periods
         return float(scipy.stats.f.ppf(DETECT_QUANTILE, 2 * (m - 1), 2 * m * (p - 1)))
+
+def _period_spectra(per: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Period-averaged force ``U`` (M, n_lines) and responses ``Y`` (M, n_lines, n_out) of
+    steady periods (M, P, N, 1 + n_out), and each period's deviation from the average."""
+    spec = scipy.fft.rfft(per, axis=2)
+    mean = spec.mean(axis=1)
+    return mean[..., 0], mean[..., 1:], spec - mean[:, None]
+
+
+def _without_unlocked(per: np.ndarray, fs: float, drifting: tuple[float, ...],
+                      interference: tuple[Interference, ...]
+                      ) -> tuple[np.ndarray, tuple[Interference, ...]]:
+    """The periods without the unlocked sources on the ``drifting`` lines
+    (`analysis.spectral._unlocked`), and the interference naming their fitted frequencies."""
+    for hz in drifting:
+        per, fitted = remove_unlocked(per, fs, hz)
+        interference = tuple(replace(i, unlocked_hz=fitted) if i.freq_hz == hz else i
+                             for i in interference)
+    return per, interference
+
 
 def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float,
                               period: int, *, transient_periods: int = 1,
@@ -113,17 +141,19 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     per = steady_periods(np.concatenate([f, x], axis=1), period,
                          transient_periods=transient_periods, realizations=realizations)
     n_p = per.shape[1]
-    if n_p < 2:
-        raise InputError("the BLA's noise variance needs at least 2 steady periods")
-    spec = scipy.fft.rfft(per, axis=2)                      # (M, P, n_lines, 1 + n_out)
-    mean = spec.mean(axis=1)
-    dev = spec - mean[:, None]
-    U, Y = mean[..., 0], mean[..., 1:]
-    scale = 1.0 / ((n_p - 1) * n_p)                         # variance of a period mean
+    if n_p < 2 and per.shape[0] < 2:
+        raise InputError("the BLA needs 2 or more steady periods or realizations; the record "
+                         "holds one period of one realization")
+    U, Y, dev = _period_spectra(per)
+    scale = 1.0 / (max(n_p - 1, 1) * n_p)                   # variance of a period mean
     all_freqs = np.arange(U.shape[1]) * fs / period
     picked = excited_lines(all_freqs, np.abs(U).mean(axis=0) ** 2,
                            (np.abs(dev[..., 0]) ** 2).sum(axis=1).mean(axis=0) * scale,
                            band=band, amplitudes=np.abs(U))
+    interference = picked.interference
+    if picked.drifting and n_p >= 2:     # an unlocked source: fitted and taken out of the periods
+        per, interference = _without_unlocked(per, fs, picked.drifting, interference)
+        U, Y, dev = _period_spectra(per)
     lines = picked.lines
     if lines.size == 0:
         raise InputError("the force excites no DFT line of the period"
@@ -139,6 +169,8 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     m = Gm.shape[0]
     G = Gm.mean(axis=0)
     var_noise = np.maximum(var_m, 0.0).sum(axis=0) / m**2
+    if n_p < 2:     # one period per realization: no spread over periods, the noise unknown
+        var_noise = np.full_like(var_noise, np.nan)
     if m >= 2:
         var_total = (np.abs(Gm - G) ** 2).sum(axis=0) / (m * (m - 1))
         cross = np.abs((Y * U.conj()[..., None]).sum(axis=0)) ** 2
@@ -151,4 +183,4 @@ def best_linear_approximation(force: np.ndarray, response: np.ndarray, fs: float
     freqs = lines * fs / period
     gain = hold_gain(freqs, fs, force_hold)[:, None]
     return BLA(freqs, G / gain, var_noise / gain**2, var_total / gain**2, coherence, m, n_p,
-               picked.interference, picked.caveat())
+               interference, picked.caveat())

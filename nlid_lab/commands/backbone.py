@@ -32,7 +32,8 @@ def levels(paths: list[str]) -> list[StepTable]:
         for rec in load_recordings(path):
             if rec.excitation != Excitation.STEPPED_SINE:
                 raise InputError(f"{path}: a backbone needs stepped-sine levels (tables or "
-                                 f"time blocks), not {rec.excitation}")
+                                 f"time blocks), not {rec.excitation}; fit a model to a "
+                                 "sweep with `nlid-lab analyze hbm RUN --model M`")
             rec = one_kind(rec)
             out.append(rec if isinstance(rec, StepTable) else recording_table(rec))
     return out

@@ -11,7 +11,7 @@ import numpy as np
 
 from analysis.errors import InputError
 from analysis.recordings import (RESPONSE_KINDS, Excitation, PeriodicLayout, StepTable, find_period,
-                                 flat_ends, recording_clipping, whole_periods)
+                                 Bursts, find_bursts, flat_ends, looks_like_sweep, recording_clipping, whole_periods)
 from analysis.spectral import HELD_UNITS, level_name
 
 from .. import formats
@@ -57,7 +57,10 @@ def _read(src: Path, args: argparse.Namespace, found: dict):
     if fmt.read is None:
         raise InputError(f"{src}: a {fmt.name} file needs --map (docs/recording-formats.md)")
     cols = [c.strip() for c in args.force_cols.split(",")] if args.force_cols else None
-    return fmt.read(src, formats.ReadOptions(given, cols, args.response_kind, args.force_dofs))
+    rec = fmt.read(src, formats.ReadOptions(given, cols, args.response_kind, args.force_dofs))
+    if fmt.name == "CSV" and rec.excitation == Excitation.RANDOM and rec.layout is None:
+        return _mapped(formats.recording_keys(rec), src, args, found)   # a DAQ export: as mapped
+    return rec
 
 
 def _channel_map(items: list[str]):
@@ -82,7 +85,15 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if random and not set(formats.LAYOUT_KEYS) & set(keys):
         p = find_period(keys["force"], settle=keys["response"])
         found[src] = p
-        if p is not None:
+        if p is None and "excitation" not in keys and _swept(keys):
+            keys["excitation"] = Excitation.SWEPT_SINE      # its law estimated from the force
+            found[src] = SWEPT
+        elif p is None and (b := _bursts(keys)) is not None:
+            _cut(keys, b.cut)
+            keys.update(period=b.length, transient_periods=0, periods=1,
+                        realizations=len(b.starts))
+            found[src] = b
+        elif p is not None:
             if p.remainder or p.short:
                 _cut(keys, lambda x: whole_periods(x, p))
             keys.update(period=p.period, transient_periods=p.transient_periods,
@@ -100,6 +111,27 @@ def _mapped(keys: dict, src: Path, args: argparse.Namespace, found: dict):
     if delay is not None:
         _advance(keys, delay, src)
     return formats.recording_from_keys(keys, src)
+
+
+#: ``found[src]`` of a record taken as a swept sine (no period; the force sweeps)
+SWEPT = "swept"
+
+
+def _swept(keys: dict) -> bool:
+    """Whether a mapped record that names no excitation holds a swept sine in its force (an
+    F-16 ``SineSw`` export: no period, the force's frequency rising or falling)."""
+    force = np.asarray(keys["force"], dtype=float)
+    fs = np.asarray(keys.get("fs", 0.0), dtype=float)
+    if force.ndim > 2 or fs.size != 1 or not float(fs.reshape(())) > 0:
+        return False                       # the recording's own checks name the problem
+    return looks_like_sweep(force.reshape(len(force), -1)[:, 0], float(fs.reshape(())))
+
+
+def _bursts(keys: dict) -> Bursts | None:
+    """The realizations a mapped record holds as bursts between quiet gaps (a Silverbox-like
+    export, `analysis.recordings.find_bursts`), or None."""
+    force = np.asarray(keys["force"], dtype=float)
+    return find_bursts(force) if force.ndim <= 2 else None
 
 
 def _advance(keys: dict, delay, src: Path) -> None:
@@ -162,7 +194,7 @@ def _common_transient(recs: list, sources: list[Path], found: dict) -> list:
     the most any shows (levels of one run share their layout; a higher level often settles
     later); ``found`` is updated to say so."""
     lays = [r.layout for r in recs]
-    if len(recs) < 2 or any(found.get(s) is None or lay is None
+    if len(recs) < 2 or any(not hasattr(found.get(s), "whole") or lay is None
                             for s, lay in zip(sources, lays)):
         return recs
     shape = {(lay.period, lay.realizations, lay.transient_periods + lay.periods)
@@ -183,7 +215,16 @@ def _period_lines(found: dict, given: set) -> list[str]:
     (``given``: files whose map gave the period, where only the realizations were found)."""
     says: dict[str, list[Path]] = {}
     for src, p in found.items():
-        if p is None:
+        if isinstance(p, Bursts):
+            left = "".join(f"; the {n}-sample burst at sample {s} left out (not a realization)"
+                           for s, n in p.others)
+            text = (f"no period found; {len(p.starts)} bursts of {p.length} samples between "
+                    f"quiet gaps taken as realizations of one period each (the gaps "
+                    f"dropped){left}; give period= to override")
+        elif p == SWEPT:
+            text = ("no period found; the force sweeps: imported as swept sine, its law "
+                    "estimated (above); give --excitation random to override")
+        elif p is None:
             text = ("no period found in the force: imported as plain random, nothing "
                     "assumed; give period= (samples) if it is periodic")
         else:
@@ -263,7 +304,7 @@ def run(args: argparse.Namespace) -> int:
             "period": p.period, "periods": p.periods, "transient_periods": p.transient_periods,
             "realizations": p.realizations, "share": p.share, "remainder": p.remainder,
             "whole_periods": p.whole}
-            for src, p in found.items()}
+            for src, p in found.items() if p != SWEPT and not isinstance(p, Bursts)}
     if args.json != "-":
         what = sources[0] if len(sources) == 1 else f"{len(sources)} files"
         print(f"imported {what} ({rec.excitation}, fs {rec.fs:g} Hz, {rec.n_dof} "

@@ -28,7 +28,7 @@ from ._recording_keys import (RecordingFileError, extra_keys, force_hold_of, lay
                               level_of, scalar_key, sensors_of)
 from ._sweep_keys import sweep_fields
 from ._tables import csv_text, table_from_csv
-from ._units import split_label
+from ._units import kind_of_name, lookup, split_label
 
 
 def read_csv(path: str | os.PathLike, force_cols: list[str] | None = None,
@@ -147,7 +147,9 @@ def _response_kind(keys: RecordingKeys, responses: list[Column], file_kind: str 
     if asked is not None and file_kind not in (None, asked):
         raise RecordingFileError(f"{path}: the file says response_kind = {file_kind} but "
                                  f"{asked} was asked for; drop one of them")
-    return asked or file_kind or (unit_kinds.pop() if unit_kinds else "displacement")
+    named = {kind_of_name(c.name) for c in responses}      # Acc1, Acceleration2: as a map reads
+    return asked or file_kind or (unit_kinds.pop() if unit_kinds else named.pop()
+                                  if len(named) == 1 and None not in named else "displacement")
 
 
 def _csv_force_dofs(keys: dict, forces: list[Column], responses: list[Column],
@@ -201,6 +203,17 @@ def read_csv_columns(path: str | os.PathLike) -> tuple[MatTree, dict[str, str]]:
             units[name] = unit
     return tree, units
 
+
+
+def csv_time_rate(t: np.ndarray, unit: str | None, path: Path) -> float:
+    """Sample rate of a mapped CSV's time column (``unit`` from its header: s or ms)."""
+    scale = 1.0
+    if unit is not None:
+        scale, quantity = lookup(unit, f"{path}: time column")
+        if quantity != "time":
+            raise RecordingFileError(f"{path}: the time column is in {unit}, not a time unit "
+                                     "(s, ms)")
+    return _csv_fs(np.asarray(t, dtype=float) * scale, {}, path)
 
 
 def _csv_fs(t: np.ndarray, keys: dict, path: Path) -> float:

@@ -18,7 +18,7 @@ from pathlib import Path
 from analysis.errors import InputError
 from analysis.recordings import Recording, RecordingKeys, StepTable
 
-from ._csv import read_csv, read_csv_columns, write_csv
+from ._csv import csv_time_rate, read_csv, read_csv_columns, write_csv
 from ._mat_io import ChannelMap, apply_map, read_mat_tree
 from ._mat_recording import is_recording, read_mat_recording, write_mat
 from ._npz import load_npz_keys, read_npz, recording_from_keys, write_npz
@@ -92,6 +92,12 @@ def _read_csv(path: Path, options: ReadOptions) -> Recording:
 def _mapped_csv(path: Path, cmap: ChannelMap) -> RecordingKeys:
     tree, units = read_csv_columns(path)
     cmap = cmap.with_units(units)
+    time = next((k for k in tree if k.lower() in ("t", "time")
+                 and k not in {s.key for s in cmap.force + cmap.response}), None)
+    if time is not None:          # a time column: the rate when none is given, no monitor
+        t = tree.pop(time)
+        if cmap.fs == "Fs" and not {"Fs", "fs"} & set(tree):
+            cmap = dataclasses.replace(cmap, fs=csv_time_rate(t, units.get(time), path))
     if cmap.fs == "Fs" and "Fs" not in tree and "fs" in tree:
         cmap = dataclasses.replace(cmap, fs="fs")    # a '# fs = ...' line
     elif cmap.fs == "Fs" and "Fs" not in tree:

@@ -32,7 +32,7 @@ from analysis.errors import InputError
 from analysis.models import parse_toml, read_text
 from analysis.recordings import RecordingKeys
 
-from ._units import lookup
+from ._units import kind_of_name, lookup
 
 MAT73_SIGNATURE = b"MATLAB 7.3 MAT-file"
 #: channel-map keys that select channels (repeatable)
@@ -313,7 +313,7 @@ def apply_map(tree: MatTree, cmap: ChannelMap, source: str) -> RecordingKeys:
                 raise MatFileError(f"{source}: response {sel.key} is in {sel.unit}, a force "
                                    "unit; map it as force=")
             arr *= factor
-        kinds += [quantity if sel.unit else cmap.response_kind or _kind_of_name(sel.key)
+        kinds += [quantity if sel.unit else cmap.response_kind or kind_of_name(sel.key)
                   ] * arr.shape[1]
     if cmap.response_kind and {k for k in kinds if k} - {cmap.response_kind}:
         raise MatFileError(f"{source}: response_kind = {cmap.response_kind} but the units say "
@@ -327,6 +327,10 @@ def apply_map(tree: MatTree, cmap: ChannelMap, source: str) -> RecordingKeys:
                                                                    "response", source)
     if isinstance(cmap.fs, float):
         fs = cmap.fs
+    elif not _known(tree, cmap.fs):
+        raise MatFileError(f"{source}: no sample rate variable '{cmap.fs}' (the file holds "
+                           f"{', '.join(sorted(tree)) or 'none'}); give the rate in the map: "
+                           "fs=RATE (Hz)")
     else:
         try:
             fs = float(np.asarray(_leaf(tree, cmap.fs, source), dtype=float).reshape(()))
@@ -348,16 +352,6 @@ def apply_map(tree: MatTree, cmap: ChannelMap, source: str) -> RecordingKeys:
     return {"fs": fs, "force": np.hstack(force), "response": np.hstack(response),
             **({"response_kind": kind} if "response_kinds" not in points else {}),
             **points, **extra}
-
-
-def _kind_of_name(name: str) -> str | None:
-    """The response kind a variable's name states (``Acceleration``, ``acc2``, ``Vel``,
-    ``Disp``), or None: exports name channels so more often than they give a unit."""
-    last = name.rpartition(".")[2].lower()
-    for prefix, kind in (("acc", "acceleration"), ("vel", "velocity"), ("disp", "displacement")):
-        if last.startswith(prefix):
-            return kind
-    return None
 
 
 def _points(sels: list[Selection], arrays: list[np.ndarray], role: str,

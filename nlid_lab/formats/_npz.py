@@ -32,6 +32,12 @@ def load_npz_keys(path: str | os.PathLike) -> RecordingKeys:
     return load_npz_file(Path(path), "recording")
 
 
+def _one_channel(response, force) -> bool:
+    """Whether a mapped response holds one channel (its samples as long as the force's)."""
+    r, n = np.asarray(response), len(np.asarray(force).reshape(len(force), -1))
+    return r.ndim == 1 or (r.ndim == 2 and 1 in r.shape and max(r.shape) == n)
+
+
 def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
                         ) -> Recording | StepTable:
     """A `Recording` from NPZ-style keys (an NPZ file's, or a MAT import's), or a
@@ -43,6 +49,12 @@ def recording_from_keys(data: RecordingKeys, path: str | os.PathLike
     missing = {"fs", "force", "response", "force_dofs"} - set(data)
     if missing == {"force_dofs"} and "force_points" in data:
         missing = set()
+    if missing == {"force_dofs"} and path.suffix.lower() in (".mat", ".csv") \
+            and _one_channel(data["response"], data["force"]):
+        data, missing = {**data, "force_dofs": np.array([0])}, set()   # the only choice
+    if missing == {"force_dofs"} and path.suffix.lower() in (".mat", ".csv"):
+        raise RecordingFileError(f"{path}: which response channel is measured where the "
+                                 "force acts? give force_dofs=K in the --map (0-based)")
     if missing:
         raise RecordingFileError(f"{path}: missing key(s) {sorted(missing)}; an NPZ "
                                  "recording needs fs, force_dofs (or force_points), force and "
