@@ -18,6 +18,13 @@ below the band) with a stiff wing-payload interface, so that the two joint senso
 the structure (`Excitation.rms`), not tuned to the diagnosis. `_zoo_daq` adds what real use
 brings: each artifact of the real-DAQ catalogue (`analysis.recordings.apply_daq_artifacts`), the
 whole catalogue on the twin, and a Duffing circuit started from `fit_linear` of its lowest level.
+`_zoo_more` (session 33, names ending ``-z7``) adds what real tests bring and the rows above
+lack: softening (a negative cubic; a start model too stiff), cubic damping, quadratic damping
+on multisine, 0.5 % and 5 % modal damping, a joint mid-chain and an effect at a point no
+channel measures (`Effect.seen_at`), velocity sensors, 60 Hz mains with harmonics and mains
+not locked to the period (50.02 Hz), a cubic just above and just below the floors
+(`Truth.below_floor`: `adequate` is then as honest as the effect), two effects of different
+families, stepped sine with a gap or quadratic damping, and random records with few averages.
 """
 
 from __future__ import annotations

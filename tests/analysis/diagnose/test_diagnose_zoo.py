@@ -22,6 +22,36 @@ WRONG_TODAY: dict[str, str] = {
                                       "model 0.0745) and the residuals' level dependence is "
                                       "p = 3.3e-4, not 1e-4: these recordings cannot show "
                                       "the cubic (the row's judging, docs/diagnose.md)",
+    # session 33's rows (docs/diagnose.md, "Zoo, session 33: new scenarios"), measured per row
+    "sdof-cubic_above-disp-random-z7": "'unexplained': level 12 misfits 0.0586 against its "
+                                       "floor 0.0437, but the level-dependence test says "
+                                       "p = 1.0 (0.61 per DOF: a change at the resonance "
+                                       "diluted over the band), so no nonlinear candidate is "
+                                       "screened; the best linear one (stiffness_error) gains "
+                                       "6.2 +- 17.5 out of sample",
+    "chain4-cubic3-disp-random-few-z7": "a cubic at unmeasured DOF 3 named as gap@1 (tied with "
+                                        "cubic@1, gains 5.07e4 / 4.71e4) that makes the "
+                                        "held-back level worse (0.499 -> 0.537); the "
+                                        "candidates at DOF 2, through which it acts, are "
+                                        "rejected by the worst-level gate (they predict "
+                                        "level 12 worse fitted on the others)",
+    "chain-cubic2+jenkins01-disp-random-z7": "both effects named at their locations, but the "
+                                             "cubic's p is -8.3 % (95 % -11.8 .. -4.7 %) and "
+                                             "the slider's fd +5.3 % (+3.1 .. +7.4 %): each "
+                                             "biased by the other, intervals not covering",
+    "chain-mass1+cubic01-disp-random-z7": "'unexplained': the mass error is the best first "
+                                          "effect (delta_mass 0.13, gain 3.16e5 +- 1.2e3) but "
+                                          "rejected as, fitted on the other levels, it "
+                                          "predicts level 12 worse (+2.2e4 +- 5.1e3: there "
+                                          "the cubic's stiffening offsets the added mass); the "
+                                          "worst-level gate assumes one effect explains every "
+                                          "level",
+    "sdof-gap-disp-stepped-z7": "'unexplained': the gap (closing at 2.2 rms of the top "
+                                "level's steps, inside the 0.25-3 rms grid) is screened at "
+                                "k = 1.4e3 N/m, g = 0.56 mm (truth 2e4, 6.9 mm) and predicts "
+                                "worse out of sample (-2.9e3 +- 108); the cubic fits level 12 "
+                                "better in sample (chi2 73236 -> 19489) but gains -74 +- 17: "
+                                "only the top level closes the gap",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -39,7 +69,9 @@ with the second parameters' cluster jackknife: ``twin-gvt-hysteresis_joint-acc-m
 left (fd +5.3 %, 95 % -0.3 .. +10.8 %: not identifiable to 5 %, as its realizations say,
 -3.1 .. +9.6 %; docs/diagnose.md, "Session 32: intervals that cover"); the circuit rows right since
 session 32 (the whole zoo, docs/diagnose.md, "Session 32: the circuit"), the clipping row right
-since session 32 (clipped samples left out, "Session 32: clipped samples and fractional delays")."""
+since session 32 (clipped samples left out, "Session 32: clipped samples and fractional delays");
+session 33's new rows (``-z7``) per row (``--only -z7``) and in the whole zoo with ``--workers 1``
+(docs/diagnose.md, "Zoo, session 33: new scenarios")."""
 
 
 def _param(case: Z.ZooCase):
