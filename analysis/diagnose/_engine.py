@@ -27,8 +27,8 @@ from ._leakage import Floor
 from ._locate import level_dependence, mismatch_band
 from ._policy import (BIC_MIN, MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary,
                       model_change, pruned, pruned_labels)
-from ._joint import joint_refit, misfit_intervals
-from ._leakage_refit import fitted_leakage, leakage_refit
+from ._joint import joint_refit
+from ._leakage_refit import leakage_refit, reported_intervals
 from ._replay import Replay
 from ._report import LevelCurves, explain, fit_summary
 from ._evidence import Evidence, Rejection
@@ -221,8 +221,7 @@ def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
     if before is not None:
         curves = [replace(c, replay_before=b, replay_after=after[i] if chosen else b)
                   for i, (c, b) in enumerate(zip(curves, before))]
-    with fitted_leakage(model, first.search, list(chosen)):   # reported intervals only
-        chosen = misfit_intervals(model, first.search, list(chosen))
+    chosen = reported_intervals(model, first.search, list(chosen))   # intervals only
     return Correction(tuple(chosen), current, tuple(curves), tuple(rejected))
 
 
