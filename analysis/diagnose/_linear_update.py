@@ -24,8 +24,9 @@ and level FRF in closed form::
 all levels needs no matrix inversions per trial. Where the level is compared through the
 Welch leakage (``H0`` holds the term ``L``, `._leakage`), ``H0_m`` is the model's own response
 without it: the correction changes the response, ``H0' = (H0 - L) - ... + L``; applied to
-``L`` as well, it moved the leakage with the correction and biased the estimate
-(`sdof-stiffness-disp-random` noise-free: -0.46 % with, +0.01 % without; docs/diagnose.md).
+``L`` as well, it moved the leakage with the correction and biased the estimate by the
+leakage's size (`sdof-stiffness-disp-random` noise-free, the fitted model's ``L``, segments of
+1024 samples: +1.2 % with, -0.36 % without; docs/diagnose.md, "Merged, session 33: bias").
 """
 
 from __future__ import annotations
