@@ -487,8 +487,9 @@ def _period_noise(p: Prepared, freqs: np.ndarray, H: np.ndarray
 
 
 def model_frf(H_lin: np.ndarray, lf: LevelFRF,
-              terms: list[tuple[np.ndarray, float, Hashable]]) -> np.ndarray:
-    """Model FRF at this level: ``H_L (B - sum w p T)``.
+              terms: list[tuple[np.ndarray, float, Hashable]], *, leakage: bool = True
+              ) -> np.ndarray:
+    """Model FRF at this level: ``H_L (B - sum w p T)`` (plus ``lf.leakage``).
 
     Parameters
     ----------
@@ -496,11 +497,14 @@ def model_frf(H_lin: np.ndarray, lf: LevelFRF,
         Receptance of the model's underlying linear system on ``lf.freqs``.
     terms : list of (w, p, key)
         Element position, coefficient and basis key (``lf.T[key]``) of each nonlinear term.
+    leakage : bool
+        Add the level's Welch leakage term; False gives the model's own response (what a
+        linear correction acts on, `.linear_update.updated_frf`).
     """
     rhs = np.broadcast_to(lf.B, (lf.freqs.size,) + lf.B.shape).astype(complex)
     for w, coef, key in terms:
         rhs = rhs - coef * w[None, :, None] * lf.T[key][:, None, :]
-    return H_lin @ rhs if lf.leakage is None else H_lin @ rhs + lf.leakage
+    return H_lin @ rhs if lf.leakage is None or not leakage else H_lin @ rhs + lf.leakage
 
 
 def chi2(lf: LevelFRF, H_model: np.ndarray) -> float:

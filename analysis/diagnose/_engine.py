@@ -27,7 +27,8 @@ from ._leakage import Floor
 from ._locate import level_dependence, mismatch_band
 from ._policy import (BIC_MIN, MAX_EFFECTS, SearchPass, apply_fits, decide, misfit_summary,
                       model_change, pruned, pruned_labels)
-from ._joint import joint_refit, misfit_intervals
+from ._joint import joint_refit
+from ._leakage_refit import leakage_refit, reported_intervals
 from ._replay import Replay
 from ._report import LevelCurves, explain, fit_summary
 from ._evidence import Evidence, Rejection
@@ -190,11 +191,12 @@ def search_passes(flow: Flow, tick: Tick) -> Passes:
 
 
 def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
-    """Joint refit and pruning of the found effects; the last effect is dropped while the
+    """Joint refit and pruning of the found effects, linear errors refitted with the Welch
+    leakage of the model they make (`.leakage_refit`); the last effect is dropped while the
     corrected model's replay fails."""
     model, first = flow.model, passes.first
     tick("joint refit")
-    chosen = pruned(model, first.search, passes.found)
+    chosen = leakage_refit(model, first.search, pruned(model, first.search, passes.found))
     rejected = [replace(r, stage=f"search pass {k + 1}") for k, s in enumerate(passes.passes)
                 for r in s.rejected]
     before = flow.start_replays(tick)
@@ -211,14 +213,15 @@ def correct(flow: Flow, passes: Passes, tick: Tick) -> Correction:
             break
         rejected.append(Rejection(chosen[-1].cand.label, reason, "joint correction"))
         if flow.refit_on_reject:
-            chosen = pruned(model, first.search, chosen[:-1]) if chosen[1:] else []
+            chosen = leakage_refit(model, first.search, pruned(model, first.search,
+                                                               chosen[:-1])) if chosen[1:] else []
         else:
             chosen = chosen[:-1]
     curves = [replace(c, floor=fl) for c, fl in zip(curves, flow.floors)]
     if before is not None:
         curves = [replace(c, replay_before=b, replay_after=after[i] if chosen else b)
                   for i, (c, b) in enumerate(zip(curves, before))]
-    chosen = misfit_intervals(model, first.search, list(chosen))   # reported intervals only
+    chosen = reported_intervals(model, first.search, list(chosen))   # intervals only
     return Correction(tuple(chosen), current, tuple(curves), tuple(rejected))
 
 

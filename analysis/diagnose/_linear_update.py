@@ -21,7 +21,12 @@ and level FRF in closed form::
     H0' = H0 - delta s (H_m w)(w^T H0_m) / (1 + delta s w^T H_m w)
 
 (``H0_m`` the level FRF through the modes alone), so a one-parameter least-squares fit over
-all levels needs no matrix inversions per trial.
+all levels needs no matrix inversions per trial. Where the level is compared through the
+Welch leakage (``H0`` holds the term ``L``, `._leakage`), ``H0_m`` is the model's own response
+without it: the correction changes the response, ``H0' = (H0 - L) - ... + L``; applied to
+``L`` as well, it moved the leakage with the correction and biased the estimate by the
+leakage's size (`sdof-stiffness-disp-random` noise-free, the fitted model's ``L``, segments of
+1024 samples: +1.2 % with, -0.36 % without; docs/diagnose.md, "Merged, session 33: bias").
 """
 
 from __future__ import annotations
@@ -79,7 +84,8 @@ def _scale(kind: str, freqs: np.ndarray) -> np.ndarray:
 def updated_frf(cand: Candidate, delta: float, freqs: np.ndarray, H_m: np.ndarray,
                 H0_m: np.ndarray, H0: np.ndarray) -> np.ndarray:
     """Level FRF after adding the linear error ``delta`` to the model with FRF ``H0``
-    (``H_m``, ``H0_m``: receptance and level FRF through its modes alone)."""
+    (``H_m``, ``H0_m``: receptance and level FRF through its modes alone, the latter
+    without the level's leakage term, module docstring)."""
     w = cand.w
     a = H_m @ w                                     # (n_f, n_dof)
     b = np.einsum("d,fdi->fi", w, H0_m)             # (n_f, n_in)

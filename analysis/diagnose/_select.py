@@ -166,8 +166,10 @@ class Search:
         modes = modes_model(model)   # what a linear error corrects (`.linear_update`)
         self.H_modes = self.H_lins if modes is None else [modes.linear_frf(lf.freqs)
                                                           for lf in self.levels]
-        self.H0_modes = self.H0s if modes is None else [
-            model_frf(hm, lf, self.terms) for hm, lf in zip(self.H_modes, self.levels)]
+        # The correction acts on the model's response, not on the leakage term it is
+        # compared with (held: `.linear_update.updated_frf`).
+        self.H0_modes = [model_frf(hm, lf, self.terms, leakage=False)
+                         for hm, lf in zip(self.H_modes, self.levels)]
         self.chi2_0 = sum(chi2(lf, h) for lf, h in zip(self.levels, self.H0s))
         self.n_values = sum(lf.n_values for lf in self.levels)
 
