@@ -26,7 +26,8 @@ from test_delay import _twin  # noqa: E402
     (DelayReading(1.0321, 0.97, 1.06), "lag the force by 1 sample (95 % interval 0.97 to 1.06;"),
     (DelayReading(0.498, 0.4935, 0.5026), "lag the force by 0.5 samples (95 % interval 0.49 "
                                           "to 0.50;"),
-    (DelayReading(-1.4449, -1.4460, -1.4437), "lead the force by 1.445 samples")])
+    (DelayReading(-1.4449, -1.4460, -1.4437), "lead the force by 1.445 samples (95 % interval "
+                                              "-1.4460 to -1.4437;")])
 def test_delay_said_to_its_resolution_with_the_importer_entry(reading, said):
     text = _delay_said(reading)
     assert said in text
