@@ -17,7 +17,10 @@ brings the start model *within its floor* at the lowest level, which it missed b
 recorded (decided there), and lowers the misfit of the next level (or of the lowest level's
 held-back segment, for one level) by more than that level's noise (confirmed out of sample).
 A delay-free record whose start model holds at the lowest level is never shifted: there the
-misfit is already within the floor.
+misfit is already within the floor. A fraction of a sample, when no whole shift serves, is
+read line by line (`_line_delay`: the median delay of the lines, which the start model's
+error at the resonances does not move) and decided and confirmed on the lowest level's two
+segments.
 """
 
 from __future__ import annotations
