@@ -90,6 +90,18 @@ def test_half_sample_delay_read_line_by_line():
     assert f"response_delay={d.stated:g}`" in note
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("delay, held", [(0.3, True), (0.7, False)])
+def test_other_fractions_read_line_by_line(delay, held):
+    """The `-delay` row's twin at 0.3 sample (the start model holds the lowest level within
+    its floor with it: read at 99.9 % on both segments) and at 0.7 (no whole shift serves):
+    each read within its 95 % interval (0.2968 +- 0.0034, 0.6967 +- 0.0032)."""
+    flow = _flow("chain-cubic01-disp-random-delay", delay=delay)
+    d = flow.delay
+    assert d is not None and abs(d.samples - delay) <= d.resolution < 0.01
+    assert (d.misfit_before[0] <= d.limit) == held
+
+
 @pytest.mark.parametrize("delay", [0.5, -0.3, 1.7])
 def test_line_by_line_reading_ignores_the_resonances(delay):
     """A pure delay on 400 lines x 3 DOFs with 1 % noise, and a phase error of 0.3 rad on the
