@@ -1082,6 +1082,17 @@ def daq(recs: list[Recording], artifacts: tuple[str, ...], seed: int) -> list[Re
             for i, r in enumerate(recs)]
 
 
+def half_delay(recs: list[Recording], artifacts: tuple[str, ...], seed: int
+               ) -> list[Recording]:
+    """`daq` with the responses half a sample behind the force (``delay`` named: a
+    band-limited phase ramp of 0.5 sample, `DaqArtifacts.delay`, instead of the catalogue's
+    one sample; anti-alias group delays differ by 0.3-0.7 sample as often as by whole ones)."""
+    return [apply_daq_artifacts(r, dataclasses.replace(DaqArtifacts.of(artifacts, r.fs),
+                                                       delay=0.5),
+                                np.random.default_rng(seed + 200 + i))
+            for i, r in enumerate(recs)]
+
+
 def dipped(force_fine: np.ndarray, fs: float, lin: Model, drive: int,
            shaker: Shaker) -> np.ndarray:
     """The coil's ``force_fine`` (at ``fs``) as the force cell reads it on ``lin``'s drive
@@ -1206,6 +1217,8 @@ def _zoo_daq() -> list[ZooCase]:
     return [
         row("sdof-cubic-disp-random-drift", s, RANDOM, D, cubic0, ("drift",)),
         row("chain-cubic01-disp-random-delay", c, RANDOM, D, cubic01, ("delay",), seed=3),
+        _lumped_case("chain-cubic01-disp-random-delay-half", c, RANDOM, D, cubic01, ("delay",),
+                     3, note="the responses 0.5 sample behind the force", add=half_delay),
         row("sdof-cubic-acc-random-clipping", s, RANDOM, A, cubic0, ("clipping",)),
         row("sdof-cubic-disp-random-force-dips", s, RANDOM_DIPS, D, cubic0, ("force-dips",),
             note="the cubic's strength from the linear response to the dipped force"),

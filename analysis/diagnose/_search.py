@@ -7,6 +7,8 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Sequence
 
+import numpy as np
+
 from ..models import Model
 from ..plant import PlantError
 from ..recordings import Recording, recording_clipping
@@ -113,7 +115,8 @@ class RandomFlow(Flow):
         preps = [prepare_random(r, band, level_name(r), period=int(p) if p else None,
                                 clipped=c) for r, p, c in zip(recs, per, clips)]
         self.warnings += [clipped_note(c, q) for c, q in zip(clips, preps) if c is not None]
-        preps, self.delay = aligned(preps, lambda p: _misfit(model, p, band, nps, floor))
+        preps, self.delay = aligned(preps, lambda p: _misfit(model, p, band, nps, floor),
+                                    lambda p: _ratio(model, p, band, nps, floor))
         if self.delay is not None:
             self.warnings.append(self.delay.note())
         hold = pick_holdout([p.level for p in preps], holdout)
@@ -225,6 +228,13 @@ def _misfit(model: Model, p: Prepared, band, nps: int, floor: float) -> tuple[fl
     """``model``'s misfit at one prepared level and the level's floor."""
     lf, h = _predicted(model, p, band, nps, floor)
     return weighted_error(lf, h), level_floor(lf, floor)
+
+
+def _ratio(model: Model, p: Prepared, band, nps: int, floor: float
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+    """One level's measured FRF over ``model``'s, its lines and their correlation."""
+    lf, h = _predicted(model, p, band, nps, floor)
+    return lf.freqs, lf.H / h, lf.bin_factor
 
 
 def _curves(start: Model, fixed: Model, p: Prepared, band, nps: int, floor: float,

@@ -3,7 +3,9 @@ in-band FRF error, as a typed record with the command's JSON.
 
 ``LinearFitSummary.from_json(s.to_json()) == s``; the JSON is the command's (``nlid-lab
 fit-linear --json``) with ``schema_version`` first, then ``interference`` (only when lines
-were left out), ``delay_samples`` (only when a delay was taken out), ``warnings`` (only
+were left out), ``delay_samples`` with ``delay_interval_samples`` (its 95 % interval) and
+``delay_stated_samples`` (to the interval's resolution; only when a delay was taken out),
+``warnings`` (only
 when there are some) and ``mains_unchecked_hz`` (only with the mains caveat,
 `analysis.spectral.MainsCaveat`) last.
 
@@ -19,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..spectral import Interference, MainsCaveat
+from ._delay import DelayReading
 
 if TYPE_CHECKING:
     from ._linear_fit import LinearFit
@@ -129,9 +132,9 @@ class LinearFitSummary:
         Nominal level of the fitted recording (None: none in the file).
     interference : tuple of Interference
         Steady force lines left out of the excited set (`analysis.spectral.excited_lines`).
-    delay_samples : float
-        Delay of the responses behind the force taken out of the FRF before the fit
-        (`analysis.modal._delay`), samples; 0 when none was found.
+    delay : DelayReading
+        Delay of the responses behind the force taken out of the FRF before the fit, with its
+        interval (`analysis.modal._delay`), samples; empty when none was found.
     warnings : tuple of str
         What the fit could not serve (a dead channel).
     caveat : MainsCaveat or None
@@ -148,9 +151,14 @@ class LinearFitSummary:
     frf_error: tuple[float, ...]
     level: float | None = None
     interference: tuple[Interference, ...] = ()
-    delay_samples: float = 0.0
+    delay: DelayReading = DelayReading()
     warnings: tuple[str, ...] = ()
     caveat: MainsCaveat | None = None
+
+    @property
+    def delay_samples(self) -> float:
+        """The delay taken out, samples (0: none)."""
+        return self.delay.samples
 
     @classmethod
     def of(cls, fit: LinearFit, level: float | None) -> LinearFitSummary:
@@ -169,7 +177,7 @@ class LinearFitSummary:
                    tuple(model.points), model.points[fit.data.driving_point], modes,
                    tuple(float(f) for f in pseudo), tuple(float(e) for e in fit.frf_error),
                    None if level is None else float(level), fit.data.interference,
-                   float(fit.delay_samples), tuple(fit.warnings), fit.data.caveat)
+                   fit.delay, tuple(fit.warnings), fit.data.caveat)
 
     def to_json(self) -> dict[str, Any]:
         """The command's JSON (module docstring)."""
@@ -187,6 +195,8 @@ class LinearFitSummary:
                                    for i in self.interference]
         if self.delay_samples:
             out["delay_samples"] = self.delay_samples
+            out["delay_interval_samples"] = [self.delay.low, self.delay.high]
+            out["delay_stated_samples"] = self.delay.stated
         if self.warnings:
             out["warnings"] = list(self.warnings)
         if self.caveat is not None:
@@ -210,6 +220,8 @@ class LinearFitSummary:
                    tuple(Interference(i["freq_hz"], i["level_db"], i.get("on_drive_line", False),
                                       i.get("drift", False), i.get("unlocked_hz"))
                          for i in data.get("interference", ())),
-                   float(data.get("delay_samples", 0.0)), tuple(data.get("warnings", ())),
+                   DelayReading(float(data.get("delay_samples", 0.0)),
+                                *data.get("delay_interval_samples", (0.0, 0.0))),
+                   tuple(data.get("warnings", ())),
                    MainsCaveat(tuple(data["mains_unchecked_hz"]))
                    if "mains_unchecked_hz" in data else None)

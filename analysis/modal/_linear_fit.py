@@ -26,7 +26,7 @@ import numpy as np
 
 from ..spectral import (Interference, MainsCaveat, best_linear_approximation, convert_frf,
                         default_nperseg, h1, hold_gain, spectral_matrix)
-from ._delay import response_delay
+from ._delay import DelayReading, response_delay
 from ._ema import ModalFit, Stabilisation, fit_modes, modal_model
 from ..errors import InputError
 from ._modal import welch_smoothing
@@ -91,8 +91,13 @@ class LinearFit:
     stabilisation: Stabilisation
     data: MeasuredReceptance
     frf_error: np.ndarray          # (n_out,) in band, model against the data
-    delay_samples: float = 0.0     # responses behind the force, corrected in ``data``
+    delay: DelayReading = DelayReading()    # responses behind the force, corrected in ``data``
     warnings: tuple[str, ...] = ()
+
+    @property
+    def delay_samples(self) -> float:
+        """The delay taken out of ``data``, samples (0: none)."""
+        return self.delay.samples
 
 
 def measured_receptance(rec: Recording | StepTable, nperseg: int | None = None,
@@ -237,24 +242,24 @@ def _dead_channels(rec: Recording | StepTable, points: list[str] | None) -> tupl
 
 def _delay_corrected(rec: Recording | StepTable, data: MeasuredReceptance,
                      band: tuple[float, float], n_modes: int | None
-                     ) -> tuple[MeasuredReceptance, float, Stabilisation | None]:
+                     ) -> tuple[MeasuredReceptance, DelayReading, Stabilisation | None]:
     """``data`` with the responses' delay behind the force (`._delay.response_delay`, read
     off a first fit's poles) taken out, the delay, and that fit's stabilisation diagram when
     nothing was changed (None: the corrected data need their own)."""
     if isinstance(rec, StepTable):
-        return data, 0.0, None
+        return data, DelayReading(), None
     modes, stab = fit_modes(data.freqs, data.H, band, n_modes=n_modes,
                             driving_point=data.driving_point, smoothing=data.smoothing,
                             std=data.std)
     inb = (data.freqs >= band[0]) & (data.freqs <= band[1]) & (data.freqs > 0)
     if modes.poles.size == 0 or not inb.any():
-        return data, 0.0, stab
-    tau = response_delay(data.freqs[inb], data.H[inb],
-                         None if data.std is None else data.std[inb], modes.poles, rec.fs)
-    if tau == 0.0:
-        return data, 0.0, stab
-    turn = np.exp(2j * np.pi * data.freqs * tau / rec.fs)[:, None]
-    return dataclasses.replace(data, H=data.H * turn), tau, None
+        return data, DelayReading(), stab
+    delay = response_delay(data.freqs[inb], data.H[inb],
+                           None if data.std is None else data.std[inb], modes.poles, rec.fs)
+    if delay.samples == 0.0:
+        return data, delay, stab
+    turn = np.exp(2j * np.pi * data.freqs * delay.samples / rec.fs)[:, None]
+    return dataclasses.replace(data, H=data.H * turn), delay, None
 
 
 def model_error(model: Model, data: MeasuredReceptance, band: tuple[float, float],

@@ -15,7 +15,7 @@ from ..outputs import (add_force_option, add_quiet_option, atomic_path, refuse_o
 from .repair import check_runs, repair_option
 
 if TYPE_CHECKING:
-    from analysis.modal import LinearFitSummary
+    from analysis.modal import DelayReading, LinearFitSummary
 
 
 def format_summary(s: LinearFitSummary, kind: str) -> str:
@@ -68,12 +68,7 @@ def run(args: argparse.Namespace) -> int:
     result = LinearFitSummary.of(fit, rec.level)
     said = "".join(f"; {', '.join(i.text() for i in result.interference)}, left out"
                    for _ in result.interference[:1])
-    if result.delay_samples:
-        said += (f"; the responses lag the force by {result.delay_samples:.2f} samples (the "
-                 "channels' anti-alias filters differ?): taken out of the FRF before the fit")
-        if round(result.delay_samples) >= 1:    # whole samples: the importer's shift
-            said += ("; diagnose and analyze read the run as recorded: import it again with "
-                     f"response_delay={round(result.delay_samples):d} in the --map first")
+    said += _delay_said(result.delay)
     text = (f"fitted on {level_name(rec)}{said}\n"
             + format_summary(result, rec.response_kind)
             + f"\nwrote {args.out}" + (f" and {args.plot}" if args.plot else ""))
@@ -83,6 +78,24 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {warning}", file=sys.stderr)
     write_json(with_checks(result.to_json(), checks), args.json)
     return 0
+
+
+def _delay_said(delay: DelayReading) -> str:
+    """The summary line's words on the responses' delay taken out (none: ""): stated to the
+    resolution its 95 % interval gives, with the interval, and the importer's
+    ``response_delay=`` that stores the run aligned when the interval excludes 0."""
+    if not delay.samples:
+        return ""
+    n = delay.stated
+    way = "lag" if n > 0 else "lead"
+    digits = max(2, len(f"{n:g}".partition(".")[2]) + 1)     # one more than the statement's
+    said = (f"; the responses {way} the force by {abs(n):g} sample{'s' * (abs(n) != 1)} "
+            f"(95 % interval {delay.low:.{digits}f} to {delay.high:.{digits}f}; the channels' "
+            "anti-alias filters differ?): taken out of the FRF before the fit")
+    if delay.low > 0 or delay.high < 0:
+        said += ("; diagnose and analyze read the run as recorded: import it again with "
+                 f"response_delay={n:g} in the --map first")
+    return said
 
 
 def _modes(text: str) -> int:

@@ -47,7 +47,7 @@ def test_fit_linear_says_how_to_align_the_run(tmp_path):
     code, out, err = _cli(["fit-linear", run, "--out", str(tmp_path / "l.toml")])
     assert code == 0, err
     first = out.splitlines()[0]
-    assert "lag the force by 1.00 samples" in first
+    assert "lag the force by 1 sample (95 % interval" in first
     assert first.endswith("import it again with response_delay=1 in the --map first")
     band = out.splitlines()[1].split(" mode(s) in ")[1].split(" Hz")[0]
     assert all(len(x.replace(".", "")) <= 4 for x in band.split("-")), band
