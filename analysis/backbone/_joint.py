@@ -31,7 +31,7 @@ from typing import Sequence
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 
-from ..models import KINDS, Element, restoring_force
+from ..models import KINDS, Element, memory_force_series, restoring_force
 from ._backbone import BackbonePoint
 from ._free import free_bounds, free_interval, from_free, to_free
 
@@ -94,8 +94,13 @@ def describing(kind: str, params: dict[str, float], amplitudes: np.ndarray,
     theta = 2 * np.pi * np.arange(N_TIME) / N_TIME
     u = (a[:, None] * np.cos(theta)[None, :])
     v = -(omega * a[:, None] * np.sin(theta)[None, :])
-    reps = PERIODS if KINDS[kind].memory else 1
-    g = restoring_force(kind, params, np.tile(u, reps).ravel(), np.tile(v, reps).ravel())[0]
+    memory = KINDS[kind].memory
+    reps = PERIODS if memory else 1
+    u, v = np.tile(u, reps).ravel(), np.tile(v, reps).ravel()
+    # a memory law from the virgin state, its state in registers: bitwise the forces of
+    # `restoring_force`, 2-14x faster (the fits call this ~10^5 times per diagnosis)
+    g = memory_force_series(kind, params, u, v) if memory else \
+        restoring_force(kind, params, u, v)[0]
     g1 = np.fft.rfft(g.reshape(a.size, reps * N_TIME)[:, -N_TIME:], axis=-1)[:, 1]
     return g1 * (2 / N_TIME) / a
 
