@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import multiprocessing
+import subprocess
+import sys
 import threading
 import time
 import tomllib
@@ -159,31 +160,29 @@ def normal_run(backend: str, out: Path, pace: float | None = None) -> tuple[str,
     return status, len(benches[0].shaker_emulator.trips)
 
 
-def _spin(stop) -> None:
-    """Burn one core until ``stop`` is set (a child process of `cpu_load`)."""
-    x = 0
-    while not stop.is_set():
-        for _ in range(100000):
-            x += 1
+#: run by ``python -I -S -c``: nothing to import, so it spins within milliseconds of its start
+_SPIN = "import os\nos.write(1, b'up')\nwhile True:\n    pass\n"
 
 
 @contextlib.contextmanager
 def cpu_load(processes: int):
     """``processes`` child processes spinning on the CPU while the block runs (synthetic load
-    on top of whatever else the machine does)."""
-    ctx = multiprocessing.get_context("spawn")
-    stop = ctx.Event()
-    procs = [ctx.Process(target=_spin, args=(stop,), daemon=True) for _ in range(processes)]
-    for p in procs:
-        p.start()
+    on top of whatever else the machine does), each spinning before the block starts. Bare
+    interpreters: a child importing this module (multiprocessing's spawn) spent seconds of a
+    loaded machine importing, so the first campaigns ran before the load, and the block's end
+    waited for the imports to finish."""
+    procs = [subprocess.Popen([sys.executable, "-I", "-S", "-c", _SPIN], stdout=subprocess.PIPE)
+             for _ in range(processes)]
     try:
+        for p in procs:
+            if p.stdout.read(2) != b"up":
+                raise RuntimeError("a CPU load process did not start")
         yield
     finally:
-        stop.set()
         for p in procs:
-            p.join(5)
-            if p.is_alive():
-                p.terminate()
+            p.kill()
+            p.wait()
+            p.stdout.close()
 
 
 def false_trips(backend: str, runs: int, folder: Path, load: int) -> list[str]:

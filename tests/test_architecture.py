@@ -13,6 +13,7 @@ nor an underscore name (docs/architecture.md).
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -45,7 +46,8 @@ def _runtime_nodes(tree: ast.AST):
         stack.extend(ast.iter_child_nodes(node))
 
 
-def _imports(name: str, path: Path) -> set[str]:
+@functools.cache     # the graph is read by seven tests: each file parsed once per process
+def _imports(name: str, path: Path) -> frozenset[str]:
     """Fully qualified names imported by one module (module or module.attribute)."""
     base = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
     found = set()
@@ -58,7 +60,7 @@ def _imports(name: str, path: Path) -> set[str]:
             if node.module:                 # ``from . import x`` imports x, not the package
                 found.add(mod)
             found.update(f"{mod}.{a.name}" for a in node.names)
-    return found
+    return frozenset(found)
 
 
 def _graph() -> dict[str, set[str]]:
