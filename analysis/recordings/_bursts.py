@@ -64,11 +64,13 @@ def find_bursts(force: np.ndarray) -> Bursts | None:
     """
     f = np.abs(np.asarray(force, dtype=float).reshape(len(force), -1)).max(axis=1)
     peak = f.max() if f.size else 0.0
-    if peak <= 0:
-        return None
+    if not np.isfinite(peak) or peak <= 0:
+        return None                        # the recording's own checks name bad samples
     loud = np.r_[False, f > QUIET_FRACTION * peak, False]
     edges = np.flatnonzero(np.diff(loud.astype(np.int8)))
     starts, stops = edges[::2], edges[1::2]
+    if starts.size < 2:
+        return None
     keep = np.r_[True, starts[1:] - stops[:-1] >= MIN_GAP]      # short gaps: one burst
     starts, stops = starts[keep], np.r_[stops[np.flatnonzero(keep)[1:] - 1], stops[-1]]
     lengths = stops - starts
