@@ -6,6 +6,9 @@ chi-square with ``N`` effective degrees of freedom when the structure is linear 
 estimated from ``nu`` degrees of freedom, as a periodic record's period spread, are
 corrected for the mean of their inverse). A p-value
 below `ALPHA` for the lowest-versus-highest level pair means the structure is nonlinear.
+``var`` holds the model-precision floor, so the test is conservative (0.03-0.72 per DOF on
+the diagnosis zoo's linear rows) and sums every line of the band: a change confined to a
+resonance's lines can pass it (`policy.linear_only` therefore also reads the floors).
 The per-DOF share of ``q`` tells which FRFs move with level (paper chapter 2).
 """
 

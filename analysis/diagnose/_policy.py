@@ -376,11 +376,25 @@ def residual_dependent(search: Search) -> bool:
     return dep is not None and dep.dependent
 
 
-def linear_only(search: Search) -> bool:
-    """True when the fitting levels' FRFs are the same within their random error: then no
-    nonlinear candidate is supported by the data (homogeneity, paper chapter 2)."""
+def linear_only(search: Search, floors: Sequence[Floor]) -> bool:
+    """True when no nonlinear candidate is supported by the data: the fitting levels' FRFs
+    are the same within their random error (homogeneity, paper chapter 2) and the floors
+    (``floors``, in the search's order) do not already show a misfit that grows with level
+    (`misfit_grows`). The gate may order the search, never forbid the candidates that could
+    explain a misfit the floors show: the band-wide homogeneity test dilutes a change
+    confined to a resonance's lines among hundreds of unchanged ones."""
+    if misfit_grows(search, floors):
+        return False
     dep = level_dependence(search.levels)
     return dep is not None and not dep.dependent
+
+
+def misfit_grows(search: Search, floors: Sequence[Floor]) -> bool:
+    """True when the highest fitting level misfits the current model beyond its floor while
+    the lowest lies within its own (``floors`` in the search's order)."""
+    beyond = beyond_floor(search, floors)
+    order = np.argsort([lf.level for lf in search.levels])
+    return len(order) > 1 and beyond[order[-1]] and not beyond[order[0]]
 
 
 def model_change(curves: list[LevelCurves]) -> float:

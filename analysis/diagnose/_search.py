@@ -147,7 +147,7 @@ class RandomFlow(Flow):
         search = RandomSearch(current, [self.preps[i] for i in self.fit_idx], self.band,
                               self.nps, self.floor)
         fits = [f for f in screening(search) if not (memoryless and f.cand.memory)]
-        if linear_only(search):
+        if linear_only(search, [self.floors[i] for i in self.fit_idx]):
             fits = [f for f in fits if f.cand.linear]
         nonlinear = [f for f in fits if not f.cand.linear and f.delta_bic > 0]
         short = nonlinear[:SHORTLIST]

@@ -33,7 +33,7 @@ from ._prepare import level_name
 from ._engine import Flow
 from ._policy import BIC_MIN, MIN_REDUCTION, SearchPass, linear_only, pick_holdout
 from ._replay import periodic_replay
-from ._leakage import level_floor
+from ._leakage import Floor, level_floor
 from ._where import screening
 from ._report import LevelCurves
 from ._evidence import Evidence
@@ -436,9 +436,11 @@ def _error(frf: SteppedSineFRF, h: np.ndarray) -> float:
     return float(np.sqrt(np.sum(np.abs(frf.frf - h) ** 2) / np.sum(np.abs(frf.frf) ** 2)))
 
 
-def _pool(model: Model, search: SteppedSearch, warnings: list[str]) -> list[Fit]:
-    """Ranked fits of the whole library; a leading memory kind is refitted by HBM."""
-    if linear_only(search):
+def _pool(model: Model, search: SteppedSearch, floors: list[Floor], warnings: list[str]
+          ) -> list[Fit]:
+    """Ranked fits of the whole library (nonlinear ones unless `policy.linear_only` with the
+    fitting levels' ``floors``); a leading memory kind is refitted by HBM."""
+    if linear_only(search, floors):
         return [f for f in screening(search) if f.cand.linear]
     pool = screening(search)
     best = pool[0]
@@ -516,7 +518,8 @@ class SteppedFlow(Flow):
     def pool(self, current: Model, memoryless: bool) -> tuple[SteppedSearch, list[Fit]]:
         search = SteppedSearch(current, [self.frfs[i] for i in self.fit_idx],
                                [self.recs[i] for i in self.fit_idx], self.floor)
-        return search, _pool(current, search, self.warnings)
+        return search, _pool(current, search, [self.floors[i] for i in self.fit_idx],
+                             self.warnings)
 
     def held_levels(self) -> list[LevelFRF]:
         return [_level(self.model, self.recs[i], self.frfs[i], {}, self.floor, "held")

@@ -23,12 +23,6 @@ WRONG_TODAY: dict[str, str] = {
                                       "p = 3.3e-4, not 1e-4: these recordings cannot show "
                                       "the cubic (the row's judging, docs/diagnose.md)",
     # session 33's rows (docs/diagnose.md, "Zoo, session 33: new scenarios"), measured per row
-    "sdof-cubic_above-disp-random-z7": "'unexplained': level 12 misfits 0.0586 against its "
-                                       "floor 0.0437, but the level-dependence test says "
-                                       "p = 1.0 (0.61 per DOF; the misfit sits at 22-23 "
-                                       "Hz, the resonance), so no nonlinear candidate is "
-                                       "screened; the best linear one (stiffness_error) gains "
-                                       "6.2 +- 17.5 out of sample",
     "chain4-cubic3-disp-random-few-z7": "a cubic at unmeasured DOF 3 named as gap@1 (tied with "
                                         "cubic@1, gains 5.07e4 / 4.71e4) that makes the "
                                         "held-back level worse (0.499 -> 0.537); the "
