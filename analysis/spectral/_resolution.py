@@ -5,6 +5,8 @@ damped mode has a half-power bandwidth ``2 zeta f_n`` (0.7 Hz for 0.5 % at 71 Hz
 lines may not resolve; the leakage of the window then biases H1 and everything estimated from
 it. `resolving_nperseg` reads the narrowest bandwidth off a first H1 and doubles the segment
 until it spans `LINES_PER_BANDWIDTH` lines, as long as `MIN_SEGMENTS` segments remain.
+`pole_resolution` reads the exact bandwidths of a model's linear part instead (a nonlinear
+structure's measured FRF shows its modes shifted and widened).
 """
 
 from __future__ import annotations
@@ -182,7 +184,7 @@ def resolving_nperseg(force: np.ndarray, response: np.ndarray, fs: float,
         H = h1(S_xr, S_rr) / np.maximum(2 * np.pi * spec.freqs, 1e-300)[:, None, None] \
             ** KIND_ORDER[kind]
         coh = multiple_coherence(spec.auto()[:, n_in:], S_xr, S_rr)
-        res = frf_resolution(spec.freqs, H, coh, spec.n_avg, nps, fs, last)
+        res = _frf_resolution(spec.freqs, H, coh, spec.n_avg, nps, fs, last)
         if np.isnan(res.bandwidth_hz) or res.lines >= LINES_PER_BANDWIDTH + WINDOW_WIDENING \
                 or 2 * nps > longest_nperseg(n):
             return res
@@ -190,7 +192,7 @@ def resolving_nperseg(force: np.ndarray, response: np.ndarray, fs: float,
         nps *= 2
 
 
-def frf_resolution(freqs: np.ndarray, H: np.ndarray, coherence: np.ndarray, n_avg: float,
+def _frf_resolution(freqs: np.ndarray, H: np.ndarray, coherence: np.ndarray, n_avg: float,
                    nperseg: int, fs: float,
                    last: tuple[float, float] = (np.nan, np.nan)) -> Resolution:
     """The narrowest resonance of an FRF estimate and the segment length that resolves it.
