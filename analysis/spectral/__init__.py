@@ -10,7 +10,8 @@ from ._spectral import (Spectra, conditioned_inputs, h1, multiple_coherence, ord
                         spectral_matrix)
 from ._frf import (FRF_UNITS, HELD_UNITS, LevelFRF, convert_frf, default_nperseg, frf_from_bla,
                    frf_from_spectra, level_frf, level_label, level_name)
-from ._resolution import (LINES_PER_BANDWIDTH, Resolution, longest_nperseg, narrowest_peak,
+from ._resolution import (LINES_PER_BANDWIDTH, Resolution,
+                          longest_nperseg, narrowest_peak, pole_resolution,
                           resolving_nperseg)
 from ._bla import BLA, DETECT_QUANTILE, best_linear_approximation
 from ._lines import ExcitedLines, Interference, MainsCaveat, excited_lines
@@ -27,7 +28,7 @@ __all__ = ["best_linear_approximation", "BLA", "conditioned_inputs", "convert_fr
            "independent_windows", "Interference", "level_frf", "level_label", "level_name",
            "MainsCaveat", "SETTLE_TOL",
            "LevelFRF", "linear_modes", "LINES_PER_BANDWIDTH", "longest_nperseg", "max_sweep_rate",
-           "multiple_coherence", "narrowest_peak", "NOISE_ORDERS", "ordinary_coherence",
+           "multiple_coherence", "narrowest_peak", "NOISE_ORDERS", "pole_resolution", "ordinary_coherence",
            "quasi_steady", "recording_sweep_frf", "recording_table", "Resolution",
            "resolving_nperseg", "sine_fit", "Spectra", "spectral_matrix", "steady_start",
            "stepped_sine_frf",
