@@ -213,8 +213,52 @@ def decide(model: Model, search: Search, pool: list[Fit], change: Callable[[Mode
         return SearchPass(search, [fits[0]] + [g for g in ranked if g is not f],
                           _reduction(search, fits[0]), True, fixed, change(fixed), rejected,
                           fits[1:], kinds)
+    pair = None if earlier or refused else held_pair(model, search, scored, ref)
+    if pair is not None:
+        rejected = [r for r in rejected if r.candidate != pair[0].cand.label]
+        pair[0].evidence.pop("rejected", None)
+        fixed = apply_fits(model, pair)
+        return SearchPass(search, [pair[0]] + [g for g in ranked if g is not scored[0][0]],
+                          _reduction(search, scored[0][0]), True, fixed, change(fixed),
+                          rejected, pair[1:])
     first = _reduction(search, ranked[0]) if ranked else 0.0
     return SearchPass(search, ranked, first, False, model, 0.0, rejected)
+
+
+def held_pair(model: Model, search: Search, scored: Sequence[tuple[Fit, Score]], ref: float
+              ) -> list[Fit] | None:
+    """The first effect accepted together with a second one, when the best first effect
+    (``scored[0]``, scored against ``ref``) loses only on the worst-level check: the library
+    is judged again with it held in (as in a further pass, `judge`: the second credited
+    only with what it adds), and the best winner is accepted with it only if the pair,
+    refitted jointly, passes every check of a single effect against the start model
+    (`.outofsample.Score.wins` on ``search.H0s`` at ``ref``) and the held effect's own
+    parameter stays distinguishable from zero in that fit. Returns the pair refitted
+    jointly (`._joint.joint_refit`; the second with its stiffness correction when scored
+    with one) or None. A held effect must be a linear error: the search's model does not
+    hold an element added for a nonlinear one (`.select.Search.predictor`)."""
+    lead, s0 = scored[0]
+    if not (s0.distinct and s0.gain > OOS_Z * s0.deviation and s0.gain > s0.left
+            and s0.harmed is not None and lead.cand.linear):
+        return None
+    others = [f for f, _ in scored if (f.cand.kind, f.cand.dofs) != (lead.cand.kind,
+                                                                       lead.cand.dofs)]
+    kept = [(f, dict(f.evidence)) for f in others]   # the first pass's numbers stay
+    second = next(((f, s) for f, s in judge(search, others, [lead], 1.0) if s.wins), None)
+    for f, ev in kept:
+        f.evidence.clear()
+        f.evidence.update(ev)
+    if second is None:
+        return None
+    f, s = second
+    both = score(search.levels, search.H0s, search.predictor(f, s.joint is not None, [lead]),
+                 ref)
+    held = both.interval[-1]
+    if not (both.wins and (held[0] > 0 or held[1] < 0)):
+        return None
+    f.evidence.update(s.evidence(), pair_with=lead.cand.label, pair_gain=both.gain,
+                      pair_sd=both.deviation)
+    return joint_refit(model, search, [lead] + with_linear_part(search, f, s))
 
 
 def judge(search: Search, candidates: Sequence[Fit], earlier: Sequence[Fit], ref: float

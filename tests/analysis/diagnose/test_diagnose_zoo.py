@@ -33,13 +33,6 @@ WRONG_TODAY: dict[str, str] = {
                                              "cubic's p is -8.3 % (95 % -11.8 .. -4.7 %) and "
                                              "the slider's fd +5.3 % (+3.1 .. +7.4 %): each "
                                              "biased by the other, intervals not covering",
-    "chain-mass1+cubic01-disp-random-z7": "'unexplained': the mass error is the best first "
-                                          "effect (delta_mass 0.13, gain 3.16e5 +- 1.2e3) but "
-                                          "rejected as, fitted on the other levels, it "
-                                          "predicts level 12 worse (+2.2e4 +- 5.1e3: there "
-                                          "the cubic's stiffening offsets the added mass); the "
-                                          "worst-level gate assumes one effect explains every "
-                                          "level",
     "sdof-gap-disp-stepped-z7": "'unexplained': the gap (closing at 2.2 rms of the top "
                                 "level's steps, inside the 0.25-3 rms grid) is screened at "
                                 "k = 1.4e3 N/m, g = 0.56 mm (truth 2e4, 6.9 mm) and predicts "
