@@ -178,10 +178,11 @@ class Search:
         """Make ``(c, extra)`` available in every level's transfers (a grid value refined
         in another search pass); stepped-sine searches hold every grid value already."""
 
-    def refine_grid(self, fit: Fit) -> Fit:
+    def refine_grid(self, fit: Fit, within: bool = False) -> Fit:
         """The grid value (gap width, slip displacement) of a shortlisted candidate refined
         continuously: bounded 1-D minimisation of the misfit over a factor of 2 either side
-        of the best grid point (the coefficient re-solved in closed form at each value)."""
+        of the best grid point (the coefficient re-solved in closed form at each value), not
+        beyond the grid's own span when ``within``."""
         c, e0 = fit.cand, fit.extra
         grid = KINDS[c.kind].search.grid
         if grid is None or len(grid.fractions) < 2 or not e0:
@@ -192,8 +193,12 @@ class Search:
                 self.ensure_basis(c, e)
                 return self._fit_coefficient(c, e)[2]
             z0 = float(np.log(e0))
-            sol = minimize_scalar(cost, bounds=(z0 - np.log(2), z0 + np.log(2)),
-                                  method="bounded", options={"xatol": 0.01})
+            lo, hi = z0 - np.log(2), z0 + np.log(2)
+            if within:
+                span = np.log([e for e in self.extra[c] if e])
+                lo, hi = max(lo, float(span.min())), min(hi, float(span.max()))
+            sol = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
+                                  options={"xatol": 0.01})
             self._refined[c] = float(np.exp(sol.x)) if sol.fun < fit.chi2 else e0
         e = self._refined[c]
         if e == e0:
