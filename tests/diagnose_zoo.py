@@ -1486,8 +1486,8 @@ def _zoo_more() -> list[ZooCase]:
         _more_case("chain-mass1+cubic01-disp-random-z7", c, RANDOM, d,
                    (("mass_error", ("1",), 0.15), ("cubic_spring", p01)), seed=3),
         _more_case("sdof-gap-disp-stepped-z7", s, SDOF_STEPS, d, (("gap", g0),), one_level=True,
-                   note="only level 12 closes the gap (a fitting level): fitted at k +0.45 %, "
-                        "g +0.07 %, its out-of-sample gain 0 +- 0 (levels 1 and 4 never "
+                   note="only level 12 closes the gap (a fitting level): fitted at k -0.12 %, "
+                        "g -0.08 %, its out-of-sample gain 0 +- 0 (levels 1 and 4 never "
                         "reach it)"),
         _more_case("sdof-quaddamp-disp-stepped-z7", s, SDOF_STEPS, d,
                    (("quadratic_damping", g0),)),
