@@ -101,6 +101,10 @@ class Truth:
     below_floor: bool = False
     """The effect is set near what the floors can see: `adequate` is as honest an answer as
     the effect (judged as found when named; location ``-`` when not)."""
+    one_level: bool = False
+    """The effect acts at the top level only (a gap that only its steps close): no other level
+    can confirm it out of sample, so `unexplained` is as honest as the effect when the
+    result's numbers show that limit (`one_level_limit`)."""
 
     @property
     def family(self) -> str:
@@ -833,6 +837,9 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
     if truth.below_floor and res["verdict"] == "adequate":
         out.family_right, out.kind = True, "right"          # honest: below what data show
         return out
+    if truth.one_level and res["verdict"] == "unexplained" and one_level_limit(res, truth):
+        out.family_right, out.kind, out.location = True, "right", "right"   # honest: the limit
+        return out
     alts = [frozenset(a.get("points") or [case.channels[i] for i in a.get("dofs", [])])
             for a in (res.get("location") or {}).get("alternatives", [])]
     kinds, where, errs = [], [], {}
@@ -872,6 +879,20 @@ def score(case: ZooCase, res: dict[str, Any]) -> Outcome:
     if errs:
         out.params_ok = all(abs(v) <= PARAM_TOL for v in errs.values())
     return out
+
+
+def one_level_limit(res: dict[str, Any], truth: Truth) -> bool:
+    """Whether an `unexplained` result shows the limit of a one-level effect: only the top
+    fitting level lies beyond its floor, and the best candidate in sample (the screen's) is
+    the true kind at the true point, the place the misfit is read."""
+    misfit = (res.get("evidence") or {}).get("misfit")
+    if not misfit or len(truth.effects) != 1:
+        return False
+    e, trend = truth.effects[0], misfit["level_trend"]
+    beyond = [lv["error"] > lv["floor"] for lv in sorted(trend, key=lambda lv: lv["level"])]
+    return (beyond[-1] and not any(beyond[:-1])
+            and misfit["tried"]["best"].startswith(f"{e.kind} ")
+            and frozenset(misfit["points"]) == frozenset(e.points))
 
 
 MAX_TIED_KINDS = 2
@@ -1381,7 +1402,7 @@ def _more_case(name: str, base: Callable[[], Model], exc: Excitation, kind: str,
                artifacts: tuple[str, ...] = (), add: Callable = dirty,
                runs: Callable = lumped_runs, channels: tuple[str, ...] | None = None,
                seen_at: tuple[str, ...] = (), below_floor: bool = False,
-               note: str = "") -> ZooCase:
+               one_level: bool = False, note: str = "") -> ZooCase:
     """A lumped row of this block: ``specs`` as `_more_effects` reads them, every point
     measured (``channels`` None) or a few (a sensor map, 5 x 8192 random samples)."""
     model = base()
@@ -1392,7 +1413,8 @@ def _more_case(name: str, base: Callable[[], Model], exc: Excitation, kind: str,
     linear = [e for e in effects if e.kind.endswith("_error")]
     start = (EXACT if not linear else "the true structure less its " +
              " and ".join(e.kind.replace("_", " ") for e in linear))
-    truth = Truth(effects, HELD_BACK, start, note=note, below_floor=below_floor)
+    truth = Truth(effects, HELD_BACK, start, note=note, below_floor=below_floor,
+                  one_level=one_level)
     structure = ("SDOF" if model.n_dof == 1 else f"{model.n_dof}-DOF chain") + label
     measured = channels or tuple(model.points)
     few = "all" if channels is None else f"{len(channels)} of {model.n_dof}"
@@ -1463,7 +1485,10 @@ def _zoo_more() -> list[ZooCase]:
                    note="two families at once: " + SLIDER),
         _more_case("chain-mass1+cubic01-disp-random-z7", c, RANDOM, d,
                    (("mass_error", ("1",), 0.15), ("cubic_spring", p01)), seed=3),
-        _more_case("sdof-gap-disp-stepped-z7", s, SDOF_STEPS, d, (("gap", g0),)),
+        _more_case("sdof-gap-disp-stepped-z7", s, SDOF_STEPS, d, (("gap", g0),), one_level=True,
+                   note="only level 12 closes the gap (a fitting level): fitted at k -0.12 %, "
+                        "g -0.08 %, its out-of-sample gain 0 +- 0 (levels 1 and 4 never "
+                        "reach it)"),
         _more_case("sdof-quaddamp-disp-stepped-z7", s, SDOF_STEPS, d,
                    (("quadratic_damping", g0),)),
         _more_case("sdof-cubic-disp-random-short-z7", s, RANDOM, d, (("cubic_spring", g0),),

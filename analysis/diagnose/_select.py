@@ -172,10 +172,42 @@ class Search:
                          for hm, lf in zip(self.H_modes, self.levels)]
         self.chi2_0 = sum(chi2(lf, h) for lf, h in zip(self.levels, self.H0s))
         self.n_values = sum(lf.n_values for lf in self.levels)
+        self._refined: dict[Candidate, float] = {}   # `refine_grid`'s values, by candidate
 
     def ensure_basis(self, c: Candidate, extra: float | None) -> None:
         """Make ``(c, extra)`` available in every level's transfers (a grid value refined
         in another search pass); stepped-sine searches hold every grid value already."""
+
+    def refine_grid(self, fit: Fit, within: bool = False) -> Fit:
+        """The grid value (gap width, slip displacement) of a shortlisted candidate refined
+        continuously: bounded 1-D minimisation of the misfit over a factor of 2 either side
+        of the best grid point (the coefficient re-solved in closed form at each value), not
+        beyond the grid's own span when ``within``."""
+        c, e0 = fit.cand, fit.extra
+        grid = KINDS[c.kind].search.grid
+        if grid is None or len(grid.fractions) < 2 or not e0:
+            return fit
+        if c not in self._refined:
+            def cost(z: float) -> float:
+                e = float(np.exp(z))
+                self.ensure_basis(c, e)
+                return self._fit_coefficient(c, e)[2]
+            z0 = float(np.log(e0))
+            lo, hi = z0 - np.log(2), z0 + np.log(2)
+            if within:
+                span = np.log([e for e in self.extra[c] if e])
+                lo, hi = max(lo, float(span.min())), min(hi, float(span.max()))
+            sol = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
+                                  options={"xatol": 0.01})
+            self._refined[c] = float(np.exp(sol.x)) if sol.fun < fit.chi2 else e0
+        e = self._refined[c]
+        if e == e0:
+            return fit
+        p, se, x2 = self._fit_coefficient(c, e)
+        name = coef_name(c.kind)
+        ev = dict(fit.evidence, grid_refined=f"{grid.param} refined from {fit.params[grid.param]:.4g}")
+        return Fit(c, scaled_params(c.kind, p, e), {name: [p - Z95 * se, p + Z95 * se]}, x2,
+                   self.bic_gain(x2, c.n_params), ev, extra=e)
 
     def companions(self, fit: Fit) -> list[Fit]:
         """Effects accepted together with ``fit`` (a stepped-sine pair's second element,
@@ -358,7 +390,6 @@ class RandomSearch(Search):
             lf.leakage = leakage_bias(stuck_linear(model), lf, terms)
         super().__init__(model, levels, extra)
         self.reach = reach
-        self._refined: dict[Candidate, float] = {}
 
     def _level(self, model: Model, extra: dict, p: Prepared, floor: float) -> LevelFRF:
         bases: dict[Hashable, np.ndarray] = {}
@@ -377,32 +408,6 @@ class RandomSearch(Search):
             if (c, extra) not in lf.T:
                 add_basis(lf, p, self.band, self.nperseg, (c, extra),
                           candidate_force(c, extra, p))
-
-    def refine_grid(self, fit: Fit) -> Fit:
-        """The grid value (gap width, slip displacement) of a shortlisted candidate refined
-        continuously: bounded 1-D minimisation of the misfit over a factor of 2 either side
-        of the best grid point (the coefficient re-solved in closed form at each value)."""
-        c, e0 = fit.cand, fit.extra
-        grid = KINDS[c.kind].search.grid
-        if grid is None or len(grid.fractions) < 2 or not e0:
-            return fit
-        if c not in self._refined:
-            def cost(z: float) -> float:
-                e = float(np.exp(z))
-                self.ensure_basis(c, e)
-                return self._fit_coefficient(c, e)[2]
-            z0 = float(np.log(e0))
-            sol = minimize_scalar(cost, bounds=(z0 - np.log(2), z0 + np.log(2)),
-                                  method="bounded", options={"xatol": 0.01})
-            self._refined[c] = float(np.exp(sol.x)) if sol.fun < fit.chi2 else e0
-        e = self._refined[c]
-        if e == e0:
-            return fit
-        p, se, x2 = self._fit_coefficient(c, e)
-        name = coef_name(c.kind)
-        ev = dict(fit.evidence, grid_refined=f"{grid.param} refined from {fit.params[grid.param]:.4g}")
-        return Fit(c, scaled_params(c.kind, p, e), {name: [p - Z95 * se, p + Z95 * se]}, x2,
-                   self.bic_gain(x2, c.n_params), ev, extra=e)
 
     def refine(self, fit: Fit, noise: str = "none") -> Fit:
         """Refine a shortlisted candidate: its grid value (`refine_grid`), then its

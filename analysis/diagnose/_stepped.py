@@ -90,6 +90,17 @@ def _motion(frf: SteppedSineFRF, w: np.ndarray, s: int) -> tuple[np.ndarray, np.
     return (e @ U).real, (e @ (1j * h * om * U)).real
 
 
+def _level_motion(model: Model, frf: SteppedSineFRF) -> tuple[np.ndarray, np.ndarray]:
+    """Deformations and rates of every DOF over one period of every step of a level,
+    stacked ``(n_steps * N_TIME, n_dof)`` (the motion `.select.candidate_extras` scales)."""
+    motion = [_motion(frf, np.eye(model.n_dof)[:, d], s) for s in range(frf.freqs.size)
+              for d in range(model.n_dof)]
+    x = np.array([m[0] for m in motion]).reshape(-1, model.n_dof, N_TIME)
+    v = np.array([m[1] for m in motion]).reshape(-1, model.n_dof, N_TIME)
+    return (x.transpose(0, 2, 1).reshape(-1, model.n_dof),
+            v.transpose(0, 2, 1).reshape(-1, model.n_dof))
+
+
 def _level(model: Model, rec: Recording, frf: SteppedSineFRF, extra: dict, floor: float,
            label: str) -> LevelFRF:
     H = frf.frf[:, :, None]
@@ -112,14 +123,12 @@ class SteppedSearch(Search):
     def __init__(self, model: Model, frfs: list[SteppedSineFRF], recs: list[Recording],
                  floor: float) -> None:
         self.frfs, self.recs = frfs, recs
-        low = min(range(len(frfs)), key=lambda i: frfs[i].level)
-        motion = [_motion(frfs[low], np.eye(model.n_dof)[:, d], s) for s in
-                  range(frfs[low].freqs.size) for d in range(model.n_dof)]
-        x = np.array([m[0] for m in motion]).reshape(-1, model.n_dof, N_TIME)
-        v = np.array([m[1] for m in motion]).reshape(-1, model.n_dof, N_TIME)
-        x = x.transpose(0, 2, 1).reshape(-1, model.n_dof)
-        v = v.transpose(0, 2, 1).reshape(-1, model.n_dof)
-        extra = candidate_extras(model, (x, v), (x, v))
+        order = sorted(range(len(frfs)), key=lambda i: frfs[i].level)
+        # a grid at the highest level scales with its motion (a gap's width), not the
+        # lowest's: the lowest level's rms put the gap's widths at 0.05-0.56 mm on
+        # `sdof-gap-disp-stepped-z7`, a tenth of the 6.9 mm clearance that only level 12 closes
+        extra = candidate_extras(model, _level_motion(model, frfs[order[0]]),
+                                 _level_motion(model, frfs[order[-1]]))
         self.on_backbone = [c for c in library(model.n_dof, model.points, model.support)
                             if c.memory and screened(c) and backbone_applies(recs, c)]
         for c in library(model.n_dof, model.points, model.support):
@@ -306,11 +315,16 @@ class SteppedSearch(Search):
         return Fit(c, params, ci, x2, self.bic_gain(x2, c.n_params), ev)
 
     def screen(self) -> list[Fit]:
-        """The library screened; the `SHORTLIST` best memory candidates (kind, location,
+        """The library screened, a memoryless kind's grid value (a gap's width) refined
+        continuously (`refine_grid`); the `SHORTLIST` best memory candidates (kind, location,
         compensation) refined from their best grid point (the others are left out), or every
         one fitted to the backbone of response-controlled tables."""
         fits = super().screen()
-        out = [f for f in fits if not f.cand.memory]
+        # within the grid's span: a gap narrower than a quarter of the top level's rms is
+        # closed nearly always, a stiffness error's double (refined below the span, one tied
+        # with `chain-stiffness12-disp-stepped`'s stiffness error, gain 6.03e4 against 6.25e4)
+        out = [f if f.cand.linear else self.refine_grid(f, within=True)
+               for f in fits if not f.cand.memory]
         memory = [f for f in fits if f.cand.memory]   # best first
         out += [r for r in (self.fit_memory(f) for f in memory[:SHORTLIST]) if r]
         out += [r for r in (self.backbone_fit(c) for c in self.on_backbone) if r]

@@ -9,6 +9,8 @@ fix that makes one right flips it. The reduced zoo (`ZooCase.fast`) runs in ``ma
 the whole zoo in ``make test-slow``.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -33,12 +35,6 @@ WRONG_TODAY: dict[str, str] = {
                                              "cubic's p is -8.3 % (95 % -11.8 .. -4.7 %) and "
                                              "the slider's fd +5.3 % (+3.1 .. +7.4 %): each "
                                              "biased by the other, intervals not covering",
-    "sdof-gap-disp-stepped-z7": "'unexplained': the gap (closing at 2.2 rms of the top "
-                                "level's steps, inside the 0.25-3 rms grid) is screened at "
-                                "k = 1.4e3 N/m, g = 0.56 mm (truth 2e4, 6.9 mm) and predicts "
-                                "worse out of sample (-2.9e3 +- 108); the cubic fits level 12 "
-                                "better in sample (chi2 73236 -> 19489) but gains -74 +- 17: "
-                                "only the top level closes the gap",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
@@ -408,6 +404,46 @@ def test_stepped_gap_closes_at_the_top_level_only():
     g = case.truth.effects[0].params["g"]
     recs = case.build().recordings
     assert [bool(np.abs(r.response).max() > g) for r in recs] == [False, False, True]
+
+
+def test_stepped_screen_fits_the_gap_the_top_level_closes():
+    """The gap's widths scale with the highest fitting level's rms (the kind's ``level``) and
+    are refined continuously: the screen lands on the truth, k's interval covering it."""
+    from analysis.diagnose._stepped import HARMONICS, SteppedSearch, stepped_sine_frf
+    from analysis.recordings import model_at_sensors, one_kind
+    case = Z.zoo("sdof-gap-disp-stepped-z7")[0]
+    truth = case.truth.effects[0].params
+    built = case.build()
+    recs = [one_kind(r) for r in built.recordings]
+    fitting = [recs[0], recs[2]]                       # level 4 is held back
+    model = model_at_sensors(built.start, recs, "diagnose")
+    search = SteppedSearch(model, [stepped_sine_frf(r, HARMONICS) for r in fitting], fitting,
+                           0.01)
+    gap = next(f for f in search.screen() if f.cand.kind == "gap")
+    lo, hi = gap.ci95["k"]
+    assert lo <= truth["k"] <= hi
+    assert abs(np.log(gap.params["g"] / truth["g"])) < 0.01      # `refine_grid`'s xatol
+
+
+def test_score_accepts_unexplained_only_where_the_numbers_show_a_one_level_effect():
+    case = Z.ZooCase("toy-one-level", "SDOF", "disp, all", "stepped",
+                     Z.Truth((Z.Effect("gap", ("0",), {"k": 2e4, "g": 7e-3}, ("k", "g")),),
+                             (4.0,), "exact", one_level=True), lambda: None, ("0",))
+
+    def res(errors, best="gap DOF 0 to ground", points=("0",)):
+        trend = [{"level": lv, "error": e, "floor": 0.01}
+                 for lv, e in zip((1.0, 4.0, 12.0), errors)]
+        return dict(_res("unexplained"), evidence={"misfit": {
+            "level_trend": trend, "points": list(points), "tried": {"best": best}}})
+    ok = Z.score(case, res((0.002, 0.002, 1.1)))
+    assert ok.family_right and ok.kind == "right" and ok.location == "right"
+    assert not Z.score(case, res((0.002, 0.05, 1.1))).family_right    # another level sees it
+    assert not Z.score(case, res((0.002, 0.002, 1.1), best="cubic_spring DOF 0 to ground")
+                       ).family_right
+    assert not Z.score(case, res((0.002, 0.002, 1.1), points=("1",))).family_right
+    plain = Z.ZooCase("toy-plain", "SDOF", "disp, all", "stepped",
+                      dataclasses.replace(case.truth, one_level=False), lambda: None, ("0",))
+    assert not Z.score(plain, res((0.002, 0.002, 1.1))).family_right
 
 
 def test_score_accepts_adequate_below_the_floor_and_a_neighbour_of_an_unmeasured_point():
