@@ -17,8 +17,9 @@ displacement ``fd / kd``: `analysis.models._kinds.Grid`) is then refitted in tha
 too, on all fitting levels with the other nonlinear coefficients re-solved with its own at
 every value of that parameter and the linear errors at their joint estimates (`grid_refit`,
 random and multisine data; a slider found first, with a cubic spring still missing, kept its
-slip and the cubic its sequential estimate: ``chain-cubic2+jenkins01-disp-random-z7`` p -8.3 %,
-fd +5.3 %, intervals not covering; re-solved, p -1.5 %, both covering), and both its parameters get their 95 % interval
+slip and the cubic its sequential estimate: ``chain-cubic2+jenkins01-disp-random-z7``
+without noise p -8.1 %, interval not covering; re-solved, p -3.3 %, kd -1.0 %, fd +0.4 %, all
+three intervals covering), and both its parameters get their 95 % interval
 from the profile of the misfit, the coefficient re-solved at every value of the second
 parameter: the two are strongly correlated (a wider gap with a stiffer contact, a later slip
 with a softer slider explain nearly the same FRFs), and the coefficient's interval at a

@@ -29,10 +29,6 @@ WRONG_TODAY: dict[str, str] = {
                                         "candidates at DOF 2, through which it acts, are "
                                         "rejected by the worst-level gate (they predict "
                                         "level 12 worse fitted on the others)",
-    "chain-cubic2+jenkins01-disp-random-z7": "both effects named at their locations, but the "
-                                             "cubic's p is -8.3 % (95 % -11.8 .. -4.7 %) and "
-                                             "the slider's fd +5.3 % (+3.1 .. +7.4 %): each "
-                                             "biased by the other, intervals not covering",
     "chain-mass1+cubic01-disp-random-z7": "'unexplained': the mass error is the best first "
                                           "effect (delta_mass 0.13, gain 3.16e5 +- 1.2e3) but "
                                           "rejected as, fitted on the other levels, it "
