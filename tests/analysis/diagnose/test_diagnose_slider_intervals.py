@@ -86,7 +86,7 @@ def _realization(rng: np.random.Generator, understated: float = 1.0) -> tuple[Fi
     search.ensure_basis(cand, guess)
     first = Fit(cand, scaled_params("stick_slip", KD, guess), {"kd": [KD, KD]}, 0.0, 0.0,
                 extra=guess)
-    profiled = grid_refit(start, search, [first], 0)
+    profiled = grid_refit(start, search, [first], 0)[0]
     (reported,) = misfit_intervals(start, search, [profiled])
     assert reported.params == profiled.params             # the estimates are not touched
     point = Fit(cand, profiled.params, {k: [v] * 2 for k, v in profiled.params.items()}, 0.0,

@@ -31,10 +31,6 @@ WRONG_TODAY: dict[str, str] = {
                                         "candidates at DOF 2, through which it acts, are "
                                         "rejected by the worst-level gate (they predict "
                                         "level 12 worse fitted on the others)",
-    "chain-cubic2+jenkins01-disp-random-z7": "both effects named at their locations, but the "
-                                             "cubic's p is -8.3 % (95 % -11.8 .. -4.7 %) and "
-                                             "the slider's fd +5.3 % (+3.1 .. +7.4 %): each "
-                                             "biased by the other, intervals not covering",
 }
 """Row name -> what the diagnosis does wrong today, measured by ``python
 benchmarks/bench_diagnose.py --zoo --workers 2`` on main after the model-form scale of further
