@@ -13,9 +13,6 @@ modules of ``_kinds``, one per kind.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-import sys
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, Callable, ClassVar, Protocol, Sequence
 
@@ -26,6 +23,7 @@ from analysis.recordings import Excitation, PeriodicLayout
 from drivers import Channel
 from drivers.outputs import Output
 
+from ..plugins import discover as discover_kinds
 from ._campaign_fields import CampaignError
 from ._observer import PlanInfo
 
@@ -211,19 +209,6 @@ def register_plan(plan: type[LevelPlan]) -> type[LevelPlan]:
         raise ValueError(f"campaign kind '{plan.kind}' is registered already")
     PLANS[plan.kind] = plan
     return plan
-
-
-def discover_kinds(package: str, path: Sequence[str]) -> list[str]:
-    """Import every module of ``package`` (found on ``path``, its ``__path__``) not imported
-    yet, in name order: each registers its plan class on import, so a new kind is one new
-    module of ``_kinds`` and no other edit. Returns the modules imported."""
-    found = []
-    for info in pkgutil.iter_modules(path):
-        name = f"{package}.{info.name}"
-        if name not in sys.modules:
-            importlib.import_module(name)
-            found.append(name)
-    return found
 
 
 def unregister_plan(plan: type[LevelPlan]) -> None:

@@ -17,15 +17,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
-import pkgutil
-import sys
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 from analysis.documents import JsonObject
 from analysis.errors import InputError
 from analysis.recordings import Excitation
+
+from ..plugins import discover
 
 if TYPE_CHECKING:
     from analysis.models import Model
@@ -244,19 +243,6 @@ def register(method: Method) -> Method:
     """Add ``method`` (replacing one of the same name); returns it."""
     _METHODS[method.name] = method
     return method
-
-
-def discover(package: str, path: Sequence[str]) -> list[str]:
-    """Import every module of ``package`` (found on ``path``, its ``__path__``) not imported
-    yet, in name order: each registers its method on import, so a new estimator is one new
-    module in `nlid_lab.methods` and no other edit. Returns the modules imported."""
-    found = []
-    for info in pkgutil.iter_modules(path):
-        name = f"{package}.{info.name}"
-        if name not in sys.modules:
-            importlib.import_module(name)
-            found.append(name)
-    return found
 
 
 def unregister(name: str) -> None:
