@@ -65,6 +65,23 @@ class DelayReading:
                 return float(value) if digits else float(int(value))
         return self.samples
 
+    @property
+    def resolved(self) -> bool:
+        """Whether the interval excludes no delay (a run worth re-importing aligned)."""
+        return self.low > 0 or self.high < 0
+
+    def text(self) -> str:
+        """The delay in words, stated to its resolution with its 95 % interval ("" when none
+        was read): what the fit-linear summary line and the report say."""
+        if not self.samples:
+            return ""
+        n = self.stated
+        way = "lag" if n > 0 else "lead"
+        digits = max(2, len(f"{n:g}".partition(".")[2]) + 1)     # one more than the statement's
+        return (f"the responses {way} the force by {abs(n):g} sample{'s' * (abs(n) != 1)} "
+                f"(95 % interval {self.low:.{digits}f} to {self.high:.{digits}f}; the channels' "
+                "anti-alias filters differ?)")
+
 
 def response_delay(freqs: np.ndarray, H: np.ndarray, std: np.ndarray | None,
                    poles: np.ndarray, fs: float) -> DelayReading:

@@ -86,15 +86,10 @@ def _delay_said(delay: DelayReading) -> str:
     ``response_delay=`` that stores the run aligned when the interval excludes 0."""
     if not delay.samples:
         return ""
-    n = delay.stated
-    way = "lag" if n > 0 else "lead"
-    digits = max(2, len(f"{n:g}".partition(".")[2]) + 1)     # one more than the statement's
-    said = (f"; the responses {way} the force by {abs(n):g} sample{'s' * (abs(n) != 1)} "
-            f"(95 % interval {delay.low:.{digits}f} to {delay.high:.{digits}f}; the channels' "
-            "anti-alias filters differ?): taken out of the FRF before the fit")
-    if delay.low > 0 or delay.high < 0:
+    said = f"; {delay.text()}: taken out of the FRF before the fit"
+    if delay.resolved:
         said += ("; diagnose and analyze read the run as recorded: import it again with "
-                 f"response_delay={n:g} in the --map first")
+                 f"response_delay={delay.stated:g} in the --map first")
     return said
 
 

@@ -226,9 +226,11 @@ def modal_fit_section(run: RunData) -> Section | None:
     left_out = "".join(f" Force line left out of the excited lines: {html.escape(i.text())}."
                        for i in fit.data.interference)
     if fit.delay_samples:
-        left_out += (f" The responses lag the force by {fit.delay_samples:.2f} samples: taken "
-                     "out of the FRF before the fit (import with <code>response_delay=</code> "
-                     "to align the run for the other estimators).")
+        said = fit.delay.text()
+        left_out += (f" {html.escape(said[0].upper() + said[1:])}: taken out of the FRF before "
+                     "the fit" + (f" (import with <code>response_delay={fit.delay.stated:g}"
+                                  "</code> to align the run for the other estimators)"
+                                  if fit.delay.resolved else "") + ".")
     if fit.data.caveat is not None:
         left_out += f" Caveat: {html.escape(fit.data.caveat.text())}."
     sec = Section(title,

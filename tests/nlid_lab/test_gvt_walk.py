@@ -54,7 +54,8 @@ def test_fit_linear_says_how_to_align_the_run(tmp_path):
     code, out, err = _cli(["report", run, "--out", str(tmp_path / "rep")])
     assert code == 0, err
     page = (tmp_path / "rep" / "index.html").read_text()
-    assert "lag the force by 1.00 samples" in page and "slow drift at 0.5 Hz" in page
+    assert "lag the force by 1 sample (95 % interval" in page and "slow drift at 0.5 Hz" in page
+    assert "response_delay=1</code>" in page        # the report states it as fit-linear does
     assert "modes in 5-100 Hz" in page                  # the drift's lines not in the band
     assert len(re.findall(r"<td>3 x \d periods</td>", page)) == len(T.LEVELS)
 
